@@ -1,0 +1,29 @@
+# Two commands: `make demo` (set up, then run the main job) and `make test` (set up, then the whole suite).
+PYTHON ?= python3
+VENV := .venv
+PY := $(VENV)/bin/python
+STAMP := $(VENV)/.installed
+
+.PHONY: demo test bench setup clean
+
+$(STAMP): pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install -q --upgrade pip
+	$(PY) -m pip install -q -e ".[llm,bench,dev]"
+	touch $(STAMP)
+
+setup: $(STAMP)
+
+demo: $(STAMP)
+	$(VENV)/bin/bim2rdt demo --out out/demo
+
+test: $(STAMP)
+	$(PY) -m pytest -q
+
+bench: $(STAMP)
+	$(VENV)/bin/bim2rdt bench registration
+	$(VENV)/bin/bim2rdt bench ifc
+	$(VENV)/bin/bim2rdt bench hav
+
+clean:
+	rm -rf $(VENV) out .pytest_cache

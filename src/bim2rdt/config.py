@@ -1,0 +1,68 @@
+"""Typed settings, loaded once at the edge (env prefix ``BIM2RDT_``, nested with ``__``).
+
+Core classes never take a ``Settings``; the CLI and the orchestrator unpack the fields they need into plain
+arguments. Example: ``BIM2RDT_LLM__MODEL=gpt-4o-mini``, ``BIM2RDT_SAMPLES=/data/ifc``.
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+from pathlib import Path
+
+from pydantic import BaseModel, Field
+from pydantic_settings import BaseSettings, SettingsConfigDict
+
+
+def _default_cache_dir() -> Path:
+    return Path.home() / ".cache" / "bim2rdt"
+
+
+class BimSettings(BaseModel):
+    """IFC reading and writing."""
+
+    tessellation_cache: bool = Field(True, description="Cache tessellated meshes on disk, keyed by file hash.")
+
+
+class LlmSettings(BaseModel):
+    """The OpenAI-compatible endpoint that assigns upright priors (extra `llm`)."""
+
+    base_url: str | None = Field(None, description="OpenAI-compatible endpoint; None means the SDK default.")
+    model: str = Field("gpt-4o-mini", description="Model name; the paper used gpt-4o-mini.")
+    api_key: str | None = Field(None, description="API key; falls back to OPENAI_API_KEY.")
+    timeout_s: float = Field(30.0, description="Per-request timeout, seconds.")
+    max_retries: int = Field(3, description="Retries with backoff on 429/5xx/timeouts.")
+
+
+class HavSettings(BaseModel):
+    """Hand-arm vibration monitoring."""
+
+    site_secret: str = Field("change-me", description="Key for worker pseudonyms (keyed hash).")
+    raw_retention_s: float = Field(7 * 24 * 3600.0, description="How long raw sensor windows are kept, seconds.")
+
+
+class MqttSettings(BaseModel):
+    """The site event bus."""
+
+    host: str | None = Field(None, description="Broker host; None means the in-process bus.")
+    port: int = Field(1883, description="Broker port.")
+    site: str = Field("demo", description="Site id used in topic names site/{site}/...")
+
+
+class Settings(BaseSettings):
+    """All settings of bim2rdt. Read once with :func:`get_settings`."""
+
+    model_config = SettingsConfigDict(env_prefix="BIM2RDT_", env_nested_delimiter="__", extra="ignore")
+
+    samples: Path | None = Field(None, description="Folder of real IFC sample files used by tests/benchmarks.")
+    cache_dir: Path = Field(default_factory=_default_cache_dir, description="On-disk caches (meshes, LLM answers).")
+    data_dir: Path = Field(Path("var"), description="Persistent state (SQLite exposure store, twin history).")
+    bim: BimSettings = BimSettings()
+    llm: LlmSettings = LlmSettings()
+    hav: HavSettings = HavSettings()
+    mqtt: MqttSettings = MqttSettings()
+
+
+@lru_cache(maxsize=1)
+def get_settings() -> Settings:
+    """The process-wide settings, read from the environment once."""
+    return Settings()

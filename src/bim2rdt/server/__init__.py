@@ -1,0 +1,1 @@
+"""bim2rdt.server"""

@@ -1,0 +1,35 @@
+"""Shared fixtures: where the real IFC samples are, and a per-test cache folder."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+
+_DEFAULT_SAMPLES = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "ifc"
+
+
+def samples_dir() -> Path:
+    """The folder of real IFC files: $BIM2RDT_SAMPLES, else ../shared/data/ifc beside the checkout."""
+    return Path(os.environ.get("BIM2RDT_SAMPLES", _DEFAULT_SAMPLES))
+
+
+@pytest.fixture(scope="session")
+def samples() -> Path:
+    folder = samples_dir()
+    if not folder.is_dir():
+        pytest.skip(f"IFC samples folder {folder} is absent (set BIM2RDT_SAMPLES to the shared data/ifc folder)")
+    return folder
+
+
+@pytest.fixture(autouse=True)
+def _isolated_cache(tmp_path_factory, monkeypatch):
+    """Every test gets its own cache folder so caches never leak between tests or into $HOME."""
+    monkeypatch.setenv("BIM2RDT_CACHE_DIR", str(tmp_path_factory.mktemp("cache")))
+    monkeypatch.setenv("YOLO_CONFIG_DIR", str(tmp_path_factory.mktemp("yolo")))
+    from bim2rdt.config import get_settings
+
+    get_settings.cache_clear()
+    yield
+    get_settings.cache_clear()
