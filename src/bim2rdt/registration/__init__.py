@@ -1,1 +1,11 @@
-"""bim2rdt.registration"""
+"""Registration of BIM element models to scene points: Semantic-Gravity ICP (the paper's Algorithm 1) and the
+paper's Hausdorff alignment metric. Plain robust ICP is ``register(..., upright_bias=0)``."""
+
+from bim2rdt.registration.config import IcpConfig
+from bim2rdt.registration.errors import RegistrationError
+from bim2rdt.registration.icp import RegistrationResult, register
+from bim2rdt.registration.metrics import HausdorffStats, hausdorff
+from bim2rdt.registration.sampling import sample_model
+
+__all__ = ["HausdorffStats", "IcpConfig", "RegistrationError", "RegistrationResult", "hausdorff", "register",
+           "sample_model"]

@@ -1,0 +1,162 @@
+"""Semantic-Gravity ICP (the paper's Algorithm 1) as one loop; plain robust ICP is ``upright_bias=0``.
+
+Every restart of one registration advances together: the scene is moved into each restart's body frame, all of
+them are matched with one k-d tree query, weighted, and solved with batched 3x3 (or 6x6) systems. Restarts that
+converge stop; restarts far behind the best after ``prune_after`` iterations are dropped.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from bim2rdt.registration import matching
+from bim2rdt.registration.config import IcpConfig
+from bim2rdt.registration.so3 import axis_angle, invert_poses, rotation_angle, tilt_angle
+from bim2rdt.registration.solvers import SOLVERS, gravity_weight
+from bim2rdt.registration.validation import Problem, validate_problem
+
+BODY_UP = np.array([0.0, 0.0, 1.0])
+"""The canonical upright axis of every model, in body coordinates (meshes are built upright along +z)."""
+
+
+@dataclass(frozen=True)
+class RegistrationResult:
+    """The best restart's pose and its fit. ``rmse`` (m, surface residuals) and ``fitness`` (0-1) are over scene points within
+    ``IcpConfig.score_distance`` of the posed model; ``score`` is the truncated mean squared distance (m^2)
+    that chose the restart."""
+
+    pose: np.ndarray  # T_world_model (4, 4)
+    rmse: float
+    fitness: float
+    iterations: int
+    score: float
+    restart: int
+    converged: bool
+    tilt_deg: float
+    total_iterations: int
+    restart_scores: tuple[float, ...] = field(default=())
+
+
+@dataclass
+class _Restarts:
+    """State of all restarts of one registration."""
+
+    poses: np.ndarray  # (K, 4, 4) T_world_model
+    iterations: np.ndarray  # (K,)
+    scores: np.ndarray  # (K,) latest truncated score
+    done: np.ndarray  # (K,) converged
+    pruned: np.ndarray  # (K,) dropped as losing
+
+    @classmethod
+    def start(cls, poses: np.ndarray) -> _Restarts:
+        k = len(poses)
+        return cls(poses, np.zeros(k, int), np.full(k, np.inf), np.zeros(k, bool), np.zeros(k, bool))
+
+    def active(self) -> np.ndarray:
+        return np.flatnonzero(~self.done & ~self.pruned)
+
+    def prune(self, ratio: float) -> None:
+        """Drop restarts whose score is worse than ``ratio`` x the best so far (converged ones included)."""
+        alive = ~self.pruned
+        best = self.scores[alive].min()
+        self.pruned |= alive & (self.scores > ratio * best + 1e-12)
+
+
+def register(model_points, model_normals, scene_points, init=np.eye(4), up=(0.0, 0.0, 1.0),
+             upright_bias: float = 0.0, yaw_only: bool = False, config: IcpConfig | None = None
+             ) -> RegistrationResult:
+    """Align a model (body-frame surface samples with normals, upright along +z) to scene points (world frame).
+
+    ``init`` is the initial T_world_model; ``up`` the measured world up (against gravity); ``upright_bias`` in
+    [0, 1] the family's prior of standing upright (0 = plain ICP); ``yaw_only`` keeps roll and pitch of ``init``.
+    Raises :class:`RegistrationError` on bad input.
+    """
+    cfg = config or IcpConfig()
+    problem = validate_problem(model_points, model_normals, scene_points, init, up, upright_bias)
+    model = matching.ModelIndex.build(problem.model_pts_body, problem.model_normals_body)
+    normals_world = matching.scene_normals(problem.scene_pts_world, cfg.scene_normal_neighbours) \
+        if cfg.normal_gate_deg < 90.0 else None
+    restarts = _Restarts.start(yaw_restarts(problem, cfg))
+    for iteration in range(cfg.max_iterations):
+        active = restarts.active()
+        if len(active) == 0:
+            break
+        _iterate(restarts, active, problem, model, normals_world, cfg, iteration, yaw_only)
+        if iteration + 1 == cfg.prune_after:
+            restarts.prune(cfg.prune_ratio)
+    return _keep_best(restarts, problem, model, cfg)
+
+
+def yaw_restarts(problem: Problem, cfg: IcpConfig) -> np.ndarray:
+    """Initial poses (K, 4, 4): ``init`` turned about the world up, through the model's centroid, by evenly
+    spaced yaws plus seeded jitter (restart 0 is ``init`` itself). A gravity prior cannot fix yaw; restarts can."""
+    rng = np.random.default_rng(cfg.seed)
+    k = cfg.restarts
+    jitter = np.deg2rad(rng.uniform(-cfg.yaw_jitter_deg, cfg.yaw_jitter_deg, k))
+    yaws = 2 * np.pi * np.arange(k) / k + np.where(np.arange(k) == 0, 0.0, jitter)
+    T0 = problem.T_world_model_init
+    centre = T0[:3, :3] @ problem.model_pts_body.mean(axis=0) + T0[:3, 3]
+    turns = np.tile(np.eye(4), (k, 1, 1))
+    turns[:, :3, :3] = axis_angle(np.broadcast_to(problem.up_world, (k, 3)), yaws)
+    turns[:, :3, 3] = centre - np.einsum("kij,j->ki", turns[:, :3, :3], centre)
+    return turns @ T0
+
+
+def _iterate(restarts: _Restarts, active: np.ndarray, problem: Problem, model: matching.ModelIndex,
+             normals_world: np.ndarray | None, cfg: IcpConfig, iteration: int, yaw_only: bool) -> None:
+    """One pass of Algorithm 1's inner loop for the active restarts: match, relax, trim, weigh, solve (with the
+    gravity correspondence and optional yaw-only projection), apply, test convergence."""
+    T = restarts.poses[active]
+    T_body_world = invert_poses(T)
+    scene_body = _transform(T_body_world, problem.scene_pts_world)
+    pairs = matching.match_pairs(model, scene_body, cfg.max_pair_distance)
+    if normals_world is not None:
+        normals_body = np.einsum("kij,nj->kni", T_body_world[:, :3, :3], normals_world)
+        matching.gate_normals(pairs, normals_body, problem.model_normals_body, cfg.normal_gate_deg)
+    matching.relax_if_few(pairs, model, scene_body, cfg.min_pairs)
+    matching.trim_pairs(pairs, cfg.trim_fraction, cfg.min_pairs)
+    delta = matching.annealed_delta(iteration, cfg.max_pair_distance, cfg.huber_delta, cfg.huber_anneal_iterations)
+    w = matching.huber_weights(pairs, delta)
+    dst = problem.model_pts_body[pairs.model_index]
+    up_body = np.einsum("kji,j->ki", T[:, :3, :3], problem.up_world)
+    lam = gravity_weight(dst, w, problem.upright_bias * cfg.gravity_gamma0)
+    dR, dt = SOLVERS[cfg.method](scene_body, dst, problem.model_normals_body[pairs.model_index], w,
+                                 up_body, BODY_UP, lam, yaw_only)
+    step = np.tile(np.eye(4), (len(active), 1, 1))
+    step[:, :3, :3], step[:, :3, 3] = dR, dt
+    restarts.poses[active] = T @ invert_poses(step)
+    restarts.iterations[active] += 1
+    restarts.scores[active] = matching.truncated_score(pairs, cfg.score_distance)
+    small = (rotation_angle(dR) < cfg.convergence_rot_rad) & (np.linalg.norm(dt, axis=1) < cfg.convergence_trans)
+    if delta <= cfg.huber_delta:
+        restarts.done[active[small]] = True
+
+
+def _transform(T: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Apply poses (k, 4, 4) to points (N, 3) -> (k, N, 3)."""
+    return np.einsum("kij,nj->kni", T[:, :3, :3], points) + T[:, None, :3, 3]
+
+
+def _keep_best(restarts: _Restarts, problem: Problem, model: matching.ModelIndex, cfg: IcpConfig) -> RegistrationResult:
+    """Algorithm 1's ScoreAndKeepBest: rescore every surviving restart at its final pose, keep the lowest."""
+    alive = np.flatnonzero(~restarts.pruned)
+    pairs = matching.match_pairs(model, _transform(invert_poses(restarts.poses[alive]), problem.scene_pts_world),
+                                 cfg.max_pair_distance)
+    scores = matching.truncated_score(pairs, cfg.score_distance)
+    best = int(np.argmin(scores))
+    distance = pairs.residual[best]
+    inliers = distance < cfg.score_distance
+    pose = restarts.poses[alive[best]]
+    return RegistrationResult(
+        pose=pose.copy(),
+        rmse=float(np.sqrt(np.mean(distance[inliers] ** 2))) if inliers.any() else float("inf"),
+        fitness=float(inliers.mean()),
+        iterations=int(restarts.iterations[alive[best]]),
+        score=float(scores[best]),
+        restart=int(alive[best]),
+        converged=bool(restarts.done[alive[best]]),
+        tilt_deg=float(np.rad2deg(tilt_angle(pose[:3, :3], problem.up_world))),
+        total_iterations=int(restarts.iterations.sum()),
+        restart_scores=tuple(float(s) for s in scores),
+    )

@@ -1,0 +1,101 @@
+"""The rigid solve of one ICP step (Algorithm 1: SolveRigid + ApplyBias + ProjectYawIf), batched over restarts.
+
+Both solvers see scene points already moved into the body (model) frame, ``src`` (k, N, 3), paired with model
+points ``dst`` (k, N, 3) and normals, with robust weights ``w`` (k, N). They return the body-frame step
+(dR, dt) that maps src onto dst; the caller composes ``T_new = T @ inv([dR, dt])``.
+
+The gravity bias is one more weighted correspondence: the world up seen in the body frame ``g_src`` (k, 3)
+should land on the body's upright axis ``g_dst`` (3,), with weight ``lam`` (k,). Because
+|R g_src - g_dst|^2 = 2 - 2 g_dst^T R g_src, adding lam |R g_src - g_dst|^2 to the cost is exactly
+H += lam g_src g_dst^T in Kabsch, and the residual sqrt(lam)(R g_src - g_dst) with Jacobian
+-sqrt(lam) [g_src]x in Gauss-Newton. ``yaw_only`` restricts the step to a rotation about ``g_src`` (roll and
+pitch stay where the initial pose put them).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from bim2rdt.registration.so3 import axis_angle, exp_so3, skew
+
+
+def weighted_centroids(points: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """(k, N, 3), (k, N) -> (k, 3)."""
+    return np.einsum("kn,kni->ki", w, points) / w.sum(axis=1)[:, None]
+
+
+def gravity_weight(dst: np.ndarray, w: np.ndarray, bias_gamma: float) -> np.ndarray:
+    """Scale-free lambda = beta * gamma0 * sum(w |p - p_mean|^2): the same meaning for a 30 cm cone and a 3 m
+    column, because the data term's rotational stiffness grows with the same sum. (k,)"""
+    centred = dst - weighted_centroids(dst, w)[:, None, :]
+    return bias_gamma * np.einsum("kn,kn->k", w, np.einsum("kni,kni->kn", centred, centred))
+
+
+def solve_point_to_point(src, dst, w, g_src, g_dst, lam, yaw_only=False):
+    """Weighted Kabsch with the gravity correspondence; exact 4-DoF optimum when ``yaw_only``.
+
+    Maximises tr(R H) with H = sum w s~ d~^T + lam g_src g_dst^T. Returns dR (k, 3, 3), dt (k, 3).
+    """
+    s_mean, d_mean = weighted_centroids(src, w), weighted_centroids(dst, w)
+    H = np.einsum("kn,kni,knj->kij", w, src - s_mean[:, None], dst - d_mean[:, None])
+    H = H + lam[:, None, None] * np.einsum("ki,j->kij", g_src, g_dst)
+    dR = _yaw_kabsch(H, g_src) if yaw_only else _kabsch(H)
+    return dR, d_mean - np.einsum("kij,kj->ki", dR, s_mean)
+
+
+def _kabsch(H: np.ndarray) -> np.ndarray:
+    U, _, Vt = np.linalg.svd(H)
+    V = np.swapaxes(Vt, -1, -2)
+    d = np.sign(np.linalg.det(V @ np.swapaxes(U, -1, -2)))
+    D = np.zeros_like(H)
+    D[:, 0, 0], D[:, 1, 1], D[:, 2, 2] = 1.0, 1.0, np.where(d == 0, 1.0, d)
+    return V @ D @ np.swapaxes(U, -1, -2)
+
+
+def _yaw_kabsch(H: np.ndarray, axis: np.ndarray) -> np.ndarray:
+    """argmax over theta of tr(R(axis, theta) H): theta = atan2(tr([a]x H), tr H - a^T H a)."""
+    sin_term = np.einsum("kij,kji->k", skew(axis), H)
+    cos_term = np.trace(H, axis1=1, axis2=2) - np.einsum("ki,kij,kj->k", axis, H, axis)
+    return axis_angle(axis, np.arctan2(sin_term, cos_term))
+
+
+def solve_point_to_plane(src, dst, normals, w, g_src, g_dst, lam, yaw_only=False):
+    """One Gauss-Newton step on sum w (n . (dR s + dt - d))^2 + lam |dR g_src - g_dst|^2, dR ~ I + [omega]x.
+
+    Returns dR = exp(omega) (k, 3, 3), dt (k, 3). A tiny ridge keeps degenerate views (one visible plane)
+    solvable: the unobservable directions then simply do not move.
+    """
+    r = np.einsum("kni,kni->kn", normals, src - dst)
+    J = np.concatenate([np.cross(src, normals), normals], axis=2)  # (k, N, 6)
+    A = np.einsum("kni,kn,knj->kij", J, w, J)
+    b = -np.einsum("kni,kn,kn->ki", J, w, r)
+    Jg = -skew(g_src)  # d(dR g_src)/d omega
+    A[:, :3, :3] += lam[:, None, None] * np.einsum("kji,kjl->kil", Jg, Jg)
+    b[:, :3] -= lam[:, None] * np.einsum("kji,kj->ki", Jg, g_src - g_dst)
+    basis = _step_basis(g_src, yaw_only)  # (k, 6, m)
+    A_r = np.swapaxes(basis, 1, 2) @ A @ basis
+    b_r = np.einsum("kim,ki->km", basis, b)
+    ridge = 1e-9 * (np.trace(A_r, axis1=1, axis2=2) / A_r.shape[1] + 1e-12)
+    A_r += ridge[:, None, None] * np.eye(A_r.shape[1])
+    x = np.einsum("kim,km->ki", basis, np.linalg.solve(A_r, b_r[..., None])[..., 0])
+    return exp_so3(x[:, :3]), x[:, 3:]
+
+
+def _step_basis(g_src: np.ndarray, yaw_only: bool) -> np.ndarray:
+    """Columns spanning the allowed steps: all 6 DoF, or (rotation about g_src, 3 translations)."""
+    k = len(g_src)
+    if not yaw_only:
+        return np.broadcast_to(np.eye(6), (k, 6, 6))
+    basis = np.zeros((k, 6, 4))
+    basis[:, :3, 0] = g_src
+    basis[:, 3:, 1:] = np.eye(3)
+    return basis
+
+
+def _point_to_point_step(src, dst, normals, w, g_src, g_dst, lam, yaw_only=False):
+    """Point-to-point as a strategy with the point-to-plane signature (the normals are not used)."""
+    return solve_point_to_point(src, dst, w, g_src, g_dst, lam, yaw_only)
+
+
+SOLVERS = {"point_to_point": _point_to_point_step, "point_to_plane": solve_point_to_plane}
+"""Strategy per ``IcpConfig.method``; all take (src, dst, normals, w, g_src, g_dst, lam, yaw_only)."""

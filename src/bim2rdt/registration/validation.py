@@ -1,0 +1,74 @@
+"""Checks at the edge of :func:`register`: shapes, finiteness, enough points, a rigid initial pose."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from bim2rdt.registration.errors import RegistrationError
+
+MIN_SCENE_POINTS = 6
+"""Fewer points cannot pin down 6 degrees of freedom robustly (Algorithm 1: require |S| >= 6)."""
+
+
+@dataclass(frozen=True)
+class Problem:
+    """Validated, float64 inputs of one registration."""
+
+    model_pts_body: np.ndarray  # (M, 3)
+    model_normals_body: np.ndarray  # (M, 3), unit
+    scene_pts_world: np.ndarray  # (N, 3)
+    T_world_model_init: np.ndarray  # (4, 4)
+    up_world: np.ndarray  # (3,), unit
+    upright_bias: float
+
+
+def validate_problem(model_points, model_normals, scene_points, init, up, upright_bias) -> Problem:
+    """Turn raw inputs into a :class:`Problem` or raise :class:`RegistrationError` naming the bad argument."""
+    model = _points("model_points", model_points)
+    normals = _points("model_normals", model_normals)
+    scene = _points("scene_points", scene_points)
+    if normals.shape != model.shape:
+        raise RegistrationError(f"model_normals has shape {normals.shape}, expected {model.shape} like model_points")
+    if len(scene) < MIN_SCENE_POINTS:
+        raise RegistrationError(f"scene_points has {len(scene)} points, need at least {MIN_SCENE_POINTS}")
+    if len(model) < MIN_SCENE_POINTS:
+        raise RegistrationError(f"model_points has {len(model)} points, need at least {MIN_SCENE_POINTS}")
+    lengths = np.linalg.norm(normals, axis=1)
+    if np.any(lengths < 1e-9):
+        raise RegistrationError("model_normals contains zero-length normals")
+    bias = float(upright_bias)
+    if not 0.0 <= bias <= 1.0:
+        raise RegistrationError(f"upright_bias must be in [0, 1], got {bias}")
+    return Problem(model, normals / lengths[:, None], scene, _rigid_pose(init), _unit_up(up), bias)
+
+
+def _points(name: str, values) -> np.ndarray:
+    array = np.asarray(values, dtype=np.float64)
+    if array.ndim != 2 or array.shape[1] != 3:
+        raise RegistrationError(f"{name} must have shape (N, 3), got {array.shape}")
+    if not np.all(np.isfinite(array)):
+        raise RegistrationError(f"{name} contains NaN or infinite values")
+    return array
+
+
+def _rigid_pose(init) -> np.ndarray:
+    pose = np.asarray(init, dtype=np.float64)
+    if pose.shape != (4, 4):
+        raise RegistrationError(f"init must be a 4x4 pose, got shape {pose.shape}")
+    if not np.all(np.isfinite(pose)):
+        raise RegistrationError("init contains NaN or infinite values")
+    rotation = pose[:3, :3]
+    if not np.allclose(rotation.T @ rotation, np.eye(3), atol=1e-6) or np.linalg.det(rotation) < 0:
+        raise RegistrationError("init is not rigid: its 3x3 block is not a proper rotation (scale, shear or mirror)")
+    if not np.allclose(pose[3], (0.0, 0.0, 0.0, 1.0), atol=1e-9):
+        raise RegistrationError("init is not rigid: its last row must be [0, 0, 0, 1]")
+    return pose
+
+
+def _unit_up(up) -> np.ndarray:
+    vector = np.asarray(up, dtype=np.float64).reshape(-1)
+    if vector.shape != (3,) or not np.all(np.isfinite(vector)) or np.linalg.norm(vector) < 1e-9:
+        raise RegistrationError(f"up must be a finite non-zero 3-vector, got {np.asarray(up).tolist()}")
+    return vector / np.linalg.norm(vector)

@@ -1,0 +1,88 @@
+"""The registration loop: restarts, yaw-only, the upright bias, and bad input."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from bim2rdt.registration import IcpConfig, RegistrationError, register
+from bim2rdt.registration.so3 import rotation_angle, tilt_angle
+
+
+def _errors(result_pose, truth):
+    rot = np.rad2deg(rotation_angle(result_pose[:3, :3] @ truth[:3, :3].T))
+    return rot, np.linalg.norm(result_pose[:3, 3] - truth[:3, 3])
+
+
+@pytest.mark.parametrize("method, max_rot_deg, max_trans", [("point_to_point", 3.0, 0.02),
+                                                            ("point_to_plane", 1.0, 0.005)])
+def test_a_moderately_perturbed_crate_is_recovered(crate_model, crate_view, method, max_rot_deg, max_trans,
+                                                   make_pose, placed):
+    """Point-to-point snaps to samples ~5 cm apart, so it is less exact than point-to-plane on the same data."""
+    truth = make_pose(0.4, 0.0, (1.0, 2.0, 0.0))
+    init = make_pose(0.55, 0.12, (1.04, 1.95, 0.03))
+    result = register(*crate_model, placed(truth, crate_view), init, config=IcpConfig(method=method,
+                                                                                       max_iterations=60))
+    rot, trans = _errors(result.pose, truth)
+    assert rot < max_rot_deg and trans < max_trans
+
+
+def test_restarts_find_a_crate_yawed_by_180_degrees(crate_model, crate_view, make_pose, placed):
+    truth = make_pose(np.pi, 0.0, (0.0, 0.0, 0.0))
+    single = register(*crate_model, placed(truth, crate_view), np.eye(4), config=IcpConfig(restarts=1))
+    several = register(*crate_model, placed(truth, crate_view), np.eye(4), config=IcpConfig(restarts=4))
+    assert _errors(single.pose, truth)[0] > 20.0
+    rot, trans = _errors(several.pose, truth)
+    assert rot < 2.0 and trans < 0.01
+    assert several.score < single.score
+
+
+def test_yaw_only_keeps_the_initial_roll_and_pitch(crate_model, crate_view, make_pose, placed):
+    truth = make_pose(0.3, 0.0, (0.5, 0.0, 0.0))
+    init = make_pose(0.1, 0.15, (0.52, 0.03, 0.02))
+    result = register(*crate_model, placed(truth, crate_view), init, yaw_only=True, upright_bias=1.0)
+    up = np.array([0.0, 0.0, 1.0])
+    assert np.allclose(result.pose[:3, :3].T @ up, init[:3, :3].T @ up, atol=1e-9)  # gravity in the body frame
+    assert rotation_angle(result.pose[:3, :3] @ init[:3, :3].T) > 0.05  # yaw did move
+
+
+def test_the_upright_bias_pulls_the_pose_towards_upright_and_zero_bias_does_not(crate_model, crate_view, make_pose, placed):
+    truth = make_pose(0.2, np.deg2rad(8.0), (0.0, 0.0, 0.3))  # a crate that really is tilted by 8 degrees
+    scene = placed(truth, crate_view)
+    tilts = [np.rad2deg(tilt_angle(register(*crate_model, scene, truth, upright_bias=b).pose[:3, :3]))
+             for b in (0.0, 0.2, 1.0)]
+    assert tilts[0] == pytest.approx(8.0, abs=0.5)
+    assert tilts[0] > tilts[1] > tilts[2]
+    assert tilts[1] > 2.0  # a low bias leaves a tilted object visibly tilted (an equilibrium, not a clamp)
+
+
+def test_result_reports_fit_and_iterations(crate_model, crate_view, make_pose, placed):
+    truth = make_pose(0.0, 0.0, (0.0, 0.0, 0.0))
+    result = register(*crate_model, placed(truth, crate_view), truth, config=IcpConfig(restarts=2))
+    assert 0.9 < result.fitness <= 1.0
+    assert 0.0 < result.rmse < 0.03
+    assert 1 <= result.iterations <= result.total_iterations
+    assert len(result.restart_scores) >= 1 and result.pose.shape == (4, 4)
+
+
+@pytest.mark.parametrize(
+    "change, message",
+    [
+        (dict(scene_points=np.zeros((5, 3))), "at least 6"),
+        (dict(scene_points=np.full((10, 3), np.nan)), "NaN"),
+        (dict(scene_points=np.array([[0.0, 0.0, np.inf]] * 10)), "infinite"),
+        (dict(scene_points=np.zeros((10, 2))), r"shape \(N, 3\)"),
+        (dict(model_normals=np.ones((7, 3))), "model_normals has shape"),
+        (dict(init=np.diag([2.0, 2.0, 2.0, 1.0])), "not rigid"),
+        (dict(init=np.diag([1.0, 1.0, -1.0, 1.0])), "not rigid"),
+        (dict(init=np.eye(3)), "4x4"),
+        (dict(upright_bias=1.5), "upright_bias"),
+        (dict(up=(0.0, 0.0, 0.0)), "up must be"),
+    ],
+)
+def test_bad_input_raises_a_registration_error_that_says_why(crate_model, change, message):
+    points, normals = crate_model
+    arguments = dict(model_points=points, model_normals=normals, scene_points=points[:100], init=np.eye(4))
+    arguments.update(change)
+    with pytest.raises(RegistrationError, match=message):
+        register(**arguments)
