@@ -65,10 +65,10 @@ def main() -> None:
     except typer.Abort:
         typer.echo("aborted", err=True)
         sys.exit(130)
-    except Exception as error:  # click usage errors
+    except Exception as error:  # click usage errors; typer >= 0.29 vendors click as typer._click
         import click
 
-        if isinstance(error, click.ClickException):
+        if isinstance(error, click.ClickException | typer.exceptions.TyperException) and hasattr(error, "show"):
             error.show()
             sys.exit(error.exit_code)
         raise

@@ -1,0 +1,75 @@
+"""`bim2rdt priors`: the upright prior and detector label of every BIM family, from an IFC file or a list."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+from bim2rdt.cli.common import console, print_json, print_table
+
+
+def register(app: typer.Typer, bench_app: typer.Typer) -> None:
+    app.command("priors")(priors_command)
+
+
+def priors_command(
+    ifc_file: Path | None = typer.Argument(None, help="IFC file whose element families get priors."),
+    families: str | None = typer.Option(None, "--families", help="Comma-separated family names instead of a file."),
+    as_json: bool = typer.Option(False, "--json", help="Print JSON instead of a table."),
+) -> None:
+    """Print each BIM family's detector label, upright bias (0..1, weight of SG-ICP's upright term),
+    yaw-only flag and where the prior came from (knowledge-base, default = unknown family)."""
+    from bim2rdt.semantics import KnowledgeBasePriors
+
+    hints = _family_hints(ifc_file, families)
+    priors = KnowledgeBasePriors().priors(hints, ifc_classes={f: c for f, c in hints.items() if c})
+    if as_json:
+        print_json([{"family": family, "ifc_class": hints[family] or None, **prior.to_dict()}
+                    for family, prior in priors.items()])
+        return
+    rows = [(family, prior.label, prior.upright_bias, "yes" if prior.yaw_only else "no", prior.source)
+            for family, prior in priors.items()]
+    print_table("Upright priors per BIM family", ["family", "label", "bias", "yaw-only", "source"], rows)
+    unknown = sum(not prior.known for prior in priors.values())
+    console.print(f"{len(priors)} families, {unknown} unknown (default bias)")
+
+
+def _family_hints(ifc_file: Path | None, families: str | None) -> dict[str, str]:
+    """family -> IFC entity ('' when only names were given)."""
+    if (ifc_file is None) == (families is None):
+        raise typer.BadParameter("give either an IFC file or --families a,b,c (not both)")
+    if families is not None:
+        names = [name.strip() for name in families.split(",") if name.strip()]
+        if not names:
+            raise typer.BadParameter("--families is empty")
+        return dict.fromkeys(names, "")
+    with console.status(f"reading {ifc_file}", spinner="dots"):
+        return _ifc_families(ifc_file)
+
+
+def _ifc_families(path: Path) -> dict[str, str]:
+    """family -> IFC entity of every physical element (until `bim2rdt.bim.load_ifc` is on main).
+
+    The family is the element type's name, else the element's ObjectType (Revit writes
+    ``Family:Type:Id`` there), else its Name. Openings and virtual elements are skipped."""
+    import ifcopenshell
+    import ifcopenshell.util.element
+
+    from bim2rdt.semantics import SemanticsError
+
+    if not path.is_file():
+        raise SemanticsError(f"no such IFC file: {path}")
+    try:
+        model = ifcopenshell.open(str(path))
+    except Exception as error:  # ifcopenshell raises bare RuntimeError/OSError subclasses on junk
+        raise SemanticsError(f"cannot read IFC file {path}: {str(error).splitlines()[0] if str(error) else error}")
+    found: dict[str, str] = {}
+    for element in model.by_type("IfcElement"):
+        if element.is_a("IfcFeatureElement") or element.is_a("IfcVirtualElement"):
+            continue
+        element_type = ifcopenshell.util.element.get_type(element)
+        family = (element_type.Name if element_type else None) or element.ObjectType or element.Name
+        if family:
+            found.setdefault(family, element.is_a())
+    return found

@@ -1,0 +1,62 @@
+"""Upright priors: per BIM family, how strongly SG-ICP should pull the object upright.
+
+In SG-ICP the bias weighs a soft upright term added to the rigid solve (``H <- H + lambda g_model g_world^T``
+with ``lambda = bias * gamma0 * sum w |p|^2``; see docs and ``registration``). So 1.0 means "this object is
+upright unless the data insist otherwise" (a column, a loaded crate), 0.0 means "no prior" (a hand tool lying
+anywhere), and a tripod or a ladder sits low because it is tilted more often than not. ``yaw_only`` says the
+object may only turn about gravity (permanent structure, a container set level).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+from dataclasses import asdict, dataclass
+from typing import Protocol, runtime_checkable
+
+from bim2rdt.semantics.errors import SemanticsError
+
+DEFAULT_UPRIGHT_BIAS = 0.5
+"""The paper's beta_def: the bias of a family nobody knows, halfway between "no prior" and "always upright"."""
+
+SOURCE_KNOWLEDGE_BASE = "knowledge-base"
+SOURCE_DEFAULT = "default"
+SOURCE_LLM = "llm"
+FALLBACK_SUFFIX = " (llm fallback)"
+
+
+@dataclass(frozen=True)
+class UprightPrior:
+    """The prior of one family: detector ``label``, ``upright_bias`` in [0, 1], ``yaw_only``, where it came
+    from (``source``: knowledge-base, default, llm, or "... (llm fallback)") and why (``rationale``)."""
+
+    label: str
+    upright_bias: float
+    yaw_only: bool
+    source: str
+    rationale: str
+
+    def __post_init__(self) -> None:
+        if not 0.0 <= self.upright_bias <= 1.0:
+            raise SemanticsError(f"upright bias {self.upright_bias} of {self.label!r} is outside [0, 1]")
+
+    @property
+    def known(self) -> bool:
+        """False when nothing recognised the family and the default bias was used (the family is flagged)."""
+        return not self.source.startswith(SOURCE_DEFAULT)
+
+    def to_dict(self) -> dict[str, object]:
+        """Plain JSON-ready fields."""
+        return {**asdict(self), "known": self.known}
+
+
+@runtime_checkable
+class PriorProvider(Protocol):
+    """Anything that maps BIM family names to upright priors (offline knowledge base, an LLM, a fixed table).
+
+    ``ifc_classes`` optionally gives each family's IFC entity (``IfcWall``): a hint for names that say nothing
+    (ArchiCAD's ``Solid 397409098 200``, Revit's ``M_Fixed``)."""
+
+    def priors(self, families: Iterable[str],
+               ifc_classes: Mapping[str, str] | None = None) -> dict[str, UprightPrior]:
+        """One prior per distinct family, keyed by the family name as given."""
+        ...

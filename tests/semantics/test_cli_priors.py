@@ -1,0 +1,90 @@
+"""`bim2rdt priors`: the table/JSON of priors from an IFC file or a family list, and its exit codes."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+
+def run_cli(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "bim2rdt", "priors", *args], capture_output=True, text=True,
+                          timeout=120)
+
+
+def test_families_option_prints_a_table_with_label_bias_and_source():
+    result = run_cli("--families", "Traffic_Cone_Orange_70cm,Zzyzx 12")
+    assert result.returncode == 0, result.stderr
+    assert "traffic cone" in result.stdout and "0.45" in result.stdout
+    assert "knowledge-base" in result.stdout and "default" in result.stdout
+    assert "1 unknown" in result.stdout
+
+
+def test_json_output_lists_every_family_with_its_prior():
+    result = run_cli("--families", "Steel_I-Beam_W12x26_A992, Ladder", "--json")
+    assert result.returncode == 0, result.stderr
+    rows = {row["family"]: row for row in json.loads(result.stdout)}
+    assert rows["Steel_I-Beam_W12x26_A992"]["label"] == "steel I-beam"
+    assert rows["Steel_I-Beam_W12x26_A992"]["yaw_only"] is True
+    assert rows["Ladder"]["upright_bias"] == pytest.approx(0.2)
+
+
+@pytest.mark.samples
+def test_every_building_element_of_the_real_samples_gets_a_known_upright_prior(samples):
+    structural = ("IfcWall", "IfcSlab", "IfcDoor", "IfcWindow", "IfcBeam", "IfcStair", "IfcRailing",
+                  "IfcRoof", "IfcFooting", "IfcCovering", "IfcMember")
+    for path in sorted(samples.glob("*.ifc")):
+        result = run_cli(str(path), "--json")
+        assert result.returncode == 0, f"{path.name}: {result.stderr}"
+        rows = json.loads(result.stdout)
+        building = [row for row in rows if row["ifc_class"].startswith(structural)]
+        assert building, path.name
+        for row in building:
+            assert row["known"] and row["yaw_only"] and row["upright_bias"] >= 0.9, (path.name, row)
+
+
+@pytest.mark.samples
+def test_revit_and_archicad_sample_families_are_recognised_by_name(samples):
+    from bim2rdt.semantics import KnowledgeBasePriors
+
+    kb = KnowledgeBasePriors()
+    expected = {
+        "Basic Wall:Exterior - Brick on Block:130892": "brick wall",
+        "M_W-Wide Flange:W410X60:208814": "steel I-beam",
+        "Wall Foundation:Bearing Footing - 900 x 300": "footing",
+        "Stair:Residential - 200mm Max Riser 250mm Tread": "stair",
+        "Railing:1100mm Guard Rail": "railing",
+    }
+    rows = json.loads(run_cli(str(samples / "Duplex_A_20110907.ifc"), "--json").stdout)
+    families = {row["family"] for row in rows}
+    assert set(expected) <= families
+    assert {family: kb.prior(family).label for family in expected} == expected
+    assert kb.prior("Wand-Int-ERDG-1").label == "wall" and kb.prior("Sparren-7").label == "rafter"
+
+
+def test_a_missing_file_exits_1_with_one_line():
+    result = run_cli("/no/such/file.ifc")
+    assert result.returncode == 1
+    assert result.stderr.strip().count("\n") == 0 and "no such IFC file" in result.stderr
+
+
+def test_a_file_that_is_not_ifc_exits_1_with_one_line(tmp_path):
+    junk = tmp_path / "junk.ifc"
+    junk.write_text("this is not STEP\n")
+    result = run_cli(str(junk))
+    assert result.returncode == 1
+    assert "cannot read IFC file" in result.stderr and result.stderr.strip().count("\n") == 0
+
+
+def test_neither_file_nor_families_is_a_usage_error():
+    result = run_cli()
+    assert result.returncode == 2
+    assert "--families" in result.stderr
+
+
+def test_help_describes_the_command():
+    result = run_cli("--help")
+    assert result.returncode == 0
+    assert "upright bias" in result.stdout

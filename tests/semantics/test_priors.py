@@ -1,0 +1,23 @@
+"""UprightPrior and the PriorProvider protocol."""
+
+from __future__ import annotations
+
+import pytest
+
+from bim2rdt.errors import Bim2RdtError
+from bim2rdt.semantics import KnowledgeBasePriors, PriorProvider, UprightPrior
+
+
+def test_a_bias_outside_zero_one_is_refused_with_a_typed_error():
+    with pytest.raises(Bim2RdtError, match=r"outside \[0, 1\]"):
+        UprightPrior("cone", 1.2, False, "llm", "x")
+
+
+def test_a_prior_serialises_with_its_known_flag():
+    prior = UprightPrior("cone", 0.4, False, "default", "no class")
+    assert prior.to_dict() == {"label": "cone", "upright_bias": 0.4, "yaw_only": False, "source": "default",
+                               "rationale": "no class", "known": False}
+
+
+def test_the_knowledge_base_is_a_prior_provider():
+    assert isinstance(KnowledgeBasePriors(), PriorProvider)
