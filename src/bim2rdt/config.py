@@ -29,8 +29,12 @@ class LlmSettings(BaseModel):
     base_url: str | None = Field(None, description="OpenAI-compatible endpoint; None means the SDK default.")
     model: str = Field("gpt-4o-mini", description="Model name; the paper used gpt-4o-mini.")
     api_key: str | None = Field(None, description="API key; falls back to OPENAI_API_KEY.")
-    timeout_s: float = Field(30.0, description="Per-request timeout, seconds.")
-    max_retries: int = Field(3, description="Retries with backoff on 429/5xx/timeouts.")
+    timeout_s: float = Field(30.0, gt=0, description="Per-request timeout, seconds.")
+    max_retries: int = Field(3, ge=0, description="Retries with backoff on 429/5xx/timeouts.")
+    backoff_s: float = Field(0.5, ge=0, description="First retry delay, seconds; doubles per retry.")
+    backoff_max_s: float = Field(8.0, ge=0, description="Longest retry delay (also caps a server's Retry-After), s.")
+    batch_size: int = Field(40, ge=1, description="Families per request.")
+    cache: bool = Field(True, description="Cache answers per (model, family) under cache_dir/llm_priors.")
 
 
 class HavSettings(BaseModel):

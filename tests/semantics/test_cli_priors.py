@@ -7,6 +7,7 @@ import subprocess
 import sys
 
 import pytest
+from fake_llm_server import Reply, completion
 
 
 def run_cli(*args: str) -> subprocess.CompletedProcess:
@@ -88,3 +89,26 @@ def test_help_describes_the_command():
     result = run_cli("--help")
     assert result.returncode == 0
     assert "upright bias" in result.stdout
+
+
+def test_llm_option_asks_the_configured_endpoint_once_then_uses_the_cache(llm_server, monkeypatch):
+    monkeypatch.setenv("BIM2RDT_LLM__BASE_URL", llm_server.url)
+    monkeypatch.setenv("BIM2RDT_LLM__API_KEY", "sk-test")
+    monkeypatch.setenv("BIM2RDT_LLM__MODEL", "test-model")
+    llm_server.answers = {"Traffic_Cone_Orange_70cm": ("traffic cone", 0.3, False)}
+    first = run_cli("--families", "Traffic_Cone_Orange_70cm", "--llm", "--json")
+    second = run_cli("--families", "Traffic_Cone_Orange_70cm", "--llm", "--json")
+    assert first.returncode == 0 and second.returncode == 0, first.stderr + second.stderr
+    assert json.loads(first.stdout)[0]["source"] == "llm"
+    assert json.loads(first.stdout)[0]["upright_bias"] == 0.3
+    assert json.loads(second.stdout)[0]["source"] == "llm-cache"
+    assert len(llm_server.requests) == 1
+
+
+def test_llm_option_with_a_failing_endpoint_still_exits_0_with_fallback_priors(llm_server, monkeypatch):
+    monkeypatch.setenv("BIM2RDT_LLM__BASE_URL", llm_server.url)
+    monkeypatch.setenv("BIM2RDT_LLM__MAX_RETRIES", "0")
+    llm_server.then(Reply(body=completion("no json here")))
+    result = run_cli("--families", "Ladder", "--llm")
+    assert result.returncode == 0, result.stderr
+    assert "knowledge-base (llm" in result.stdout and "0.2" in result.stdout

@@ -6,7 +6,11 @@ from pathlib import Path
 
 import typer
 
+from rich.console import Console
+
 from bim2rdt.cli.common import console, print_json, print_table
+
+_status = Console(stderr=True)  # spinners go to stderr so --json output stays clean
 
 
 def register(app: typer.Typer, bench_app: typer.Typer) -> None:
@@ -16,14 +20,19 @@ def register(app: typer.Typer, bench_app: typer.Typer) -> None:
 def priors_command(
     ifc_file: Path | None = typer.Argument(None, help="IFC file whose element families get priors."),
     families: str | None = typer.Option(None, "--families", help="Comma-separated family names instead of a file."),
+    llm: bool = typer.Option(False, "--llm", help="Ask the OpenAI-compatible endpoint of BIM2RDT_LLM__* settings "
+                             "(extra llm); families it cannot answer fall back to the knowledge base."),
     as_json: bool = typer.Option(False, "--json", help="Print JSON instead of a table."),
 ) -> None:
     """Print each BIM family's detector label, upright bias (0..1, weight of SG-ICP's upright term),
     yaw-only flag and where the prior came from (knowledge-base, default = unknown family)."""
-    from bim2rdt.semantics import KnowledgeBasePriors
+    from bim2rdt.config import get_settings
+    from bim2rdt.semantics import get_prior_provider
 
     hints = _family_hints(ifc_file, families)
-    priors = KnowledgeBasePriors().priors(hints, ifc_classes={f: c for f, c in hints.items() if c})
+    provider = get_prior_provider(get_settings(), llm=llm)
+    with _status.status(f"asking for {len(hints)} families' priors", spinner="dots"):
+        priors = provider.priors(hints, ifc_classes={f: c for f, c in hints.items() if c})
     if as_json:
         print_json([{"family": family, "ifc_class": hints[family] or None, **prior.to_dict()}
                     for family, prior in priors.items()])
@@ -44,7 +53,7 @@ def _family_hints(ifc_file: Path | None, families: str | None) -> dict[str, str]
         if not names:
             raise typer.BadParameter("--families is empty")
         return dict.fromkeys(names, "")
-    with console.status(f"reading {ifc_file}", spinner="dots"):
+    with _status.status(f"reading {ifc_file}", spinner="dots"):
         return _ifc_families(ifc_file)
 
 

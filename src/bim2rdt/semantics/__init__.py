@@ -8,17 +8,21 @@ knowledge base per family).
 
 from bim2rdt.semantics.errors import SemanticsError
 from bim2rdt.semantics.knowledge import KnowledgeBasePriors, KnowledgeClass, load_table
+from bim2rdt.semantics.llm import LlmPriors
 from bim2rdt.semantics.names import detector_prompt, simplify_family
 from bim2rdt.semantics.priors import DEFAULT_UPRIGHT_BIAS, PriorProvider, UprightPrior
+from bim2rdt.semantics.provider import get_prior_provider
 
 __all__ = [
     "DEFAULT_UPRIGHT_BIAS",
     "KnowledgeBasePriors",
     "KnowledgeClass",
+    "LlmPriors",
     "PriorProvider",
     "SemanticsError",
     "UprightPrior",
     "detector_prompt",
+    "get_prior_provider",
     "load_table",
     "simplify_family",
 ]

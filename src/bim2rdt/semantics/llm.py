@@ -1,0 +1,162 @@
+"""LLM upright priors, as in the paper: an OpenAI-compatible chat model reads the family names and returns a
+label, an upright bias, a yaw-only flag and a rationale per family (extra ``llm``: the ``openai`` SDK).
+
+The step must never stop a mission: every family the model cannot answer usably (timeouts, HTTP 429/5xx after
+the retries, a refusal, invalid JSON, a missing or out-of-range item) falls back to the knowledge base, and
+the prior says so: ``source="knowledge-base (llm fallback)"`` and the reason first in ``rationale``. Good
+answers are cached on disk per (model, family), so a site's families are asked once.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import replace
+from pathlib import Path
+
+from bim2rdt.semantics.cache import PriorCache
+from bim2rdt.semantics.errors import SemanticsError
+from bim2rdt.semantics.knowledge import KnowledgeBasePriors
+from bim2rdt.semantics.llm_answer import PROMPT_VERSION, RESPONSE_FORMAT, build_messages, parse_answer
+from bim2rdt.semantics.priors import FALLBACK_SUFFIX, PriorProvider, UprightPrior
+
+SOURCE_LLM_CACHE = "llm-cache"
+_PLACEHOLDER_KEY = "not-needed"  # local OpenAI-compatible servers (vLLM, Ollama, llama.cpp) ignore the key
+
+
+class _RequestFailed(Exception):
+    """A request gave no usable answer; the message is the reason recorded in the fallback priors."""
+
+
+class LlmPriors:
+    """Upright priors from an OpenAI-compatible chat endpoint, with knowledge-base fallback and a disk cache.
+
+    ``timeout_s`` bounds each request; 429, 5xx, timeouts and connection errors are retried ``max_retries``
+    times after ``backoff_s * 2**attempt`` seconds (capped at ``backoff_max_s``, which also caps a server's
+    Retry-After). ``cache_dir=None`` disables the cache."""
+
+    def __init__(self, model: str = "gpt-4o-mini", base_url: str | None = None, api_key: str | None = None,
+                 timeout_s: float = 30.0, max_retries: int = 3, backoff_s: float = 0.5,
+                 backoff_max_s: float = 8.0, batch_size: int = 40, cache_dir: Path | None = None,
+                 fallback: PriorProvider | None = None) -> None:
+        self.model, self.base_url, self.api_key = model, base_url, api_key
+        self.timeout_s, self.max_retries = timeout_s, max_retries
+        self.backoff_s, self.backoff_max_s, self.batch_size = backoff_s, backoff_max_s, max(1, batch_size)
+        self.cache = PriorCache(Path(cache_dir) / "llm_priors", PROMPT_VERSION) if cache_dir else None
+        self.fallback = fallback or KnowledgeBasePriors()
+        self.requests_sent = 0
+        self._client = None
+
+    def priors(self, families: Iterable[str],
+               ifc_classes: Mapping[str, str] | None = None) -> dict[str, UprightPrior]:
+        """One prior per distinct family (order kept): cached, asked in batches, or fallen back."""
+        hints = dict(ifc_classes or {})
+        wanted = list(dict.fromkeys(families))
+        found = self._cached(wanted)
+        missing = [family for family in wanted if family not in found]
+        for start in range(0, len(missing), self.batch_size):
+            found.update(self._ask(missing[start:start + self.batch_size], hints))
+        return {family: found[family] for family in wanted}
+
+    def _cached(self, families: Sequence[str]) -> dict[str, UprightPrior]:
+        if self.cache is None:
+            return {}
+        hits = {family: self.cache.get(self.model, family) for family in families}
+        return {family: replace(prior, source=SOURCE_LLM_CACHE) for family, prior in hits.items() if prior}
+
+    def _ask(self, batch: Sequence[str], hints: Mapping[str, str]) -> dict[str, UprightPrior]:
+        """One request for a batch; good answers are cached, the rest fall back with their reason."""
+        try:
+            answered, reasons = parse_answer(self._request(batch, hints), batch)
+        except _RequestFailed as failure:
+            answered, reasons = {}, dict.fromkeys(batch, str(failure))
+        if self.cache is not None:
+            for family, prior in answered.items():
+                self.cache.put(self.model, family, prior)
+        return {**answered, **self._fall_back(reasons, hints)}
+
+    def _fall_back(self, reasons: Mapping[str, str], hints: Mapping[str, str]) -> dict[str, UprightPrior]:
+        if not reasons:
+            return {}
+        priors = self.fallback.priors(list(reasons), {f: hints[f] for f in reasons if f in hints})
+        return {family: replace(prior, source=prior.source + FALLBACK_SUFFIX,
+                                rationale=f"LLM {self.model}: {reasons[family]}; fallback: {prior.rationale}")
+                for family, prior in priors.items()}
+
+    def _request(self, batch: Sequence[str], hints: Mapping[str, str]) -> str:
+        """The answer text of one chat completion, retrying transient failures with backoff."""
+        import openai
+
+        for attempt in range(self.max_retries + 1):
+            try:
+                return self._complete(batch, hints)
+            except (openai.RateLimitError, openai.InternalServerError, openai.APITimeoutError,
+                    openai.APIConnectionError) as error:
+                reason = _describe(error)
+                if attempt == self.max_retries:
+                    raise _RequestFailed(f"{reason} after {self.max_retries} retries") from error
+                time.sleep(self._delay(attempt, error))
+            except openai.APIStatusError as error:  # 400/401/404...: retrying will not help
+                raise _RequestFailed(_describe(error)) from error
+        raise AssertionError("unreachable")
+
+    def _complete(self, batch: Sequence[str], hints: Mapping[str, str]) -> str:
+        self.requests_sent += 1
+        completion = self._get_client().chat.completions.create(
+            model=self.model, messages=build_messages(batch, hints), response_format=RESPONSE_FORMAT,
+            temperature=0)
+        if not completion.choices:
+            raise _RequestFailed("answer without choices")
+        choice = completion.choices[0]
+        if getattr(choice.message, "refusal", None):
+            raise _RequestFailed(f"model refused: {choice.message.refusal}"[:200])
+        if choice.finish_reason == "length":
+            raise _RequestFailed("answer cut off at the token limit")
+        if not choice.message.content:
+            raise _RequestFailed("empty answer")
+        return choice.message.content
+
+    def _delay(self, attempt: int, error: Exception) -> float:
+        """Exponential backoff; a server's Retry-After wins when it is shorter than the cap."""
+        delay = self.backoff_s * 2 ** attempt
+        retry_after = _retry_after_s(error)
+        if retry_after is not None:
+            delay = retry_after
+        return min(delay, self.backoff_max_s)
+
+    def _get_client(self):
+        if self._client is None:
+            self._client = make_client(self.base_url, self.api_key, self.timeout_s)
+        return self._client
+
+
+def make_client(base_url: str | None, api_key: str | None, timeout_s: float):
+    """An ``openai.OpenAI`` client with its own retries off (LlmPriors retries, to record why)."""
+    import os
+
+    try:
+        import openai
+    except ImportError:
+        raise SemanticsError("LLM priors need the openai SDK: pip install 'bim2rdt[llm]'") from None
+    key = api_key or os.environ.get("OPENAI_API_KEY")
+    if key is None and base_url is None:
+        raise SemanticsError("no API key for the OpenAI API: set BIM2RDT_LLM__API_KEY or OPENAI_API_KEY")
+    return openai.OpenAI(base_url=base_url, api_key=key or _PLACEHOLDER_KEY, timeout=timeout_s, max_retries=0)
+
+
+def _describe(error: Exception) -> str:
+    """A short reason for the rationale: "HTTP 429 (RateLimitError)", "request timed out"."""
+    status = getattr(error, "status_code", None)
+    if status:
+        return f"HTTP {status} ({type(error).__name__})"
+    return {"APITimeoutError": "request timed out", "APIConnectionError": "connection failed"}.get(
+        type(error).__name__, type(error).__name__)
+
+
+def _retry_after_s(error: Exception) -> float | None:
+    response = getattr(error, "response", None)
+    value = response.headers.get("retry-after") if response is not None else None
+    try:
+        return max(0.0, float(value)) if value is not None else None
+    except ValueError:
+        return None
