@@ -141,3 +141,8 @@ def test_a_user_table_replaces_the_curated_one(tmp_path):
     kb = KnowledgeBasePriors(load_table(path))
     assert kb.prior("Gizmo_12").upright_bias == 0.7
     assert kb.prior("Traffic cone").upright_bias == 0.3
+
+
+def test_building_services_entities_of_ifc2x3_are_fixed_permanent_elements(kb):
+    prior = kb.prior("8370-001300", ifc_class="IfcFlowTerminal")
+    assert prior.known and prior.yaw_only and prior.upright_bias == 1.0

@@ -21,3 +21,11 @@ def test_a_prior_serialises_with_its_known_flag():
 
 def test_the_knowledge_base_is_a_prior_provider():
     assert isinstance(KnowledgeBasePriors(), PriorProvider)
+
+
+def test_families_group_under_their_detector_label_in_first_seen_order():
+    from bim2rdt.semantics import families_by_label
+
+    priors = KnowledgeBasePriors().priors(["Wand-Int-ERDG-1", "Traffic_Cone_Orange_70cm", "Wall #2", "Cone"])
+    assert families_by_label(priors) == {"wall": ["Wand-Int-ERDG-1", "Wall #2"],
+                                         "traffic cone": ["Traffic_Cone_Orange_70cm", "Cone"]}

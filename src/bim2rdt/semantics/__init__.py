@@ -10,7 +10,7 @@ from bim2rdt.semantics.errors import SemanticsError
 from bim2rdt.semantics.knowledge import KnowledgeBasePriors, KnowledgeClass, load_table
 from bim2rdt.semantics.llm import LlmPriors
 from bim2rdt.semantics.names import detector_prompt, simplify_family
-from bim2rdt.semantics.priors import DEFAULT_UPRIGHT_BIAS, PriorProvider, UprightPrior
+from bim2rdt.semantics.priors import DEFAULT_UPRIGHT_BIAS, PriorProvider, UprightPrior, families_by_label
 from bim2rdt.semantics.provider import get_prior_provider
 
 __all__ = [
@@ -22,6 +22,7 @@ __all__ = [
     "SemanticsError",
     "UprightPrior",
     "detector_prompt",
+    "families_by_label",
     "get_prior_provider",
     "load_table",
     "simplify_family",

@@ -9,6 +9,7 @@ answers are cached on disk per (model, family), so a site's families are asked o
 
 from __future__ import annotations
 
+import os
 import time
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import replace
@@ -87,18 +88,18 @@ class LlmPriors:
         """The answer text of one chat completion, retrying transient failures with backoff."""
         import openai
 
-        for attempt in range(self.max_retries + 1):
+        attempt = 0
+        while True:
             try:
                 return self._complete(batch, hints)
             except (openai.RateLimitError, openai.InternalServerError, openai.APITimeoutError,
                     openai.APIConnectionError) as error:
-                reason = _describe(error)
-                if attempt == self.max_retries:
-                    raise _RequestFailed(f"{reason} after {self.max_retries} retries") from error
+                if attempt >= self.max_retries:
+                    raise _RequestFailed(f"{_describe(error)} after {self.max_retries} retries") from error
                 time.sleep(self._delay(attempt, error))
+                attempt += 1
             except openai.APIStatusError as error:  # 400/401/404...: retrying will not help
                 raise _RequestFailed(_describe(error)) from error
-        raise AssertionError("unreachable")
 
     def _complete(self, batch: Sequence[str], hints: Mapping[str, str]) -> str:
         self.requests_sent += 1
@@ -132,8 +133,6 @@ class LlmPriors:
 
 def make_client(base_url: str | None, api_key: str | None, timeout_s: float):
     """An ``openai.OpenAI`` client with its own retries off (LlmPriors retries, to record why)."""
-    import os
-
     try:
         import openai
     except ImportError:

@@ -60,3 +60,14 @@ class PriorProvider(Protocol):
                ifc_classes: Mapping[str, str] | None = None) -> dict[str, UprightPrior]:
         """One prior per distinct family, keyed by the family name as given."""
         ...
+
+
+def families_by_label(priors: Mapping[str, UprightPrior]) -> dict[str, list[str]]:
+    """Detector class -> the BIM families it stands for, in first-seen order.
+
+    The labels are the detector's prompt list (["steel I-beam", "traffic cone", ...]); a detection's class
+    name maps back to its families through this table, as the paper maps boxes to BIM families."""
+    table: dict[str, list[str]] = {}
+    for family, prior in priors.items():
+        table.setdefault(prior.label, []).append(family)
+    return table
