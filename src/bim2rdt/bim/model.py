@@ -1,0 +1,160 @@
+"""``load_ifc`` and ``BimModel``: an IFC file read once into plain records and world-metre meshes.
+
+Reading = parse (``source``), semantics (``elements``, ``processes``, ``site_frame``), geometry
+(``tessellation``), then one fix-up: an element whose ObjectPlacement is the identity while its tessellated
+body lies away from the origin (Revit exports do this) takes its location from the geometry. The result is
+cached on disk by file hash (``model_cache``).
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import ifcopenshell
+import ifcopenshell.util.unit
+import numpy as np
+
+from bim2rdt.bim import model_cache
+from bim2rdt.bim.elements import read_elements, read_storeys, read_zones
+from bim2rdt.bim.errors import BimError
+from bim2rdt.bim.processes import read_events, read_tasks
+from bim2rdt.bim.records import BimElement, BimProcess, BimStorey, BimZone, GeometryFailure
+from bim2rdt.bim.site_frame import SiteFrame, read_site_frame
+from bim2rdt.bim.source import file_digest, open_ifc
+from bim2rdt.bim.tessellation import MeshSet, Progress, has_body, tessellate
+
+ORIGIN_MARGIN_M = 0.01
+"""An identity-placed element whose bounding box (grown by 1 cm) still misses the origin is located by geometry."""
+
+
+@dataclass
+class BimModel:
+    """A read IFC file. Lengths in metres, poses 4x4 model-to-world; ``meshes`` is None if not tessellated."""
+
+    path: Path
+    digest: str
+    schema: str
+    unit_scale: float
+    unit_name: str
+    elements: list[BimElement]
+    storeys: list[BimStorey]
+    zones: list[BimZone]
+    events: list[BimProcess]
+    tasks: list[BimProcess]
+    site_frame: SiteFrame
+    geometry_failures: list[GeometryFailure] = field(default_factory=list)
+    meshes: MeshSet | None = None
+    from_cache: bool = False
+
+    def __post_init__(self) -> None:
+        self._by_id = {el.global_id: el for el in self.elements}
+
+    def element(self, global_id: str) -> BimElement:
+        """The element with this GlobalId; BimError names the file when there is none."""
+        try:
+            return self._by_id[global_id]
+        except KeyError:
+            raise BimError(f"{self.path.name}: no element with GlobalId {global_id}") from None
+
+    def mesh(self, global_id: str) -> tuple[np.ndarray, np.ndarray]:
+        """(vertices (N,3) world metres, faces (M,3) int32) of an element."""
+        if self.meshes is None:
+            raise BimError(f"{self.path.name}: loaded without geometry (load_ifc(..., geometry=True))")
+        if global_id not in self.meshes:
+            self.element(global_id)
+            raise BimError(f"{self.path.name}: element {global_id} has no tessellated geometry")
+        return self.meshes.get(global_id)
+
+    def has_mesh(self, global_id: str) -> bool:
+        return self.meshes is not None and global_id in self.meshes
+
+    def counts_by_class(self) -> dict[str, int]:
+        """Number of elements per IFC class, most common first."""
+        return dict(Counter(el.ifc_class for el in self.elements).most_common())
+
+    def families(self) -> dict[str, int]:
+        """Number of elements per family (elements without one are not counted), most common first."""
+        return dict(Counter(el.family for el in self.elements if el.family).most_common())
+
+
+def load_ifc(path: str | Path, *, geometry: bool = True, cache_dir: Path | None = None,
+             progress: Progress | None = None) -> BimModel:
+    """Read an IFC2X3/IFC4/IFC4X3 file. Bad input raises ``BimError`` with a one-line reason.
+
+    With ``geometry`` the file is tessellated (world metres) and the result cached under ``cache_dir`` (default:
+    the settings' cache folder; caching off when ``BIM2RDT_BIM__TESSELLATION_CACHE=false``).
+    """
+    path = Path(path)
+    ifc = open_ifc(path)
+    digest = file_digest(path)
+    cache_path = _cache_path(digest, cache_dir) if geometry else None
+    if cache_path is not None and (cached := model_cache.read_cache(cache_path)) is not None:
+        return _from_cache(path, digest, *cached)
+    model = _read(path, digest, ifc)
+    if geometry:
+        expected = [el.global_id for el in model.elements if has_body(ifc.by_guid(el.global_id))]
+        model.meshes, model.geometry_failures = tessellate(ifc, expected, progress)
+        _locate_by_geometry(model)
+        if cache_path is not None:
+            model_cache.write_cache(cache_path, _meta(model), model.meshes)
+    return model
+
+
+def _read(path: Path, digest: str, ifc: ifcopenshell.file) -> BimModel:
+    unit_scale = ifcopenshell.util.unit.calculate_unit_scale(ifc)
+    try:
+        return BimModel(path=path, digest=digest, schema=ifc.schema_identifier, unit_scale=unit_scale,
+                        unit_name=_unit_name(ifc), elements=read_elements(ifc, unit_scale),
+                        storeys=read_storeys(ifc, unit_scale), zones=read_zones(ifc), events=read_events(ifc),
+                        tasks=read_tasks(ifc), site_frame=read_site_frame(ifc, unit_scale))
+    except RuntimeError as error:  # ifcopenshell raises RuntimeError on entities it cannot decode lazily
+        raise BimError(f"{path.name}: cannot read entities ({' '.join(str(error).split())[:160]})") from None
+
+
+def _locate_by_geometry(model: BimModel) -> None:
+    """Revit-style elements (identity placement, geometry elsewhere) get the bottom centre of their bbox."""
+    for el in model.elements:
+        if not np.allclose(el.placement, np.eye(4)) or not model.has_mesh(el.global_id):
+            continue
+        vertices, _ = model.meshes.get(el.global_id)
+        low, high = vertices.min(axis=0), vertices.max(axis=0)
+        if np.all(low - ORIGIN_MARGIN_M <= 0.0) and np.all(high + ORIGIN_MARGIN_M >= 0.0):
+            continue
+        el.placement = np.eye(4)
+        el.placement[:3, 3] = [(low[0] + high[0]) / 2, (low[1] + high[1]) / 2, low[2]]
+        el.placement_from_geometry = True
+
+
+def _unit_name(ifc: ifcopenshell.file) -> str:
+    unit = ifcopenshell.util.unit.get_project_unit(ifc, "LENGTHUNIT")
+    return ifcopenshell.util.unit.get_full_unit_name(unit).lower() if unit is not None else "metre"
+
+
+def _cache_path(digest: str, cache_dir: Path | None) -> Path | None:
+    if cache_dir is None:
+        from bim2rdt.config import get_settings
+
+        settings = get_settings()
+        if not settings.bim.tessellation_cache:
+            return None
+        cache_dir = settings.cache_dir / "ifc"
+    return model_cache.cache_file(cache_dir, digest)
+
+
+def _meta(model: BimModel) -> dict:
+    return {"schema": model.schema, "unit_scale": model.unit_scale, "unit_name": model.unit_name,
+            **model_cache.dump_records(elements=model.elements, storeys=model.storeys, zones=model.zones,
+                                       events=model.events, tasks=model.tasks,
+                                       geometry_failures=model.geometry_failures, site_frame=model.site_frame)}
+
+
+def _from_cache(path: Path, digest: str, meta: dict, meshes: MeshSet) -> BimModel:
+    return BimModel(path=path, digest=digest, schema=meta["schema"], unit_scale=meta["unit_scale"],
+                    unit_name=meta["unit_name"], elements=model_cache.load_elements(meta["elements"]),
+                    storeys=model_cache.load_storeys(meta["storeys"]), zones=model_cache.load_zones(meta["zones"]),
+                    events=model_cache.load_processes(meta["events"]), tasks=model_cache.load_processes(meta["tasks"]),
+                    site_frame=model_cache.load_site_frame(meta["site_frame"]),
+                    geometry_failures=model_cache.load_failures(meta["geometry_failures"]), meshes=meshes,
+                    from_cache=True)
