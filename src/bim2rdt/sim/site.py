@@ -224,7 +224,13 @@ class _SiteBuilder:
         ifcopenshell.api.geometry.edit_object_placement(self.ifc, product=product, matrix=pose, is_si=True)
 
     def _stabilise(self) -> None:
-        """Deterministic GlobalIds and header time stamp, so the same build gives the same bytes."""
+        """Deterministic GlobalIds, relation member order and header time stamp: the same build, the same bytes
+        (ifcopenshell's api fills relation members from sets, whose order varies between runs)."""
+        for relation in self.ifc.by_type("IfcRelationship"):
+            for attribute in ("RelatedElements", "RelatedObjects"):
+                members = getattr(relation, attribute, None)
+                if isinstance(members, tuple):
+                    setattr(relation, attribute, sorted(members, key=lambda entity: entity.id()))
         for index, entity in enumerate(self.ifc.by_type("IfcRoot")):
             key = uuid.uuid5(_GUID_NAMESPACE, f"{entity.is_a()}:{entity.Name}:{index}")
             entity.GlobalId = ifcopenshell.guid.compress(key.hex)
