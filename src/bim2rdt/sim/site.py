@@ -231,6 +231,8 @@ class _SiteBuilder:
                 members = getattr(relation, attribute, None)
                 if isinstance(members, tuple):
                     setattr(relation, attribute, sorted(members, key=lambda entity: entity.id()))
+        for assignment in self.ifc.by_type("IfcUnitAssignment"):
+            assignment.Units = sorted(assignment.Units, key=lambda unit: unit.id())
         for index, entity in enumerate(self.ifc.by_type("IfcRoot")):
             key = uuid.uuid5(_GUID_NAMESPACE, f"{entity.is_a()}:{entity.Name}:{index}")
             entity.GlobalId = ifcopenshell.guid.compress(key.hex)
