@@ -11,6 +11,7 @@ from rich.console import Console
 from bim2rdt.cli.common import console, print_json, print_table
 
 _status = Console(stderr=True)  # spinners go to stderr so --json output stays clean
+_NOT_OBJECTS = frozenset({"IfcSpace", "IfcVirtualElement"})  # rooms and virtual boundaries: nothing to detect
 
 
 def register(app: typer.Typer, bench_app: typer.Typer) -> None:
@@ -58,27 +59,11 @@ def _family_hints(ifc_file: Path | None, families: str | None) -> dict[str, str]
 
 
 def _ifc_families(path: Path) -> dict[str, str]:
-    """family -> IFC entity of every physical element (until `bim2rdt.bim.load_ifc` is on main).
+    """family -> IFC entity of every physical element with a family (spaces and virtual elements skipped)."""
+    from bim2rdt.bim import load_ifc
 
-    The family is the element type's name, else the element's ObjectType (Revit writes
-    ``Family:Type:Id`` there), else its Name. Openings and virtual elements are skipped."""
-    import ifcopenshell
-    import ifcopenshell.util.element
-
-    from bim2rdt.semantics import SemanticsError
-
-    if not path.is_file():
-        raise SemanticsError(f"no such IFC file: {path}")
-    try:
-        model = ifcopenshell.open(str(path))
-    except Exception as error:  # ifcopenshell raises bare RuntimeError/OSError subclasses on junk
-        raise SemanticsError(f"cannot read IFC file {path}: {str(error).splitlines()[0] if str(error) else error}")
     found: dict[str, str] = {}
-    for element in model.by_type("IfcElement"):
-        if element.is_a("IfcFeatureElement") or element.is_a("IfcVirtualElement"):
-            continue
-        element_type = ifcopenshell.util.element.get_type(element)
-        family = (element_type.Name if element_type else None) or element.ObjectType or element.Name
-        if family:
-            found.setdefault(family, element.is_a())
+    for element in load_ifc(path, geometry=False).elements:
+        if element.family and element.ifc_class not in _NOT_OBJECTS:
+            found.setdefault(element.family, element.ifc_class)
     return found
