@@ -25,8 +25,10 @@ def priors_command(
                              "(extra llm); families it cannot answer fall back to the knowledge base."),
     as_json: bool = typer.Option(False, "--json", help="Print JSON instead of a table."),
 ) -> None:
-    """Print each BIM family's detector label, upright bias (0..1, weight of SG-ICP's upright term),
-    yaw-only flag and where the prior came from (knowledge-base, default = unknown family)."""
+    """Print each BIM family's detector label, upright bias, yaw-only flag and source.
+
+    The bias (0..1) weighs SG-ICP's soft upright term; source is knowledge-base, default (unknown family),
+    llm, llm-cache, or "... (llm fallback)" with the reason in the JSON rationale."""
     from bim2rdt.config import get_settings
     from bim2rdt.semantics import get_prior_provider
 
