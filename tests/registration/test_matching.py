@@ -24,7 +24,7 @@ def test_trimming_drops_planted_outliers_first():
     rng = np.random.default_rng(0)
     model, scene = _plane_with_outliers(rng)
     pairs = matching.match_pairs(_index(model), scene[None], 0.5)
-    matching.trim_pairs(pairs, 20 / 120, 6)
+    matching.trim_pairs(pairs, pairs.residual, 20 / 120, 6)
     assert not pairs.valid[0, 100:].any()
     assert pairs.valid[0, :100].sum() == 100
 
@@ -33,7 +33,7 @@ def test_huber_weights_shrink_with_distance_beyond_delta():
     rng = np.random.default_rng(1)
     model, scene = _plane_with_outliers(rng)
     pairs = matching.match_pairs(_index(model), scene[None], 0.5)
-    w = matching.huber_weights(pairs, 0.01)
+    w = matching.huber_weights(pairs, pairs.residual, 0.01)
     assert w[0, 100:].max() < 0.11
     assert np.median(w[0, :100]) == 1.0
 

@@ -77,7 +77,8 @@ def register(model_points, model_normals, scene_points, init=np.eye(4), up=(0.0,
     model = matching.ModelIndex.build(problem.model_pts_body, problem.model_normals_body)
     normals_world = matching.scene_normals(problem.scene_pts_world, cfg.scene_normal_neighbours) \
         if cfg.normal_gate_deg < 90.0 else None
-    restarts = _Restarts.start(yaw_restarts(problem, cfg))
+    restarts = _Restarts.start(yaw_restarts(problem.T_world_model_init, problem.model_pts_body.mean(axis=0),
+                                            problem.up_world, cfg))
     for iteration in range(cfg.max_iterations):
         active = restarts.active()
         if len(active) == 0:
@@ -88,17 +89,18 @@ def register(model_points, model_normals, scene_points, init=np.eye(4), up=(0.0,
     return _keep_best(restarts, problem, model, cfg)
 
 
-def yaw_restarts(problem: Problem, cfg: IcpConfig) -> np.ndarray:
-    """Initial poses (K, 4, 4): ``init`` turned about the world up, through the model's centroid, by evenly
-    spaced yaws plus seeded jitter (restart 0 is ``init`` itself). A gravity prior cannot fix yaw; restarts can."""
+def yaw_restarts(T_init: np.ndarray, centroid_body: np.ndarray, up_world: np.ndarray, cfg: IcpConfig) -> np.ndarray:
+    """Initial poses (K, 4, 4): ``T_init`` turned about the world up, through the model's centroid, by evenly
+    spaced yaws plus seeded jitter (restart 0 is ``T_init`` itself). A gravity prior cannot fix yaw; restarts can.
+    Public so that peers in a benchmark can be given exactly the same starts."""
     rng = np.random.default_rng(cfg.seed)
     k = cfg.restarts
     jitter = np.deg2rad(rng.uniform(-cfg.yaw_jitter_deg, cfg.yaw_jitter_deg, k))
     yaws = 2 * np.pi * np.arange(k) / k + np.where(np.arange(k) == 0, 0.0, jitter)
-    T0 = problem.T_world_model_init
-    centre = T0[:3, :3] @ problem.model_pts_body.mean(axis=0) + T0[:3, 3]
+    T0 = T_init
+    centre = T0[:3, :3] @ centroid_body + T0[:3, 3]
     turns = np.tile(np.eye(4), (k, 1, 1))
-    turns[:, :3, :3] = axis_angle(np.broadcast_to(problem.up_world, (k, 3)), yaws)
+    turns[:, :3, :3] = axis_angle(np.broadcast_to(up_world, (k, 3)), yaws)
     turns[:, :3, 3] = centre - np.einsum("kij,j->ki", turns[:, :3, :3], centre)
     return turns @ T0
 
@@ -107,21 +109,25 @@ def _iterate(restarts: _Restarts, active: np.ndarray, problem: Problem, model: m
              normals_world: np.ndarray | None, cfg: IcpConfig, iteration: int, yaw_only: bool) -> None:
     """One pass of Algorithm 1's inner loop for the active restarts: match, relax, trim, weigh, solve (with the
     gravity correspondence and optional yaw-only projection), apply, test convergence."""
+    delta = matching.annealed_delta(iteration, cfg.max_pair_distance, cfg.huber_delta, cfg.huber_anneal_iterations)
     T = restarts.poses[active]
     T_body_world = invert_poses(T)
     scene_body = _transform(T_body_world, problem.scene_pts_world)
-    pairs = matching.match_pairs(model, scene_body, cfg.max_pair_distance)
+    pair_distance = min(cfg.max_pair_distance,
+                        max(cfg.pair_distance_per_delta * delta, cfg.score_distance) + model.spacing)
+    pairs = matching.match_pairs(model, scene_body, pair_distance)
     if normals_world is not None:
-        normals_body = np.einsum("kij,nj->kni", T_body_world[:, :3, :3], normals_world)
+        normals_body = normals_world @ np.swapaxes(T_body_world[:, :3, :3], 1, 2)
         matching.gate_normals(pairs, normals_body, problem.model_normals_body, cfg.normal_gate_deg)
     matching.relax_if_few(pairs, model, scene_body, cfg.min_pairs)
-    matching.trim_pairs(pairs, cfg.trim_fraction, cfg.min_pairs)
-    delta = matching.annealed_delta(iteration, cfg.max_pair_distance, cfg.huber_delta, cfg.huber_anneal_iterations)
-    w = matching.huber_weights(pairs, delta)
+    solver = SOLVERS[cfg.method]
+    residual = solver.residual(pairs)
+    matching.trim_pairs(pairs, residual, cfg.trim_fraction, cfg.min_pairs)
+    w = matching.huber_weights(pairs, residual, delta)
     dst = problem.model_pts_body[pairs.model_index]
     up_body = np.einsum("kji,j->ki", T[:, :3, :3], problem.up_world)
     lam = gravity_weight(dst, w, problem.upright_bias * cfg.gravity_gamma0)
-    dR, dt = SOLVERS[cfg.method](scene_body, dst, problem.model_normals_body[pairs.model_index], w,
+    dR, dt = solver.step(scene_body, dst, problem.model_normals_body[pairs.model_index], w,
                                  up_body, BODY_UP, lam, yaw_only)
     step = np.tile(np.eye(4), (len(active), 1, 1))
     step[:, :3, :3], step[:, :3, 3] = dR, dt
@@ -135,15 +141,19 @@ def _iterate(restarts: _Restarts, active: np.ndarray, problem: Problem, model: m
 
 def _transform(T: np.ndarray, points: np.ndarray) -> np.ndarray:
     """Apply poses (k, 4, 4) to points (N, 3) -> (k, N, 3)."""
-    return np.einsum("kij,nj->kni", T[:, :3, :3], points) + T[:, None, :3, 3]
+    return points @ np.swapaxes(T[:, :3, :3], 1, 2) + T[:, None, :3, 3]
+
+
+def score_poses(model: matching.ModelIndex, poses: np.ndarray, scene_pts_world: np.ndarray, cfg: IcpConfig):
+    """Truncated surface-residual score of candidate poses (K, 4, 4) -> (scores (K,), pairs). Lower is better."""
+    pairs = matching.match_pairs(model, _transform(invert_poses(poses), scene_pts_world), cfg.max_pair_distance)
+    return matching.truncated_score(pairs, cfg.score_distance), pairs
 
 
 def _keep_best(restarts: _Restarts, problem: Problem, model: matching.ModelIndex, cfg: IcpConfig) -> RegistrationResult:
     """Algorithm 1's ScoreAndKeepBest: rescore every surviving restart at its final pose, keep the lowest."""
     alive = np.flatnonzero(~restarts.pruned)
-    pairs = matching.match_pairs(model, _transform(invert_poses(restarts.poses[alive]), problem.scene_pts_world),
-                                 cfg.max_pair_distance)
-    scores = matching.truncated_score(pairs, cfg.score_distance)
+    scores, pairs = score_poses(model, restarts.poses[alive], problem.scene_pts_world, cfg)
     best = int(np.argmin(scores))
     distance = pairs.residual[best]
     inliers = distance < cfg.score_distance

@@ -78,20 +78,21 @@ def relax_if_few(pairs: Pairs, model: ModelIndex, scene_body: np.ndarray, min_pa
         pairs.residual[k] = surface_residual(model, scene_body[k:k + 1], index[None], distance[None])[0]
 
 
-def trim_pairs(pairs: Pairs, trim_fraction: float, min_pairs: int) -> None:
-    """Drop the farthest ``trim_fraction`` of each restart's valid pairs (never below ``min_pairs``)."""
+def trim_pairs(pairs: Pairs, residual: np.ndarray, trim_fraction: float, min_pairs: int) -> None:
+    """Drop the ``trim_fraction`` of each restart's valid pairs with the largest ``residual`` (k, N), never
+    below ``min_pairs``."""
     if trim_fraction <= 0.0:
         return
     counts = pairs.valid.sum(axis=1)
     keep = np.maximum(np.ceil((1.0 - trim_fraction) * counts), np.minimum(min_pairs, counts)).astype(int)
-    ordered = np.sort(np.where(pairs.valid, pairs.residual, np.inf), axis=1)
+    ordered = np.sort(np.where(pairs.valid, residual, np.inf), axis=1)
     cutoff = ordered[np.arange(len(keep)), np.maximum(keep - 1, 0)]
-    pairs.valid &= pairs.residual <= cutoff[:, None]
+    pairs.valid &= residual <= cutoff[:, None]
 
 
-def huber_weights(pairs: Pairs, delta: float) -> np.ndarray:
-    """IRLS weights of the Huber loss on surface residuals: 1 inside ``delta`` (m), delta/r beyond; 0 if invalid."""
-    distance = np.where(pairs.valid, pairs.residual, 0.0)
+def huber_weights(pairs: Pairs, residual: np.ndarray, delta: float) -> np.ndarray:
+    """IRLS weights of the Huber loss: 1 where ``residual`` <= ``delta`` (m), delta/r beyond; 0 if invalid."""
+    distance = np.where(pairs.valid, residual, 0.0)
     weights = np.where(distance <= delta, 1.0, delta / np.maximum(distance, 1e-12))
     return np.where(pairs.valid, weights, 0.0)
 

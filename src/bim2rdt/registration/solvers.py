@@ -14,14 +14,18 @@ pitch stay where the initial pose put them).
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from dataclasses import dataclass
+
 import numpy as np
 
+from bim2rdt.registration.matching import Pairs
 from bim2rdt.registration.so3 import axis_angle, exp_so3, skew
 
 
 def weighted_centroids(points: np.ndarray, w: np.ndarray) -> np.ndarray:
     """(k, N, 3), (k, N) -> (k, 3)."""
-    return np.einsum("kn,kni->ki", w, points) / w.sum(axis=1)[:, None]
+    return (w[:, None, :] @ points)[:, 0] / np.maximum(w.sum(axis=1), 1e-300)[:, None]
 
 
 def gravity_weight(dst: np.ndarray, w: np.ndarray, bias_gamma: float) -> np.ndarray:
@@ -37,7 +41,7 @@ def solve_point_to_point(src, dst, w, g_src, g_dst, lam, yaw_only=False):
     Maximises tr(R H) with H = sum w s~ d~^T + lam g_src g_dst^T. Returns dR (k, 3, 3), dt (k, 3).
     """
     s_mean, d_mean = weighted_centroids(src, w), weighted_centroids(dst, w)
-    H = np.einsum("kn,kni,knj->kij", w, src - s_mean[:, None], dst - d_mean[:, None])
+    H = np.swapaxes((src - s_mean[:, None]) * w[..., None], 1, 2) @ (dst - d_mean[:, None])
     H = H + lam[:, None, None] * np.einsum("ki,j->kij", g_src, g_dst)
     dR = _yaw_kabsch(H, g_src) if yaw_only else _kabsch(H)
     return dR, d_mean - np.einsum("kij,kj->ki", dR, s_mean)
@@ -67,8 +71,9 @@ def solve_point_to_plane(src, dst, normals, w, g_src, g_dst, lam, yaw_only=False
     """
     r = np.einsum("kni,kni->kn", normals, src - dst)
     J = np.concatenate([np.cross(src, normals), normals], axis=2)  # (k, N, 6)
-    A = np.einsum("kni,kn,knj->kij", J, w, J)
-    b = -np.einsum("kni,kn,kn->ki", J, w, r)
+    Jw_t = np.swapaxes(J * w[..., None], 1, 2)  # (k, 6, N)
+    A = Jw_t @ J
+    b = -(Jw_t @ r[..., None])[..., 0]
     Jg = -skew(g_src)  # d(dR g_src)/d omega
     A[:, :3, :3] += lam[:, None, None] * np.einsum("kji,kjl->kil", Jg, Jg)
     b[:, :3] -= lam[:, None] * np.einsum("kji,kj->ki", Jg, g_src - g_dst)
@@ -97,5 +102,17 @@ def _point_to_point_step(src, dst, normals, w, g_src, g_dst, lam, yaw_only=False
     return solve_point_to_point(src, dst, w, g_src, g_dst, lam, yaw_only)
 
 
-SOLVERS = {"point_to_point": _point_to_point_step, "point_to_plane": solve_point_to_plane}
-"""Strategy per ``IcpConfig.method``; all take (src, dst, normals, w, g_src, g_dst, lam, yaw_only)."""
+@dataclass(frozen=True)
+class Solver:
+    """A rigid-solve strategy: the step, and which pair residual its robust weights should see (the quantity
+    the step minimises: distance to the sample for point-to-point, to the surface for point-to-plane)."""
+
+    step: Callable[..., tuple[np.ndarray, np.ndarray]]
+    residual: Callable[[Pairs], np.ndarray]
+
+
+SOLVERS = {
+    "point_to_point": Solver(_point_to_point_step, lambda pairs: pairs.distance),
+    "point_to_plane": Solver(solve_point_to_plane, lambda pairs: pairs.residual),
+}
+"""Strategy per ``IcpConfig.method``; steps take (src, dst, normals, w, g_src, g_dst, lam, yaw_only)."""

@@ -1,0 +1,48 @@
+"""The pinhole RGB-D camera: intrinsics, pixel rays, and back-projection of pixels with depth to 3-D points.
+
+Camera frame is OpenCV's: x right, y down, z forward (metres). ``T_world_camera`` maps camera to world.
+Depth is the z coordinate in the camera frame (what RGB-D sensors report), not the range along the ray.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Intrinsics:
+    """Pinhole intrinsics in pixels; the defaults are a Kinect/RealSense-class 640x480 VGA depth camera."""
+
+    width: int = 640
+    height: int = 480
+    fx: float = 525.0
+    fy: float = 525.0
+    cx: float = 319.5
+    cy: float = 239.5
+
+    def pixel_rays(self) -> np.ndarray:
+        """Camera-frame ray directions with z = 1 for every pixel, (H, W, 3), row-major (v, u)."""
+        u, v = np.meshgrid(np.arange(self.width), np.arange(self.height))
+        return np.stack([(u - self.cx) / self.fx, (v - self.cy) / self.fy, np.ones(u.shape)], axis=-1)
+
+    def backproject(self, uv: np.ndarray, depth: np.ndarray) -> np.ndarray:
+        """Pixels (N, 2) as (u, v) with depths (N,) in metres -> camera-frame points (N, 3)."""
+        x = (uv[:, 0] - self.cx) / self.fx * depth
+        y = (uv[:, 1] - self.cy) / self.fy * depth
+        return np.stack([x, y, depth], axis=1)
+
+
+def look_at(eye, target, up=(0.0, 0.0, 1.0)) -> np.ndarray:
+    """T_world_camera of a camera at ``eye`` looking at ``target`` with world ``up`` appearing up in the image."""
+    eye, target, up = (np.asarray(v, dtype=np.float64) for v in (eye, target, up))
+    forward = target - eye
+    forward /= np.linalg.norm(forward)
+    right = np.cross(forward, up)
+    right /= np.linalg.norm(right)
+    down = np.cross(forward, right)
+    T = np.eye(4)
+    T[:3, :3] = np.stack([right, down, forward], axis=1)
+    T[:3, 3] = eye
+    return T
