@@ -12,6 +12,8 @@ from pathlib import Path
 from pydantic import BaseModel, Field
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
+from bim2rdt.registration.config import IcpConfig
+
 
 def _default_cache_dir() -> Path:
     return Path.home() / ".cache" / "bim2rdt"
@@ -64,6 +66,7 @@ class Settings(BaseSettings):
     llm: LlmSettings = LlmSettings()
     hav: HavSettings = HavSettings()
     mqtt: MqttSettings = MqttSettings()
+    registration: IcpConfig = IcpConfig()
 
 
 @lru_cache(maxsize=1)

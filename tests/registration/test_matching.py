@@ -55,7 +55,7 @@ def test_relax_if_few_falls_back_to_all_nearest_pairs():
     index = _index(model)
     pairs = matching.match_pairs(index, scene, 0.5)
     assert not pairs.valid.any()
-    matching.relax_if_few(pairs, index, scene, 6)
+    matching.relax_if_few(pairs, index, scene, 6, 0.5)
     assert pairs.valid.all() and np.all(np.isfinite(pairs.residual)) and pairs.distance.min() > 2.0
 
 

@@ -37,6 +37,8 @@ class IcpConfig(BaseModel):
     huber_delta: float = Field(0.01, gt=0.0, description="Final Huber scale, m (about 2-3x the depth noise).")
     huber_anneal_iterations: int = Field(
         6, ge=0, description="Iterations over which the Huber scale shrinks geometrically from max_pair_distance.")
+    coarse_stride: int = Field(
+        2, ge=1, description="While the Huber scale is still annealing, use every n-th scene point (coarse-to-fine).")
     convergence_rot_rad: float = Field(1e-3, gt=0.0, description="Converged when the step rotates less, rad ...")
     convergence_trans: float = Field(1e-3, gt=0.0, description="... and translates less, m (10x below the 1 cm "
                                                                  "success bar; IRLS steps shrink geometrically).")
@@ -47,7 +49,7 @@ class IcpConfig(BaseModel):
     method: Literal["point_to_point", "point_to_plane"] = Field(
         "point_to_plane", description="Rigid solve: closed-form weighted Kabsch, or Gauss-Newton on model normals.")
     score_distance: float = Field(0.03, gt=0.0, description="Truncation of the restart score and inlier radius, m.")
-    prune_after: int = Field(3, ge=1, description="Iteration at which restarts far behind the best are dropped.")
+    prune_after: int = Field(8, ge=1, description="Iteration at which restarts far behind the best are dropped.")
     prune_ratio: float = Field(1.5, ge=1.0, description="Drop restarts whose score is worse than ratio x the best.")
     scene_normal_neighbours: int = Field(16, ge=3, description="Neighbours for the scene points' PCA normals.")
     seed: int = Field(0, description="Seed of the yaw jitter, so runs are reproducible.")

@@ -112,14 +112,17 @@ def _iterate(restarts: _Restarts, active: np.ndarray, problem: Problem, model: m
     delta = matching.annealed_delta(iteration, cfg.max_pair_distance, cfg.huber_delta, cfg.huber_anneal_iterations)
     T = restarts.poses[active]
     T_body_world = invert_poses(T)
-    scene_body = _transform(T_body_world, problem.scene_pts_world)
+    annealing = delta > cfg.huber_delta
+    stride = max(1, cfg.coarse_stride) if annealing else 1  # coarse-to-fine: the wide-scale steps need few points
+    scene_world = problem.scene_pts_world[::stride]
+    scene_body = _transform(T_body_world, scene_world)
     pair_distance = min(cfg.max_pair_distance,
                         max(cfg.pair_distance_per_delta * delta, cfg.score_distance) + model.spacing)
     pairs = matching.match_pairs(model, scene_body, pair_distance)
     if normals_world is not None:
-        normals_body = normals_world @ np.swapaxes(T_body_world[:, :3, :3], 1, 2)
+        normals_body = normals_world[::stride] @ np.swapaxes(T_body_world[:, :3, :3], 1, 2)
         matching.gate_normals(pairs, normals_body, problem.model_normals_body, cfg.normal_gate_deg)
-    matching.relax_if_few(pairs, model, scene_body, cfg.min_pairs)
+    matching.relax_if_few(pairs, model, scene_body, cfg.min_pairs, cfg.max_pair_distance)
     solver = SOLVERS[cfg.method]
     residual = solver.residual(pairs)
     matching.trim_pairs(pairs, residual, cfg.trim_fraction, cfg.min_pairs)
@@ -135,7 +138,7 @@ def _iterate(restarts: _Restarts, active: np.ndarray, problem: Problem, model: m
     restarts.iterations[active] += 1
     restarts.scores[active] = matching.truncated_score(pairs, cfg.score_distance)
     small = (rotation_angle(dR) < cfg.convergence_rot_rad) & (np.linalg.norm(dt, axis=1) < cfg.convergence_trans)
-    if delta <= cfg.huber_delta:
+    if not annealing:
         restarts.done[active[small]] = True
 
 

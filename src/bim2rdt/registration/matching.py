@@ -69,12 +69,19 @@ def gate_normals(pairs: Pairs, scene_normals_body: np.ndarray, model_normals: np
     pairs.valid &= cos >= np.cos(np.deg2rad(gate_deg))
 
 
-def relax_if_few(pairs: Pairs, model: ModelIndex, scene_body: np.ndarray, min_pairs: int) -> None:
-    """Restarts left with fewer than ``min_pairs`` pairs fall back to every scene point's nearest sample, with
-    no distance or normal gate: a step on all data beats no step (the pose is far off, or the view is tiny)."""
+def relax_if_few(pairs: Pairs, model: ModelIndex, scene_body: np.ndarray, min_pairs: int,
+                 wider_distance: float) -> None:
+    """Restarts left with fewer than ``min_pairs`` pairs are re-matched without the normal gate, first within
+    ``wider_distance`` (the configured maximum, when the loop has shrunk it), then with no bound at all: a step
+    on all data beats no step (the pose is far off, or the view is tiny)."""
     for k in np.flatnonzero(pairs.valid.sum(axis=1) < min_pairs):
-        distance, index = model.tree.query(scene_body[k])
-        pairs.model_index[k], pairs.distance[k], pairs.valid[k] = index, distance, True
+        for bound in (wider_distance, np.inf):
+            distance, index = model.tree.query(scene_body[k], distance_upper_bound=bound)
+            found = np.isfinite(distance)
+            if found.sum() >= min_pairs:
+                break
+        index = np.minimum(index, model.tree.n - 1)
+        pairs.model_index[k], pairs.distance[k], pairs.valid[k] = index, distance, found
         pairs.residual[k] = surface_residual(model, scene_body[k:k + 1], index[None], distance[None])[0]
 
 

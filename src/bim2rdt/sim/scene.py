@@ -1,7 +1,7 @@
 """A synthetic site: BIM objects (meshes in their body frames) placed on a tiled ground plane.
 
 Objects are upright along +z in their body frames (see :mod:`bim2rdt.sim.meshes`); ``T_world_model`` places
-them. Surfaces carry a procedural texture (grime, stencils, plank joints: 4 cm cells of varying albedo, fixed
+them. Surfaces carry a procedural texture (grime, stencils, plank joints: 8 cm cells of varying albedo, fixed
 to the body) so a corner detector finds corners ON the surfaces, as it does on real, dirty site objects.
 """
 
@@ -53,14 +53,14 @@ def _ground(size: float) -> trimesh.Trimesh:
     return trimesh.Trimesh(vertices, np.array([[0, 1, 2], [0, 2, 3]]), process=False)
 
 
-def texture(points_body: np.ndarray, cell: float = 0.04) -> np.ndarray:
-    """Albedo factor in [0.55, 1] of 3-D cells of ``cell`` metres: a deterministic hash of the cell index."""
+def texture(points_body: np.ndarray, cell: float = 0.08, contrast: float = 0.25) -> np.ndarray:
+    """Albedo factor in [1 - contrast, 1] of 3-D cells of ``cell`` metres: a deterministic hash of the cell."""
     ijk = np.floor(points_body / cell).astype(np.int64)
     hashed = (ijk[:, 0] * 73856093) ^ (ijk[:, 1] * 19349663) ^ (ijk[:, 2] * 83492791)
-    return 0.55 + 0.45 * (np.abs(hashed) % 1009) / 1008.0
+    return 1.0 - contrast * (np.abs(hashed) % 1009) / 1008.0
 
 
 def ground_albedo(points_world: np.ndarray) -> np.ndarray:
     """Concrete slab: 1 m bays with dark joints and 20 cm grime patches."""
     joints = np.any(np.abs(points_world[:, :2] - np.round(points_world[:, :2])) < 0.01, axis=1)
-    return np.where(joints, 0.15, 0.45 * texture(points_world, cell=0.2))
+    return np.where(joints, 0.3, 0.45 * texture(points_world, cell=0.2, contrast=0.25))

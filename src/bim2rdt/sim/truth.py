@@ -40,11 +40,24 @@ class PoseError:
 def pose_error(family: str, T_est: np.ndarray, T_true: np.ndarray) -> PoseError:
     """Errors of ``T_est`` against ``T_true`` (both T_world_model), modulo the family's symmetry."""
     tilt = float(np.rad2deg(np.arccos(np.clip(T_est[:3, 2] @ T_true[:3, 2], -1.0, 1.0))))
-    order = SYMMETRY_ORDER.get(family, 1)
-    if order == AXIAL:
-        rotation = tilt
-    else:
-        turns = axis_angle(np.tile([0.0, 0.0, 1.0], (order, 1)), 2 * np.pi * np.arange(order) / order)
-        relative = np.einsum("ij,kjl,ml->kim", T_est[:3, :3], turns, T_true[:3, :3])
-        rotation = float(np.rad2deg(rotation_angle(relative).min()))
+    closest = closest_equivalent(family, T_est, T_true)
+    rotation = float(np.rad2deg(rotation_angle(closest[:3, :3] @ T_true[:3, :3].T)))
     return PoseError(rotation, float(np.linalg.norm(T_est[:3, 3] - T_true[:3, 3])), tilt)
+
+
+def closest_equivalent(family: str, T_est: np.ndarray, T_true: np.ndarray) -> np.ndarray:
+    """The pose that shows the same object as ``T_est`` (turned about its body z axis by a symmetry of the
+    family) and is closest in rotation to ``T_true``. Metrics on fixed surface samples then measure the surface
+    error, not the sampling: a drum turned by 10 degrees about its axis puts every sample somewhere else, on
+    the same surface."""
+    order = SYMMETRY_ORDER.get(family, 1)
+    M = T_true[:3, :3].T @ T_est[:3, :3]
+    if order == AXIAL:  # argmax over theta of tr(M Rz(theta))
+        angles = np.array([np.arctan2(M[0, 1] - M[1, 0], M[0, 0] + M[1, 1])])
+    else:
+        angles = 2 * np.pi * np.arange(order) / order
+    turns = axis_angle(np.tile([0.0, 0.0, 1.0], (len(angles), 1)), angles)
+    best = turns[int(np.argmax(np.trace(M @ turns, axis1=1, axis2=2)))]
+    out = T_est.copy()
+    out[:3, :3] = T_est[:3, :3] @ best
+    return out

@@ -1,0 +1,95 @@
+"""`bim2rdt bench registration`: the paper's Hausdorff table (ICP vs SG-ICP, four scenarios) with success rate,
+tilt error and time per object, against Open3D's ICPs given the same restarts, and PASS/FAIL per target."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import typer
+
+from bim2rdt.cli.common import console, print_json, print_table
+
+PEER_COLUMNS = ("Open3D pt-pt", "Open3D pt-plane")
+
+
+def register(app: typer.Typer, bench_app: typer.Typer) -> None:
+    bench_app.command("registration")(bench_registration)
+
+
+def bench_registration(
+    trials: int = typer.Option(50, "--trials", min=1, help="Seeded trials per scenario (3 objects each)."),
+    seed: int = typer.Option(0, "--seed", help="Seed of scenes, noise, corners and initial poses."),
+    out: Path = typer.Option(Path("out/bench/registration"), "--out", help="Folder for plots and results.json."),
+    peers: bool | None = typer.Option(None, "--peers/--no-peers",
+                                      help="Run Open3D too (default: when open3d is importable)."),
+    one_core: bool = typer.Option(True, "--one-core/--all-cores",
+                                  help="Pin the process to one CPU so Open3D's TBB threads and our numpy "
+                                       "compete on equal terms."),
+    as_json: bool = typer.Option(False, "--json", help="Print JSON instead of tables."),
+) -> None:
+    """Run S1-S4 with ICP, SG-ICP (priors from the knowledge base) and Open3D; print the table and targets."""
+    from bim2rdt.config import get_settings
+    from bim2rdt.sim.registration_runs import run_registration_scenarios, run_record, save_run
+
+    if one_core and hasattr(os, "sched_setaffinity"):
+        os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
+    use_peers = _open3d_available() if peers is None else peers
+    config = get_settings().registration
+    with progress(4 * trials, "registration scenarios") as tick:
+        run = run_registration_scenarios(out, trials, seed, config, use_peers, tick=tick)
+    save_run(run, out)
+    if as_json:
+        print_json(run_record(run))
+        return
+    show_run(run)
+    console.print(f"plots and results.json in {out}")
+
+
+def show_run(run) -> None:
+    """Print the paper's table plus success/tilt/time per scenario, then the targets."""
+    from bim2rdt.sim.benchmark import improvement
+
+    peers = [name for name in PEER_COLUMNS if name in run.results[0].stats]
+    rows = []
+    for result in run.results:
+        s = result.stats
+        for label, key, scale in (("RMSE (m)", "rmse", 1.0), ("Mean (m)", "mean", 1.0), ("Max (m)", "max", 1.0)):
+            icp, sg = getattr(s["ICP"], key), getattr(s["SG-ICP"], key)
+            rows.append((result.name, label, f"{icp:.6f}", f"{sg:.6f}", f"{improvement(icp, sg):+.1f} %",
+                         *[f"{getattr(s[p], key) * scale:.6f}" for p in peers]))
+        for label, key, fmt in (("success", "success", "{:.0%}"), ("tilt err (deg)", "tilt_deg", "{:.2f}"),
+                                ("time (ms)", "time_ms", "{:.1f}")):
+            rows.append((result.name, label, fmt.format(getattr(s["ICP"], key)),
+                         fmt.format(getattr(s["SG-ICP"], key)), "",
+                         *[fmt.format(getattr(s[p], key)) for p in peers]))
+    print_table(f"Registration: Hausdorff means over {run.trials} trials x objects per scenario "
+                "(improvement = RMSE/Mean/Max cut by SG-ICP)",
+                ["scenario", "metric", "ICP", "SG-ICP", "improvement", *peers], rows)
+    print_table("Targets", ["target", "result", "detail"],
+                [(t.name, "PASS" if t.passed else "FAIL", t.detail) for t in run.targets])
+
+
+def _open3d_available() -> bool:
+    try:
+        import open3d  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+class progress:
+    """A rich progress bar whose ``tick()`` advances one trial."""
+
+    def __init__(self, total: int, label: str) -> None:
+        from rich.progress import Progress
+
+        self._bar = Progress(console=console, transient=True)
+        self._task = self._bar.add_task(label, total=total)
+
+    def __enter__(self):
+        self._bar.start()
+        return lambda: self._bar.advance(self._task)
+
+    def __exit__(self, *exc) -> None:
+        self._bar.stop()

@@ -1,0 +1,100 @@
+"""Run the registration scenarios end to end and save what a run produced (shared by the benchmark command and
+the demo): the methods, the per-family upright priors, plots, and the resolved config with seeds and versions."""
+
+from __future__ import annotations
+
+import json
+import platform
+from collections.abc import Callable, Sequence
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+from bim2rdt.atomic import write_bytes_atomic
+from bim2rdt.registration import IcpConfig
+from bim2rdt.sim.benchmark import Prior, ScenarioResult, Target, check_targets, run_scenario
+from bim2rdt.sim.peers import Open3dIcp, SgIcp
+from bim2rdt.sim.plots import plot_before_after
+from bim2rdt.sim.scenarios import SCENARIOS, scenario
+
+
+@dataclass
+class RegistrationRun:
+    """Everything one run produced."""
+
+    config: IcpConfig
+    trials: int
+    seed: int
+    priors: dict[str, Prior]
+    results: list[ScenarioResult]
+    targets: list[Target]
+    plots: list[Path]
+
+
+def upright_priors(families: Sequence[str]) -> dict[str, Prior]:
+    """(upright_bias, yaw_only) per family from the offline knowledge base (bim2rdt.semantics)."""
+    from bim2rdt.semantics import KnowledgeBasePriors
+
+    return {family: (prior.upright_bias, prior.yaw_only)
+            for family, prior in KnowledgeBasePriors().priors(list(families)).items()}
+
+
+def build_methods(config: IcpConfig, peers: bool) -> list:
+    """ICP and SG-ICP (one loop, with and without the prior), plus Open3D's two ICPs when ``peers``."""
+    methods = [SgIcp(config, use_prior=False), SgIcp(config, use_prior=True)]
+    if peers:
+        methods += [Open3dIcp(config, plane=False), Open3dIcp(config, plane=True)]
+    return methods
+
+
+def run_registration_scenarios(out_dir: Path | None, trials: int, seed: int, config: IcpConfig, peers: bool,
+                               names: Sequence[str] = tuple(SCENARIOS),
+                               tick: Callable[[], None] = lambda: None) -> RegistrationRun:
+    """Build and run each scenario; with ``out_dir``, save one before/after plot per scenario there."""
+    methods = build_methods(config, peers)
+    families = [family for name in names for family, *_ in SCENARIOS[name].layout]
+    priors = upright_priors(families)
+    results, plots = [], []
+    for name in names:
+        built = scenario(name, trials=trials, seed=seed, sample_count=config.sample_count)
+        result = run_scenario(built, methods, priors, tick)
+        results.append(result)
+        if out_dir is not None:
+            plots.append(plot_before_after(built, result, Path(out_dir) / f"registration_{name}.png"))
+    return RegistrationRun(config, trials, seed, priors, results, check_targets(results), plots)
+
+
+def run_record(run: RegistrationRun) -> dict:
+    """The run as plain JSON-able data: resolved config, seed, priors, versions, per-scenario stats, targets."""
+    return {
+        "config": run.config.model_dump(), "trials": run.trials, "seed": run.seed, "versions": versions(),
+        "priors": {family: {"upright_bias": bias, "yaw_only": yaw} for family, (bias, yaw) in run.priors.items()},
+        "scenarios": {r.name: {"description": r.description,
+                               "methods": {m: asdict(s) for m, s in r.stats.items()}} for r in run.results},
+        "targets": [asdict(t) for t in run.targets],
+        "plots": [str(p) for p in run.plots],
+    }
+
+
+def save_run(run: RegistrationRun, out_dir: Path) -> Path:
+    """Write ``results.json`` (see :func:`run_record`) atomically into ``out_dir``."""
+    text = json.dumps(run_record(run), indent=2)
+    return write_bytes_atomic(Path(out_dir) / "results.json", text.encode("utf-8"))
+
+
+def versions() -> dict[str, str]:
+    """Versions of Python and the packages that shape the numbers."""
+    import numpy
+    import scipy
+    import trimesh
+
+    import bim2rdt
+
+    found = {"python": platform.python_version(), "bim2rdt": bim2rdt.__version__, "numpy": numpy.__version__,
+             "scipy": scipy.__version__, "trimesh": trimesh.__version__}
+    try:
+        import open3d
+
+        found["open3d"] = open3d.__version__
+    except ImportError:
+        found["open3d"] = "absent"
+    return found

@@ -1,0 +1,46 @@
+"""`bim2rdt bench registration` and `bim2rdt demo` run end to end on a tiny trial count."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+
+def run_cli(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "bim2rdt", *args], capture_output=True, text=True, timeout=300)
+
+
+def test_bench_registration_json_has_every_scenario_method_and_target(tmp_path):
+    result = run_cli("bench", "registration", "--trials", "1", "--json", "--out", str(tmp_path))
+    assert result.returncode == 0, result.stderr
+    report = json.loads(result.stdout)
+    assert set(report["scenarios"]) == {"S1", "S2", "S3", "S4"}
+    methods = report["scenarios"]["S1"]["methods"]
+    assert {"ICP", "SG-ICP", "Open3D pt-pt", "Open3D pt-plane"} <= set(methods)
+    assert all(0.0 <= m["success"] <= 1.0 and m["rmse"] > 0.0 for m in methods.values())
+    assert len(report["targets"]) == 4
+    assert report["priors"]["Survey_Tripod_Aluminium"]["upright_bias"] < report["priors"][
+        "Wooden_Crate_1200x800x600"]["upright_bias"]
+    assert sorted(p.name for p in tmp_path.glob("*.png")) == [f"registration_S{i}.png" for i in range(1, 5)]
+    assert json.loads((tmp_path / "results.json").read_text())["trials"] == 1
+
+
+def test_bench_registration_prints_the_table_with_pass_or_fail(tmp_path):
+    result = run_cli("bench", "registration", "--trials", "1", "--no-peers", "--out", str(tmp_path))
+    assert result.returncode == 0, result.stderr
+    assert "SG-ICP" in result.stdout and "Targets" in result.stdout
+    assert ("PASS" in result.stdout) or ("FAIL" in result.stdout)
+
+
+def test_bench_registration_rejects_zero_trials(tmp_path):
+    result = run_cli("bench", "registration", "--trials", "0", "--out", str(tmp_path))
+    assert result.returncode != 0
+
+
+def test_demo_saves_plots_results_and_the_resolved_config(tmp_path):
+    result = run_cli("demo", "--out", str(tmp_path), "--trials", "1")
+    assert result.returncode == 0, result.stderr
+    config = json.loads((tmp_path / "config.json").read_text())
+    assert config["seed"] == 0 and config["registration"]["restarts"] >= 1 and "numpy" in config["versions"]
+    assert (tmp_path / "results.json").is_file() and len(list(tmp_path.glob("*.png"))) == 4

@@ -1,0 +1,33 @@
+"""Pinhole camera geometry and Shi-Tomasi corners."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from bim2rdt.perception.camera import Intrinsics, look_at
+from bim2rdt.perception.corners import shi_tomasi
+
+
+def test_look_at_points_the_optical_axis_at_the_target_with_image_down_along_world_down():
+    T = look_at((0.0, -2.0, 1.0), (0.0, 0.0, 1.0))
+    assert np.allclose(T[:3, 2], (0.0, 1.0, 0.0))
+    assert np.allclose(T[:3, 1], (0.0, 0.0, -1.0))
+    assert np.isclose(np.linalg.det(T[:3, :3]), 1.0)
+
+
+def test_backprojecting_a_pixel_ray_at_its_depth_returns_the_ray_point():
+    intrinsics = Intrinsics()
+    rays = intrinsics.pixel_rays()
+    uv = np.array([[10.0, 20.0], [600.0, 400.0]])
+    points = intrinsics.backproject(uv, np.array([2.0, 3.5]))
+    assert np.allclose(points[0], rays[20, 10] * 2.0) and np.allclose(points[1], rays[400, 600] * 3.5)
+
+
+def test_shi_tomasi_finds_the_four_corners_of_a_square_inside_the_roi_only():
+    image = np.zeros((100, 100), dtype=np.uint8)
+    image[30:60, 30:60] = 255
+    image[80:90, 5:15] = 255  # outside the ROI
+    corners = shi_tomasi(image, (20, 20, 70, 70), max_corners=10)
+    assert len(corners) == 4
+    for expected in ((30, 30), (59, 30), (30, 59), (59, 59)):
+        assert np.min(np.linalg.norm(corners - expected, axis=1)) < 1.5

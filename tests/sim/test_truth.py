@@ -1,0 +1,40 @@
+"""Pose errors modulo each family's true symmetry."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from bim2rdt.registration.so3 import axis_angle
+from bim2rdt.sim.truth import closest_equivalent, pose_error
+
+
+def _turned(yaw: float, tilt: float = 0.0) -> np.ndarray:
+    T = np.eye(4)
+    T[:3, :3] = axis_angle(np.array([0.0, 0.0, 1.0]), np.array(yaw)) @ axis_angle(
+        np.array([1.0, 0.0, 0.0]), np.array(tilt))
+    return T
+
+
+def test_a_drum_turned_about_its_axis_is_not_an_error():
+    error = pose_error("Steel_Drum_55gal", _turned(1.3), np.eye(4))
+    assert error.rotation_deg == pytest.approx(0.0, abs=1e-9)
+    assert pose_error("Steel_Drum_55gal", _turned(1.3, 0.05), np.eye(4)).rotation_deg == pytest.approx(
+        np.rad2deg(0.05), abs=1e-6)
+
+
+def test_a_pallet_turned_by_half_a_turn_is_not_an_error_but_a_crate_is():
+    assert pose_error("Pallet_Wood_EUR", _turned(np.pi), np.eye(4)).rotation_deg == pytest.approx(0.0, abs=1e-6)
+    assert pose_error("Wooden_Crate_1200x800x600", _turned(np.pi), np.eye(4)).rotation_deg == pytest.approx(180.0)
+
+
+def test_the_closest_equivalent_of_a_symmetric_pose_is_the_truth():
+    shown = closest_equivalent("Traffic_Cone_Orange_70cm", _turned(np.pi / 2), np.eye(4))
+    assert np.allclose(shown, np.eye(4), atol=1e-9)
+
+
+def test_success_needs_both_rotation_and_translation_within_the_bars():
+    T = np.eye(4)
+    T[0, 3] = 0.02
+    assert not pose_error("Wooden_Crate_1200x800x600", T, np.eye(4)).success()
+    assert pose_error("Wooden_Crate_1200x800x600", _turned(0.01), np.eye(4)).success()
