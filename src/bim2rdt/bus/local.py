@@ -1,0 +1,45 @@
+"""The in-process bus: the default when no broker is configured. Same interface as :class:`MqttBus`."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from bim2rdt.bus.topics import topic_matches
+
+Handler = Callable[[str, bytes], None]
+
+
+class LocalBus:
+    """Synchronous publish/subscribe inside one process, with MQTT wildcards and retained messages."""
+
+    def __init__(self) -> None:
+        self._handlers: list[tuple[str, Handler]] = []
+        self._retained: dict[str, bytes] = {}
+
+    def connect(self) -> LocalBus:
+        return self
+
+    def subscribe(self, pattern: str, handler: Handler, qos: int = 1) -> None:
+        """Call ``handler(topic, payload)`` for every message matching ``pattern``; retained ones first."""
+        self._handlers.append((pattern, handler))
+        for topic, payload in list(self._retained.items()):
+            if topic_matches(pattern, topic):
+                handler(topic, payload)
+
+    def publish(self, topic: str, payload: bytes, qos: int = 0, retain: bool = False, wait: bool = False) -> int:
+        """Deliver ``payload`` to every matching handler now; returns 0 (MQTT reason code 'success')."""
+        if retain:
+            self._retained[topic] = payload
+        for pattern, handler in list(self._handlers):
+            if topic_matches(pattern, topic):
+                handler(topic, payload)
+        return 0
+
+    def close(self) -> None:
+        self._handlers.clear()
+
+    def __enter__(self) -> LocalBus:
+        return self.connect()
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

@@ -1,0 +1,112 @@
+"""The MQTT bus over paho-mqtt 2.x (``CallbackAPIVersion.VERSION2``, MQTT 5), same interface as LocalBus.
+
+Handlers run on paho's network thread, one message at a time, in arrival order. ``publish(..., wait=True)``
+blocks until the broker's PUBACK and returns its reason code: 0 when accepted, 135 (not authorized) when the
+broker's ACL refused it.
+"""
+
+from __future__ import annotations
+
+import threading
+import uuid
+from collections.abc import Callable
+
+import paho.mqtt.client as mqtt
+
+from bim2rdt.bus.topics import topic_matches
+from bim2rdt.errors import Bim2RdtError
+
+Handler = Callable[[str, bytes], None]
+
+
+class BusError(Bim2RdtError):
+    """The broker could not be reached, refused our credentials, or did not answer in time."""
+
+
+class MqttBus:
+    """A connected MQTT client; ``will`` = (topic, payload) is published retained if we vanish."""
+
+    def __init__(self, host: str, port: int, client_id: str | None = None, username: str | None = None,
+                 password: str | None = None, will: tuple[str, bytes] | None = None, timeout_s: float = 10.0):
+        self.host, self.port, self.timeout_s = host, port, timeout_s
+        self._client = mqtt.Client(mqtt.CallbackAPIVersion.VERSION2,
+                                   client_id=client_id or f"bim2rdt-{uuid.uuid4().hex[:8]}", protocol=mqtt.MQTTv5)
+        if username is not None:
+            self._client.username_pw_set(username, password)
+        if will is not None:
+            self._client.will_set(will[0], will[1], qos=1, retain=True)
+        self._handlers: list[tuple[str, Handler, int]] = []
+        self._connected = threading.Event()
+        self._connect_reason: str | None = None
+        self._acks: dict[int, threading.Event] = {}
+        self._ack_codes: dict[int, int] = {}
+        self._lock = threading.Lock()
+        self._client.on_connect = self._on_connect
+        self._client.on_message = self._on_message
+        self._client.on_publish = self._on_publish
+        self._client.max_inflight_messages_set(1000)
+
+    def connect(self) -> MqttBus:
+        """Connect and wait for the broker's CONNACK; BusError with the broker's reason otherwise."""
+        try:
+            self._client.connect(self.host, self.port, keepalive=30)
+        except OSError as error:
+            raise BusError(f"cannot reach MQTT broker {self.host}:{self.port}: {error}") from error
+        self._client.loop_start()
+        if not self._connected.wait(self.timeout_s) or self._connect_reason is not None:
+            self.close()
+            raise BusError(f"MQTT broker {self.host}:{self.port} refused the connection: "
+                           f"{self._connect_reason or 'no answer'}")
+        return self
+
+    def subscribe(self, pattern: str, handler: Handler, qos: int = 1) -> None:
+        """Call ``handler(topic, payload)`` for every message matching ``pattern`` (on the network thread)."""
+        self._handlers.append((pattern, handler, qos))
+        if self._connected.is_set():
+            self._client.subscribe(pattern, qos=qos)
+
+    def publish(self, topic: str, payload: bytes, qos: int = 0, retain: bool = False, wait: bool = False) -> int:
+        """Publish; with ``wait`` (QoS >= 1) block until the PUBACK and return its reason code."""
+        with self._lock:
+            info = self._client.publish(topic, payload, qos=qos, retain=retain)
+            done = self._acks.setdefault(info.mid, threading.Event()) if wait and qos > 0 else None
+        if info.rc != mqtt.MQTT_ERR_SUCCESS:
+            raise BusError(f"publish to {topic} failed: {mqtt.error_string(info.rc)}")
+        if done is None:
+            return 0
+        if not done.wait(self.timeout_s):
+            raise BusError(f"no PUBACK from {self.host}:{self.port} for {topic} within {self.timeout_s} s")
+        with self._lock:
+            self._acks.pop(info.mid, None)
+            return self._ack_codes.pop(info.mid, 0)
+
+    def close(self) -> None:
+        """Disconnect cleanly (a clean disconnect does not fire the last will)."""
+        self._client.disconnect()
+        self._client.loop_stop()
+
+    def __enter__(self) -> MqttBus:
+        return self.connect()
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def _on_connect(self, client, userdata, flags, reason_code, properties) -> None:
+        if reason_code.is_failure:
+            self._connect_reason = str(reason_code)
+        else:
+            for pattern, _, qos in self._handlers:
+                client.subscribe(pattern, qos=qos)
+        self._connected.set()
+
+    def _on_message(self, client, userdata, message) -> None:
+        for pattern, handler, _ in self._handlers:
+            if topic_matches(pattern, message.topic):
+                handler(message.topic, message.payload)
+
+    def _on_publish(self, client, userdata, mid, reason_code, properties) -> None:
+        with self._lock:
+            waiting = self._acks.get(mid)
+            if waiting is not None:
+                self._ack_codes[mid] = reason_code.value
+                waiting.set()

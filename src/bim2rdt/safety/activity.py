@@ -1,0 +1,169 @@
+"""Trigger-time activity detection and daily exposure accounting, one analysis frame at a time.
+
+Like an ISO 8041-2 personal vibration exposure meter, exposure time is *trigger time*: a frame whose a_hv is at
+least ``start_threshold`` starts an activity (a tool is running); the activity ends once frames stay below
+``stop_threshold`` for ``stop_hold_s`` seconds, and that trailing quiet time is not counted. Short dips inside an
+activity are counted. Energy is the currency: sum(a_hv^2 dt) in m^2/s^3 adds across frames, activities and tools,
+and A(8) = sqrt(energy / 8 h), so EAV is crossed at 2.5^2 * 8 h of energy and ELV at 5^2 * 8 h.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import asdict, dataclass
+
+from bim2rdt.safety.exposure import EAV, ELV, T0_S, a8_from_energy, points_from_energy
+
+ACTIVITY_STARTED = "hav.activity_started"
+EAV_PREDICTED = "hav.eav_predicted"
+EAV_REACHED = "hav.eav_reached"
+ELV_REACHED = "hav.elv_reached"
+ACTIVITY_ENDED = "hav.activity_ended"
+GAP = "hav.gap"
+ARTEFACT = "hav.artefact"
+E_EAV = EAV**2 * T0_S
+E_ELV = ELV**2 * T0_S
+
+Notice = tuple[str, float, dict]
+"""(event kind, device time, data) produced by the tracker; the monitor turns it into an Event."""
+
+
+@dataclass(frozen=True)
+class Trigger:
+    """Activity detection: start at ``start_threshold`` m/s^2, stop after ``stop_hold_s`` s under
+    ``stop_threshold`` m/s^2; re-predict the time to EAV every ``predict_every_s`` s of activity."""
+
+    start_threshold: float = 1.0
+    stop_threshold: float = 0.5
+    stop_hold_s: float = 2.0
+    predict_every_s: float = 60.0
+
+
+@dataclass
+class DayState:
+    """One worker's day: accumulated weighted energy (m^2/s^3), trigger time (s), when EAV/ELV were reached."""
+
+    energy: float = 0.0
+    seconds: float = 0.0
+    eav_at: float | None = None
+    elv_at: float | None = None
+
+    @property
+    def a8(self) -> float:
+        return a8_from_energy(self.energy)
+
+    @property
+    def points(self) -> float:
+        return points_from_energy(self.energy)
+
+    @property
+    def risk(self) -> str:
+        return "above_elv" if self.energy >= E_ELV else "above_eav" if self.energy >= E_EAV else "below_eav"
+
+
+@dataclass
+class ActivityState:
+    """The activity running on one stream (``id`` None when idle)."""
+
+    id: str | None = None
+    day: str = ""
+    started: float = 0.0
+    energy: float = 0.0
+    seconds: float = 0.0
+    low_energy: float = 0.0
+    low_seconds: float = 0.0
+    low_since: float | None = None
+    rejected_s: float = 0.0
+    gap_s: float = 0.0
+    predicted_at_s: float | None = None
+
+    @property
+    def a_hv(self) -> float:
+        return math.sqrt(self.energy / self.seconds) if self.seconds > 0 else 0.0
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+DayLookup = Callable[[str], DayState]
+
+
+class ActivityTracker:
+    """Feeds one stream's frames through activity detection into the worker's day."""
+
+    def __init__(self, trigger: Trigger, state: ActivityState | None = None):
+        self.trigger = trigger
+        self.state = state or ActivityState()
+
+    def frame(self, end: float, seconds: float, energy: float, day_key: str, day_of: DayLookup) -> list[Notice]:
+        """Account one clean frame covering ``seconds`` of samples up to device time ``end``."""
+        act, notices = self.state, []
+        level = math.sqrt(energy / seconds) if seconds > 0 else 0.0
+        if act.id is None:
+            if level < self.trigger.start_threshold:
+                return notices
+            notices += self._start(end - seconds, day_key)
+        if level < self.trigger.stop_threshold:
+            act.low_energy, act.low_seconds = act.low_energy + energy, act.low_seconds + seconds
+            act.low_since = act.low_since if act.low_since is not None else end - seconds
+            if act.low_seconds >= self.trigger.stop_hold_s:
+                notices += self.stop(act.low_since, day_of)
+            return notices
+        energy, seconds = energy + act.low_energy, seconds + act.low_seconds
+        act.low_energy, act.low_seconds, act.low_since = 0.0, 0.0, None
+        return notices + self._count(end, seconds, energy, day_of(act.day))
+
+    def reject(self, seconds: float) -> None:
+        """A frame rejected as an artefact: not exposure, but remembered against the activity."""
+        if self.state.id is not None:
+            self.state.rejected_s += seconds
+
+    def gap(self, seconds: float) -> None:
+        if self.state.id is not None:
+            self.state.gap_s += seconds
+
+    def stop(self, when: float, day_of: DayLookup) -> list[Notice]:
+        """End the running activity at device time ``when`` (quiet, tool change, device offline)."""
+        act = self.state
+        if act.id is None:
+            return []
+        day = day_of(act.day)
+        data = {"activity": act.id, "day": act.day, "started": act.started, "ended": when, "a_hv": act.a_hv,
+                "trigger_s": act.seconds, "rejected_s": act.rejected_s, "gap_s": act.gap_s,
+                "activity_a8": a8_from_energy(act.energy), "activity_points": points_from_energy(act.energy),
+                "day_a8": day.a8, "day_points": day.points, "risk": day.risk}
+        self.state = ActivityState()
+        return [(ACTIVITY_ENDED, when, data)]
+
+    def _start(self, when: float, day_key: str) -> list[Notice]:
+        self.state = ActivityState(id=f"{day_key}T{when:.3f}", day=day_key, started=when)
+        return [(ACTIVITY_STARTED, when, {"activity": self.state.id, "day": day_key})]
+
+    def _count(self, end: float, seconds: float, energy: float, day: DayState) -> list[Notice]:
+        act, notices = self.state, []
+        before = day.energy
+        act.energy, act.seconds = act.energy + energy, act.seconds + seconds
+        day.energy, day.seconds = day.energy + energy, day.seconds + seconds
+        for kind, limit, attr, value in ((EAV_REACHED, E_EAV, "eav_at", EAV), (ELV_REACHED, E_ELV, "elv_at", ELV)):
+            if before < limit <= day.energy and getattr(day, attr) is None:
+                when = end - seconds + seconds * (limit - before) / energy
+                setattr(day, attr, when)
+                notices.append((kind, when, {"activity": act.id, "day": act.day, "limit": value, "day_a8": math.sqrt(limit / T0_S),
+                                             "day_points": points_from_energy(limit)}))
+        if day.eav_at is None and self._prediction_due():
+            notices.append(self._predict(end, day))
+        return notices
+
+    def _prediction_due(self) -> bool:
+        last = self.state.predicted_at_s
+        return last is None or self.state.seconds - last >= self.trigger.predict_every_s
+
+    def _predict(self, end: float, day: DayState) -> Notice:
+        act = self.state
+        act.predicted_at_s = act.seconds
+        rate = act.a_hv**2
+        to_eav = (E_EAV - day.energy) / rate if rate > 0 else math.inf
+        to_elv = (E_ELV - day.energy) / rate if rate > 0 else math.inf
+        return (EAV_PREDICTED, end, {"activity": act.id, "day": act.day, "seconds_to_eav": to_eav, "eav_expected_at": end + to_eav,
+                                     "seconds_to_elv": to_elv})

@@ -1,0 +1,117 @@
+"""Exposure state on disk: SQLite in WAL mode, one transaction per ingest, so a restart loses nothing.
+
+What is kept: raw batches (needed until their samples are framed, then for the configured retention only),
+each stream's checkpoint and activity state, each worker-day's accumulated weighted energy and the times EAV
+and ELV were reached, activities, events and fitted mounting corrections. Workers appear only as pseudonyms;
+the identity map lives in a separate file (see :mod:`bim2rdt.safety.privacy`).
+"""
+
+from __future__ import annotations
+
+import json
+import sqlite3
+from collections.abc import Iterable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from bim2rdt.bus.event import Event
+from bim2rdt.bus.payloads import AccelBatch
+
+_SCHEMA = """
+CREATE TABLE IF NOT EXISTS raw (device TEXT, seq INTEGER, device_time REAL, received_time REAL, fs REAL,
+    full_scale REAL, n INTEGER, samples BLOB, PRIMARY KEY (device, seq));
+CREATE INDEX IF NOT EXISTS raw_received ON raw (received_time);
+CREATE TABLE IF NOT EXISTS streams (device TEXT PRIMARY KEY, state TEXT);
+CREATE TABLE IF NOT EXISTS days (subject TEXT, day TEXT, state TEXT, PRIMARY KEY (subject, day));
+CREATE TABLE IF NOT EXISTS activities (id TEXT PRIMARY KEY, subject TEXT, day TEXT, state TEXT);
+CREATE TABLE IF NOT EXISTS events (id INTEGER PRIMARY KEY AUTOINCREMENT, kind TEXT, time REAL, subject TEXT,
+    source TEXT, data TEXT, received REAL);
+CREATE TABLE IF NOT EXISTS corrections (subject TEXT, position TEXT, fit TEXT, PRIMARY KEY (subject, position));
+"""
+
+
+class ExposureStore:
+    """The monitor's SQLite file (WAL, synchronous=NORMAL: a committed ingest survives a process crash)."""
+
+    def __init__(self, path: Path):
+        self.path = Path(path)
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self._db = sqlite3.connect(self.path, check_same_thread=False, isolation_level=None)
+        self._db.execute("PRAGMA journal_mode=WAL")
+        self._db.execute("PRAGMA synchronous=NORMAL")
+        self._db.executescript(_SCHEMA)
+
+    @contextmanager
+    def transaction(self) -> Iterator[ExposureStore]:
+        """All writes inside commit together or not at all."""
+        self._db.execute("BEGIN")
+        try:
+            yield self
+        except BaseException:
+            self._db.execute("ROLLBACK")
+            raise
+        self._db.execute("COMMIT")
+
+    # raw batches ---------------------------------------------------------------------------------------
+    def save_raw(self, batches: Iterable[AccelBatch]) -> None:
+        self._db.executemany("INSERT OR IGNORE INTO raw VALUES (?, ?, ?, ?, ?, ?, ?, ?)", [
+            (b.device, b.seq, b.device_time, b.received_time, b.fs, b.full_scale, b.xyz.shape[0],
+             np.ascontiguousarray(b.xyz, dtype=np.float32).tobytes()) for b in batches])
+
+    def raw_batches(self, device: str, from_seq: int) -> list[AccelBatch]:
+        rows = self._db.execute("SELECT device, seq, device_time, received_time, fs, full_scale, n, samples FROM raw "
+                                "WHERE device = ? AND seq >= ? ORDER BY seq", (device, from_seq)).fetchall()
+        return [AccelBatch(d, s, t, fs, np.frombuffer(blob, np.float32).reshape(n, 3), fsc, rt)
+                for d, s, t, rt, fs, fsc, n, blob in rows]
+
+    def drop_raw(self, device: str, before_seq: int, received_before: float) -> None:
+        """Delete a stream's framed batches (seq < ``before_seq``) received before ``received_before``."""
+        self._db.execute("DELETE FROM raw WHERE device = ? AND seq < ? AND received_time < ?",
+                         (device, before_seq, received_before))
+
+    def raw_count(self) -> int:
+        return self._db.execute("SELECT COUNT(*) FROM raw").fetchone()[0]
+
+    # JSON state rows -----------------------------------------------------------------------------------
+    def save_stream(self, device: str, state: dict[str, Any]) -> None:
+        self._db.execute("INSERT OR REPLACE INTO streams VALUES (?, ?)", (device, json.dumps(state)))
+
+    def streams(self) -> dict[str, dict[str, Any]]:
+        return {d: json.loads(s) for d, s in self._db.execute("SELECT device, state FROM streams")}
+
+    def save_day(self, subject: str, day: str, state: dict[str, Any]) -> None:
+        self._db.execute("INSERT OR REPLACE INTO days VALUES (?, ?, ?)", (subject, day, json.dumps(state)))
+
+    def days(self) -> dict[tuple[str, str], dict[str, Any]]:
+        return {(s, d): json.loads(v) for s, d, v in self._db.execute("SELECT subject, day, state FROM days")}
+
+    def save_activity(self, activity_id: str, subject: str, day: str, state: dict[str, Any]) -> None:
+        self._db.execute("INSERT OR REPLACE INTO activities VALUES (?, ?, ?, ?)",
+                         (activity_id, subject, day, json.dumps(state)))
+
+    def activities(self, subject: str | None = None) -> list[dict[str, Any]]:
+        rows = self._db.execute("SELECT id, subject, day, state FROM activities ORDER BY id")
+        return [{"id": i, "subject": s, "day": d, **json.loads(v)} for i, s, d, v in rows
+                if subject is None or s == subject]
+
+    def save_correction(self, subject: str, position: str, fit_json: str) -> None:
+        self._db.execute("INSERT OR REPLACE INTO corrections VALUES (?, ?, ?)", (subject, position, fit_json))
+
+    def corrections(self) -> list[str]:
+        return [row[0] for row in self._db.execute("SELECT fit FROM corrections")]
+
+    # events --------------------------------------------------------------------------------------------
+    def add_events(self, events: Iterable[Event]) -> None:
+        self._db.executemany("INSERT INTO events (kind, time, subject, source, data, received) VALUES (?,?,?,?,?,?)",
+                             [(e.kind, e.time, e.subject, e.source, json.dumps(e.data, default=float), e.received)
+                              for e in events])
+
+    def events(self, kind: str | None = None) -> list[Event]:
+        rows = self._db.execute("SELECT kind, time, subject, source, data, received FROM events ORDER BY id")
+        return [Event(k, t, s, src, json.loads(d), r) for k, t, s, src, d, r in rows if kind in (None, k)]
+
+    def close(self) -> None:
+        self._db.close()
