@@ -90,10 +90,11 @@ DayLookup = Callable[[str], DayState]
 
 
 class ActivityTracker:
-    """Feeds one stream's frames through activity detection into the worker's day."""
+    """Feeds one stream's frames through activity detection into the worker's day; ``name`` (the device)
+    prefixes activity ids."""
 
-    def __init__(self, trigger: Trigger, state: ActivityState | None = None):
-        self.trigger = trigger
+    def __init__(self, trigger: Trigger, name: str, state: ActivityState | None = None):
+        self.trigger, self.name = trigger, name
         self.state = state or ActivityState()
 
     def frame(self, end: float, seconds: float, energy: float, day_key: str, day_of: DayLookup) -> list[Notice]:
@@ -137,7 +138,7 @@ class ActivityTracker:
         return [(ACTIVITY_ENDED, when, data)]
 
     def _start(self, when: float, day_key: str) -> list[Notice]:
-        self.state = ActivityState(id=f"{day_key}T{when:.3f}", day=day_key, started=when)
+        self.state = ActivityState(id=f"{self.name}@{when:.3f}", day=day_key, started=when)
         return [(ACTIVITY_STARTED, when, {"activity": self.state.id, "day": day_key})]
 
     def _count(self, end: float, seconds: float, energy: float, day: DayState) -> list[Notice]:

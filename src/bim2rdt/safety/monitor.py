@@ -230,7 +230,7 @@ class HavMonitor:
         stream = self._streams.get(device)
         if stream is None:
             subject = pseudonym(f"device:{device}", self.secret)
-            stream = _Stream(device, self._buffer(device), ActivityTracker(self.config.trigger),
+            stream = _Stream(device, self._buffer(device), ActivityTracker(self.config.trigger, device),
                              Session(subject, position="unknown"))
             self._streams[device] = stream
         return stream
@@ -245,9 +245,11 @@ class HavMonitor:
         for name in ("duplicates", "late"):
             self._count(name, getattr(result, name))
         if result.duplicates == result.late == 0:
+            # receive time minus device time of the last sample = clock skew + delivery delay; the least
+            # delayed batches show the skew, so follow drops at once and rises slowly (clocks drift)
             offset = batch.received_time - (batch.device_time + batch.duration_s)
             previous = stream.clock_offset_s
-            stream.clock_offset_s = offset if previous is None else 0.9 * previous + 0.1 * offset
+            stream.clock_offset_s = offset if previous is None or offset < previous else 0.99 * previous + 0.01 * offset
         return self._note_gaps(stream, result)
 
     def _note_gaps(self, stream: _Stream, result: PushResult) -> list[Event]:
@@ -385,14 +387,14 @@ class HavMonitor:
                                      {**act.to_dict(), "a_hv": act.a_hv, "tool": stream.session.tool,
                                       "device": stream.device, "zone": stream.session.zone, "open": True})
         if point.resume_seq is not None:
-            self.store.drop_raw(stream.device, point.resume_seq, now - self.config.raw_retention_s + 1e-9)
+            self.store.drop_raw(stream.device, point.resume_seq, now - self.config.raw_retention_s)
 
     def _restore(self, device: str, state: dict) -> _Stream:
         buffer = self._buffer(device)
         point = Checkpoint(**state["checkpoint"])
         if point.resume_seq is not None:
             buffer.restore(point, self.store.raw_batches(device, point.resume_seq))
-        tracker = ActivityTracker(self.config.trigger, ActivityState(**state["activity"]))
+        tracker = ActivityTracker(self.config.trigger, device, ActivityState(**state["activity"]))
         return _Stream(device, buffer, tracker, Session(**state["session"]), state["clock_offset_s"],
                        state["counters"])
 

@@ -67,10 +67,13 @@ class ExposureStore:
         return [AccelBatch(d, s, t, fs, np.frombuffer(blob, np.float32).reshape(n, 3), fsc, rt)
                 for d, s, t, rt, fs, fsc, n, blob in rows]
 
-    def drop_raw(self, device: str, before_seq: int, received_before: float) -> None:
-        """Delete a stream's framed batches (seq < ``before_seq``) received before ``received_before``."""
-        self._db.execute("DELETE FROM raw WHERE device = ? AND seq < ? AND received_time < ?",
-                         (device, before_seq, received_before))
+    def drop_raw(self, device: str, before_seq: int, received_by: float) -> None:
+        """Delete a stream's framed batches (seq < ``before_seq``) received at or before ``received_by``."""
+        self._db.execute("DELETE FROM raw WHERE device = ? AND seq < ? AND received_time <= ?",
+                         (device, before_seq, received_by))
+
+    def raw_seqs(self, device: str) -> list[int]:
+        return [row[0] for row in self._db.execute("SELECT seq FROM raw WHERE device = ? ORDER BY seq", (device,))]
 
     def raw_count(self) -> int:
         return self._db.execute("SELECT COUNT(*) FROM raw").fetchone()[0]

@@ -102,7 +102,9 @@ class StreamBuffer:
 
     def _drain(self, result: PushResult, now: float) -> None:
         while self.pending:
-            if self.next_seq is None:
+            if self.next_seq is None:  # a new stream: seq 0 starts it, else wait for earlier ones
+                if 0 not in self.pending and not self._must_skip(now):
+                    return
                 self.next_seq = min(self.pending)
             if self.next_seq in self.pending:
                 self._append(self.pending.pop(self.next_seq), result)

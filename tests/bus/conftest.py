@@ -1,0 +1,21 @@
+"""A real Mosquitto broker with the project's shipped config (password per device + ACL) on a free port."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import pytest
+
+from bim2rdt.bus.broker import MOSQUITTO, MosquittoBroker
+
+USERS = {"monitor": "monitor-pw", "dashboard": "dash-pw", "w1": "w1-pw", "w2": "w2-pw"}
+
+
+@pytest.fixture(scope="session")
+def broker(tmp_path_factory):
+    """Mosquitto on 127.0.0.1:<free port> (never 1883), started for the session and stopped after."""
+    if not Path(MOSQUITTO).exists() or shutil.which("mosquitto_passwd") is None:
+        pytest.fail("Debian's mosquitto is required for the bus tests (.ci/run installs it)")
+    with MosquittoBroker(USERS, folder=tmp_path_factory.mktemp("mosquitto")) as running:
+        yield running

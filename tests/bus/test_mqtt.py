@@ -1,0 +1,118 @@
+"""Through a real Mosquitto with the shipped config: passwords, the per-device ACL, last will, the monitor."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import threading
+import time
+
+import pytest
+
+from bim2rdt.bus import MqttBus, accel_topic, encode_accel, status_topic
+from bim2rdt.bus.mqtt import BusError
+from bim2rdt.safety import HavMonitor, ListSink, MonitorConfig
+from bim2rdt.sim.vibration import batches, session_signal
+
+NOT_AUTHORIZED = 135
+
+
+def connect(broker, user: str, password: str | None = None, **kw) -> MqttBus:
+    return MqttBus("127.0.0.1", broker.port, username=user, password=password or broker.users[user], **kw).connect()
+
+
+def collect(bus: MqttBus, pattern: str) -> list:
+    got: list = []
+    bus.subscribe(pattern, lambda topic, payload: got.append((topic, payload)))
+    time.sleep(0.2)
+    return got
+
+
+def wait_for(predicate, timeout: float = 5.0) -> bool:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if predicate():
+            return True
+        time.sleep(0.02)
+    return False
+
+
+def test_the_broker_is_not_the_system_one(broker):
+    assert broker.port != 1883
+
+
+def test_a_device_publishes_its_own_topic_but_cannot_publish_as_another(broker):
+    monitor = connect(broker, "monitor")
+    got = collect(monitor, "site/+/wearable/#")
+    w1 = connect(broker, "w1")
+    assert w1.publish(accel_topic("s", "w1"), b"mine", qos=1, wait=True) == 0
+    assert w1.publish(accel_topic("s", "w2"), b"forged", qos=1, wait=True) == NOT_AUTHORIZED
+    assert w1.publish(status_topic("s", "w2"), b"forged", qos=1, wait=True) == NOT_AUTHORIZED
+    assert wait_for(lambda: len(got) >= 1)
+    time.sleep(0.3)
+    assert got == [("site/s/wearable/w1/accel", b"mine")]
+    w1.close()
+    monitor.close()
+
+
+def test_wrong_passwords_and_anonymous_clients_are_refused(broker):
+    with pytest.raises(BusError, match="refused"):
+        connect(broker, "w1", password="not-the-password")
+    with pytest.raises(BusError, match="refused"):
+        MqttBus("127.0.0.1", broker.port).connect()
+
+
+def test_a_device_cannot_read_other_devices(broker):
+    w2 = connect(broker, "w2")
+    got = collect(w2, "site/+/wearable/#")
+    w1 = connect(broker, "w1")
+    w1.publish(accel_topic("s", "w1"), b"private", qos=1, wait=True)
+    time.sleep(0.3)
+    assert got == []
+    w1.close()
+    w2.close()
+
+
+def test_a_vanished_device_is_marked_offline_by_its_retained_last_will(broker):
+    script = (
+        "import os, time, paho.mqtt.client as m\n"
+        "c = m.Client(m.CallbackAPIVersion.VERSION2, client_id='w2-dev')\n"
+        f"c.username_pw_set('w2', '{broker.users['w2']}')\n"
+        "c.will_set('site/s/wearable/w2/status', b'{\"online\": false}', qos=1, retain=True)\n"
+        f"c.connect('127.0.0.1', {broker.port}); c.loop_start()\n"
+        "c.publish('site/s/wearable/w2/status', b'{\"online\": true}', qos=1, retain=True).wait_for_publish(5)\n"
+        "os._exit(0)\n")  # dies without DISCONNECT: the broker must publish the will
+    subprocess.run([sys.executable, "-c", script], check=True, timeout=30)
+    dashboard = connect(broker, "dashboard")
+    got = collect(dashboard, "site/s/wearable/+/status")
+    assert wait_for(lambda: any(json.loads(p) == {"online": False} for _, p in got))
+    dashboard.close()
+
+
+def test_the_monitor_over_mqtt_ignores_payloads_whose_device_is_not_the_topics(broker, tmp_path):
+    sink = ListSink()
+    monitor = HavMonitor(tmp_path, "secret", [sink], MonitorConfig(site="s"))
+    bus = connect(broker, "monitor")
+    monitor.attach(bus)
+    time.sleep(0.2)
+    w1 = connect(broker, "w1")
+    w1.publish(status_topic("s", "w1"), json.dumps({"online": True, "worker": "nia", "tool": "grinder"}).encode(),
+               qos=1, retain=True, wait=True)
+    fs, t0 = 5000.0, time.time()
+    signal = session_signal([("idle", 1), ("grinder", 4)], fs)
+    sent = list(batches("w1", signal, fs, t0))
+    forged = [b.__class__("w2", b.seq, b.device_time, b.fs, b.xyz, b.full_scale) for b in sent[:3]]
+    for item in forged:  # w1 may publish on its own topic, but the payload claims to be w2
+        w1.publish(accel_topic("s", "w1"), encode_accel(item), qos=1)
+    for item in sent:
+        w1.publish(accel_topic("s", "w1"), encode_accel(item), qos=1)
+    assert wait_for(lambda: "hav.activity_started" in sink.kinds(), timeout=10)
+    assert monitor.stats["mismatched"] == 3
+    assert monitor.session("w2") is None
+    assert monitor.session("w1").tool == "grinder"
+    started = next(e for e in sink.events if e.kind == "hav.activity_started")
+    assert started.source == "w1" and started.received is not None
+    bus.close()
+    w1.close()
+    monitor.close()

@@ -1,0 +1,33 @@
+"""Helpers for the safety tests: a monitor on a fresh folder and simulated tool sessions."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import pytest
+
+from bim2rdt.safety import HavMonitor, ListSink, MonitorConfig
+
+from hav_helpers import Clock
+
+@pytest.fixture
+def clock() -> Clock:
+    return Clock()
+
+
+@pytest.fixture
+def make_monitor(tmp_path, clock) -> Callable[..., tuple[HavMonitor, ListSink]]:
+    """Build a monitor in tmp_path/folder (the same folder again is a restart)."""
+    made = []
+
+    def make(folder: str = "data", **config) -> tuple[HavMonitor, ListSink]:
+        sink = ListSink()
+        monitor = HavMonitor(tmp_path / folder, "test-secret", [sink], MonitorConfig(**config), clock)
+        made.append(monitor)
+        return monitor, sink
+
+    yield make
+    for monitor in made:
+        monitor.close()
+
+
