@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 
 from bim2rdt.safety.exposure import EAV, ELV, T0_S, a8_from_energy, points_from_energy
 
@@ -83,7 +83,7 @@ class ActivityState:
         return math.sqrt(self.energy / self.seconds) if self.seconds > 0 else 0.0
 
     def to_dict(self) -> dict:
-        return asdict(self)
+        return dict(vars(self))
 
 
 DayLookup = Callable[[str], DayState]

@@ -2,9 +2,9 @@
 
 ``HavMonitor`` ingests batches ``(device, seq, device_time, fs, xyz)``; a device is bound to a worker and a
 tool by a *session* (from the device's retained status message or :meth:`HavMonitor.start_session`). Per
-stream it orders and de-duplicates batches, reports gaps, cuts sine-tapered frames, rejects artefact frames
-(NaN, saturation, shocks), applies the subject's mounting correction and the exact Wh weighting in the
-frequency domain, and feeds the trigger-time activity tracker. Per worker-day it keeps A(8) and HSE points and
+stream it orders and de-duplicates batches, reports gaps, weighs samples with the fitted Wh IIR (after the
+subject's mounting correction, if any) with state carried across batches, rejects artefact blocks (NaN,
+saturation, shocks) and feeds half-second blocks to the trigger-time activity tracker. Per worker-day it keeps A(8) and HSE points and
 emits: activity started, predicted time to EAV, EAV reached, ELV reached, activity ended (with the day's
 exposure), gaps and artefacts. Every ingest is one SQLite transaction (raw batches, stream checkpoints,
 activity and day state, events), so a restart mid-shift resumes exactly where it stopped.
@@ -17,22 +17,20 @@ import math
 import threading
 import time
 from collections.abc import Callable, Iterable, Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from pathlib import Path
-
-import numpy as np
 
 from bim2rdt.bus.event import Event
 from bim2rdt.bus.payloads import AccelBatch, PayloadError, decode_accel
 from bim2rdt.bus.topics import device_of, wearable_pattern
-from bim2rdt.safety.activity import ACTIVITY_ENDED, ARTEFACT, GAP, ActivityState, ActivityTracker, DayState, Notice, Trigger
-from bim2rdt.safety.frames import (ArtefactLimits, FrameSpec, artefact_flags, describe_flags, energy_weights,
-                                   frame_energies)
+from bim2rdt.safety.activity import ACTIVITY_ENDED, ACTIVITY_STARTED, ARTEFACT, GAP, ActivityState, ActivityTracker, DayState, Notice, Trigger
+from bim2rdt.safety.blocks import ArtefactLimits, describe_flags
 from bim2rdt.safety.mounting import MountingCorrection
 from bim2rdt.safety.privacy import IdentityMap, pseudonym
 from bim2rdt.safety.sinks import EventSink
 from bim2rdt.safety.store import ExposureStore
-from bim2rdt.safety.streams import Checkpoint, FrameBlock, PushResult, StreamBuffer
+from bim2rdt.safety.streams import PushResult, StreamBuffer
+from bim2rdt.safety.weighing import Blocks, FilterState, Piece, weigh_round
 from bim2rdt.safety.weighting import covered_band
 
 ISO_POSITIONS = ("handle",)
@@ -74,6 +72,7 @@ class Session:
 class _Stream:
     device: str
     buffer: StreamBuffer
+    filter: FilterState
     tracker: ActivityTracker
     session: Session
     clock_offset_s: float | None = None
@@ -94,12 +93,12 @@ class HavMonitor:
         self.stats: dict[str, float] = {}
         self.timeline: list[tuple[float, str, float]] = []
         self._lock = threading.RLock()
-        self._weights: dict[tuple, np.ndarray] = {}
         self._corrections = {(c.subject, c.position): c for c in map(MountingCorrection.from_json,
                                                                      self.store.corrections())}
         self._days = {key: DayState(**state) for key, state in self.store.days().items()}
         self._streams = {d: self._restore(d, s) for d, s in self.store.streams().items()}
         self._touched_days: set[tuple[str, str]] = set()
+        self._raw_devices: set[str] = set(self._streams)  # streams that may have raw rows to drop
 
     # --- sessions and corrections ---------------------------------------------------------------------
     def start_session(self, device: str, worker: str, tool: str = "unknown", position: str = "handle",
@@ -124,7 +123,7 @@ class HavMonitor:
                 return []
             result = PushResult()
             stream.buffer.close(result)
-            events = self._note_gaps(stream, result) + self._track([(stream, b) for b in result.blocks])
+            events = self._note_gaps(stream, result) + self._process([(stream, b, s) for b, s in result.pieces])
             events += self._stop_activity(stream, when if when is not None else self._last_time(stream))
             self._commit([], [stream], events)
             return events
@@ -144,7 +143,7 @@ class HavMonitor:
         """Take batches from any devices in any order; returns (and emits) the events they caused."""
         with self._lock:
             now = self.clock() if now is None else now
-            accepted, touched, blocks, events = [], {}, [], []
+            accepted, touched, ordered, events = [], {}, [], []
             for batch in batches:
                 batch = batch if batch.received_time is not None else batch.received_at(now)
                 stream = self._stream(batch.device)
@@ -153,8 +152,8 @@ class HavMonitor:
                 if result.duplicates == result.late == 0:
                     accepted.append(batch)
                 touched[stream.device] = stream
-                blocks += [(stream, block) for block in result.blocks]
-            events += self._track(blocks)
+                ordered += [(stream, piece, new_segment) for piece, new_segment in result.pieces]
+            events += self._process(ordered)
             self._commit(accepted, touched.values(), events, now)
             return events
 
@@ -191,13 +190,13 @@ class HavMonitor:
         with self._lock:
             now = self.clock() if now is None else now
             waiting = [s for s in self._streams.values() if s.buffer.pending]
-            events, blocks = [], []
+            events, ordered = [], []
             for stream in waiting:
                 result = PushResult()
                 stream.buffer.expire(now, result)
                 events += self._note_gaps(stream, result)
-                blocks += [(stream, b) for b in result.blocks]
-            events += self._track(blocks)
+                ordered += [(stream, piece, new_segment) for piece, new_segment in result.pieces]
+            events += self._process(ordered)
             if waiting:
                 self._commit([], waiting, events, now)
             return events
@@ -230,13 +229,13 @@ class HavMonitor:
         stream = self._streams.get(device)
         if stream is None:
             subject = pseudonym(f"device:{device}", self.secret)
-            stream = _Stream(device, self._buffer(device), ActivityTracker(self.config.trigger, device),
-                             Session(subject, position="unknown"))
+            stream = _Stream(device, self._buffer(), FilterState(),
+                             ActivityTracker(self.config.trigger, device), Session(subject, position="unknown"))
             self._streams[device] = stream
         return stream
 
-    def _buffer(self, device: str) -> StreamBuffer:
-        return StreamBuffer(device, self.config.max_reorder, self.config.reorder_s)
+    def _buffer(self) -> StreamBuffer:
+        return StreamBuffer(self.config.max_reorder, self.config.reorder_s)
 
     def _note_push(self, stream: _Stream, batch: AccelBatch, result: PushResult) -> list[Event]:
         stream.count("batches")
@@ -266,64 +265,37 @@ class HavMonitor:
         return events
 
     # --- internals: weighting and tracking ------------------------------------------------------------
-    def _track(self, blocks: list[tuple[_Stream, FrameBlock]]) -> list[Event]:
-        """Weigh every frame of ``blocks`` (batched FFTs per weighting) then run each stream's tracker."""
-        if not blocks:
-            return []
-        energies, flags = self._weigh(blocks)
+    def _process(self, ordered: list[tuple[_Stream, AccelBatch, bool]]) -> list[Event]:
+        """Weigh in-order batches in rounds (one batch per stream per round) and track the blocks."""
+        queues: dict[str, list[Piece]] = {}
+        for stream, batch, new_segment in ordered:
+            piece = Piece(stream.filter, batch, new_segment, self._correction(stream.session))
+            queues.setdefault(stream.device, []).append(piece)
         events = []
-        for (stream, block), energy, flag in zip(blocks, energies, flags):
-            events += self._track_block(stream, block, energy, flag)
+        for r in range(max((len(q) for q in queues.values()), default=0)):
+            devices = [d for d, q in queues.items() if len(q) > r]
+            finished = weigh_round([queues[d][r] for d in devices], self.config.artefacts)
+            for device, blocks in zip(devices, finished):
+                events += self._track(self._streams[device], blocks)
         return events
 
-    def _weigh(self, blocks: list[tuple[_Stream, FrameBlock]]) -> tuple[list[np.ndarray], list[np.ndarray]]:
-        groups: dict[tuple, list[int]] = {}
-        for i, (stream, block) in enumerate(blocks):
-            groups.setdefault(self._weight_key(stream, block), []).append(i)
-        energies, flags = [None] * len(blocks), [None] * len(blocks)
-        for key, members in groups.items():
-            frames = np.concatenate([blocks[i][1].frames for i in members])
-            scale = np.concatenate([np.full(len(blocks[i][1].frames), blocks[i][1].full_scale) for i in members])
-            group_flags = artefact_flags(frames, scale, self.config.artefacts)
-            group_energy = frame_energies(frames, FrameSpec(key[0], key[1]), self._weights_for(key)).sum(axis=1)
-            splits = np.cumsum([len(blocks[i][1].frames) for i in members])[:-1]
-            for i, e, f in zip(members, np.split(group_energy, splits), np.split(group_flags, splits)):
-                energies[i], flags[i] = e, f
-        return energies, flags
-
-    def _weight_key(self, stream: _Stream, block: FrameBlock) -> tuple:
-        spec = stream.buffer.spec
-        correction = self._correction(stream.session)
-        return (spec.fs, block.frames.shape[-1], (correction.subject, correction.position) if correction else None)
-
-    def _weights_for(self, key: tuple) -> np.ndarray:
-        if key not in self._weights:
-            spec = FrameSpec(key[0], key[1])
-            correction = self._corrections.get(key[2]) if key[2] else None
-            gain = None
-            if correction is not None:
-                gain = correction.gain_at(np.fft.rfftfreq(spec.length, 1.0 / spec.fs))
-            self._weights[key] = energy_weights(spec, gain)
-        return self._weights[key]
-
-    def _correction(self, session: Session) -> MountingCorrection | None:
-        return self._corrections.get((session.subject, session.position)) if session.estimate else None
-
-    def _track_block(self, stream: _Stream, block: FrameBlock, energy: np.ndarray, flags: np.ndarray) -> list[Event]:
+    def _track(self, stream: _Stream, blocks: Blocks) -> list[Event]:
         notices: list[Notice] = []
         tracker, subject = stream.tracker, stream.session.subject
         day_of = self._day_lookup(subject)
-        for end, seconds, e, flag in zip(block.end_time.tolist(), block.seconds.tolist(), energy.tolist(),
-                                         flags.tolist()):
-            if flag:
+        for end, seconds, energy, flags in zip(blocks.end, blocks.seconds, blocks.energy, blocks.flags):
+            if flags:
                 tracker.reject(seconds)
                 stream.count("rejected_s", seconds)
-                notices.append((ARTEFACT, end - seconds, {"seconds": seconds, "kinds": describe_flags(flag)}))
+                notices.append((ARTEFACT, end - seconds, {"seconds": seconds, "kinds": describe_flags(flags)}))
                 continue
-            notices += tracker.frame(end, seconds, e, _day_key(end - seconds), day_of)
+            notices += tracker.frame(end, seconds, energy, _day_key(end - seconds), day_of)
             if self.config.keep_timeline and tracker.state.id is not None:
                 self.timeline.append((end, subject, day_of(tracker.state.day).a8))
         return [self._event(stream, notice) for notice in notices]
+
+    def _correction(self, session: Session) -> MountingCorrection | None:
+        return self._corrections.get((session.subject, session.position)) if session.estimate else None
 
     def _day_lookup(self, subject: str) -> Callable[[str], DayState]:
         def day_of(day: str) -> DayState:
@@ -337,14 +309,13 @@ class HavMonitor:
         return [self._event(stream, notice) for notice in notices]
 
     def _last_time(self, stream: _Stream) -> float:
-        buffer = stream.buffer
-        return buffer.seg_t0 + buffer.seg_end / buffer.spec.fs if buffer.spec else self.clock()
+        return stream.buffer.end_time if stream.buffer.end_time is not None else self.clock()
 
     # --- internals: events and persistence ------------------------------------------------------------
     def _event(self, stream: _Stream, notice: Notice) -> Event:
         kind, when, data = notice
-        session, spec = stream.session, stream.buffer.spec
-        coverage = covered_band(spec.fs) if spec else None
+        session, fs = stream.session, stream.buffer.fs
+        coverage = covered_band(fs) if fs else None
         day = self._days.get((session.subject, data.get("day", _day_key(when))), DayState())
         body = {"site": self.config.site, "device": stream.device, "tool": session.tool,
                 "position": session.position, "zone": session.zone, "estimate": session.estimate,
@@ -358,44 +329,52 @@ class HavMonitor:
 
     def _commit(self, batches: list[AccelBatch], streams: Iterable[_Stream], events: list[Event],
                 now: float | None = None) -> None:
+        """One transaction: raw batches (all if retained, else only those still waiting), stream states,
+        touched days, events, finished activities; then the sinks see the events."""
         now = self.clock() if now is None else now
+        streams = list(streams)
+        if self.config.raw_retention_s <= 0:
+            batches = [b for b in batches if b.seq in self._streams[b.device].buffer.pending]
+        self._raw_devices.update(b.device for b in batches)
         with self.store.transaction():
             self.store.save_raw(batches)
-            for stream in streams:
-                self._save_stream(stream, now)
-            for subject, day in self._touched_days:
-                self.store.save_day(subject, day, asdict(self._days[(subject, day)]))
+            self.store.save_streams([(s.device, self._stream_state(s)) for s in streams])
+            self.store.save_activities([self._open_activity(self._streams[e.source]) for e in events
+                                        if e.kind == ACTIVITY_STARTED])
+            self._drop_raw(streams, now)
+            self.store.save_days([(subject, day, vars(self._days[(subject, day)]))
+                                  for subject, day in self._touched_days])
             self.store.add_events(events)
-            for event in events:
-                if event.kind == ACTIVITY_ENDED:
-                    self.store.save_activity(event.data["activity"], event.subject, event.data["day"],
-                                             {**event.data, "open": False})
+            self.store.save_activities([(e.data["activity"], e.subject, e.data["day"], {**e.data, "open": False})
+                                        for e in events if e.kind == ACTIVITY_ENDED])
         self._touched_days.clear()
         for event in events:
             for sink in self.sinks:
                 sink.emit(event)
 
-    def _save_stream(self, stream: _Stream, now: float) -> None:
-        point = stream.buffer.checkpoint()
-        self.store.save_stream(stream.device, {
-            "checkpoint": asdict(point), "activity": stream.tracker.state.to_dict(),
-            "session": asdict(stream.session), "clock_offset_s": stream.clock_offset_s,
-            "counters": stream.counters})
-        act = stream.tracker.state
-        if act.id is not None:
-            self.store.save_activity(act.id, stream.session.subject, act.day,
-                                     {**act.to_dict(), "a_hv": act.a_hv, "tool": stream.session.tool,
-                                      "device": stream.device, "zone": stream.session.zone, "open": True})
-        if point.resume_seq is not None:
-            self.store.drop_raw(stream.device, point.resume_seq, now - self.config.raw_retention_s)
+    def _drop_raw(self, streams: list[_Stream], now: float) -> None:
+        """Delete processed raw batches past retention, only for streams that stored any."""
+        stored = [s for s in streams if s.device in self._raw_devices and s.buffer.next_seq is not None]
+        self.store.drop_raw([(s.device, s.buffer.next_seq) for s in stored], now - self.config.raw_retention_s)
+        if self.config.raw_retention_s <= 0:
+            self._raw_devices.difference_update(s.device for s in stored if not s.buffer.pending)
+
+    def _stream_state(self, stream: _Stream) -> dict:
+        return {"buffer": stream.buffer.to_dict(), "filter": stream.filter.to_dict(),
+                "activity": stream.tracker.state.to_dict(), "session": vars(stream.session).copy(),
+                "clock_offset_s": stream.clock_offset_s, "counters": stream.counters}
+
+    def _open_activity(self, stream: _Stream) -> tuple[str, str, str, dict]:
+        act, session = stream.tracker.state, stream.session
+        return (act.id, session.subject, act.day, {**act.to_dict(), "a_hv": act.a_hv, "tool": session.tool,
+                                                    "device": stream.device, "zone": session.zone, "open": True})
 
     def _restore(self, device: str, state: dict) -> _Stream:
-        buffer = self._buffer(device)
-        point = Checkpoint(**state["checkpoint"])
-        if point.resume_seq is not None:
-            buffer.restore(point, self.store.raw_batches(device, point.resume_seq))
+        buffer = self._buffer()
+        next_seq = state["buffer"]["next_seq"]
+        buffer.load(state["buffer"], self.store.raw_batches(device, next_seq) if next_seq is not None else [])
         tracker = ActivityTracker(self.config.trigger, device, ActivityState(**state["activity"]))
-        return _Stream(device, buffer, tracker, Session(**state["session"]), state["clock_offset_s"],
+        return _Stream(device, buffer, FilterState.from_dict(state["filter"]), tracker, Session(**state["session"]), state["clock_offset_s"],
                        state["counters"])
 
     def _count(self, name: str, amount: float = 1) -> None:

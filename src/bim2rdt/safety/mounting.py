@@ -4,7 +4,8 @@ A wrist or arm sensor sees vibration after the hand and wrist have damped it, mo
 correction is a per-subject, per-position gain G(f) fitted from paired recordings (the ISO position, e.g. the
 tool handle or palm, recorded together with the wearable position): in each one-third-octave band from 6.3 Hz
 to 1250 Hz, G = sqrt(P_reference / P_wearable) from Welch spectra summed over the three axes, interpolated
-linearly in log-frequency between band centres. It multiplies the spectrum before the Wh weighting. A
+linearly in log-frequency between band centres. It is applied before the Wh weighting (in the streaming monitor
+as a linear-phase FIR, :meth:`MountingCorrection.fir`). A
 corrected figure is still an estimate (HSE: no wrist device measures to ISO 5349) and is labelled so.
 """
 
@@ -17,9 +18,10 @@ import numpy as np
 import scipy.signal
 
 from bim2rdt.safety.errors import HavError
-from bim2rdt.safety.frames import FrameSpec
 from bim2rdt.safety.weighting import band_centre_hz
 
+FIR_TAPS = 255
+"""Taps of the linear-phase FIR that realises G(f) in the streaming monitor (about fs / 255 Hz resolution)."""
 FIT_BANDS = np.arange(8, 32)
 """One-third-octave bands fitted: n = 8 (6.3 Hz) to n = 31 (1250 Hz)."""
 _EMPTY_BAND = 1e-9
@@ -40,7 +42,7 @@ class MountingCorrection:
             position: str) -> MountingCorrection:
         """Fit from simultaneous recordings ``reference`` and ``wearable`` (n, 3) m/s^2 at ``fs`` Hz."""
         ref, wear = _paired(reference, wearable)
-        nperseg = FrameSpec.for_rate(fs).length
+        nperseg = 2 ** int(round(np.log2(0.8 * fs)))  # about 1.2 Hz resolution at any rate
         freqs, p_ref = scipy.signal.welch(ref, fs, nperseg=nperseg, axis=0)
         _, p_wear = scipy.signal.welch(wear, fs, nperseg=nperseg, axis=0)
         bands = FIT_BANDS[band_centre_hz(FIT_BANDS + 0.5) <= fs / 2]
@@ -55,6 +57,15 @@ class MountingCorrection:
         """G(f), interpolated in log-frequency; held constant beyond the fitted bands."""
         f = np.maximum(np.asarray(freq_hz, dtype=float), 1e-3)
         return np.interp(np.log10(f), np.log10(self.band_hz), self.gain)
+
+    def fir(self, fs: float, taps: int = FIR_TAPS) -> np.ndarray:
+        """A linear-phase FIR whose gain follows G(f) up to fs/2 (frequency sampling, ``firwin2``)."""
+        freqs = np.linspace(0.0, fs / 2.0, 1025)
+        return scipy.signal.firwin2(taps, freqs, self.gain_at(freqs), fs=fs)
+
+    @property
+    def key(self) -> tuple[str, str]:
+        return (self.subject, self.position)
 
     def to_json(self) -> str:
         return json.dumps({"subject": self.subject, "position": self.position, "band_hz": self.band_hz,

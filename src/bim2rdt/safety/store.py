@@ -1,7 +1,7 @@
 """Exposure state on disk: SQLite in WAL mode, one transaction per ingest, so a restart loses nothing.
 
-What is kept: raw batches (needed until their samples are framed, then for the configured retention only),
-each stream's checkpoint and activity state, each worker-day's accumulated weighted energy and the times EAV
+What is kept: raw batches (out-of-order ones until they are processed, all of them only for the configured
+retention), each stream's ordering, filter and activity state, each worker-day's accumulated weighted energy and the times EAV
 and ELV were reached, activities, events and fitted mounting corrections. Workers appear only as pseudonyms;
 the identity map lives in a separate file (see :mod:`bim2rdt.safety.privacy`).
 """
@@ -67,10 +67,11 @@ class ExposureStore:
         return [AccelBatch(d, s, t, fs, np.frombuffer(blob, np.float32).reshape(n, 3), fsc, rt)
                 for d, s, t, rt, fs, fsc, n, blob in rows]
 
-    def drop_raw(self, device: str, before_seq: int, received_by: float) -> None:
-        """Delete a stream's framed batches (seq < ``before_seq``) received at or before ``received_by``."""
-        self._db.execute("DELETE FROM raw WHERE device = ? AND seq < ? AND received_time <= ?",
-                         (device, before_seq, received_by))
+    def drop_raw(self, streams: Iterable[tuple[str, int]], received_by: float) -> None:
+        """Delete each (device, next seq) stream's processed batches (seq < next seq) received at or before
+        ``received_by``."""
+        self._db.executemany("DELETE FROM raw WHERE device = ? AND seq < ? AND received_time <= ?",
+                             [(device, before, received_by) for device, before in streams])
 
     def raw_seqs(self, device: str) -> list[int]:
         return [row[0] for row in self._db.execute("SELECT seq FROM raw WHERE device = ? ORDER BY seq", (device,))]
@@ -79,21 +80,24 @@ class ExposureStore:
         return self._db.execute("SELECT COUNT(*) FROM raw").fetchone()[0]
 
     # JSON state rows -----------------------------------------------------------------------------------
-    def save_stream(self, device: str, state: dict[str, Any]) -> None:
-        self._db.execute("INSERT OR REPLACE INTO streams VALUES (?, ?)", (device, json.dumps(state)))
+    def save_streams(self, states: Iterable[tuple[str, dict[str, Any]]]) -> None:
+        self._db.executemany("INSERT OR REPLACE INTO streams VALUES (?, ?)",
+                             [(device, json.dumps(state)) for device, state in states])
 
     def streams(self) -> dict[str, dict[str, Any]]:
         return {d: json.loads(s) for d, s in self._db.execute("SELECT device, state FROM streams")}
 
-    def save_day(self, subject: str, day: str, state: dict[str, Any]) -> None:
-        self._db.execute("INSERT OR REPLACE INTO days VALUES (?, ?, ?)", (subject, day, json.dumps(state)))
+    def save_days(self, rows: Iterable[tuple[str, str, dict[str, Any]]]) -> None:
+        self._db.executemany("INSERT OR REPLACE INTO days VALUES (?, ?, ?)",
+                             [(subject, day, json.dumps(state)) for subject, day, state in rows])
 
     def days(self) -> dict[tuple[str, str], dict[str, Any]]:
         return {(s, d): json.loads(v) for s, d, v in self._db.execute("SELECT subject, day, state FROM days")}
 
-    def save_activity(self, activity_id: str, subject: str, day: str, state: dict[str, Any]) -> None:
-        self._db.execute("INSERT OR REPLACE INTO activities VALUES (?, ?, ?, ?)",
-                         (activity_id, subject, day, json.dumps(state)))
+    def save_activities(self, rows: Iterable[tuple[str, str, str, dict[str, Any]]]) -> None:
+        """(activity id, subject, day, state) rows, inserted or replaced."""
+        self._db.executemany("INSERT OR REPLACE INTO activities VALUES (?, ?, ?, ?)",
+                             [(i, subject, day, json.dumps(state)) for i, subject, day, state in rows])
 
     def activities(self, subject: str | None = None) -> list[dict[str, Any]]:
         rows = self._db.execute("SELECT id, subject, day, state FROM activities ORDER BY id")

@@ -1,0 +1,75 @@
+"""Analysis blocks and ISO 8041-2 style artefact rejection, computed for many streams at once.
+
+Each batch is cut into blocks of about ``BLOCK_S`` seconds (a 1 s batch at 5 kHz gives two 0.5 s blocks, a
+0.2 s batch one block); blocks are what the activity tracker sees. A block is rejected (and flagged) when it
+holds NaN samples, reaches ``saturation_ratio`` of the sensor range, or shows a shock: a crest factor above
+``crest_limit`` with a centred peak over ``shock_min_peak`` m/s^2 (a knock on the sensor, not tool
+vibration). The block after a rejected one is rejected too (``settling``) while the weighting filter rings down.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+BLOCK_S = 0.5
+"""Analysis block length, seconds: the time resolution of activity start/stop and limit crossings."""
+NAN, SATURATION, SHOCK, SETTLING = 1, 2, 4, 8
+ARTEFACT_NAMES = {NAN: "nan", SATURATION: "saturation", SHOCK: "shock", SETTLING: "settling"}
+REJECTED_BEFORE_SETTLING = NAN | SATURATION | SHOCK
+
+
+@dataclass(frozen=True)
+class ArtefactLimits:
+    """When a block is rejected (see the module docstring)."""
+
+    saturation_ratio: float = 0.98
+    crest_limit: float = 25.0
+    shock_min_peak: float = 100.0
+
+
+def block_starts(n: int, fs: float) -> np.ndarray:
+    """First sample of each block of an ``n``-sample batch: round(n / (BLOCK_S fs)) near-equal blocks."""
+    count = max(1, int(round(n / (BLOCK_S * fs))))
+    return (np.arange(count) * n) // count
+
+
+def block_sums(values: np.ndarray, starts: np.ndarray, square: bool = False) -> np.ndarray:
+    """Per-block sums (rows, k) of ``values`` (rows, n) (of their squares if ``square``) for blocks starting
+    at ``starts``; a reshaped view (no copy) when the blocks are equally long, as they usually are."""
+    n = values.shape[1]
+    if n % starts.size == 0:
+        view = values.reshape(values.shape[0], starts.size, n // starts.size)
+        return np.einsum("rkb,rkb->rk", view, view) if square else view.sum(axis=-1)
+    return np.add.reduceat(values * values if square else values, starts, axis=1)
+
+
+def block_extremes(values: np.ndarray, starts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per-block maxima and minima (rows, k) of ``values`` (rows, n)."""
+    n = values.shape[1]
+    if n % starts.size == 0:
+        view = values.reshape(values.shape[0], starts.size, n // starts.size)
+        return view.max(axis=-1), view.min(axis=-1)
+    return np.maximum.reduceat(values, starts, axis=1), np.minimum.reduceat(values, starts, axis=1)
+
+
+def block_flags(raw: np.ndarray, starts: np.ndarray, sums: np.ndarray, full_scale: np.ndarray,
+                limits: ArtefactLimits) -> np.ndarray:
+    """Saturation and shock flags (m, k) of ``raw`` (3m, n) samples of m streams cut at ``starts``, given their
+    per-block ``sums`` (3m, k); ``full_scale`` (m,) is each stream's sensor range in m/s^2 (inf if unknown)."""
+    lengths = np.diff(np.append(starts, raw.shape[1]))
+    top, bottom = block_extremes(raw, starts)
+    mean, square = sums / lengths, block_sums(raw, starts, square=True) / lengths
+    per_stream = (-1, 3, starts.size)
+    peak = np.maximum(top, -bottom).reshape(per_stream).max(axis=1)
+    flags = np.where(peak >= limits.saturation_ratio * full_scale[:, None], SATURATION, 0)
+    centred = np.maximum(top - mean, mean - bottom)
+    rms = np.sqrt(np.maximum(square - mean**2, 1e-12))
+    shock = ((centred > limits.crest_limit * rms) & (centred > limits.shock_min_peak)).reshape(per_stream).any(axis=1)
+    return flags | np.where(shock, SHOCK, 0)
+
+
+def describe_flags(flags: int) -> list[str]:
+    """Names of the artefacts in a flag word, e.g. ['saturation', 'shock']."""
+    return [name for bit, name in ARTEFACT_NAMES.items() if flags & bit]
