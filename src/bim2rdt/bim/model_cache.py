@@ -11,7 +11,7 @@ import json
 import os
 import tempfile
 import zipfile
-from dataclasses import asdict
+from dataclasses import fields
 from pathlib import Path
 from typing import Any
 
@@ -95,8 +95,8 @@ def load_site_frame(item: dict) -> SiteFrame:
 def _dump(value: Any) -> Any:
     if isinstance(value, list):
         return [_dump(v) for v in value]
-    if hasattr(value, "__dataclass_fields__"):
-        return asdict(value)
+    if hasattr(value, "__dataclass_fields__"):  # shallow: fields hold plain values and arrays (json_default)
+        return {f.name: getattr(value, f.name) for f in fields(value)}
     return value
 
 

@@ -1,0 +1,60 @@
+"""`bim2rdt info` and `bim2rdt bench ifc`: output, JSON, and exit codes (0 ok, 1 bad input, 2 usage)."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+
+def run_cli(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "bim2rdt", *args], capture_output=True, text=True, timeout=300)
+
+
+def test_info_prints_schema_unit_storeys_classes_and_families(site_ifc):
+    result = run_cli("info", str(site_ifc))
+    assert result.returncode == 0, result.stderr
+    for expected in ("IFC4", "metre", "Ground Floor", "IfcBuildingElementProxy", "Traffic_Cone_Orange_70cm"):
+        assert expected in result.stdout
+
+
+def test_info_json_with_readiness_is_one_machine_readable_document(site_ifc):
+    result = run_cli("info", str(site_ifc), "--readiness", "--json")
+    assert result.returncode == 0, result.stderr
+    payload = json.loads(result.stdout)
+    assert payload["schema"] == "IFC4" and payload["unit_scale"] == 1.0
+    assert payload["counts_by_class"]["IfcColumn"] == 6
+    assert payload["families"]["Traffic_Cone_Orange_70cm"] == 3
+    assert payload["site_frame"]["crs"] == "EPSG:25832"
+    checks = {c["name"]: c["status"] for c in payload["readiness"]}
+    assert checks["families the prior table does not know"] == "pass"
+    assert checks["geo-reference"] == "pass"
+
+
+def test_info_on_a_model_without_geo_reference_warns(samples):
+    result = run_cli("info", str(samples / "construction_scheduling_task.ifc"), "--readiness", "--json")
+    payload = json.loads(result.stdout)
+    assert result.returncode == 0
+    assert payload["unit"] == "inch" and payload["unit_scale"] == 0.0254
+    assert {c["name"]: c["status"] for c in payload["readiness"]}["geo-reference"] == "warn"
+
+
+def test_info_on_bad_input_exits_1_with_one_line(tmp_path):
+    (tmp_path / "junk.ifc").write_text("not a model\n")
+    for path in (tmp_path / "absent.ifc", tmp_path / "junk.ifc"):
+        result = run_cli("info", str(path))
+        assert result.returncode == 1
+        assert result.stderr.strip().count("\n") == 0 and result.stderr.startswith("error:")
+
+
+def test_info_without_a_file_is_a_usage_error():
+    assert run_cli("info").returncode == 2
+
+
+def test_bench_ifc_reports_both_figures_as_json(site_ifc):
+    result = run_cli("bench", "ifc", "--file", str(site_ifc), "--repeat", "1", "--json")
+    assert result.returncode == 0, result.stderr
+    payload = json.loads(result.stdout)
+    assert payload["shapes"] == payload["meshes"] == 26
+    assert payload["load_s"] > 0 and payload["bare_loop_s"] > 0 and payload["cached_s"] > 0
+    assert payload["overhead"] == payload["load_s"] / payload["bare_loop_s"] - 1
