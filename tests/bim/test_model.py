@@ -10,7 +10,7 @@ import ifcopenshell.util.representation
 import numpy as np
 import pytest
 
-from bim2rdt.bim import load_ifc
+from bim2rdt.bim import BimError, load_ifc
 
 # expected facts, from the sample files' SOURCES.md (written independently of this reader)
 SAMPLES = {
@@ -129,6 +129,12 @@ def test_an_element_whose_geometry_fails_is_reported_and_the_rest_still_tessella
     assert [f.global_id for f in model.geometry_failures] == [broken]
     assert model.geometry_failures[0].reason
     assert sum(model.has_mesh(el.global_id) for el in model.elements) == len(model.elements) - 1
+    assert model.mesh(broken)[0].shape == (0, 3) and model.mesh(broken)[1].shape == (0, 3)
+
+
+def test_asking_for_the_mesh_of_an_unknown_element_names_it(site_model):
+    with pytest.raises(BimError, match="no element with GlobalId nope"):
+        site_model.mesh("nope")
 
 
 def _add_broken_proxy(ifc: ifcopenshell.file) -> str:

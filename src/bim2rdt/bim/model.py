@@ -59,12 +59,13 @@ class BimModel:
             raise BimError(f"{self.path.name}: no element with GlobalId {global_id}") from None
 
     def mesh(self, global_id: str) -> tuple[np.ndarray, np.ndarray]:
-        """(vertices (N,3) world metres, faces (M,3) int32) of an element."""
+        """(vertices (N,3) world metres, faces (M,3) int32) of an element; both empty when it has no body
+        (see ``has_mesh``; failed ones are listed in ``geometry_failures``)."""
         if self.meshes is None:
             raise BimError(f"{self.path.name}: loaded without geometry (load_ifc(..., geometry=True))")
         if global_id not in self.meshes:
             self.element(global_id)
-            raise BimError(f"{self.path.name}: element {global_id} has no tessellated geometry")
+            return np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int32)
         return self.meshes.get(global_id)
 
     def has_mesh(self, global_id: str) -> bool:
