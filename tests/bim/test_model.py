@@ -149,3 +149,15 @@ def _add_broken_proxy(ifc: ifcopenshell.file) -> str:
     ifcopenshell.api.spatial.assign_container(ifc, products=[proxy], relating_structure=ifc.by_type("IfcBuildingStorey")[0])
     ifcopenshell.api.geometry.edit_object_placement(ifc, product=proxy)
     return proxy.GlobalId
+
+
+def test_the_4d_sample_tasks_come_with_planned_times_links_and_sequence(sample_model):
+    from datetime import datetime, timezone
+
+    tasks = {task.name: task for task in sample_model("construction_scheduling_task.ifc").tasks}
+    assert len(tasks) == 8
+    wall = tasks["Wall #2"]
+    assert wall.start == datetime(2010, 9, 22, 8, tzinfo=timezone.utc)
+    assert wall.finish == datetime(2010, 9, 22, 16, tzinfo=timezone.utc)
+    assert tasks["Wall #1"].global_id in wall.after
+    assert len(wall.related) == 1

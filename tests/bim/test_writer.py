@@ -145,3 +145,21 @@ def test_a_writer_refuses_a_file_that_changed_after_loading(site_ifc, tmp_path):
     copy.write_text(copy.read_text().replace("Block A", "Block B"))
     with pytest.raises(BimError, match="changed on disk"):
         TwinWriter(model)
+
+
+def test_an_ifc4x3_site_round_trips_moves_events_and_tasks(tmp_path):
+    from bim2rdt.sim.site import build_site_ifc
+
+    model = load_ifc(build_site_ifc(tmp_path / "site4x3.ifc", schema="IFC4X3"), cache_dir=tmp_path / "cache")
+    assert model.schema == "IFC4X3"
+    writer = TwinWriter(model)
+    cone = _cone(model)
+    writer.move_element(cone.global_id, yaw_pose(3.0, 3.0, 0.0, 30.0))
+    event = writer.add_event("start", T0, "start", related=[cone.global_id])
+    task = writer.add_task("intervene", T0, T0 + timedelta(minutes=5), related=[cone.global_id], after=event)
+    out = writer.save(tmp_path / "twin4x3.ifc")
+    again = load_ifc(out, cache_dir=tmp_path / "cache")
+    assert np.allclose(again.element(cone.global_id).placement, yaw_pose(3.0, 3.0, 0.0, 30.0))
+    assert [e.global_id for e in again.events] == [event]
+    assert [(t.global_id, t.after) for t in again.tasks] == [(task, (event,))]
+    assert _errors(out) == []

@@ -107,7 +107,7 @@ def _read(path: Path, digest: str, ifc: ifcopenshell.file) -> BimModel:
     unit_scale = ifcopenshell.util.unit.calculate_unit_scale(ifc)
     try:
         psets = read_all_psets(ifc)
-        return BimModel(path=path, digest=digest, schema=ifc.schema_identifier, unit_scale=unit_scale,
+        return BimModel(path=path, digest=digest, schema=ifc.schema, unit_scale=unit_scale,
                         unit_name=_unit_name(ifc), elements=read_elements(ifc, unit_scale, psets),
                         storeys=read_storeys(ifc, unit_scale), zones=read_zones(ifc, psets), events=read_events(ifc),
                         tasks=read_tasks(ifc), site_frame=read_site_frame(ifc, unit_scale))

@@ -23,7 +23,7 @@ from bim2rdt.bim.records import BimElement, BimProcess, BimStorey, BimZone, Geom
 from bim2rdt.bim.site_frame import SiteFrame
 from bim2rdt.bim.tessellation import MeshSet
 
-CACHE_FORMAT = 1
+CACHE_FORMAT = 2
 
 
 def cache_file(cache_dir: Path, digest: str) -> Path:

@@ -28,14 +28,14 @@ def read_events(ifc: ifcopenshell.file) -> list[BimProcess]:
 
 
 def read_tasks(ifc: ifcopenshell.file) -> list[BimProcess]:
-    """Every IfcTask with actual start/finish (falling back to scheduled times where no actuals exist)."""
+    """Every IfcTask with actual start/finish, falling back to scheduled, then early times (planners' files)."""
     tasks = []
     for task in ifc.by_type("IfcTask"):
         time = getattr(task, "TaskTime", None)
         start = finish = None
         if time is not None:
-            start = parse_ifc_datetime(time.ActualStart or time.ScheduleStart)
-            finish = parse_ifc_datetime(time.ActualFinish or time.ScheduleFinish)
+            start = parse_ifc_datetime(time.ActualStart or time.ScheduleStart or time.EarlyStart)
+            finish = parse_ifc_datetime(time.ActualFinish or time.ScheduleFinish or time.EarlyFinish)
         tasks.append(BimProcess(task.GlobalId, "IfcTask", task.Name, getattr(task, "PredefinedType", None),
                                 start, finish, None, _related(task), _after(task), read_psets(task)))
     return tasks

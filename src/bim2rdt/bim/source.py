@@ -31,7 +31,7 @@ def open_ifc(path: str | Path) -> ifcopenshell.file:
         raise BimError(f"{path.name}: unknown IFC schema ({error}); supported: {', '.join(SUPPORTED_SCHEMAS)}") from None
     except (ifcopenshell.Error, OSError) as error:
         raise BimError(f"{path.name}: {_parse_reason(path, error)}") from None
-    if not ifc.schema_identifier.upper().startswith(SUPPORTED_SCHEMAS):
+    if ifc.schema not in SUPPORTED_SCHEMAS:
         raise BimError(f"{path.name}: unsupported IFC schema {ifc.schema_identifier}; "
                        f"supported: {', '.join(SUPPORTED_SCHEMAS)}")
     return ifc

@@ -71,9 +71,9 @@ ZONES = (
 )
 
 
-def build_site_ifc(path: str | Path) -> Path:
-    """Write the default construction site as an IFC4 file (atomically) and return its path."""
-    builder = _SiteBuilder()
+def build_site_ifc(path: str | Path, schema: str = "IFC4") -> Path:
+    """Write the default construction site (IFC4 by default; IFC4X3 also works) atomically; returns the path."""
+    builder = _SiteBuilder(schema)
     builder.build()
     return atomic_write_ifc(builder.ifc, Path(path))
 
@@ -90,8 +90,8 @@ def yaw_pose(x: float, y: float, z: float, yaw_deg: float) -> np.ndarray:
 class _SiteBuilder:
     """Builds the site step by step; each step is one kind of thing on site."""
 
-    def __init__(self) -> None:
-        self.ifc = ifcopenshell.api.project.create_file(version="IFC4")
+    def __init__(self, schema: str) -> None:
+        self.ifc = ifcopenshell.api.project.create_file(version=schema)
 
     def build(self) -> None:
         self._project()
