@@ -1,19 +1,18 @@
 """Atomic IFC writes: a reader (or a crash) sees either the old file or the complete new one, never half.
 
-Write to a temp file in the target's folder, check it parses, fsync it, rename over the target (atomic on
-POSIX within one file system), then fsync the folder so the rename itself survives a power cut.
+The file is serialised in memory, checked to end with the STEP trailer, and handed to the project's
+``write_bytes_atomic`` (temp file in the target folder, fsync, rename over the target).
 """
 
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 
 import ifcopenshell
 
+from bim2rdt.atomic import write_bytes_atomic
 from bim2rdt.bim.errors import BimError
-from bim2rdt.bim.source import open_ifc
+from bim2rdt.bim.source import STEP_TRAILER
 
 
 def atomic_write_ifc(ifc: ifcopenshell.file, path: Path) -> Path:
@@ -21,24 +20,7 @@ def atomic_write_ifc(ifc: ifcopenshell.file, path: Path) -> Path:
     path = Path(path)
     if not path.parent.is_dir():
         raise BimError(f"{path}: the folder {path.parent} does not exist")
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=".tmp.ifc")
-    os.close(fd)
-    try:
-        ifc.write(tmp)
-        open_ifc(tmp)
-        with open(tmp, "rb+") as stream:
-            os.fsync(stream.fileno())
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-    _fsync_folder(path.parent)
-    return path
-
-
-def _fsync_folder(folder: Path) -> None:
-    fd = os.open(folder, os.O_RDONLY)
-    try:
-        os.fsync(fd)
-    finally:
-        os.close(fd)
+    data = ifc.to_string().encode("utf-8")
+    if not data.rstrip().endswith(STEP_TRAILER):
+        raise BimError(f"{path.name}: ifcopenshell serialised an incomplete file; nothing was written")
+    return write_bytes_atomic(path, data)

@@ -7,9 +7,8 @@ atomically (temp file + rename), so a crash never leaves a half cache; a cache t
 
 from __future__ import annotations
 
+import io
 import json
-import os
-import tempfile
 import zipfile
 from dataclasses import fields
 from pathlib import Path
@@ -18,6 +17,7 @@ from typing import Any
 import ifcopenshell
 import numpy as np
 
+from bim2rdt.atomic import write_bytes_atomic
 from bim2rdt.bim.processes import parse_ifc_datetime
 from bim2rdt.bim.records import BimElement, BimProcess, BimStorey, BimZone, GeometryFailure
 from bim2rdt.bim.site_frame import SiteFrame
@@ -33,17 +33,11 @@ def cache_file(cache_dir: Path, digest: str) -> Path:
 
 def write_cache(path: Path, meta: dict[str, Any], meshes: MeshSet) -> None:
     """Atomically write the model's metadata and meshes."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as stream:
-            np.savez(stream, meta=np.array(json.dumps(meta, default=_json_default)), ids=np.array(meshes.ids),
-                     vertices=meshes.vertices, faces=meshes.faces,
-                     vertex_offsets=meshes.vertex_offsets, face_offsets=meshes.face_offsets)
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+    buffer = io.BytesIO()
+    np.savez(buffer, meta=np.array(json.dumps(meta, default=_json_default)), ids=np.array(meshes.ids),
+             vertices=meshes.vertices, faces=meshes.faces,
+             vertex_offsets=meshes.vertex_offsets, face_offsets=meshes.face_offsets)
+    write_bytes_atomic(path, buffer.getvalue())
 
 
 def read_cache(path: Path) -> tuple[dict[str, Any], MeshSet] | None:

@@ -170,21 +170,18 @@ class TwinWriter:
         return process.GlobalId
 
     def _product(self, global_id: str) -> ifcopenshell.entity_instance:
-        try:
-            entity = self.ifc.by_guid(global_id)
-        except RuntimeError:
-            raise BimError(f"{self.model.path.name}: no element with GlobalId {global_id}") from None
-        if not entity.is_a("IfcProduct"):
-            raise BimError(f"{global_id} is an {entity.is_a()}, not a product")
-        return entity
+        return self._entity(global_id, "IfcProduct", "element")
 
     def _process(self, global_id: str) -> ifcopenshell.entity_instance:
+        return self._entity(global_id, "IfcProcess", "IfcEvent/IfcTask")
+
+    def _entity(self, global_id: str, ifc_class: str, what: str) -> ifcopenshell.entity_instance:
         try:
             entity = self.ifc.by_guid(global_id)
         except RuntimeError:
-            raise BimError(f"no process with GlobalId {global_id}") from None
-        if not entity.is_a("IfcProcess"):
-            raise BimError(f"{global_id} is an {entity.is_a()}, not an IfcEvent/IfcTask")
+            raise BimError(f"{self.model.path.name}: no {what} with GlobalId {global_id}") from None
+        if not entity.is_a(ifc_class):
+            raise BimError(f"{global_id} is an {entity.is_a()}, not an {what}")
         return entity
 
     def _body_context(self) -> ifcopenshell.entity_instance:
