@@ -18,11 +18,13 @@ def _errors(result_pose, truth):
                                                             ("point_to_plane", 1.0, 0.005)])
 def test_a_moderately_perturbed_crate_is_recovered(crate_model, crate_view, method, max_rot_deg, max_trans,
                                                    make_pose, placed):
-    """Point-to-point snaps to samples ~5 cm apart, so it is less exact than point-to-plane on the same data."""
+    """Point-to-point snaps to samples ~5 cm apart, so it is less exact than point-to-plane on the same data.
+    The view is clean (no clutter), so nothing is trimmed: on a partial view the pairs farthest off are the ones
+    still pulling point-to-point into place."""
     truth = make_pose(0.4, 0.0, (1.0, 2.0, 0.0))
     init = make_pose(0.55, 0.12, (1.04, 1.95, 0.03))
-    result = register(*crate_model, placed(truth, crate_view), init, config=IcpConfig(method=method, restarts=1,
-                                                                                       max_iterations=60))
+    config = IcpConfig(method=method, restarts=1, max_iterations=60, trim_fraction=0.0)
+    result = register(*crate_model, placed(truth, crate_view), init, config=config)
     rot, trans = _errors(result.pose, truth)
     assert rot < max_rot_deg and trans < max_trans
 

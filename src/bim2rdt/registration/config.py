@@ -34,6 +34,8 @@ class IcpConfig(BaseModel):
                     "in the S1-S4 scenarios a 60-75 degree gate cost more right pairs than it removed wrong ones.")
     min_pairs: int = Field(6, ge=6, description="RelaxIfFew: below this many pairs the gates are dropped.")
     trim_fraction: float = Field(0.1, ge=0.0, lt=0.9, description="Fraction of the farthest pairs dropped each step.")
+    trim_floor_per_delta: float = Field(
+        1.0, ge=0.0, description="Trimming never drops a pair within this multiple of the current Huber scale.")
     huber_delta: float = Field(0.01, gt=0.0, description="Final Huber scale, m (about 2-3x the depth noise).")
     huber_anneal_iterations: int = Field(
         6, ge=0, description="Iterations over which the Huber scale shrinks geometrically from max_pair_distance.")

@@ -85,15 +85,18 @@ def relax_if_few(pairs: Pairs, model: ModelIndex, scene_body: np.ndarray, min_pa
         pairs.residual[k] = surface_residual(model, scene_body[k:k + 1], index[None], distance[None])[0]
 
 
-def trim_pairs(pairs: Pairs, residual: np.ndarray, trim_fraction: float, min_pairs: int) -> None:
+def trim_pairs(pairs: Pairs, residual: np.ndarray, trim_fraction: float, min_pairs: int,
+               keep_within: float = 0.0) -> None:
     """Drop the ``trim_fraction`` of each restart's valid pairs with the largest ``residual`` (k, N), never
-    below ``min_pairs``."""
+    below ``min_pairs`` and never a pair within ``keep_within`` metres. The floor matters on partial views: the
+    pairs farthest off are often the ones that still pull the model into place, and trimming them all would
+    freeze a half-way fit; only residuals well beyond the robust scale are treated as clutter."""
     if trim_fraction <= 0.0:
         return
     counts = pairs.valid.sum(axis=1)
     keep = np.maximum(np.ceil((1.0 - trim_fraction) * counts), np.minimum(min_pairs, counts)).astype(int)
     ordered = np.sort(np.where(pairs.valid, residual, np.inf), axis=1)
-    cutoff = ordered[np.arange(len(keep)), np.maximum(keep - 1, 0)]
+    cutoff = np.maximum(ordered[np.arange(len(keep)), np.maximum(keep - 1, 0)], keep_within)
     pairs.valid &= residual <= cutoff[:, None]
 
 

@@ -7,10 +7,23 @@ import trimesh
 
 from bim2rdt.registration.errors import RegistrationError
 
+RESTING_FACE_TOLERANCE = 0.01
+"""Samples this close (m) to the model's lowest point and facing down count as the resting face."""
 
-def sample_model(mesh: trimesh.Trimesh, count: int = 2000, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
-    """``count`` area-uniform samples on the mesh surface (body frame, m) and their unit outward normals."""
+
+def sample_model(mesh: trimesh.Trimesh, count: int = 2000, seed: int = 0,
+                 drop_resting_face: bool = True) -> tuple[np.ndarray, np.ndarray]:
+    """``count`` area-uniform samples on the mesh surface (body frame, m) and their unit outward normals.
+
+    With ``drop_resting_face`` the face an upright object stands on (facing down, at its lowest z) is left out:
+    no camera sees it, and its samples would fit the ground around the object perfectly at any yaw and any
+    position in the plane, pulling a flat object (a pallet) off its true pose."""
     if mesh.is_empty or mesh.area <= 0.0:
         raise RegistrationError("cannot sample a model from an empty mesh")
-    points, face_index = trimesh.sample.sample_surface(mesh, count, seed=seed)
-    return np.asarray(points, dtype=np.float64), np.asarray(mesh.face_normals[face_index], dtype=np.float64)
+    keep = np.ones(len(mesh.faces), dtype=bool)
+    if drop_resting_face:
+        lowest = mesh.triangles[:, :, 2].max(axis=1) <= mesh.bounds[0, 2] + RESTING_FACE_TOLERANCE
+        keep &= ~(lowest & (mesh.face_normals[:, 2] < -0.9))
+    visible = mesh.submesh([np.flatnonzero(keep)], append=True) if not keep.all() else mesh
+    points, face_index = trimesh.sample.sample_surface(visible, count, seed=seed)
+    return np.asarray(points, dtype=np.float64), np.asarray(visible.face_normals[face_index], dtype=np.float64)

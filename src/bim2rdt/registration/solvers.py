@@ -108,11 +108,13 @@ class Solver:
     the step minimises: distance to the sample for point-to-point, to the surface for point-to-plane)."""
 
     step: Callable[..., tuple[np.ndarray, np.ndarray]]
-    residual: Callable[[Pairs], np.ndarray]
+    residual: Callable[[Pairs, float], np.ndarray]  # (pairs, model sample spacing in m) -> (k, N) m
 
 
 SOLVERS = {
-    "point_to_point": Solver(_point_to_point_step, lambda pairs: pairs.distance),
-    "point_to_plane": Solver(solve_point_to_plane, lambda pairs: pairs.residual),
+    # point-to-point minimises the distance to a sample, which is up to ~the spacing even at the optimum
+    "point_to_point": Solver(_point_to_point_step,
+                             lambda pairs, spacing: np.maximum(pairs.distance - spacing, 0.0)),
+    "point_to_plane": Solver(solve_point_to_plane, lambda pairs, spacing: pairs.residual),
 }
 """Strategy per ``IcpConfig.method``; steps take (src, dst, normals, w, g_src, g_dst, lam, yaw_only)."""
