@@ -48,7 +48,8 @@ def test_yaw_only_keeps_the_initial_roll_and_pitch(crate_model, crate_view, make
     assert rotation_angle(result.pose[:3, :3] @ init[:3, :3].T) > 0.05  # yaw did move
 
 
-def test_the_upright_bias_pulls_the_pose_towards_upright_and_zero_bias_does_not(crate_model, crate_view, make_pose, placed):
+def test_the_upright_bias_pulls_the_pose_towards_upright_and_zero_bias_does_not(crate_model, crate_view, make_pose,
+                                                                                  placed):
     truth = make_pose(0.2, np.deg2rad(8.0), (0.0, 0.0, 0.3))  # a crate that really is tilted by 8 degrees
     scene = placed(truth, crate_view)
     tilts = [np.rad2deg(tilt_angle(register(*crate_model, scene, truth, upright_bias=b).pose[:3, :3]))

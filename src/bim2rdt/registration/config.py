@@ -44,6 +44,9 @@ class IcpConfig(BaseModel):
     convergence_rot_rad: float = Field(1e-3, gt=0.0, description="Converged when the step rotates less, rad ...")
     convergence_trans: float = Field(1e-3, gt=0.0, description="... and translates less, m (10x below the 1 cm "
                                                                  "success bar; IRLS steps shrink geometrically).")
+    convergence_score_rel: float = Field(
+        1e-3, ge=0.0, description="... or when the restart's score changed by less than this fraction (the pairs "
+                                  "have settled; Open3D's relative-fitness test).")
     gravity_gamma0: float = Field(
         0.2, ge=0.0,
         description="Global gravity weight; lambda = upright_bias * gamma0 * sum(w |p - p_mean|^2) (scale-free). "

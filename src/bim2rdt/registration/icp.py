@@ -22,9 +22,9 @@ BODY_UP = np.array([0.0, 0.0, 1.0])
 
 @dataclass(frozen=True)
 class RegistrationResult:
-    """The best restart's pose and its fit. ``rmse`` (m, surface residuals) and ``fitness`` (0-1) are over scene points within
-    ``IcpConfig.score_distance`` of the posed model; ``score`` is the truncated mean squared distance (m^2)
-    that chose the restart."""
+    """The best restart's pose and its fit. ``rmse`` (m, surface residuals) and ``fitness`` (0-1) are over
+    scene points within ``IcpConfig.score_distance`` of the posed model; ``score`` is the truncated mean
+    squared residual (m^2, plus the upright penalty under a bias) that chose the restart."""
 
     pose: np.ndarray  # T_world_model (4, 4)
     rmse: float
@@ -131,15 +131,16 @@ def _iterate(restarts: _Restarts, active: np.ndarray, problem: Problem, model: m
     up_body = np.einsum("kji,j->ki", T[:, :3, :3], problem.up_world)
     lam = gravity_weight(dst, w, problem.upright_bias * cfg.gravity_gamma0)
     dR, dt = solver.step(scene_body, dst, problem.model_normals_body[pairs.model_index], w,
-                                 up_body, BODY_UP, lam, yaw_only)
+                         up_body, BODY_UP, lam, yaw_only)
     step = np.tile(np.eye(4), (len(active), 1, 1))
     step[:, :3, :3], step[:, :3, 3] = dR, dt
     restarts.poses[active] = T @ invert_poses(step)
     restarts.iterations[active] += 1
-    restarts.scores[active] = matching.truncated_score(pairs, cfg.score_distance)
+    previous, restarts.scores[active] = restarts.scores[active], matching.truncated_score(pairs, cfg.score_distance)
     small = (rotation_angle(dR) < cfg.convergence_rot_rad) & (np.linalg.norm(dt, axis=1) < cfg.convergence_trans)
+    stalled = np.abs(previous - restarts.scores[active]) <= cfg.convergence_score_rel * restarts.scores[active]
     if not annealing:
-        restarts.done[active[small]] = True
+        restarts.done[active[small | stalled]] = True
 
 
 def _transform(T: np.ndarray, points: np.ndarray) -> np.ndarray:

@@ -37,8 +37,9 @@ class ModelIndex:
 
     @classmethod
     def build(cls, points: np.ndarray, normals: np.ndarray) -> ModelIndex:
+        """Index the samples; the spacing is the median nearest-sample distance of up to 256 of them."""
         tree = cKDTree(points)
-        spacing, _ = tree.query(points, k=2)
+        spacing, _ = tree.query(points[:: max(1, len(points) // 256)], k=2)
         return cls(points, normals, tree, float(np.median(spacing[:, 1])))
 
 

@@ -2,8 +2,8 @@
 
 Depth noise is that of a time-of-flight RGB-D camera (Azure-Kinect class): axial sigma_z = 1.5 mm + 1.5 mm per
 metre of depth (6 mm at 3 m). Structured-light sensors are worse at range (Nguyen, Izadi & Lovell 2012:
-0.0012 + 0.0019 (z - 0.4)^2, 33 mm at 4.5 m), which would bury the 1 cm success bar in sensor noise alone. The grey image is
-Lambertian under a sun-like light plus ambient, with 2 grey levels of noise.
+0.0012 + 0.0019 (z - 0.4)^2, 33 mm at 4.5 m), which would bury the 1 cm success bar in sensor noise alone.
+The grey image is Lambertian under a sun-like light plus ambient, with 2 grey levels of noise.
 """
 
 from __future__ import annotations
