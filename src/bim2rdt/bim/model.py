@@ -17,7 +17,9 @@ import ifcopenshell.util.unit
 import numpy as np
 
 from bim2rdt.bim import model_cache
-from bim2rdt.bim.elements import read_all_psets, read_elements, read_storeys, read_zones
+from bim2rdt.bim.elements import read_elements, read_storeys, read_zones
+from bim2rdt.bim.psets import read_all_psets
+from bim2rdt.bim.spatial import SpatialIndex
 from bim2rdt.bim.errors import BimError
 from bim2rdt.bim.processes import read_events, read_tasks
 from bim2rdt.bim.records import BimElement, BimProcess, BimStorey, BimZone, GeometryFailure
@@ -106,10 +108,10 @@ def load_ifc(path: str | Path, *, geometry: bool = True, cache_dir: Path | None 
 def _read(path: Path, digest: str, ifc: ifcopenshell.file) -> BimModel:
     unit_scale = ifcopenshell.util.unit.calculate_unit_scale(ifc)
     try:
-        psets = read_all_psets(ifc)
+        psets, index = read_all_psets(ifc), SpatialIndex(ifc)
         return BimModel(path=path, digest=digest, schema=ifc.schema, unit_scale=unit_scale,
-                        unit_name=_unit_name(ifc), elements=read_elements(ifc, unit_scale, psets),
-                        storeys=read_storeys(ifc, unit_scale), zones=read_zones(ifc, psets), events=read_events(ifc),
+                        unit_name=_unit_name(ifc), elements=read_elements(ifc, unit_scale, psets, index),
+                        storeys=read_storeys(ifc, unit_scale), zones=read_zones(ifc, psets, index), events=read_events(ifc),
                         tasks=read_tasks(ifc), site_frame=read_site_frame(ifc, unit_scale))
     except RuntimeError as error:  # ifcopenshell raises RuntimeError on entities it cannot decode lazily
         raise BimError(f"{path.name}: cannot read entities ({' '.join(str(error).split())[:160]})") from None

@@ -10,7 +10,7 @@ from datetime import datetime, timezone
 
 import ifcopenshell
 
-from bim2rdt.bim.elements import read_psets
+from bim2rdt.bim.psets import read_psets
 from bim2rdt.bim.records import BimProcess
 
 

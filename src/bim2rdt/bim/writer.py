@@ -35,7 +35,7 @@ import ifcopenshell.util.representation
 import numpy as np
 
 from bim2rdt.bim.atomic import atomic_write_ifc
-from bim2rdt.bim.elements import placement_matrix
+from bim2rdt.bim.spatial import placement_matrix
 from bim2rdt.bim.errors import BimError
 from bim2rdt.bim.ifc_values import add_typed_pset, ifc_datetime
 from bim2rdt.bim.model import BimModel, load_ifc
