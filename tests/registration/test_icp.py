@@ -89,3 +89,23 @@ def test_bad_input_raises_a_registration_error_that_says_why(crate_model, change
     arguments.update(change)
     with pytest.raises(RegistrationError, match=message):
         register(**arguments)
+
+
+def test_levelling_the_start_does_not_move_the_equilibrium_of_a_truly_tilted_object(crate_model, crate_view,
+                                                                                    make_pose, placed):
+    truth = make_pose(0.2, np.deg2rad(8.0), (0.0, 0.0, 0.3))
+    scene = placed(truth, crate_view)
+    settled = [tilt_angle(register(*crate_model, scene, truth, upright_bias=0.5,
+                                   config=IcpConfig(start_leveling=level)).pose[:3, :3]) for level in (0.0, 1.0)]
+    assert np.rad2deg(abs(settled[0] - settled[1])) < 0.1
+    assert np.rad2deg(settled[1]) > 2.0
+
+
+def test_level_towards_up_removes_the_requested_fraction_of_tilt(make_pose):
+    from bim2rdt.registration.icp import level_towards_up
+
+    tilted = make_pose(0.7, np.deg2rad(20.0), (1.0, 2.0, 0.0))
+    halfway = level_towards_up(tilted, np.array([0.0, 0.0, 0.3]), np.array([0.0, 0.0, 1.0]), 0.5)
+    assert np.rad2deg(tilt_angle(halfway[:3, :3])) == pytest.approx(10.0, abs=1e-9)
+    centroid = lambda T: T[:3, :3] @ np.array([0.0, 0.0, 0.3]) + T[:3, 3]  # noqa: E731
+    assert np.allclose(centroid(halfway), centroid(tilted))

@@ -51,6 +51,9 @@ class IcpConfig(BaseModel):
         0.2, ge=0.0,
         description="Global gravity weight; lambda = upright_bias * gamma0 * sum(w |p - p_mean|^2) (scale-free). "
                     "At 0.2 a bias of 1 removes ~3/4 of a true 8 degree tilt and a bias of 0.2 only ~1/4.")
+    start_leveling: float = Field(
+        1.0, ge=0.0, le=1.0,
+        description="Before the loop, remove upright_bias x this fraction of the initial tilt (0 = start as given).")
     method: Literal["point_to_point", "point_to_plane"] = Field(
         "point_to_plane", description="Rigid solve: closed-form weighted Kabsch, or Gauss-Newton on model normals.")
     score_distance: float = Field(0.03, gt=0.0, description="Truncation of the restart score and inlier radius, m.")
