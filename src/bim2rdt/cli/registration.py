@@ -82,9 +82,10 @@ class progress:
     """A rich progress bar whose ``tick()`` advances one trial."""
 
     def __init__(self, total: int, label: str) -> None:
+        from rich.console import Console
         from rich.progress import Progress
 
-        self._bar = Progress(console=console, transient=True)
+        self._bar = Progress(console=Console(stderr=True), transient=True)  # keeps --json stdout clean
         self._task = self._bar.add_task(label, total=total)
 
     def __enter__(self):
