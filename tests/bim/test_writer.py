@@ -163,3 +163,11 @@ def test_an_ifc4x3_site_round_trips_moves_events_and_tasks(tmp_path):
     assert [e.global_id for e in again.events] == [event]
     assert [(t.global_id, t.after) for t in again.tasks] == [(task, (event,))]
     assert _errors(out) == []
+
+
+def test_a_writer_given_a_model_read_without_geometry_reads_it_with_geometry(samples):
+    """Moves of Revit's identity-placed elements need their geometry-derived placements."""
+    model = load_ifc(samples / "TestModel_IFC4Add2.ifc", geometry=False)
+    writer = TwinWriter(model)
+    assert writer.model.meshes is not None
+    assert any(el.placement_from_geometry for el in writer.model.elements)

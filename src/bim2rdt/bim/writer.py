@@ -52,7 +52,9 @@ class TwinWriter:
     """Collects twin updates on a private copy of the model's IFC file; ``save`` writes them atomically."""
 
     def __init__(self, model: BimModel | str | Path):
-        self.model = model if isinstance(model, BimModel) else load_ifc(model)
+        if not isinstance(model, BimModel) or model.meshes is None:  # moves need geometry-located placements
+            model = load_ifc(model if not isinstance(model, BimModel) else model.path)
+        self.model = model
         name = self.model.path.name
         if not self.model.schema.upper().startswith(WRITABLE_SCHEMAS):
             raise BimError(f"{name}: TwinWriter writes IFC4/IFC4X3 only; this file is {self.model.schema}, which "
