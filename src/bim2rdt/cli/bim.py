@@ -6,7 +6,11 @@ from pathlib import Path
 
 import typer
 
+from rich.console import Console
+
 from bim2rdt.cli.common import console, print_json, print_table
+
+_status = Console(stderr=True)  # progress bars go to stderr so stdout (tables or --json) stays clean
 
 FAMILY_ROWS = 25
 BENCH_FILE = "Office_A_20110811.ifc"
@@ -27,7 +31,7 @@ def info_command(
     as_json: bool = typer.Option(False, "--json", help="Print one JSON document instead of tables."),
 ) -> None:
     """Print schema, length unit, storeys with elevations (m), element counts by class and the families found."""
-    model = _load(ifc_file, geometry, quiet=as_json)
+    model = _load(ifc_file, geometry)
     checks = _readiness(model) if readiness else None
     if as_json:
         print_json(_info_payload(model, checks))
@@ -61,7 +65,7 @@ def bench_ifc_command(
     from bim2rdt.bim.benchmark import run_ifc_bench
 
     path = ifc_file or _default_bench_file()
-    with Progress(console=console, transient=True, disable=as_json) as progress:
+    with Progress(console=_status, transient=True) as progress:
         task = progress.add_task(f"benchmarking {path.name}", total=2 * repeat + max(3, repeat))
         result = run_ifc_bench(path, repeat, step=lambda label: progress.update(task, advance=1, description=label))
     if as_json:
@@ -79,12 +83,12 @@ def bench_ifc_command(
                 ["contender", "wall s", "CPU s", "CPU vs bare loop", "target", "met"], rows)
 
 
-def _load(path: Path, geometry: bool, quiet: bool):
+def _load(path: Path, geometry: bool):
     from rich.progress import Progress
 
     from bim2rdt.bim import load_ifc
 
-    with Progress(console=console, transient=True, disable=quiet) as progress:
+    with Progress(console=_status, transient=True) as progress:
         task = progress.add_task(f"reading {path.name}", total=100)
         return load_ifc(path, geometry=geometry,
                         progress=lambda done, total: progress.update(task, completed=done, total=total))
