@@ -44,6 +44,13 @@ class HavSettings(BaseModel):
 
     site_secret: str = Field("change-me", description="Key for worker pseudonyms (keyed hash).")
     raw_retention_s: float = Field(7 * 24 * 3600.0, description="How long raw sensor windows are kept, seconds.")
+    start_threshold: float = Field(1.0, description="Block a_hv (m/s^2) at which a tool activity starts (trigger).")
+    stop_threshold: float = Field(0.5, description="Block a_hv (m/s^2) under which an activity is winding down.")
+    stop_hold_s: float = Field(2.0, description="Seconds under stop_threshold that end an activity.")
+    predict_every_s: float = Field(60.0, description="Activity seconds between predictions of the time to EAV.")
+    reorder_s: float = Field(2.0, description="Seconds a batch waits for a missing predecessor before a gap.")
+    max_reorder: int = Field(8, description="Out-of-order batches held before a missing one is declared a gap.")
+    crest_limit: float = Field(25.0, description="Crest factor above which a block is a shock artefact.")
 
 
 class MqttSettings(BaseModel):
@@ -52,6 +59,10 @@ class MqttSettings(BaseModel):
     host: str | None = Field(None, description="Broker host; None means the in-process bus.")
     port: int = Field(1883, description="Broker port.")
     site: str = Field("demo", description="Site id used in topic names site/{site}/...")
+    username: str = Field("monitor", description="Broker user of the HAV monitor (the shipped ACL's reader).")
+    password: str | None = Field(None, description="Monitor's broker password; None derives it from device_secret.")
+    device_secret: str = Field("change-me-devices", description="Dev provisioning: device passwords are keyed "
+                               "hashes of their ids with this secret (bim2rdt hav broker, sim wearables).")
 
 
 class Settings(BaseSettings):

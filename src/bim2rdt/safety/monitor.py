@@ -95,8 +95,9 @@ class HavMonitor:
         self._lock = threading.RLock()
         self._corrections = {(c.subject, c.position): c for c in map(MountingCorrection.from_json,
                                                                      self.store.corrections())}
-        self._days = {key: DayState(**state) for key, state in self.store.days().items()}
-        self._streams = {d: self._restore(d, s) for d, s in self.store.streams().items()}
+        self._days = {key: DayState(*row) for key, row in self.store.days().items()}
+        sessions = self.store.sessions()
+        self._streams = {d: self._restore(d, row, sessions.get(d)) for d, row in self.store.streams().items()}
         self._touched_days: set[tuple[str, str]] = set()
         self._raw_devices: set[str] = set(self._streams)  # streams that may have raw rows to drop
 
@@ -113,6 +114,8 @@ class HavMonitor:
                 events = self._stop_activity(stream, self._last_time(stream))
                 stream.session = new
                 self._commit([], [stream], events)
+                with self.store.transaction():
+                    self.store.save_session(device, vars(new))
             return subject
 
     def end_session(self, device: str, when: float | None = None) -> list[Event]:
@@ -228,11 +231,14 @@ class HavMonitor:
     def _stream(self, device: str) -> _Stream:
         stream = self._streams.get(device)
         if stream is None:
-            subject = pseudonym(f"device:{device}", self.secret)
-            stream = _Stream(device, self._buffer(), FilterState(),
-                             ActivityTracker(self.config.trigger, device), Session(subject, position="unknown"))
+            stream = _Stream(device, self._buffer(), FilterState(), ActivityTracker(self.config.trigger, device),
+                             self._anonymous_session(device))
             self._streams[device] = stream
         return stream
+
+    def _anonymous_session(self, device: str) -> Session:
+        """A device nobody has claimed yet: its own pseudonym, unknown tool and position (an estimate)."""
+        return Session(pseudonym(f"device:{device}", self.secret), position="unknown")
 
     def _buffer(self) -> StreamBuffer:
         return StreamBuffer(self.config.max_reorder, self.config.reorder_s)
@@ -338,11 +344,11 @@ class HavMonitor:
         self._raw_devices.update(b.device for b in batches)
         with self.store.transaction():
             self.store.save_raw(batches)
-            self.store.save_streams([(s.device, self._stream_state(s)) for s in streams])
+            self.store.save_streams([(s.device, self._stream_state(s), s.filter.to_bytes()) for s in streams])
             self.store.save_activities([self._open_activity(self._streams[e.source]) for e in events
                                         if e.kind == ACTIVITY_STARTED])
             self._drop_raw(streams, now)
-            self.store.save_days([(subject, day, vars(self._days[(subject, day)]))
+            self.store.save_days([(subject, day, *vars(self._days[(subject, day)]).values())
                                   for subject, day in self._touched_days])
             self.store.add_events(events)
             self.store.save_activities([(e.data["activity"], e.subject, e.data["day"], {**e.data, "open": False})
@@ -360,8 +366,7 @@ class HavMonitor:
             self._raw_devices.difference_update(s.device for s in stored if not s.buffer.pending)
 
     def _stream_state(self, stream: _Stream) -> dict:
-        return {"buffer": stream.buffer.to_dict(), "filter": stream.filter.to_dict(),
-                "activity": stream.tracker.state.to_dict(), "session": vars(stream.session).copy(),
+        return {"buffer": stream.buffer.to_dict(), "activity": stream.tracker.state.to_dict(),
                 "clock_offset_s": stream.clock_offset_s, "counters": stream.counters}
 
     def _open_activity(self, stream: _Stream) -> tuple[str, str, str, dict]:
@@ -369,12 +374,14 @@ class HavMonitor:
         return (act.id, session.subject, act.day, {**act.to_dict(), "a_hv": act.a_hv, "tool": session.tool,
                                                     "device": stream.device, "zone": session.zone, "open": True})
 
-    def _restore(self, device: str, state: dict) -> _Stream:
+    def _restore(self, device: str, row: tuple[dict, bytes], session: dict | None) -> _Stream:
+        state, blob = row
         buffer = self._buffer()
         next_seq = state["buffer"]["next_seq"]
         buffer.load(state["buffer"], self.store.raw_batches(device, next_seq) if next_seq is not None else [])
         tracker = ActivityTracker(self.config.trigger, device, ActivityState(**state["activity"]))
-        return _Stream(device, buffer, FilterState.from_dict(state["filter"]), tracker, Session(**state["session"]), state["clock_offset_s"],
+        return _Stream(device, buffer, FilterState.from_bytes(blob), tracker,
+                       Session(**session) if session else self._anonymous_session(device), state["clock_offset_s"],
                        state["counters"])
 
     def _count(self, name: str, amount: float = 1) -> None:

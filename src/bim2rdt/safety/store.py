@@ -24,8 +24,10 @@ _SCHEMA = """
 CREATE TABLE IF NOT EXISTS raw (device TEXT, seq INTEGER, device_time REAL, received_time REAL, fs REAL,
     full_scale REAL, n INTEGER, samples BLOB, PRIMARY KEY (device, seq));
 CREATE INDEX IF NOT EXISTS raw_received ON raw (received_time);
-CREATE TABLE IF NOT EXISTS streams (device TEXT PRIMARY KEY, state TEXT);
-CREATE TABLE IF NOT EXISTS days (subject TEXT, day TEXT, state TEXT, PRIMARY KEY (subject, day));
+CREATE TABLE IF NOT EXISTS streams (device TEXT PRIMARY KEY, state TEXT, filter BLOB);
+CREATE TABLE IF NOT EXISTS days (subject TEXT, day TEXT, energy REAL, seconds REAL, eav_at REAL, elv_at REAL,
+    PRIMARY KEY (subject, day));
+CREATE TABLE IF NOT EXISTS sessions (device TEXT PRIMARY KEY, session TEXT);
 CREATE TABLE IF NOT EXISTS activities (id TEXT PRIMARY KEY, subject TEXT, day TEXT, state TEXT);
 CREATE TABLE IF NOT EXISTS events (id INTEGER PRIMARY KEY AUTOINCREMENT, kind TEXT, time REAL, subject TEXT,
     source TEXT, data TEXT, received REAL);
@@ -80,19 +82,26 @@ class ExposureStore:
         return self._db.execute("SELECT COUNT(*) FROM raw").fetchone()[0]
 
     # JSON state rows -----------------------------------------------------------------------------------
-    def save_streams(self, states: Iterable[tuple[str, dict[str, Any]]]) -> None:
-        self._db.executemany("INSERT OR REPLACE INTO streams VALUES (?, ?)",
-                             [(device, json.dumps(state)) for device, state in states])
+    def save_streams(self, states: Iterable[tuple[str, dict[str, Any], bytes]]) -> None:
+        """(device, JSON-able state, filter-state blob) rows."""
+        self._db.executemany("INSERT OR REPLACE INTO streams VALUES (?, ?, ?)",
+                             [(device, json.dumps(state), blob) for device, state, blob in states])
 
-    def streams(self) -> dict[str, dict[str, Any]]:
-        return {d: json.loads(s) for d, s in self._db.execute("SELECT device, state FROM streams")}
+    def streams(self) -> dict[str, tuple[dict[str, Any], bytes]]:
+        return {d: (json.loads(s), blob) for d, s, blob in self._db.execute("SELECT device, state, filter FROM streams")}
 
-    def save_days(self, rows: Iterable[tuple[str, str, dict[str, Any]]]) -> None:
-        self._db.executemany("INSERT OR REPLACE INTO days VALUES (?, ?, ?)",
-                             [(subject, day, json.dumps(state)) for subject, day, state in rows])
+    def save_days(self, rows: Iterable[tuple[str, str, float, float, float | None, float | None]]) -> None:
+        """(subject, day, energy m^2/s^3, trigger seconds, EAV time, ELV time) rows."""
+        self._db.executemany("INSERT OR REPLACE INTO days VALUES (?, ?, ?, ?, ?, ?)", rows)
 
-    def days(self) -> dict[tuple[str, str], dict[str, Any]]:
-        return {(s, d): json.loads(v) for s, d, v in self._db.execute("SELECT subject, day, state FROM days")}
+    def days(self) -> dict[tuple[str, str], tuple[float, float, float | None, float | None]]:
+        return {(row[0], row[1]): row[2:] for row in self._db.execute("SELECT * FROM days")}
+
+    def save_session(self, device: str, session: dict[str, Any]) -> None:
+        self._db.execute("INSERT OR REPLACE INTO sessions VALUES (?, ?)", (device, json.dumps(session)))
+
+    def sessions(self) -> dict[str, dict[str, Any]]:
+        return {d: json.loads(s) for d, s in self._db.execute("SELECT device, session FROM sessions")}
 
     def save_activities(self, rows: Iterable[tuple[str, str, str, dict[str, Any]]]) -> None:
         """(activity id, subject, day, state) rows, inserted or replaced."""

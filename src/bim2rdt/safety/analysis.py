@@ -1,0 +1,140 @@
+"""Exposure of a recorded file: read a CSV of tri-axial acceleration, run it through the monitor, plot the day.
+
+The CSV has a header with a time column (``t`` or ``time``, seconds; epoch or from 0) and three acceleration
+columns (``ax, ay, az`` or ``x, y, z``, m/s^2). The sampling rate is the median time step. The recording goes
+through the same :class:`HavMonitor` as live data (trigger-time activities, artefact rejection), so a file and
+a stream give the same figures.
+"""
+
+from __future__ import annotations
+
+import csv
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from bim2rdt.bus.event import Event
+from bim2rdt.bus.payloads import AccelBatch
+from bim2rdt.safety.activity import ACTIVITY_ENDED
+from bim2rdt.safety.errors import HavError
+from bim2rdt.safety.exposure import EAV, ELV, time_to_limit
+from bim2rdt.safety.monitor import HavMonitor, MonitorConfig
+from bim2rdt.safety.sinks import ListSink
+from bim2rdt.safety.weighting import BandCoverage, covered_band
+
+TIME_NAMES, AXIS_NAMES = ("t", "time", "time_s"), (("ax", "ay", "az"), ("x", "y", "z"))
+
+
+@dataclass
+class Recording:
+    """Samples ``xyz`` (n, 3) m/s^2 at ``fs`` Hz starting at ``t0`` (s)."""
+
+    t0: float
+    fs: float
+    xyz: np.ndarray
+
+
+@dataclass
+class DayReport:
+    """What a recording amounts to: activities, the day's A(8) and points, its A(8) curve and all events."""
+
+    a8: float
+    points: float
+    trigger_s: float
+    band: BandCoverage
+    activities: list[dict] = field(default_factory=list)
+    timeline: list[tuple[float, float]] = field(default_factory=list)
+    events: list[Event] = field(default_factory=list)
+
+    @property
+    def seconds_to_eav(self) -> float | None:
+        """At the last activity's a_hv, how long until EAV (None once reached or without activity)."""
+        return self._remaining(EAV)
+
+    @property
+    def seconds_to_elv(self) -> float | None:
+        return self._remaining(ELV)
+
+    def _remaining(self, limit: float) -> float | None:
+        if not self.activities or self.a8 >= limit:
+            return None
+        a_hv = self.activities[-1]["a_hv"]
+        return time_to_limit(a_hv, limit) * (1 - (self.a8 / limit) ** 2)
+
+
+def read_accel_csv(path: Path) -> Recording:
+    """Read a CSV recording; HavError with the reason if it is not one."""
+    if not Path(path).is_file():
+        raise HavError(f"no such file: {path}")
+    with open(path, newline="") as handle:
+        header = [name.strip().lower() for name in next(csv.reader(handle), [])]
+    columns = _columns(header, path)
+    try:
+        data = np.loadtxt(path, delimiter=",", skiprows=1, usecols=columns, ndmin=2)
+    except ValueError as error:
+        raise HavError(f"{path}: not numeric CSV data ({str(error).splitlines()[0]})") from None
+    if data.shape[0] < 16:
+        raise HavError(f"{path}: only {data.shape[0]} samples; a recording needs at least 16")
+    step = float(np.median(np.diff(data[:, 0])))
+    if not step > 0:
+        raise HavError(f"{path}: the time column does not increase")
+    return Recording(float(data[0, 0]), round(1.0 / step, 6), data[:, 1:4])
+
+
+def _columns(header: list[str], path: Path) -> list[int]:
+    time_col = next((header.index(n) for n in TIME_NAMES if n in header), None)
+    axes = next((names for names in AXIS_NAMES if all(n in header for n in names)), None)
+    if time_col is None or axes is None:
+        raise HavError(f"{path}: the header needs a time column (t) and ax, ay, az (or x, y, z); got {header}")
+    return [time_col, *(header.index(n) for n in axes)]
+
+
+def analyze_recording(recording: Recording, tool: str = "unknown", position: str = "handle",
+                      batch_s: float = 1.0) -> DayReport:
+    """Run a recording through a throw-away monitor and collect the day."""
+    sink = ListSink()
+    with tempfile.TemporaryDirectory(prefix="bim2rdt-hav-") as folder:
+        monitor = HavMonitor(Path(folder), "analysis", [sink], MonitorConfig(keep_timeline=True),
+                             clock=lambda: recording.t0)
+        subject = monitor.start_session("file", "recording", tool, position)
+        step = max(1, int(round(batch_s * recording.fs)))
+        for seq, start in enumerate(range(0, recording.xyz.shape[0], step)):
+            monitor.ingest(AccelBatch("file", seq, recording.t0 + start / recording.fs, recording.fs,
+                                      recording.xyz[start:start + step].astype(np.float32), None))
+        monitor.end_session("file")
+        day = monitor.day(subject, _only_day(monitor, subject))
+        timeline = [(t, a8) for t, _, a8 in monitor.timeline]
+        monitor.close()
+    ended = [e.data for e in sink.events if e.kind == ACTIVITY_ENDED]
+    return DayReport(day.a8, day.points, day.seconds, covered_band(recording.fs), ended, timeline, sink.events)
+
+
+def _only_day(monitor: HavMonitor, subject: str) -> str | None:
+    days = [day for (who, day) in monitor._days if who == subject]
+    return max(days) if days else None
+
+
+def plot_day(report: DayReport, path: Path, title: str = "Daily vibration exposure") -> Path:
+    """A(8) against time (hours from the first activity) with the EAV and ELV lines, as a PNG."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(8, 4.5))
+    if report.timeline:
+        t = np.array([row[0] for row in report.timeline])
+        ax.plot((t - t[0]) / 3600.0, [row[1] for row in report.timeline], color="tab:blue", label="A(8)")
+    ax.axhline(EAV, color="tab:orange", linestyle="--", label=f"EAV {EAV} m/s²")
+    ax.axhline(ELV, color="tab:red", linestyle="--", label=f"ELV {ELV} m/s²")
+    ax.set(xlabel="time since first activity (h)", ylabel="A(8) (m/s²)", title=title,
+           ylim=(0, max(ELV * 1.2, report.a8 * 1.1)))
+    ax.legend(loc="upper left")
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return Path(path)

@@ -1,0 +1,111 @@
+"""Simulated wearables on a bus: each worker's device publishes its status and acceleration batches.
+
+A worker's day is a plan of (tool, seconds) pieces with pauses; each tool piece is announced by a retained
+status message ``{"online": true, "worker", "tool", "position", "zone"}`` (the device's last will sets
+``{"online": false}``), then its samples go out as QoS 1 batches with (device, seq, device time). Devices are
+interleaved in time order; ``speed`` 1 paces them in real time, 0 publishes as fast as the bus takes them.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+
+import numpy as np
+
+from bim2rdt.bus.payloads import encode_accel
+from bim2rdt.bus.topics import accel_topic, status_topic
+from bim2rdt.sim.vibration import TOOLS, batches, tool_vibration
+
+TOOL_ORDER = ("grinder", "hammer_drill", "breaker")
+PAUSE_S = 30.0
+
+
+@dataclass(frozen=True)
+class WorkerPlan:
+    """A simulated worker: device id, worker id, work zone, (tool, seconds) pieces ('idle' = pause) and how
+    hard the worker's tools shake relative to the typical magnitude (``intensity``)."""
+
+    device: str
+    worker: str
+    zone: str | None
+    pieces: tuple[tuple[str, float], ...]
+    intensity: float = 1.0
+
+
+def default_plans(workers: int, minutes: float, zone: str | None = None) -> list[WorkerPlan]:
+    """Each worker uses the three tools in a rotated order, splitting ``minutes`` with 30 s pauses."""
+    plans = []
+    for k in range(workers):
+        tools = TOOL_ORDER[k % 3:] + TOOL_ORDER[:k % 3]
+        each = max(minutes * 60.0 / 3 - PAUSE_S, 10.0)
+        pieces = [("idle", 5.0)]
+        for tool in tools:
+            pieces += [(tool, each), ("idle", PAUSE_S)]
+        plans.append(WorkerPlan(f"w{k + 1}", f"worker-{k + 1:03d}", zone, tuple(pieces), 0.9 + 0.15 * (k % 4)))
+    return plans
+
+
+def status_payload(plan: WorkerPlan, tool: str, online: bool = True) -> bytes:
+    body = {"online": online, "worker": plan.worker, "tool": tool, "position": "handle", "zone": plan.zone}
+    return json.dumps(body if online else {"online": False}).encode()
+
+
+def timed_messages(plans: list[WorkerPlan], site: str, fs: float, t0: float, batch_s: float = 0.5,
+                   seed: int = 0) -> Iterator[tuple[float, str, str, bytes, bool]]:
+    """(device time, device, topic, payload, retain) of every device's messages, in time order."""
+    streams = [_device_messages(plan, site, fs, t0, batch_s, seed + i) for i, plan in enumerate(plans)]
+    heads = [next(s, None) for s in streams]
+    while any(h is not None for h in heads):
+        i = min((k for k, h in enumerate(heads) if h is not None), key=lambda k: heads[k][0])
+        yield heads[i]
+        heads[i] = next(streams[i], None)
+
+
+def _device_messages(plan: WorkerPlan, site: str, fs: float, t0: float, batch_s: float,
+                     seed: int) -> Iterator[tuple[float, str, str, bytes, bool]]:
+    when, seq, tool = t0, 0, plan.pieces[0][0]
+    for i, (piece, seconds) in enumerate(plan.pieces):
+        if piece != "idle":
+            tool = piece
+            yield when, plan.device, status_topic(site, plan.device), status_payload(plan, tool), True
+        signal = _piece_signal(plan, piece, seconds, fs, seed * 100 + i)
+        for batch in batches(plan.device, signal, fs, when, batch_s, seq):
+            yield batch.device_time, plan.device, accel_topic(site, plan.device), encode_accel(batch), False
+            seq = batch.seq + 1
+        when += signal.shape[0] / fs
+    yield when, plan.device, status_topic(site, plan.device), status_payload(plan, tool, online=False), True
+
+
+def publish_plans(bus_for: Callable[[str], object], plans: list[WorkerPlan], site: str, fs: float,
+                  batch_s: float = 0.5, speed: float = 0.0, t0: float | None = None,
+                  tick: Callable[[float], None] | None = None) -> int:
+    """Publish every plan through ``bus_for(device)`` (QoS 1); returns the number of messages sent."""
+    start_wall, t0 = time.time(), time.time() if t0 is None else t0
+    sent = 0
+    for when, device, topic, payload, retain in timed_messages(plans, site, fs, t0, batch_s):
+        if speed > 0:
+            delay = (when - t0) / speed - (time.time() - start_wall)
+            if delay > 0:
+                time.sleep(delay)
+        bus_for(device).publish(topic, payload, qos=1, retain=retain)
+        sent += 1
+        if tick is not None:
+            tick(when - t0)
+    return sent
+
+
+def plan_seconds(plan: WorkerPlan) -> float:
+    return float(sum(seconds for _, seconds in plan.pieces))
+
+
+def plan_signal(plan: WorkerPlan, fs: float, seed: int = 0) -> np.ndarray:
+    """The (n, 3) samples of a whole plan (the same ones :func:`timed_messages` sends for seed ``seed``)."""
+    return np.concatenate([_piece_signal(plan, piece, seconds, fs, seed * 100 + i)
+                           for i, (piece, seconds) in enumerate(plan.pieces)])
+
+
+def _piece_signal(plan: WorkerPlan, tool: str, seconds: float, fs: float, seed: int) -> np.ndarray:
+    return tool_vibration(tool, seconds, fs, TOOLS[tool].a_hv * plan.intensity, seed=seed)
