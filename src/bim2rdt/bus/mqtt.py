@@ -17,6 +17,7 @@ from bim2rdt.bus.topics import topic_matches
 from bim2rdt.errors import Bim2RdtError
 
 Handler = Callable[[str, bytes], None]
+_KEPT_ACKS = 4096
 
 
 class BusError(Bim2RdtError):
@@ -67,13 +68,15 @@ class MqttBus:
 
     def publish(self, topic: str, payload: bytes, qos: int = 0, retain: bool = False, wait: bool = False) -> int:
         """Publish; with ``wait`` (QoS >= 1) block until the PUBACK and return its reason code."""
-        with self._lock:
-            info = self._client.publish(topic, payload, qos=qos, retain=retain)
-            done = self._acks.setdefault(info.mid, threading.Event()) if wait and qos > 0 else None
-        if info.rc != mqtt.MQTT_ERR_SUCCESS:
+        info = self._client.publish(topic, payload, qos=qos, retain=retain)  # never under our lock: paho calls
+        if info.rc != mqtt.MQTT_ERR_SUCCESS:                                 # on_publish holding its own
             raise BusError(f"publish to {topic} failed: {mqtt.error_string(info.rc)}")
-        if done is None:
+        if not wait or qos == 0:
             return 0
+        with self._lock:
+            done = self._acks.setdefault(info.mid, threading.Event())
+            if info.mid in self._ack_codes:
+                done.set()
         if not done.wait(self.timeout_s):
             raise BusError(f"no PUBACK from {self.host}:{self.port} for {topic} within {self.timeout_s} s")
         with self._lock:
@@ -106,7 +109,9 @@ class MqttBus:
 
     def _on_publish(self, client, userdata, mid, reason_code, properties) -> None:
         with self._lock:
+            self._ack_codes[mid] = reason_code.value
+            while len(self._ack_codes) > _KEPT_ACKS:  # nobody waits for most of them: keep the latest only
+                self._ack_codes.pop(next(iter(self._ack_codes)))
             waiting = self._acks.get(mid)
             if waiting is not None:
-                self._ack_codes[mid] = reason_code.value
                 waiting.set()

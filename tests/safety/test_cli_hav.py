@@ -1,0 +1,104 @@
+"""The HAV command line: analyze a recording, simulate wearables into the twin, the benchmark, a live run
+through a real Mosquitto (broker, listener and simulated devices as separate processes)."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+from bim2rdt.bim import load_ifc
+from bim2rdt.bus.broker import free_port
+from bim2rdt.safety import daily_exposure
+from bim2rdt.sim.site import build_site_ifc
+from bim2rdt.sim.vibration import session_signal
+
+
+def run_cli(*args: str, env: dict | None = None, timeout: float = 180) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "bim2rdt", *args], capture_output=True, text=True, timeout=timeout,
+                          env={**os.environ, **(env or {})})
+
+
+@pytest.fixture
+def cli_env(tmp_path):
+    return {"BIM2RDT_DATA_DIR": str(tmp_path / "var"), "BIM2RDT_MQTT__DEVICE_SECRET": "test-devices",
+            "BIM2RDT_MQTT__SITE": "t", "COLUMNS": "160"}
+
+
+def test_analyze_reports_the_exposure_of_a_recording_and_plots_the_day(tmp_path):
+    fs = 2000.0
+    signal = session_signal([("idle", 3), ("grinder", 40), ("idle", 5)], fs, a_hv={"grinder": 6.0})
+    path = tmp_path / "day.csv"
+    np.savetxt(path, np.column_stack([np.arange(len(signal)) / fs, signal]), delimiter=",", header="t,ax,ay,az",
+               comments="", fmt="%.6f")
+    result = run_cli("hav", "analyze", str(path), "--out", str(tmp_path / "out"), "--json")
+    assert result.returncode == 0, result.stderr
+    report = json.loads(result.stdout)
+    assert report["fs"] == pytest.approx(fs)
+    assert len(report["activities"]) == 1 and report["activities"][0]["a_hv"] == pytest.approx(6.0, rel=0.05)
+    assert report["a8"] == pytest.approx(daily_exposure(6.0, 40.0), rel=0.05)
+    assert report["band_limited"] is True  # 2 kHz covers up to 794 Hz, not 1000 Hz
+    assert (tmp_path / "out" / "day_a8.png").stat().st_size > 10_000
+
+
+@pytest.mark.parametrize("content, message", [("a,b\n1,2\n", "header needs a time column"),
+                                              ("t,ax,ay,az\n0,1,2,x\n", "not numeric")])
+def test_analyze_refuses_a_bad_file_in_one_line(tmp_path, content, message):
+    path = tmp_path / "bad.csv"
+    path.write_text(content)
+    result = run_cli("hav", "analyze", str(path))
+    assert result.returncode == 1
+    assert message in result.stderr and len(result.stderr.strip().splitlines()) == 1
+
+
+def test_a_malformed_broker_address_is_a_one_line_error():
+    result = run_cli("hav", "listen", "--mqtt", "no-port-here")
+    assert result.returncode == 1 and "HOST:PORT" in result.stderr
+
+
+def test_simulated_wearables_in_process_write_the_twin(tmp_path, cli_env):
+    site = build_site_ifc(tmp_path / "site.ifc")
+    result = run_cli("sim", "wearables", "--workers", "2", "--minutes", "3", "--fs", "1000", "--ifc", str(site),
+                     "--out", str(tmp_path / "twin.ifc"), env=cli_env)
+    assert result.returncode == 0, result.stderr
+    assert "activity_started" in result.stdout and "Daily exposure" in result.stdout
+    twin = load_ifc(tmp_path / "twin.ifc", geometry=False)
+    zone = next(z.global_id for z in twin.zones if z.name == "Work Zone A - Drilling")
+    assert sum(e.name.startswith("HAV activity started") for e in twin.events) == 6  # 2 workers x 3 tools
+    assert all(zone in e.related for e in twin.events)
+
+
+def test_bench_hav_reports_throughput_against_the_floor_and_latency(cli_env):
+    result = run_cli("bench", "hav", "--streams", "40", "--seconds", "2", "--messages", "30", "--json", env=cli_env)
+    assert result.returncode == 0, result.stderr
+    report = json.loads(result.stdout)
+    assert report["throughput"]["streams"] == 40 and report["throughput"]["ratio_to_floor"] > 0
+    assert report["latency"]["messages"] == 30 and report["latency"]["p99_ms"] >= report["latency"]["p50_ms"] > 0
+    assert set(report["targets"]) == {"streams_ge_2000", "within_1_5x_floor"}
+
+
+def test_a_live_run_through_mosquitto_with_the_shipped_config(tmp_path, cli_env):
+    port = free_port()
+    broker = subprocess.Popen([sys.executable, "-m", "bim2rdt", "hav", "broker", "--port", str(port), "--devices",
+                               "1", "--duration", "60"], env={**os.environ, **cli_env}, stdout=subprocess.PIPE,
+                              stderr=subprocess.PIPE, text=True)
+    try:
+        time.sleep(3.0)
+        listener = subprocess.Popen([sys.executable, "-m", "bim2rdt", "hav", "listen", "--mqtt", f"127.0.0.1:{port}",
+                                     "--duration", "12"], env={**os.environ, **cli_env}, stdout=subprocess.PIPE,
+                                    stderr=subprocess.PIPE, text=True)
+        time.sleep(4.0)
+        sim = run_cli("sim", "wearables", "--mqtt", f"127.0.0.1:{port}", "--workers", "1", "--minutes", "1",
+                      "--fs", "1000", env=cli_env)
+        assert sim.returncode == 0, sim.stderr
+        out, err = listener.communicate(timeout=60)
+        assert listener.returncode == 0, err
+        assert "activity_started" in out and "activity_ended" in out
+    finally:
+        broker.terminate()
+        broker.wait(timeout=10)
