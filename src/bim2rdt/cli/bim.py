@@ -65,7 +65,7 @@ def bench_ifc_command(
     from bim2rdt.bim.benchmark import run_ifc_bench
 
     path = ifc_file or _default_bench_file()
-    with Progress(console=_status, transient=True) as progress:
+    with Progress(console=_status, transient=True, disable=not _status.is_terminal) as progress:
         task = progress.add_task(f"benchmarking {path.name}", total=2 * repeat + max(3, repeat))
         result = run_ifc_bench(path, repeat, step=lambda label: progress.update(task, advance=1, description=label))
     if as_json:
@@ -88,7 +88,7 @@ def _load(path: Path, geometry: bool):
 
     from bim2rdt.bim import load_ifc
 
-    with Progress(console=_status, transient=True) as progress:
+    with Progress(console=_status, transient=True, disable=not _status.is_terminal) as progress:
         task = progress.add_task(f"reading {path.name}", total=100)
         return load_ifc(path, geometry=geometry,
                         progress=lambda done, total: progress.update(task, completed=done, total=total))
