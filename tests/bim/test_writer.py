@@ -165,9 +165,17 @@ def test_an_ifc4x3_site_round_trips_moves_events_and_tasks(tmp_path):
     assert _errors(out) == []
 
 
-def test_a_writer_given_a_model_read_without_geometry_reads_it_with_geometry(samples):
-    """Moves of Revit's identity-placed elements need their geometry-derived placements."""
-    model = load_ifc(samples / "TestModel_IFC4Add2.ifc", geometry=False)
-    writer = TwinWriter(model)
-    assert writer.model.meshes is not None
-    assert any(el.placement_from_geometry for el in writer.model.elements)
+def test_a_model_read_without_geometry_is_tessellated_only_when_an_element_moves(samples, tmp_path):
+    """Events and tasks need no geometry; moves of Revit's identity-placed elements do."""
+    with_geometry = load_ifc(samples / "TestModel_IFC4Add2.ifc", cache_dir=tmp_path / "cache")
+    part = next(el for el in with_geometry.elements if el.placement_from_geometry and el.ifc_class != "IfcSpace")
+    writer = TwinWriter(load_ifc(samples / "TestModel_IFC4Add2.ifc", geometry=False))
+    writer.add_event("start", T0, "start", related=[part.global_id])
+    assert writer.model.meshes is None
+    shifted = part.placement.copy()
+    shifted[:3, 3] += (1.0, 2.0, 0.0)
+    writer.move_element(part.global_id, shifted)
+    again = load_ifc(writer.save(tmp_path / "moved.ifc"), cache_dir=tmp_path / "cache")
+    assert np.allclose(again.element(part.global_id).placement, shifted, atol=1e-6)
+    assert np.allclose(again.mesh(part.global_id)[0].min(axis=0),
+                       with_geometry.mesh(part.global_id)[0].min(axis=0) + (1.0, 2.0, 0.0), atol=1e-5)

@@ -52,9 +52,7 @@ class TwinWriter:
     """Collects twin updates on a private copy of the model's IFC file; ``save`` writes them atomically."""
 
     def __init__(self, model: BimModel | str | Path):
-        if not isinstance(model, BimModel) or model.meshes is None:  # moves need geometry-located placements
-            model = load_ifc(model if not isinstance(model, BimModel) else model.path)
-        self.model = model
+        self.model = model if isinstance(model, BimModel) else load_ifc(model)
         name = self.model.path.name
         if not self.model.schema.upper().startswith(WRITABLE_SCHEMAS):
             raise BimError(f"{name}: TwinWriter writes IFC4/IFC4X3 only; this file is {self.model.schema}, which "
@@ -72,6 +70,8 @@ class TwinWriter:
         """Move an element so that its (reader) pose becomes ``pose`` (4x4, world metres)."""
         pose = _checked_pose(pose)
         product = self._product(global_id)
+        if self.model.meshes is None:
+            self._adopt_geometry()
         if global_id in self._located_by_geometry:
             self._rebase_body(product, self._poses[global_id])
             self._located_by_geometry.discard(global_id)
@@ -170,6 +170,18 @@ class TwinWriter:
         if properties:
             add_typed_pset(self.ifc, process, pset, properties)
         return process.GlobalId
+
+    def _adopt_geometry(self) -> None:
+        """Before the first move of a model read without geometry: read it with geometry (cached), since
+        identity-placed Revit elements only get their true placement from their tessellated body."""
+        model = load_ifc(self.model.path)
+        if model.digest != self.model.digest:
+            raise BimError(f"{model.path.name}: the file changed on disk since it was loaded; load it again")
+        for el in model.elements:  # nothing has moved yet, so the geometry model's poses are the current ones
+            self._poses[el.global_id] = el.placement.copy()
+            if el.placement_from_geometry:
+                self._located_by_geometry.add(el.global_id)
+        self.model = model
 
     def _product(self, global_id: str) -> ifcopenshell.entity_instance:
         return self._entity(global_id, "IfcProduct", "element")
