@@ -40,6 +40,15 @@ def _broker_address(value: str) -> tuple[str, int]:
     return host, int(port)
 
 
+def _configured_broker(settings) -> str:
+    from bim2rdt.bus.mqtt import BusError
+
+    if settings.mqtt.host is None:
+        raise BusError("no broker: give --mqtt HOST:PORT or set BIM2RDT_MQTT__HOST (for the in-process bus, "
+                       "run `bim2rdt sim wearables` without --mqtt)")
+    return f"{settings.mqtt.host}:{settings.mqtt.port}"
+
+
 def _password(settings, user: str) -> str:
     from bim2rdt.bus.broker import device_password
 
@@ -52,7 +61,8 @@ def _event_line(event) -> None:
     """One line per event: time (UTC, device clock), pseudonym, tool, what happened, running figures."""
     data = event.data
     stamp = time.strftime("%H:%M:%S", time.gmtime(event.time))
-    figures = f"a_hv {data.get('a_hv') or 0:4.1f} A(8) {data.get('day_a8') or 0:4.2f} {data.get('day_points') or 0:3.0f}pt"
+    figures = (f"a_hv {data.get('a_hv') or 0:4.1f} A(8) {data.get('day_a8') or 0:4.2f} "
+               f"{data.get('day_points') or 0:3.0f}pt")
     extra = f" EAV in {data['seconds_to_eav'] / 60:.0f} min" if data.get("seconds_to_eav") else ""
     console.print(f"{stamp} {event.subject[:10]} {data.get('tool', ''):12.12s} {event.kind[4:]:17s} {figures}{extra}",
                   soft_wrap=True)
@@ -69,8 +79,8 @@ def _summary(monitor, devices) -> None:
 
 
 def _last_day(monitor, subject: str) -> str | None:
-    days = [day for who, day in monitor.store.days() if who == subject]
-    return max(days) if days else None
+    days = monitor.days_of(subject)
+    return days[-1] if days else None
 
 
 @contextmanager
@@ -92,7 +102,7 @@ def _twin(ifc: Path | None, out: Path | None):
 
 @hav_app.command("listen")
 def hav_listen(
-    mqtt: str = typer.Option(..., "--mqtt", help="Broker HOST:PORT (e.g. from `bim2rdt hav broker`)."),
+    mqtt: str | None = typer.Option(None, "--mqtt", help="Broker HOST:PORT (default: BIM2RDT_MQTT__HOST/PORT)."),
     duration: float = typer.Option(0.0, "--duration", min=0.0, help="Stop after this many seconds (0: Ctrl-C)."),
     ifc: Path | None = typer.Option(None, "--ifc", help="Site IFC to write IfcEvent/IfcTask records into."),
     out: Path | None = typer.Option(None, "--out", help="Where the twin IFC goes (default: <ifc>_hav.ifc)."),
@@ -104,7 +114,7 @@ def hav_listen(
     from bim2rdt.safety.setup import open_monitor
 
     settings = get_settings()
-    host, port = _broker_address(mqtt)
+    host, port = _broker_address(mqtt or _configured_broker(settings))
     bus = MqttBus(host, port, username=settings.mqtt.username,
                   password=_password(settings, settings.mqtt.username)).connect()
     with _twin(ifc, out) as ifc_sink:
@@ -120,7 +130,7 @@ def hav_listen(
         except KeyboardInterrupt:
             pass
         bus.close()
-        _summary(monitor, list(monitor._streams))
+        _summary(monitor, monitor.devices())
         monitor.close()
 
 
@@ -233,10 +243,11 @@ def _simulate_over_mqtt(plans, fs, speed, tick, mqtt) -> None:
 
     settings = get_settings()
     host, port = _broker_address(mqtt)
-    buses = {p.device: MqttBus(host, port, client_id=p.device, username=p.device,
-                               password=_password(settings, p.device),
-                               will=(status_topic(settings.mqtt.site, p.device), status_payload(p, "", False))).connect()
-             for p in plans}
+    buses = {}
+    for plan in plans:
+        will = (status_topic(settings.mqtt.site, plan.device), status_payload(plan, "", False))
+        buses[plan.device] = MqttBus(host, port, client_id=plan.device, username=plan.device,
+                                     password=_password(settings, plan.device), will=will).connect()
     try:
         sent = publish_plans(buses.__getitem__, plans, settings.mqtt.site, fs, speed=speed, tick=tick)
     finally:

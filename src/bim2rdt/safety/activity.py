@@ -150,8 +150,8 @@ class ActivityTracker:
             if before < limit <= day.energy and getattr(day, attr) is None:
                 when = end - seconds + seconds * (limit - before) / energy
                 setattr(day, attr, when)
-                notices.append((kind, when, {"activity": act.id, "day": act.day, "limit": value, "day_a8": math.sqrt(limit / T0_S),
-                                             "day_points": points_from_energy(limit)}))
+                notices.append((kind, when, {"activity": act.id, "day": act.day, "limit": value,
+                                             "day_a8": math.sqrt(limit / T0_S), "day_points": points_from_energy(limit)}))
         if day.eav_at is None and self._prediction_due():
             notices.append(self._predict(end, day))
         return notices
@@ -166,5 +166,5 @@ class ActivityTracker:
         rate = act.a_hv**2
         to_eav = (E_EAV - day.energy) / rate if rate > 0 else math.inf
         to_elv = (E_ELV - day.energy) / rate if rate > 0 else math.inf
-        return (EAV_PREDICTED, end, {"activity": act.id, "day": act.day, "seconds_to_eav": to_eav, "eav_expected_at": end + to_eav,
-                                     "seconds_to_elv": to_elv})
+        return (EAV_PREDICTED, end, {"activity": act.id, "day": act.day, "seconds_to_eav": to_eav,
+                                     "eav_expected_at": end + to_eav, "seconds_to_elv": to_elv})

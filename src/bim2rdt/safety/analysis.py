@@ -104,16 +104,12 @@ def analyze_recording(recording: Recording, tool: str = "unknown", position: str
             monitor.ingest(AccelBatch("file", seq, recording.t0 + start / recording.fs, recording.fs,
                                       recording.xyz[start:start + step].astype(np.float32), None))
         monitor.end_session("file")
-        day = monitor.day(subject, _only_day(monitor, subject))
+        days = monitor.days_of(subject)
+        day = monitor.day(subject, days[-1] if days else None)
         timeline = [(t, a8) for t, _, a8 in monitor.timeline]
         monitor.close()
     ended = [e.data for e in sink.events if e.kind == ACTIVITY_ENDED]
     return DayReport(day.a8, day.points, day.seconds, covered_band(recording.fs), ended, timeline, sink.events)
-
-
-def _only_day(monitor: HavMonitor, subject: str) -> str | None:
-    days = [day for (who, day) in monitor._days if who == subject]
-    return max(days) if days else None
 
 
 def plot_day(report: DayReport, path: Path, title: str = "Daily vibration exposure") -> Path:

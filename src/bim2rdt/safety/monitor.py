@@ -1,13 +1,13 @@
 """The streaming hand-arm vibration monitor: wearable batches in, exposure and safety events out.
 
-``HavMonitor`` ingests batches ``(device, seq, device_time, fs, xyz)``; a device is bound to a worker and a
-tool by a *session* (from the device's retained status message or :meth:`HavMonitor.start_session`). Per
-stream it orders and de-duplicates batches, reports gaps, weighs samples with the fitted Wh IIR (after the
-subject's mounting correction, if any) with state carried across batches, rejects artefact blocks (NaN,
-saturation, shocks) and feeds half-second blocks to the trigger-time activity tracker. Per worker-day it keeps A(8) and HSE points and
-emits: activity started, predicted time to EAV, EAV reached, ELV reached, activity ended (with the day's
-exposure), gaps and artefacts. Every ingest is one SQLite transaction (raw batches, stream checkpoints,
-activity and day state, events), so a restart mid-shift resumes exactly where it stopped.
+``HavMonitor`` ingests batches ``(device, seq, device_time, fs, xyz)``; a device is bound to a worker and a tool
+by a *session* (from the device's retained status message or :meth:`HavMonitor.start_session`). Per stream it
+orders and de-duplicates batches, reports gaps, weighs samples with the fitted Wh IIR (after the subject's
+mounting correction, if any) with state carried across batches, rejects artefact blocks (NaN, saturation,
+shocks) and feeds half-second blocks to the trigger-time activity tracker. Per worker-day it keeps A(8) and HSE
+points and emits: activity started, predicted time to EAV, EAV reached, ELV reached, activity ended (with the
+day's exposure), gaps and artefacts. Every ingest is one SQLite transaction (stream order and filter state,
+activity and day state, events, raw batches while retained), so a restart mid-shift resumes where it stopped.
 """
 
 from __future__ import annotations
@@ -23,7 +23,8 @@ from pathlib import Path
 from bim2rdt.bus.event import Event
 from bim2rdt.bus.payloads import AccelBatch, PayloadError, decode_accel
 from bim2rdt.bus.topics import device_of, wearable_pattern
-from bim2rdt.safety.activity import ACTIVITY_ENDED, ACTIVITY_STARTED, ARTEFACT, GAP, ActivityState, ActivityTracker, DayState, Notice, Trigger
+from bim2rdt.safety.activity import (ACTIVITY_ENDED, ACTIVITY_STARTED, ARTEFACT, GAP, ActivityState, ActivityTracker,
+                                     DayState, Notice, Trigger)
 from bim2rdt.safety.blocks import ArtefactLimits, describe_flags
 from bim2rdt.safety.mounting import MountingCorrection
 from bim2rdt.safety.privacy import IdentityMap, pseudonym
@@ -214,6 +215,16 @@ class HavMonitor:
         """The worker-day's exposure (A(8), points, trigger time); today (UTC) by default."""
         with self._lock:
             return self._days.get((subject, day or _day_key(self.clock())), DayState())
+
+    def days_of(self, subject: str) -> list[str]:
+        """The days (UTC, 'YYYY-MM-DD') with exposure on record for a worker, oldest first."""
+        with self._lock:
+            return sorted(day for who, day in self._days if who == subject)
+
+    def devices(self) -> list[str]:
+        """Every device the monitor has seen (or restored)."""
+        with self._lock:
+            return list(self._streams)
 
     def session(self, device: str) -> Session | None:
         stream = self._streams.get(device)

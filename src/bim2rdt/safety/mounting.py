@@ -46,7 +46,8 @@ class MountingCorrection:
         freqs, p_ref = scipy.signal.welch(ref, fs, nperseg=nperseg, axis=0)
         _, p_wear = scipy.signal.welch(wear, fs, nperseg=nperseg, axis=0)
         bands = FIT_BANDS[band_centre_hz(FIT_BANDS + 0.5) <= fs / 2]
-        ref_band, wear_band = _band_power(freqs, p_ref.sum(axis=1), bands), _band_power(freqs, p_wear.sum(axis=1), bands)
+        ref_band = _band_power(freqs, p_ref.sum(axis=1), bands)
+        wear_band = _band_power(freqs, p_wear.sum(axis=1), bands)
         usable = (ref_band > _EMPTY_BAND * ref_band.max()) & (wear_band > _EMPTY_BAND * wear_band.max())
         if usable.sum() < 2:
             raise HavError("paired recordings share too little vibration to fit a mounting correction")

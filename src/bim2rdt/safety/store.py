@@ -1,7 +1,8 @@
 """Exposure state on disk: SQLite in WAL mode, one transaction per ingest, so a restart loses nothing.
 
 What is kept: raw batches (out-of-order ones until they are processed, all of them only for the configured
-retention), each stream's ordering, filter and activity state, each worker-day's accumulated weighted energy and the times EAV
+retention), each stream's ordering, filter and activity state, each worker-day's accumulated weighted energy and
+the times EAV
 and ELV were reached, activities, events and fitted mounting corrections. Workers appear only as pseudonyms;
 the identity map lives in a separate file (see :mod:`bim2rdt.safety.privacy`).
 """
@@ -88,7 +89,8 @@ class ExposureStore:
                              [(device, json.dumps(state), blob) for device, state, blob in states])
 
     def streams(self) -> dict[str, tuple[dict[str, Any], bytes]]:
-        return {d: (json.loads(s), blob) for d, s, blob in self._db.execute("SELECT device, state, filter FROM streams")}
+        rows = self._db.execute("SELECT device, state, filter FROM streams")
+        return {device: (json.loads(state), blob) for device, state, blob in rows}
 
     def save_days(self, rows: Iterable[tuple[str, str, float, float, float | None, float | None]]) -> None:
         """(subject, day, energy m^2/s^3, trigger seconds, EAV time, ELV time) rows."""
