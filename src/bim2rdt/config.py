@@ -60,6 +60,8 @@ class MqttSettings(BaseModel):
     port: int = Field(1883, description="Broker port.")
     site: str = Field("demo", description="Site id used in topic names site/{site}/...")
     username: str = Field("monitor", description="Broker user of the HAV monitor (the shipped ACL's reader).")
+    session_expiry_s: int = Field(3600, description="How long the broker queues QoS 1 messages for a stopped "
+                                  "monitor (MQTT 5 session expiry), seconds.")
     password: str | None = Field(None, description="Monitor's broker password; None derives it from device_secret.")
     device_secret: str = Field("change-me-devices", description="Dev provisioning: device passwords are keyed "
                                "hashes of their ids with this secret (bim2rdt hav broker, sim wearables).")

@@ -18,8 +18,12 @@ from bim2rdt.sim.vibration import batches, session_signal
 NOT_AUTHORIZED = 135
 
 
+def client(broker, user: str, password: str | None = None, **kw) -> MqttBus:
+    return MqttBus("127.0.0.1", broker.port, username=user, password=password or broker.users[user], **kw)
+
+
 def connect(broker, user: str, password: str | None = None, **kw) -> MqttBus:
-    return MqttBus("127.0.0.1", broker.port, username=user, password=password or broker.users[user], **kw).connect()
+    return client(broker, user, password, **kw).connect()
 
 
 def collect(bus: MqttBus, pattern: str) -> list:
@@ -116,3 +120,32 @@ def test_the_monitor_over_mqtt_ignores_payloads_whose_device_is_not_the_topics(b
     bus.close()
     w1.close()
     monitor.close()
+
+
+def test_a_restarted_monitor_gets_what_was_published_while_it_was_away(broker, tmp_path):
+    sink = ListSink()
+    fs, t0 = 5000.0, time.time()
+    sent = list(batches("w2", session_signal([("idle", 1), ("breaker", 5)], fs), fs, t0))
+    first = HavMonitor(tmp_path, "secret", [sink], MonitorConfig(site="r"))
+    bus = client(broker, "monitor", client_id="hav-monitor-r", session_expiry_s=600)
+    first.attach(bus)
+    bus.connect()
+    time.sleep(0.2)
+    w2 = connect(broker, "w2")
+    for item in sent[:4]:
+        w2.publish(accel_topic("r", "w2"), encode_accel(item), qos=1, wait=True)
+    assert wait_for(lambda: (first.stream_status("w2") or {}).get("next_seq") == 4)
+    bus.close()  # the monitor stops mid-shift ...
+    first.close()
+    for item in sent[2:]:  # ... the device keeps publishing (and repeats two batches it was unsure about)
+        w2.publish(accel_topic("r", "w2"), encode_accel(item), qos=1, wait=True)
+    second = HavMonitor(tmp_path, "secret", [sink], MonitorConfig(site="r"))
+    bus = client(broker, "monitor", client_id="hav-monitor-r", session_expiry_s=600)
+    second.attach(bus)
+    bus.connect()
+    assert wait_for(lambda: second.stream_status("w2")["next_seq"] == len(sent), timeout=10)
+    assert second.stats["duplicates"] == 2
+    assert "hav.activity_started" in sink.kinds()
+    bus.close()
+    w2.close()
+    second.close()

@@ -1,5 +1,8 @@
 """The MQTT bus over paho-mqtt 2.x (``CallbackAPIVersion.VERSION2``, MQTT 5), same interface as LocalBus.
 
+With ``session_expiry_s`` and a fixed ``client_id`` the broker keeps the subscription and queues QoS 1 messages
+while the client is away (a restarted monitor gets what it missed; its de-duplication drops what it had).
+
 Handlers run on paho's network thread, one message at a time, in arrival order. ``publish(..., wait=True)``
 blocks until the broker's PUBACK and returns its reason code: 0 when accepted, 135 (not authorized) when the
 broker's ACL refused it.
@@ -12,6 +15,8 @@ import uuid
 from collections.abc import Callable
 
 import paho.mqtt.client as mqtt
+from paho.mqtt.packettypes import PacketTypes
+from paho.mqtt.properties import Properties
 
 from bim2rdt.bus.topics import topic_matches
 from bim2rdt.errors import Bim2RdtError
@@ -28,8 +33,9 @@ class MqttBus:
     """A connected MQTT client; ``will`` = (topic, payload) is published retained if we vanish."""
 
     def __init__(self, host: str, port: int, client_id: str | None = None, username: str | None = None,
-                 password: str | None = None, will: tuple[str, bytes] | None = None, timeout_s: float = 10.0):
-        self.host, self.port, self.timeout_s = host, port, timeout_s
+                 password: str | None = None, will: tuple[str, bytes] | None = None, timeout_s: float = 10.0,
+                 session_expiry_s: int = 0):
+        self.host, self.port, self.timeout_s, self.session_expiry_s = host, port, timeout_s, session_expiry_s
         self._client = mqtt.Client(mqtt.CallbackAPIVersion.VERSION2,
                                    client_id=client_id or f"bim2rdt-{uuid.uuid4().hex[:8]}", protocol=mqtt.MQTTv5)
         if username is not None:
@@ -49,8 +55,13 @@ class MqttBus:
 
     def connect(self) -> MqttBus:
         """Connect and wait for the broker's CONNACK; BusError with the broker's reason otherwise."""
+        properties = None
+        if self.session_expiry_s:
+            properties = Properties(PacketTypes.CONNECT)
+            properties.SessionExpiryInterval = self.session_expiry_s
         try:
-            self._client.connect(self.host, self.port, keepalive=30)
+            self._client.connect(self.host, self.port, keepalive=30, clean_start=not self.session_expiry_s,
+                                 properties=properties)
         except OSError as error:
             raise BusError(f"cannot reach MQTT broker {self.host}:{self.port}: {error}") from error
         self._client.loop_start()

@@ -115,12 +115,13 @@ def hav_listen(
 
     settings = get_settings()
     host, port = _broker_address(mqtt or _configured_broker(settings))
-    bus = MqttBus(host, port, username=settings.mqtt.username,
-                  password=_password(settings, settings.mqtt.username)).connect()
+    bus = MqttBus(host, port, client_id=f"bim2rdt-hav-monitor-{settings.mqtt.site}", username=settings.mqtt.username,
+                  password=_password(settings, settings.mqtt.username), session_expiry_s=settings.mqtt.session_expiry_s)
     with _twin(ifc, out) as ifc_sink:
         sinks = [CallbackSink(_event_line), BusSink(bus, settings.mqtt.site)] + ([ifc_sink] if ifc_sink else [])
         monitor = open_monitor(settings, sinks)
-        monitor.attach(bus)
+        monitor.attach(bus)  # before connecting: the broker may deliver what it queued for us at once
+        bus.connect()
         console.print(f"listening on {host}:{port} site {settings.mqtt.site!r}; state in {settings.data_dir / 'hav'}")
         deadline = time.monotonic() + duration if duration else float("inf")
         try:

@@ -206,7 +206,8 @@ class HavMonitor:
             return events
 
     def attach(self, bus) -> None:
-        """Subscribe to every wearable's accel and status topics of the configured site on ``bus``."""
+        """Subscribe to every wearable's accel and status topics of the configured site on ``bus`` (attach
+        before connecting an MQTT bus with a persistent session, so queued messages find their handler)."""
         bus.subscribe(wearable_pattern(self.config.site, "status"), self.on_status, qos=1)
         bus.subscribe(wearable_pattern(self.config.site, "accel"), self.ingest_payload, qos=1)
 
@@ -229,6 +230,15 @@ class HavMonitor:
     def session(self, device: str) -> Session | None:
         stream = self._streams.get(device)
         return stream.session if stream else None
+
+    def stream_status(self, device: str) -> dict | None:
+        """Where a device's stream stands: next expected seq, batches waiting, counters, clock offset (s)."""
+        with self._lock:
+            stream = self._streams.get(device)
+            if stream is None:
+                return None
+            return {"next_seq": stream.buffer.next_seq, "waiting": sorted(stream.buffer.pending),
+                    "clock_offset_s": stream.clock_offset_s, **stream.counters}
 
     def activity(self, device: str) -> ActivityState | None:
         stream = self._streams.get(device)
