@@ -1,0 +1,129 @@
+"""The as-built truth of a simulated site: what the robot's camera really sees, versus what the BIM says.
+
+Site objects drift from their BIM placements (a crate pushed along the slab, a drum rolled and turned, a cone
+knocked over) and objects nobody modelled appear (an unplanned drum). :func:`simulate_reality` draws such changes
+from a seed and returns a ray-castable :class:`~bim2rdt.sim.scene.SiteScene` plus the truth per object, so a
+mission's estimates can be scored. Meshes are the BIM's own (tessellated, brought back to each element's body
+frame), so the simulation works for any IFC element with a body, not only the procedural library.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import trimesh
+
+from bim2rdt.bim import BimModel
+from bim2rdt.mission import Detection
+from bim2rdt.perception.camera import Intrinsics
+from bim2rdt.registration.so3 import axis_angle
+from bim2rdt.sim.meshes import mesh_for_family
+from bim2rdt.sim.render import RgbdFrame, render_rgbd
+from bim2rdt.sim.scene import PlacedObject, SiteScene
+from bim2rdt.sim.views import object_scene_points
+
+UNPLANNED_FAMILY = "Steel_Drum_55gal"
+"""The family of the unplanned object the default reality adds (a drum nobody put in the model)."""
+
+
+@dataclass(frozen=True)
+class TrueObject:
+    """One object as it really is: its BIM GlobalId (None if unplanned), family, true pose and what changed."""
+
+    global_id: str | None
+    family: str
+    T_world_model: np.ndarray
+    change: str  # "unchanged" | "moved" | "knocked" | "unplanned"
+
+
+@dataclass(frozen=True)
+class Reality:
+    """The ray-castable site as built, and the truth for each of its objects (same order as ``scene.objects``)."""
+
+    scene: SiteScene
+    truth: list[TrueObject]
+
+
+def body_mesh(model: BimModel, global_id: str) -> trimesh.Trimesh:
+    """An element's tessellated body in its own frame (world mesh mapped through the inverse placement)."""
+    vertices_world, faces = model.mesh(global_id)
+    T_model_world = np.linalg.inv(model.element(global_id).placement)
+    vertices_body = vertices_world @ T_model_world[:3, :3].T + T_model_world[:3, 3]
+    return trimesh.Trimesh(vertices_body, faces, process=False)
+
+
+def simulate_reality(model: BimModel, global_ids: list[str], seed: int = 0, move_fraction: float = 0.5,
+                     unplanned_at: tuple[float, float] | None = (5.0, 4.0)) -> Reality:
+    """Draw site changes for the objects ``global_ids``: about ``move_fraction`` of them moved by 0.15-0.6 m and
+    turned by up to 40 degrees, one cone (if any) knocked 12 degrees off upright, and an unplanned drum at
+    ``unplanned_at`` (x, y metres; None for none). Deterministic for a seed."""
+    rng = np.random.default_rng(seed)
+    truth = [_changed(model, gid, rng, move_fraction) for gid in global_ids]
+    truth = _knock_one_cone(truth)
+    if unplanned_at is not None:
+        truth.append(TrueObject(None, UNPLANNED_FAMILY, _ground_pose(*unplanned_at, yaw_deg=25.0), "unplanned"))
+    objects = [PlacedObject(t.family, _mesh(model, t), t.T_world_model, albedo=0.35 + 0.3 * rng.random())
+               for t in truth]
+    return Reality(SiteScene(objects, ground_size=60.0), truth)
+
+
+def _changed(model: BimModel, global_id: str, rng: np.random.Generator, move_fraction: float) -> TrueObject:
+    element = model.element(global_id)
+    if rng.random() >= move_fraction:
+        return TrueObject(global_id, element.family or "", element.placement.copy(), "unchanged")
+    heading = rng.uniform(0.0, 2 * np.pi)
+    shift = rng.uniform(0.15, 0.6) * np.array([np.cos(heading), np.sin(heading), 0.0])
+    turn = axis_angle(np.array([0.0, 0.0, 1.0]), np.array(np.deg2rad(rng.uniform(-40.0, 40.0))))
+    T = element.placement.copy()
+    T[:3, :3] = turn @ T[:3, :3]
+    T[:3, 3] += shift
+    return TrueObject(global_id, element.family or "", T, "moved")
+
+
+def _knock_one_cone(truth: list[TrueObject]) -> list[TrueObject]:
+    """Lean the first cone 12 degrees about a horizontal axis through its base edge (it rests against
+    something): a truly tilted object that a low upright bias must leave tilted."""
+    for index, obj in enumerate(truth):
+        if "cone" in obj.family.lower():
+            lean = np.eye(4)
+            lean[:3, :3] = axis_angle(np.array([1.0, 0.0, 0.0]), np.array(np.deg2rad(12.0)))
+            pivot = np.eye(4)
+            pivot[:3, 3] = (0.0, 0.19, 0.0)  # the base plate's edge, body frame
+            T = obj.T_world_model @ pivot @ lean @ np.linalg.inv(pivot)
+            truth[index] = TrueObject(obj.global_id, obj.family, T, "knocked")
+            break
+    return truth
+
+
+def _mesh(model: BimModel, obj: TrueObject) -> trimesh.Trimesh:
+    return mesh_for_family(obj.family) if obj.global_id is None else body_mesh(model, obj.global_id)
+
+
+def _ground_pose(x: float, y: float, yaw_deg: float) -> np.ndarray:
+    T = np.eye(4)
+    T[:3, :3] = axis_angle(np.array([0.0, 0.0, 1.0]), np.array(np.deg2rad(yaw_deg)))
+    T[:3, 3] = (x, y, 0.0)
+    return T
+
+
+class SimulatedPerception:
+    """The perception front end on simulated frames: render the real site from the robot's camera (with sensor
+    noise), and for every object in view hand its family label and ROI corner points to the mission.
+
+    The detector here is the renderer's instance mask with the true family (an ideal open-vocabulary detector);
+    everything after the ROI (Shi-Tomasi corners, depth, back-projection, clutter) is the real pipeline."""
+
+    def __init__(self, reality: Reality, intrinsics: Intrinsics = Intrinsics(), seed: int = 0,
+                 min_pixels: int = 150):
+        self.reality, self.intrinsics, self.min_pixels = reality, intrinsics, min_pixels
+        self.rng = np.random.default_rng(seed)
+        self.frames: list[RgbdFrame] = []
+
+    def __call__(self, station: int, T_world_camera: np.ndarray) -> list[Detection]:
+        frame = render_rgbd(self.reality.scene, self.intrinsics, T_world_camera, self.rng)
+        self.frames.append(frame)
+        seen, pixels = np.unique(frame.labels[frame.labels >= 0], return_counts=True)
+        return [Detection(self.reality.truth[index].family,
+                          object_scene_points(frame, self.intrinsics, int(index), self.rng), station, int(index))
+                for index, count in zip(seen, pixels) if count >= self.min_pixels]
