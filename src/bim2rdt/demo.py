@@ -1,27 +1,49 @@
-"""The demo job. For now: the paper's four registration scenarios (ICP vs SG-ICP, few trials, well under a
-minute), a before/after plot per scenario, results and the resolved config/seed/versions saved in ``out_dir``.
-The full site loop (BIM, perception, twin, safety) will extend :func:`run_demo`."""
+"""The demo job, on the embedded default site (``make demo``):
+
+1. a simulated site day (:mod:`bim2rdt.site_day`): BIM -> priors -> robot mission with SG-ICP -> twin update ->
+   hand-arm vibration monitoring -> IfcEvent/IfcTask records -> ``site_twin.ifc``, with a plan view, an
+   exposure plot, ``site_day.json`` and ``report.md``;
+2. the paper's four registration scenarios (ICP vs SG-ICP, a few trials) with a before/after plot each, in
+   ``registration/``;
+3. the resolved configuration, seed and versions in ``config.json``.
+"""
 
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 
 from bim2rdt.atomic import write_bytes_atomic
 from bim2rdt.sim.registration_runs import RegistrationRun, run_registration_scenarios, save_run, versions
+from bim2rdt.site_day import SiteDay, run_site_day
 
 DEMO_TRIALS = 6
 DEMO_SEED = 0
 
 
-def run_demo(out_dir: Path, trials: int = DEMO_TRIALS, seed: int = DEMO_SEED, tick=lambda: None) -> RegistrationRun:
-    """Run the registration scenarios into ``out_dir`` (created): plots, results.json and config.json."""
+@dataclass
+class DemoResult:
+    site_day: SiteDay
+    report: dict[str, Path]
+    registration: RegistrationRun
+
+
+def run_demo(out_dir: Path, trials: int = DEMO_TRIALS, seed: int = DEMO_SEED, workers: int = 2,
+             minutes: float = 60.0, tick: Callable[[str], None] = lambda stage: None) -> DemoResult:
+    """Run the site day and the registration scenarios into ``out_dir`` (created)."""
     from bim2rdt.config import get_settings
+    from bim2rdt.site_report import write_site_report
 
     out_dir = Path(out_dir)
+    day = run_site_day(out_dir, seed=seed, workers=workers, minutes=minutes, tick=tick)
+    report = write_site_report(day, out_dir)
     config = get_settings().registration
-    run = run_registration_scenarios(out_dir, trials, seed, config, peers=False, tick=tick)
-    save_run(run, out_dir)
-    resolved = {"registration": config.model_dump(), "trials": trials, "seed": seed, "versions": versions()}
+    run = run_registration_scenarios(out_dir / "registration", trials, seed, config, peers=False,
+                                     tick=lambda: tick("trial"))
+    save_run(run, out_dir / "registration")
+    resolved = {"registration": config.model_dump(), "trials": trials, "seed": seed, "workers": workers,
+                "minutes": minutes, "versions": versions()}
     write_bytes_atomic(out_dir / "config.json", json.dumps(resolved, indent=2).encode("utf-8"))
-    return run
+    return DemoResult(day, report, run)

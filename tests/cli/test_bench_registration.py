@@ -1,4 +1,4 @@
-"""`bim2rdt bench registration` and `bim2rdt demo` run end to end on a tiny trial count."""
+"""`bim2rdt bench registration` runs end to end on a tiny trial count."""
 
 from __future__ import annotations
 
@@ -36,11 +36,3 @@ def test_bench_registration_prints_the_table_with_pass_or_fail(tmp_path):
 def test_bench_registration_rejects_zero_trials(tmp_path):
     result = run_cli("bench", "registration", "--trials", "0", "--out", str(tmp_path))
     assert result.returncode != 0
-
-
-def test_demo_saves_plots_results_and_the_resolved_config(tmp_path):
-    result = run_cli("demo", "--out", str(tmp_path), "--trials", "1")
-    assert result.returncode == 0, result.stderr
-    config = json.loads((tmp_path / "config.json").read_text())
-    assert config["seed"] == 0 and config["registration"]["restarts"] >= 1 and "numpy" in config["versions"]
-    assert (tmp_path / "results.json").is_file() and len(list(tmp_path.glob("*.png"))) == 4

@@ -1,0 +1,149 @@
+"""The site day's report: a plan view of the site (BIM vs measured vs true poses, robot stations), the workers'
+A(8) through the day against EAV/ELV, a JSON record and a Markdown summary."""
+
+from __future__ import annotations
+
+import json
+from datetime import datetime, timezone
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from bim2rdt.atomic import write_bytes_atomic  # noqa: E402
+from bim2rdt.safety import EAV, ELV  # noqa: E402
+from bim2rdt.site_day import SiteDay, objects_of_interest  # noqa: E402
+from bim2rdt.sim.meshes import mesh_for_family  # noqa: E402
+from bim2rdt.sim.truth import pose_error  # noqa: E402
+
+STATUS_COLOURS = {"as-planned": "tab:green", "moved": "tab:orange", "new": "tab:red", "unverified": "tab:grey"}
+
+
+def observation_rows(day: SiteDay) -> list[dict]:
+    """One row per registered object: verdict, deltas against the BIM, fit, and the error against the truth."""
+    rows = []
+    for obs in day.mission.observations:
+        truth = day.reality.truth[obs.truth_index] if obs.truth_index is not None else None
+        error = pose_error(obs.family, obs.pose, truth.T_world_model) if truth else None
+        rows.append({
+            "family": obs.family, "label": day.priors[obs.family].label, "global_id": obs.global_id,
+            "status": obs.status, "truth": truth.change if truth else None, "upright_bias": obs.upright_bias,
+            "shift_m": obs.shift, "yaw_deg": obs.yaw_deg, "tilt_deg": obs.tilt_deg, "points": obs.points,
+            "fitness": obs.fit.fitness, "rmse_m": obs.fit.rmse,
+            "error_rotation_deg": error.rotation_deg if error else None,
+            "error_translation_m": error.translation if error else None,
+            "error_tilt_deg": error.tilt_deg if error else None})
+    return rows
+
+
+def write_site_report(day: SiteDay, out_dir: Path) -> dict[str, Path]:
+    """Write plan.png, exposure.png, site_day.json and report.md into ``out_dir``; returns their paths."""
+    rows = observation_rows(day)
+    paths = {"plan": plot_plan(day, out_dir / "plan.png"), "exposure": plot_exposure(day, out_dir / "exposure.png")}
+    record = {"twin": str(day.twin_path), "observations": rows, "not_seen": day.mission.not_seen,
+              "hav_events": [_event_row(e) for e in day.hav_events if not e.kind.endswith("predicted")],
+              "twin_records": day.twin_records}
+    paths["json"] = out_dir / "site_day.json"
+    write_bytes_atomic(paths["json"], json.dumps(record, indent=2, default=float).encode("utf-8"))
+    paths["report"] = out_dir / "report.md"
+    write_bytes_atomic(paths["report"], _markdown(day, rows, record).encode("utf-8"))
+    return paths
+
+
+def plot_plan(day: SiteDay, path: Path) -> Path:
+    """Plan view: BIM footprints (dashed), measured ones (filled by verdict), true centres (x), stations."""
+    fig, ax = plt.subplots(figsize=(10, 7))
+    for el in day.model.elements:
+        if el.ifc_class in ("IfcWall", "IfcWallStandardCase", "IfcColumn") and day.model.has_mesh(el.global_id):
+            vertices, _ = day.model.mesh(el.global_id)
+            ax.fill(*_hull(vertices[:, :2]).T, color="0.8", zorder=0)
+    targets = {t.global_id: t for t in _targets(day)}
+    for obs in day.mission.observations:
+        colour = STATUS_COLOURS[obs.status]
+        mesh = targets[obs.global_id].mesh_body if obs.global_id in targets else None
+        if mesh is not None:
+            bim = _footprint(mesh.vertices, targets[obs.global_id].placement)
+            ax.plot(*np.vstack([bim, bim[:1]]).T, "--", color="0.3", lw=0.8)
+        body = mesh.vertices if mesh is not None else _new_mesh_vertices(obs.family)
+        ax.fill(*_footprint(body, obs.pose).T, color=colour, alpha=0.7)
+        truth = day.reality.truth[obs.truth_index].T_world_model if obs.truth_index is not None else None
+        if truth is not None:
+            ax.plot(truth[0, 3], truth[1, 3], "kx", ms=6)
+    stations = np.array([T[:3, 3] for T in day.mission.stations])
+    ax.plot(stations[:, 0], stations[:, 1], "-o", color="tab:blue", ms=4, lw=1, label="robot stations")
+    for status, colour in STATUS_COLOURS.items():
+        ax.fill([], [], color=colour, alpha=0.7, label=status)
+    ax.set(aspect="equal", xlabel="x (m)", ylabel="y (m)",
+           title="Site plan: BIM (dashed) vs measured by SG-ICP (filled); x = true position")
+    ax.legend(loc="upper right", fontsize=8)
+    fig.savefig(path, dpi=110, bbox_inches="tight")
+    plt.close(fig)
+    return path
+
+
+def plot_exposure(day: SiteDay, path: Path) -> Path:
+    """Each worker's A(8) (m/s^2) through the shift, with the EAV and ELV lines."""
+    fig, ax = plt.subplots(figsize=(9, 4))
+    by_worker: dict[str, list[tuple[float, float]]] = {}
+    for when, subject, a8 in day.exposure_timeline:
+        by_worker.setdefault(subject, []).append((when, a8))
+    for subject, series in by_worker.items():
+        times, values = np.array(series).T
+        ax.plot([datetime.fromtimestamp(t, timezone.utc) for t in times], values, label=f"worker {subject[:8]}")
+    ax.axhline(EAV, color="tab:orange", ls="--", label="EAV 2.5 m/s²")
+    ax.axhline(ELV, color="tab:red", ls="--", label="ELV 5 m/s²")
+    ax.set(ylabel="A(8) (m/s²)", xlabel="time (UTC)", title="Daily hand-arm vibration exposure (ISO 5349-1)")
+    ax.legend(fontsize=8)
+    fig.autofmt_xdate()
+    fig.savefig(path, dpi=110, bbox_inches="tight")
+    plt.close(fig)
+    return path
+
+
+def _markdown(day: SiteDay, rows: list[dict], record: dict) -> str:
+    lines = ["# bim2rdt site day", "", f"Twin written to `{day.twin_path.name}` (as-designed model: `site.ifc`).", "",
+             "## Objects verified by the robot", "",
+             "| family | label | bias | verdict | truth | shift m | yaw ° | tilt ° | fitness | error cm | error ° |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        lines.append(f"| {r['family']} | {r['label']} | {r['upright_bias']:.2f} | {r['status']} | {r['truth']} | "
+                     f"{r['shift_m']:.2f} | {r['yaw_deg']:.1f} | {r['tilt_deg']:.1f} | {r['fitness']:.2f} | "
+                     f"{100 * r['error_translation_m']:.1f} | {r['error_rotation_deg']:.1f} |")
+    lines += ["", f"Not seen: {', '.join(day.mission.not_seen) or 'none'}.", "", "## Safety events", "",
+              "| time (UTC) | event | worker | A(8) m/s² |", "|---|---|---|---|"]
+    for e in record["hav_events"]:
+        lines.append(f"| {e['time']} | {e['kind']} | {e['subject'][:8]} | {e['a8']} |")
+    lines += ["", f"IFC records written: {len(day.twin_records)} "
+              f"({sum(c == 'IfcEvent' for c, _ in day.twin_records)} IfcEvent, "
+              f"{sum(c == 'IfcTask' for c, _ in day.twin_records)} IfcTask).", "",
+              "![plan](plan.png)", "", "![exposure](exposure.png)", ""]
+    return "\n".join(lines)
+
+
+def _event_row(event) -> dict:
+    a8 = event.data.get("day_a8")
+    return {"time": datetime.fromtimestamp(event.time, timezone.utc).strftime("%H:%M:%S"), "kind": event.kind,
+            "subject": event.subject, "a8": round(float(a8), 2) if a8 is not None else None}
+
+
+def _targets(day: SiteDay):
+    return objects_of_interest(day.model)
+
+
+def _new_mesh_vertices(family: str) -> np.ndarray:
+    return np.asarray(mesh_for_family(family).vertices)
+
+
+def _footprint(vertices_body: np.ndarray, T: np.ndarray) -> np.ndarray:
+    world = np.asarray(vertices_body) @ T[:3, :3].T + T[:3, 3]
+    return _hull(world[:, :2])
+
+
+def _hull(points_xy: np.ndarray) -> np.ndarray:
+    from scipy.spatial import ConvexHull
+
+    unique = np.unique(np.round(points_xy, 4), axis=0)
+    return unique[ConvexHull(unique).vertices] if len(unique) >= 3 else unique
