@@ -192,3 +192,16 @@ def test_ending_a_session_ends_the_running_activity_with_the_day_exposure(make_m
     assert [e.kind for e in events][-1] == "hav.activity_ended"
     assert events[-1].data["day_a8"] == pytest.approx(monitor.day(subject, DAY).a8)
     assert monitor.store.activities(subject)[-1]["open"] is False
+
+
+def test_with_both_hands_exposed_the_day_counts_the_greater_hand(make_monitor, clock):
+    monitor, sink = make_monitor()
+    subject = monitor.start_session("left-1", "pat", "grinder", hand="left")
+    monitor.start_session("right-1", "pat", "breaker", hand="right")
+    left = plan_batches("left-1", [("idle", 2), ("grinder", 60)], a_hv={"grinder": 5.0}, seed=1)
+    right = plan_batches("right-1", [("idle", 2), ("breaker", 60)], a_hv={"breaker": 12.0}, seed=2)
+    feed(monitor, [b for pair in zip(left, right) for b in pair], clock)
+    day = monitor.day(subject, DAY)
+    assert day.a8 == pytest.approx(combine_exposures([(12.0, 60.0)]), rel=0.02)  # not the sum of both hands
+    assert set(day.hands) == {"left", "right"}
+    assert day.hand_energy("left") == pytest.approx(25.0 * 60, rel=0.03)

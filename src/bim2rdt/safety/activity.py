@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from bim2rdt.safety.exposure import EAV, ELV, T0_S, a8_from_energy, points_from_energy
 
@@ -42,12 +42,29 @@ class Trigger:
 
 @dataclass
 class DayState:
-    """One worker's day: accumulated weighted energy (m^2/s^3), trigger time (s), when EAV/ELV were reached."""
+    """One worker's day: accumulated weighted energy (m^2/s^3) and trigger time (s) per hand, when EAV/ELV were
+    reached. With both hands exposed ISO 5349-1 takes the greater: the day's energy is the larger hand's (a
+    wearable whose hand is not given counts as hand '', so two such devices on one worker add up)."""
 
-    energy: float = 0.0
-    seconds: float = 0.0
+    hands: dict[str, list[float]] = field(default_factory=dict)
     eav_at: float | None = None
     elv_at: float | None = None
+
+    @property
+    def energy(self) -> float:
+        return max((energy for energy, _ in self.hands.values()), default=0.0)
+
+    @property
+    def seconds(self) -> float:
+        return max(self.hands.values(), default=[0.0, 0.0])[1] if self.hands else 0.0
+
+    def hand_energy(self, hand: str) -> float:
+        return self.hands.get(hand, [0.0, 0.0])[0]
+
+    def add(self, hand: str, energy: float, seconds: float) -> None:
+        record = self.hands.setdefault(hand, [0.0, 0.0])
+        record[0] += energy
+        record[1] += seconds
 
     @property
     def a8(self) -> float:
@@ -93,8 +110,8 @@ class ActivityTracker:
     """Feeds one stream's frames through activity detection into the worker's day; ``name`` (the device)
     prefixes activity ids."""
 
-    def __init__(self, trigger: Trigger, name: str, state: ActivityState | None = None):
-        self.trigger, self.name = trigger, name
+    def __init__(self, trigger: Trigger, name: str, state: ActivityState | None = None, hand: str = ""):
+        self.trigger, self.name, self.hand = trigger, name, hand
         self.state = state or ActivityState()
 
     def frame(self, end: float, seconds: float, energy: float, day_key: str, day_of: DayLookup) -> list[Notice]:
@@ -145,10 +162,11 @@ class ActivityTracker:
         act, notices = self.state, []
         before = day.energy
         act.energy, act.seconds = act.energy + energy, act.seconds + seconds
-        day.energy, day.seconds = day.energy + energy, day.seconds + seconds
+        day.add(self.hand, energy, seconds)
+        after = day.energy
         for kind, limit, attr, value in ((EAV_REACHED, E_EAV, "eav_at", EAV), (ELV_REACHED, E_ELV, "elv_at", ELV)):
-            if before < limit <= day.energy and getattr(day, attr) is None:
-                when = end - seconds + seconds * (limit - before) / energy
+            if before < limit <= after and getattr(day, attr) is None:
+                when = end - seconds + seconds * (limit - before) / (after - before)
                 setattr(day, attr, when)
                 notices.append((kind, when, {"activity": act.id, "day": act.day, "limit": value,
                                              "day_a8": math.sqrt(limit / T0_S), "day_points": points_from_energy(limit)}))
@@ -164,7 +182,8 @@ class ActivityTracker:
         act = self.state
         act.predicted_at_s = act.seconds
         rate = act.a_hv**2
-        to_eav = (E_EAV - day.energy) / rate if rate > 0 else math.inf
-        to_elv = (E_ELV - day.energy) / rate if rate > 0 else math.inf
+        own = day.hand_energy(self.hand)  # this hand's way to the limit (the other hand's stream predicts its own)
+        to_eav = (E_EAV - own) / rate if rate > 0 else math.inf
+        to_elv = (E_ELV - own) / rate if rate > 0 else math.inf
         return (EAV_PREDICTED, end, {"activity": act.id, "day": act.day, "seconds_to_eav": to_eav,
                                      "eav_expected_at": end + to_eav, "seconds_to_elv": to_elv})

@@ -74,12 +74,9 @@ def run_latency(messages: int = 200, rate_hz: float = 20.0, fs: float = 5000.0, 
     from bim2rdt.bus.mqtt import MqttBus
 
     users = {"monitor": "bench-monitor", "w1": "bench-w1"}
-    signal = np.concatenate([tool_vibration("idle", 2.0, fs), tool_vibration("hammer_drill", 60.0, fs)])
-    step = int(batch_s * fs)
-    published, done, produced = [], [], []
+    done, produced, finished = [], [], threading.Event()
     with tempfile.TemporaryDirectory(prefix="bim2rdt-bench-") as folder, MosquittoBroker(users) as broker:
         monitor = HavMonitor(Path(folder), "bench", [], MonitorConfig(site="bench"))
-        finished = threading.Event()
 
         def on_accel(topic: str, payload: bytes) -> None:
             produced.append(len(monitor.ingest_payload(topic, payload)))
@@ -87,26 +84,40 @@ def run_latency(messages: int = 200, rate_hz: float = 20.0, fs: float = 5000.0, 
             if len(done) >= messages:
                 finished.set()
 
-        listener = MqttBus("127.0.0.1", broker.port, username="monitor", password=users["monitor"]).connect()
+        listener = MqttBus("127.0.0.1", broker.port, username="monitor", password=users["monitor"])
         listener.subscribe(wearable_pattern("bench", "accel"), on_accel)
+        listener.connect()
         device = MqttBus("127.0.0.1", broker.port, username="w1", password=users["w1"]).connect()
         time.sleep(0.3)
-        t0 = time.time()
-        for seq in range(messages):
-            batch = AccelBatch("w1", seq, t0 + seq * batch_s, fs, signal[seq * step:(seq + 1) * step], WEARABLE_RANGE)
-            payload = encode_accel(batch)
-            published.append(time.perf_counter())
-            device.publish(accel_topic("bench", "w1"), payload, qos=1)
-            if tick is not None:
-                tick()
-            time.sleep(max(0.0, published[0] + (seq + 1) / rate_hz - time.perf_counter()))
+        published = _publish_paced(device, messages, rate_hz, fs, batch_s, tick)
         finished.wait(30.0)
         device.close()
         listener.close()
         monitor.close()
-    latency = (np.array(done[:len(published)]) - np.array(published[:len(done)])) * 1000.0
-    with_events = latency[np.array(produced[:latency.size]) > 0]
-    return {"messages": int(latency.size), "p50_ms": float(np.percentile(latency, 50)),
+    return _latency_summary(np.array(published), np.array(done), np.array(produced))
+
+
+def _publish_paced(device, messages: int, rate_hz: float, fs: float, batch_s: float,
+                   tick: Callable[[], None] | None) -> list[float]:
+    """A hammer-drilling wearable's batches at ``rate_hz``; returns each publish call's time."""
+    signal = np.concatenate([tool_vibration("idle", 2.0, fs), tool_vibration("hammer_drill", 60.0, fs)])
+    step, t0, published = int(batch_s * fs), time.time(), []
+    for seq in range(messages):
+        batch = AccelBatch("w1", seq, t0 + seq * batch_s, fs, signal[seq * step:(seq + 1) * step], WEARABLE_RANGE)
+        payload = encode_accel(batch)
+        published.append(time.perf_counter())
+        device.publish(accel_topic("bench", "w1"), payload, qos=1)
+        if tick is not None:
+            tick()
+        time.sleep(max(0.0, published[0] + (seq + 1) / rate_hz - time.perf_counter()))
+    return published
+
+
+def _latency_summary(published: np.ndarray, done: np.ndarray, produced: np.ndarray) -> dict:
+    count = min(published.size, done.size)
+    latency = (done[:count] - published[:count]) * 1000.0
+    with_events = latency[produced[:count] > 0]
+    return {"messages": int(count), "p50_ms": float(np.percentile(latency, 50)),
             "p99_ms": float(np.percentile(latency, 99)), "max_ms": float(latency.max()),
             "event_messages": int(with_events.size),
             "event_p50_ms": float(np.percentile(with_events, 50)) if with_events.size else None}

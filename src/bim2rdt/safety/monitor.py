@@ -63,6 +63,8 @@ class Session:
     tool: str = "unknown"
     position: str = "handle"
     zone: str | None = None
+    hand: str = ""
+    """'left' or 'right' when known: with both hands exposed the day counts the greater one."""
 
     @property
     def estimate(self) -> bool:
@@ -96,7 +98,7 @@ class HavMonitor:
         self._lock = threading.RLock()
         self._corrections = {(c.subject, c.position): c for c in map(MountingCorrection.from_json,
                                                                      self.store.corrections())}
-        self._days = {key: DayState(*row) for key, row in self.store.days().items()}
+        self._days = {key: DayState(*row) for key, row in self.store.days().items()}  # (hands, eav_at, elv_at)
         sessions = self.store.sessions()
         self._streams = {d: self._restore(d, row, sessions.get(d)) for d, row in self.store.streams().items()}
         self._touched_days: set[tuple[str, str]] = set()
@@ -104,16 +106,16 @@ class HavMonitor:
 
     # --- sessions and corrections ---------------------------------------------------------------------
     def start_session(self, device: str, worker: str, tool: str = "unknown", position: str = "handle",
-                      zone: str | None = None) -> str:
-        """Bind ``device`` to a worker (stored as a pseudonym), a tool, a body position and a work zone."""
+                      zone: str | None = None, hand: str = "") -> str:
+        """Bind ``device`` to a worker (stored as a pseudonym), a tool, a body position, a work zone and a hand."""
         with self._lock:
             subject = pseudonym(worker, self.secret)
             self.identity.remember(subject, worker)
             stream = self._stream(device)
-            new = Session(subject, tool, position, zone)
+            new = Session(subject, tool, position, zone, hand)
             if stream.session != new:
                 events = self._stop_activity(stream, self._last_time(stream))
-                stream.session = new
+                stream.session, stream.tracker.hand = new, hand
                 self._commit([], [stream], events)
                 with self.store.transaction():
                     self.store.save_session(device, vars(new))
@@ -185,7 +187,7 @@ class HavMonitor:
             return []
         if status.get("online") and status.get("worker"):
             self.start_session(device, str(status["worker"]), str(status.get("tool", "unknown")),
-                               str(status.get("position", "handle")), status.get("zone"))
+                               str(status.get("position", "handle")), status.get("zone"), str(status.get("hand", "")))
             return []
         return self.end_session(device) if status.get("online") is False else []
 
@@ -369,8 +371,7 @@ class HavMonitor:
             self.store.save_activities([self._open_activity(self._streams[e.source]) for e in events
                                         if e.kind == ACTIVITY_STARTED])
             self._drop_raw(streams, now)
-            self.store.save_days([(subject, day, *vars(self._days[(subject, day)]).values())
-                                  for subject, day in self._touched_days])
+            self.store.save_days([(subject, day, self._days[(subject, day)]) for subject, day in self._touched_days])
             self.store.add_events(events)
             self.store.save_activities([(e.data["activity"], e.subject, e.data["day"], {**e.data, "open": False})
                                         for e in events if e.kind == ACTIVITY_ENDED])
@@ -400,9 +401,9 @@ class HavMonitor:
         buffer = self._buffer()
         next_seq = state["buffer"]["next_seq"]
         buffer.load(state["buffer"], self.store.raw_batches(device, next_seq) if next_seq is not None else [])
-        tracker = ActivityTracker(self.config.trigger, device, ActivityState(**state["activity"]))
-        return _Stream(device, buffer, FilterState.from_bytes(blob), tracker,
-                       Session(**session) if session else self._anonymous_session(device), state["clock_offset_s"],
+        session = Session(**session) if session else self._anonymous_session(device)
+        tracker = ActivityTracker(self.config.trigger, device, ActivityState(**state["activity"]), session.hand)
+        return _Stream(device, buffer, FilterState.from_bytes(blob), tracker, session, state["clock_offset_s"],
                        state["counters"])
 
     def _count(self, name: str, amount: float = 1) -> None:

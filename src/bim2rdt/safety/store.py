@@ -27,7 +27,7 @@ CREATE TABLE IF NOT EXISTS raw (device TEXT, seq INTEGER, device_time REAL, rece
 CREATE INDEX IF NOT EXISTS raw_received ON raw (received_time);
 CREATE TABLE IF NOT EXISTS streams (device TEXT PRIMARY KEY, state TEXT, filter BLOB);
 CREATE TABLE IF NOT EXISTS days (subject TEXT, day TEXT, energy REAL, seconds REAL, eav_at REAL, elv_at REAL,
-    PRIMARY KEY (subject, day));
+    hands TEXT, PRIMARY KEY (subject, day));
 CREATE TABLE IF NOT EXISTS sessions (device TEXT PRIMARY KEY, session TEXT);
 CREATE TABLE IF NOT EXISTS activities (id TEXT PRIMARY KEY, subject TEXT, day TEXT, state TEXT);
 CREATE TABLE IF NOT EXISTS events (id INTEGER PRIMARY KEY AUTOINCREMENT, kind TEXT, time REAL, subject TEXT,
@@ -92,12 +92,17 @@ class ExposureStore:
         rows = self._db.execute("SELECT device, state, filter FROM streams")
         return {device: (json.loads(state), blob) for device, state, blob in rows}
 
-    def save_days(self, rows: Iterable[tuple[str, str, float, float, float | None, float | None]]) -> None:
-        """(subject, day, energy m^2/s^3, trigger seconds, EAV time, ELV time) rows."""
-        self._db.executemany("INSERT OR REPLACE INTO days VALUES (?, ?, ?, ?, ?, ?)", rows)
+    def save_days(self, rows: Iterable[tuple[str, str, Any]]) -> None:
+        """(subject, day, DayState) rows: the day's energy (m^2/s^3) and trigger seconds of the greater hand,
+        EAV/ELV times, and every hand's figures."""
+        self._db.executemany("INSERT OR REPLACE INTO days VALUES (?, ?, ?, ?, ?, ?, ?)", [
+            (subject, day, state.energy, state.seconds, state.eav_at, state.elv_at, json.dumps(state.hands))
+            for subject, day, state in rows])
 
-    def days(self) -> dict[tuple[str, str], tuple[float, float, float | None, float | None]]:
-        return {(row[0], row[1]): row[2:] for row in self._db.execute("SELECT * FROM days")}
+    def days(self) -> dict[tuple[str, str], tuple[dict, float | None, float | None]]:
+        """(subject, day) -> (hands, EAV time, ELV time)."""
+        rows = self._db.execute("SELECT subject, day, hands, eav_at, elv_at FROM days")
+        return {(subject, day): (json.loads(hands), eav, elv) for subject, day, hands, eav, elv in rows}
 
     def save_session(self, device: str, session: dict[str, Any]) -> None:
         self._db.execute("INSERT OR REPLACE INTO sessions VALUES (?, ?)", (device, json.dumps(session)))
