@@ -38,3 +38,20 @@ def test_success_needs_both_rotation_and_translation_within_the_bars():
     T[0, 3] = 0.02
     assert not pose_error("Wooden_Crate_1200x800x600", T, np.eye(4)).success()
     assert pose_error("Wooden_Crate_1200x800x600", _turned(0.01), np.eye(4)).success()
+
+
+@pytest.mark.parametrize("pose, mode", [
+    (_turned(0.0), "ok"),
+    (_turned(0.0, np.deg2rad(5.0)), "tilt"),
+    (_turned(np.pi, np.deg2rad(5.0)), "tilt"),
+    (_turned(np.pi), "flip"),
+    (_turned(np.deg2rad(10.0)), "yaw"),
+])
+def test_failures_are_classified_by_the_first_bar_they_miss(pose, mode):
+    assert pose_error("Wooden_Crate_1200x800x600", pose, np.eye(4)).failure_mode() == mode
+
+
+def test_a_pose_with_the_right_rotation_but_off_by_two_centimetres_slid():
+    T = np.eye(4)
+    T[1, 3] = 0.02
+    assert pose_error("Wooden_Crate_1200x800x600", T, np.eye(4)).failure_mode() == "slide"

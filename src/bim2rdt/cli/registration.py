@@ -59,15 +59,21 @@ def show_run(run) -> None:
             rows.append((result.name, label, f"{icp:.6f}", f"{sg:.6f}", f"{improvement(icp, sg):+.1f} %",
                          *[f"{getattr(s[p], key) * scale:.6f}" for p in peers]))
         for label, key, fmt in (("success", "success", "{:.0%}"), ("tilt err (deg)", "tilt_deg", "{:.2f}"),
-                                ("time (ms)", "time_ms", "{:.1f}")):
-            rows.append((result.name, label, fmt.format(getattr(s["ICP"], key)),
-                         fmt.format(getattr(s["SG-ICP"], key)), "",
-                         *[fmt.format(getattr(s[p], key)) for p in peers]))
+                                (f"leaning: tilt err (deg, n={s['ICP'].knocked})", "knocked_tilt_deg", "{:.2f}"),
+                                ("fails tilt/flip/yaw/slide", "modes", _modes), ("time (ms)", "time_ms", "{:.1f}")):
+            fmt = fmt.format if isinstance(fmt, str) else fmt
+            rows.append((result.name, label, fmt(getattr(s["ICP"], key)), fmt(getattr(s["SG-ICP"], key)), "",
+                         *[fmt(getattr(s[p], key)) for p in peers]))
     print_table(f"Registration: Hausdorff means over {run.trials} trials x objects per scenario "
                 "(improvement = RMSE/Mean/Max cut by SG-ICP)",
                 ["scenario", "metric", "ICP", "SG-ICP", "improvement", *peers], rows)
     print_table("Targets", ["target", "result", "detail"],
                 [(t.name, "PASS" if t.passed else "FAIL", t.detail) for t in run.targets])
+
+
+def _modes(counts: dict[str, int]) -> str:
+    """Failure counts as 'tilt/flip/yaw/slide' (see bim2rdt.sim.truth.FAILURE_MODES)."""
+    return "/".join(str(counts.get(mode, 0)) for mode in ("tilt", "flip", "yaw", "slide"))
 
 
 def _open3d_available() -> bool:

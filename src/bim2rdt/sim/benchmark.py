@@ -3,8 +3,10 @@
 Per registration: the Hausdorff statistics between the model's surface samples at the estimated pose (turned by
 the family's symmetry to the equivalent closest to the truth, so a drum turned about its axis scores 0) and at
 the true pose (the paper's metric), success (rotation < 2 deg modulo the family's
-symmetry, translation < 1 cm), tilt error (deg) and wall time. Per scenario and method: means of the Hausdorff
-statistics over all registrations, the success rate, the median tilt error and the median time.
+symmetry, translation < 1 cm), tilt error (deg), the failure mode (:data:`bim2rdt.sim.truth.FAILURE_MODES`)
+and wall time. Per scenario and method: means of the Hausdorff statistics over all registrations, the success
+rate, the median tilt error, the count of each failure mode, the median tilt error of the objects that truly
+lean (``knocked``: where an upright prior is wrong) and the median time.
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ import numpy as np
 
 from bim2rdt.registration import hausdorff
 from bim2rdt.sim.scenarios import Scenario
-from bim2rdt.sim.truth import closest_equivalent, pose_error
+from bim2rdt.sim.truth import FAILURE_MODES, closest_equivalent, pose_error
 
 Method = Callable[..., np.ndarray]
 Prior = tuple[float, bool]  # (upright_bias, yaw_only)
@@ -34,12 +36,15 @@ class MethodStats:
     tilt_deg: float
     time_ms: float
     registrations: int
+    modes: dict[str, int] = field(default_factory=dict)
+    knocked_tilt_deg: float = float("nan")  # median tilt error over truly tilted objects (nan: none in the run)
+    knocked: int = 0
 
 
 @dataclass
 class ScenarioResult:
     """All methods on one scenario: summaries, the raw per-registration rows (rmse, mean, max, success, tilt,
-    seconds) and every estimated pose (for plots): poses[method][trial][object]."""
+    seconds, failure mode, knocked) and every estimated pose (for plots): poses[method][trial][object]."""
 
     name: str
     description: str
@@ -74,7 +79,8 @@ def _register_one(method: Method, scenario: Scenario, obj, priors: dict[str, Pri
     shown = closest_equivalent(obj.family, pose, obj.T_world_model)
     stats = hausdorff(_posed(model_pts, shown), _posed(model_pts, obj.T_world_model))
     error = pose_error(obj.family, pose, obj.T_world_model)
-    rows.append((stats.rmse, stats.mean, stats.max, error.success(), error.tilt_deg, elapsed))
+    rows.append((stats.rmse, stats.mean, stats.max, error.success(), error.tilt_deg, elapsed,
+                 error.failure_mode(), obj.knocked))
     return pose
 
 
@@ -83,10 +89,15 @@ def _posed(points: np.ndarray, T: np.ndarray) -> np.ndarray:
 
 
 def _summarise(rows: list[tuple]) -> MethodStats:
-    a = np.array(rows, dtype=float)
+    a = np.array([row[:6] for row in rows], dtype=float)
+    modes = [row[6] for row in rows]
+    knocked = np.array([row[7] for row in rows], dtype=bool)
     return MethodStats(rmse=float(a[:, 0].mean()), mean=float(a[:, 1].mean()), max=float(a[:, 2].mean()),
                        success=float(a[:, 3].mean()), tilt_deg=float(np.median(a[:, 4])),
-                       time_ms=float(1000 * np.median(a[:, 5])), registrations=len(a))
+                       time_ms=float(1000 * np.median(a[:, 5])), registrations=len(a),
+                       modes={mode: modes.count(mode) for mode in FAILURE_MODES},
+                       knocked_tilt_deg=float(np.median(a[knocked, 4])) if knocked.any() else float("nan"),
+                       knocked=int(knocked.sum()))
 
 
 def improvement(before: float, after: float) -> float:

@@ -69,10 +69,16 @@ def run_record(run: RegistrationRun) -> dict:
         "config": run.config.model_dump(), "trials": run.trials, "seed": run.seed, "versions": versions(),
         "priors": {family: {"upright_bias": bias, "yaw_only": yaw} for family, (bias, yaw) in run.priors.items()},
         "scenarios": {r.name: {"description": r.description,
-                               "methods": {m: asdict(s) for m, s in r.stats.items()}} for r in run.results},
+                               "methods": {m: _no_nan(asdict(s)) for m, s in r.stats.items()}}
+                      for r in run.results},
         "targets": [asdict(t) for t in run.targets],
         "plots": [str(p) for p in run.plots],
     }
+
+
+def _no_nan(record: dict) -> dict:
+    """NaN (e.g. no leaning object in a scenario) as null, so results.json is strict JSON."""
+    return {key: None if isinstance(value, float) and value != value else value for key, value in record.items()}
 
 
 def save_run(run: RegistrationRun, out_dir: Path) -> Path:

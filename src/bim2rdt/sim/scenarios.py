@@ -5,6 +5,21 @@ view, the crate partly behind the cone and drum; S2 high oblique view, little oc
 hiding part of the cone and the crate seen end-on). S4: poorly featured families (scaffold bay, survey tripod,
 EUR pallet). Each trial jitters the camera, adds sensor noise, detects corners per object ROI, and perturbs each
 object's initial pose in tilt (about a random horizontal axis), yaw and position.
+
+Why these perturbations. The initial pose is the BIM's (or the last registration's) pose of an object that may
+since have been moved or knocked: the paper randomised it, and its plain ICP ended at 0.04-0.07 m Hausdorff
+RMSE in S1/S3, so its starts were far off. Here the occluded cone/drum/crate views (S1, S3) start up to 45
+degrees tilted, 45 degrees off in yaw and 15 cm away (a crate nudged by a forklift, a cone knocked over and
+stood up again elsewhere); S2, the easy high view, keeps a 10 degree / 15 degree / 5 cm guess (an object left
+where the model says); S4 keeps 20 degrees / 30 degrees / 10 cm, because the paper's ICP did well there
+(0.011 m) and at 45 degrees this loop's ICP fails on the scaffold and tripod so often (0.20 m RMSE in a
+20-trial probe) that S4 would stop measuring what the paper measured. Yaw beyond +-45 degrees is the restarts'
+job, not the perturbation's.
+
+Why some objects are truly tilted. A gravity prior has a cost: it pulls toward upright an object that is not.
+In a ``knocked_fraction`` of trials the ``knocked`` families (a cone leaning on its base edge, a tripod on
+uneven ground) are placed tilted by ``knocked_tilt_deg`` about a random horizontal axis, resting on the ground;
+the benchmark reports their tilt error separately, so a prior strong enough to force them upright shows.
 """
 
 from __future__ import annotations
@@ -38,18 +53,21 @@ class ScenarioSpec:
     max_tilt_deg: float
     max_yaw_deg: float
     max_offset: float
+    knocked: tuple[str, ...] = ()
+    knocked_fraction: float = 0.0
+    knocked_tilt_deg: tuple[float, float] = (8.0, 20.0)
 
 
 SCENARIOS: dict[str, ScenarioSpec] = {spec.name: spec for spec in (
     ScenarioSpec("S1", "cone/drum/crate, low front view, crate partly occluded", _TRIO,
-                 (0.4, -2.4, 1.0), (0.4, 0.5, 0.35), 25.0, 30.0, 0.10),
+                 (0.4, -2.4, 1.0), (0.4, 0.5, 0.35), 45.0, 45.0, 0.15, (CONE,), 0.25),
     ScenarioSpec("S2", "cone/drum/crate, high oblique view, little occlusion", _TRIO,
-                 (-1.6, -1.8, 2.2), (0.4, 0.5, 0.3), 10.0, 15.0, 0.05),
+                 (-1.6, -1.8, 2.2), (0.4, 0.5, 0.3), 10.0, 15.0, 0.05, (CONE,), 0.25),
     ScenarioSpec("S3", "cone/drum/crate, side view, drum hides the cone, crate end-on", _TRIO,
-                 (3.0, 0.2, 1.1), (0.4, 0.6, 0.4), 25.0, 30.0, 0.10),
+                 (3.0, 0.2, 1.1), (0.4, 0.6, 0.4), 45.0, 45.0, 0.15, (CONE,), 0.25),
     ScenarioSpec("S4", "poorly featured families: scaffold bay, survey tripod, EUR pallet",
                  ((SCAFFOLD, 0.0, 0.0, 0.2, 0.5), (TRIPOD, 1.8, 0.3, 0.5, 0.7), (PALLET, 0.9, -1.3, 0.1, 0.6)),
-                 (0.8, -3.4, 1.9), (0.8, 0.0, 0.7), 20.0, 30.0, 0.10),
+                 (0.8, -3.4, 1.9), (0.8, 0.0, 0.7), 20.0, 30.0, 0.10, (TRIPOD,), 0.25),
 )}
 
 
@@ -61,6 +79,7 @@ class ObjectTrial:
     T_world_model: np.ndarray
     T_init: np.ndarray
     scene_pts_world: np.ndarray
+    knocked: bool = False  # the true pose is tilted (the object leans), so an upright prior is wrong here
 
 
 @dataclass(frozen=True)
@@ -74,17 +93,28 @@ class Scenario:
 
 
 def scenario(name: str, trials: int = 50, seed: int = 0, sample_count: int = 2000, views: int = 5,
-             intrinsics: Intrinsics = Intrinsics()) -> Scenario:
+             intrinsics: Intrinsics = Intrinsics(), spec: ScenarioSpec | None = None) -> Scenario:
     """Build scenario ``name`` (S1-S4) with ``trials`` seeded trials; ``views`` jittered camera poses are ray
-    cast once and shared by the trials (each trial draws its own sensor noise, corners and perturbations)."""
-    spec = SCENARIOS[name]
+    cast once and shared by the trials (each trial draws its own sensor noise, corners and perturbations).
+    ``spec`` replaces the named spec (e.g. a variant with every cone leaning)."""
+    spec = spec or SCENARIOS[name]
     site = SiteScene([PlacedObject(family, mesh_for_family(family), _ground_pose(x, y, yaw), albedo)
                       for family, x, y, yaw, albedo in spec.layout])
     models = {o.family: sample_model(o.mesh, sample_count, seed=seed) for o in site.objects}
     rng = np.random.default_rng([seed, int(name[1:])])
-    frames = [cast_frame(site, intrinsics, _jittered_camera(spec, rng)) for _ in range(views)]
-    return Scenario(spec, site, models,
-                    [_trial(spec, site, frames[t % views], intrinsics, rng) for t in range(trials)])
+    upright = [(site, _jittered_camera(spec, rng)) for _ in range(views)]
+    knocked = [(knock(site, spec, rng), _jittered_camera(spec, rng)) for _ in range(views)] \
+        if spec.knocked and spec.knocked_fraction > 0 else upright
+    frames = {"upright": [], "knocked": []}
+    out = []
+    for t in range(trials):
+        kind = "knocked" if rng.random() < spec.knocked_fraction else "upright"
+        views_of_kind = knocked if kind == "knocked" else upright
+        if not frames[kind]:  # ray cast lazily: a short run never pays for views it does not use
+            frames[kind] = [cast_frame(s, intrinsics, T) for s, T in views_of_kind]
+        view = t % views
+        out.append(_trial(spec, views_of_kind[view][0], frames[kind][view], intrinsics, rng))
+    return Scenario(spec, site, models, out)
 
 
 def _trial(spec: ScenarioSpec, site: SiteScene, clean: RgbdFrame, intrinsics: Intrinsics,
@@ -94,9 +124,26 @@ def _trial(spec: ScenarioSpec, site: SiteScene, clean: RgbdFrame, intrinsics: In
     for index, placed in enumerate(site.objects):
         points = object_scene_points(frame, intrinsics, index, rng)
         if len(points) >= 6:
+            tilted = not np.isclose(placed.T_world_model[2, 2], 1.0)
             out.append(ObjectTrial(placed.family, placed.T_world_model,
-                                   perturb(placed.T_world_model, placed.mesh.centroid, spec, rng), points))
+                                   perturb(placed.T_world_model, placed.mesh.centroid, spec, rng), points, tilted))
     return out
+
+
+def knock(site: SiteScene, spec: ScenarioSpec, rng: np.random.Generator) -> SiteScene:
+    """The site with the spec's ``knocked`` families tilted by U(knocked_tilt_deg) about a random horizontal
+    axis through their base, then lowered or lifted to rest on the ground (lowest vertex at z = 0)."""
+    objects = []
+    for placed in site.objects:
+        T = placed.T_world_model
+        if placed.family in spec.knocked:
+            heading = rng.uniform(0.0, 2 * np.pi)
+            T = T.copy()
+            T[:3, :3] = axis_angle(np.array([np.cos(heading), np.sin(heading), 0.0]),
+                                   np.array(np.deg2rad(rng.uniform(*spec.knocked_tilt_deg)))) @ T[:3, :3]
+            T[2, 3] -= float(np.min(placed.mesh.vertices @ T[2, :3] + T[2, 3]))
+        objects.append(PlacedObject(placed.family, placed.mesh, T, placed.albedo))
+    return SiteScene(objects, site.ground_size)
 
 
 def perturb(T_true: np.ndarray, centroid_body: np.ndarray, spec: ScenarioSpec, rng: np.random.Generator):

@@ -24,6 +24,14 @@ SYMMETRY_ORDER: dict[str, int] = {
 """Order n of each family's rotational symmetry about its body z axis (1 = none)."""
 
 
+FAILURE_MODES = ("ok", "tilt", "flip", "yaw", "slide")
+"""How a registration ended, by the first bar it misses (rotation 2 deg, translation 1 cm, modulo symmetry):
+``tilt`` the upright axis is off (what a gravity prior can fix); ``flip`` upright but turned by >= 90 degrees
+about it (a wrong-yaw minimum of a near-symmetric shape, e.g. a crate whose marking face is not seen); ``yaw``
+upright but turned by 2-90 degrees; ``slide`` the rotation is right but the position is off (sliding along a
+featureless face, a partial view). Neither of the last three is observable by gravity."""
+
+
 @dataclass(frozen=True)
 class PoseError:
     """Rotation error (deg, modulo symmetry), translation error of the body origin (m), and the angle between
@@ -35,6 +43,16 @@ class PoseError:
 
     def success(self, max_rotation_deg: float = 2.0, max_translation: float = 0.01) -> bool:
         return self.rotation_deg < max_rotation_deg and self.translation < max_translation
+
+    def failure_mode(self, max_rotation_deg: float = 2.0, max_translation: float = 0.01) -> str:
+        """Why a registration failed, first cause first (see :data:`FAILURE_MODES`)."""
+        if self.success(max_rotation_deg, max_translation):
+            return "ok"
+        if self.tilt_deg >= max_rotation_deg:
+            return "tilt"
+        if self.rotation_deg >= 90.0:
+            return "flip"
+        return "yaw" if self.rotation_deg >= max_rotation_deg else "slide"
 
 
 def pose_error(family: str, T_est: np.ndarray, T_true: np.ndarray) -> PoseError:
