@@ -59,8 +59,8 @@ def show_run(run) -> None:
             rows.append((result.name, label, f"{icp:.6f}", f"{sg:.6f}", f"{improvement(icp, sg):+.1f} %",
                          *[f"{getattr(s[p], key) * scale:.6f}" for p in peers]))
         for label, key, fmt in (("success", "success", "{:.0%}"), ("tilt err (deg)", "tilt_deg", "{:.2f}"),
-                                (f"leaning: tilt err (deg, n={s['ICP'].knocked})", "knocked_tilt_deg", "{:.2f}"),
-                                ("fails tilt/flip/yaw/slide", "modes", _modes), ("time (ms)", "time_ms", "{:.1f}")):
+                                (f"leaning tilt (n={s['ICP'].knocked})", "knocked_tilt_deg", "{:.2f}"),
+                                ("fails t/f/y/s", "modes", _modes), ("time (ms)", "time_ms", "{:.1f}")):
             fmt = fmt.format if isinstance(fmt, str) else fmt
             rows.append((result.name, label, fmt(getattr(s["ICP"], key)), fmt(getattr(s["SG-ICP"], key)), "",
                          *[fmt(getattr(s[p], key)) for p in peers]))
