@@ -109,3 +109,30 @@ def test_level_towards_up_removes_the_requested_fraction_of_tilt(make_pose):
     assert np.rad2deg(tilt_angle(halfway[:3, :3])) == pytest.approx(10.0, abs=1e-9)
     centroid = lambda T: T[:3, :3] @ np.array([0.0, 0.0, 0.3]) + T[:3, 3]  # noqa: E731
     assert np.allclose(centroid(halfway), centroid(tilted))
+
+
+def test_the_restart_penalty_charges_the_upright_term_on_inlier_pairs_only(crate_model, crate_view, make_pose,
+                                                                          placed):
+    """The penalty is the loop's gravity term per scene point: beta gamma0 sum|p~|^2 2(1 - cos tilt) / N over the
+    pairs within the score distance. Scene points far from the model (clutter) add nothing to it."""
+    from bim2rdt.registration.icp import score_poses, upright_penalty
+    from bim2rdt.registration.matching import ModelIndex
+    from bim2rdt.registration.validation import validate_problem
+
+    config = IcpConfig()
+    tilted = make_pose(0.3, np.deg2rad(10.0), (0.0, 0.0, 0.3))
+    scene = placed(tilted, crate_view)
+    clutter = scene + np.array([5.0, 0.0, 0.0])
+    model = ModelIndex.build(*crate_model)
+    counts = []
+    for points, bias in ((scene, 0.5), (np.vstack([scene, clutter]), 0.5), (scene, 0.0)):
+        problem = validate_problem(*crate_model, points, tilted, (0.0, 0.0, 1.0), bias)
+        _, pairs = score_poses(model, tilted[None], points, config)
+        inliers = pairs.residual[0] < config.score_distance
+        matched = crate_model[0][pairs.model_index[0][inliers]]
+        spread = np.sum((matched - matched.mean(axis=0)) ** 2)
+        expected = bias * config.gravity_gamma0 * spread * 2.0 * (1.0 - np.cos(np.deg2rad(10.0))) / len(points)
+        assert upright_penalty(tilted[None], pairs, problem, config)[0] == pytest.approx(expected, rel=1e-9)
+        counts.append(int(inliers.sum()))
+    assert counts[0] == counts[1] > 0.9 * len(scene)  # the clutter copy found no inliers
+    assert expected == 0.0

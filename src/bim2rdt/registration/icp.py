@@ -174,17 +174,19 @@ def score_poses(model: matching.ModelIndex, poses: np.ndarray, scene_pts_world: 
     return matching.truncated_score(pairs, cfg.score_distance), pairs
 
 
-def upright_penalty(poses: np.ndarray, problem: Problem, cfg: IcpConfig) -> np.ndarray:
-    """The gravity term of the loop's cost, per scene point, in the score's units (m^2): restarts are compared on
-    the objective the loop minimises. With lambda = beta gamma0 sum(w |p~|^2) and |R g_m - g_w|^2 =
-    2 (1 - cos tilt), per point that is 2 beta gamma0 mean|p~|^2 (1 - cos tilt): zero for plain ICP, small for
-    a few degrees, decisive against an upside-down tripod that fits its three legs as well as the right one."""
+def upright_penalty(poses: np.ndarray, pairs: matching.Pairs, problem: Problem, cfg: IcpConfig) -> np.ndarray:
+    """The gravity term of the loop's cost, per scene point, in the score's units (m^2), so restarts are compared
+    on the objective the loop minimises: lambda |R g_m - g_w|^2 / N with lambda = beta gamma0 sum |p~|^2 over the
+    pose's inlier pairs (as in the loop, not over the whole model: a thin tripod seen among ground points has
+    few inliers, and charging the whole model's spread would let a small tilt outweigh the data), and
+    |R g_m - g_w|^2 = 2 (1 - cos tilt). Zero for plain ICP; decisive against an upside-down tripod."""
     if problem.upright_bias == 0.0:
         return np.zeros(len(poses))
-    centred = problem.model_pts_body - problem.model_pts_body.mean(axis=0)
-    spread = float(np.mean(np.einsum("ni,ni->n", centred, centred)))
+    inliers = (pairs.residual < cfg.score_distance).astype(float)
+    dst = problem.model_pts_body[pairs.model_index]
+    lam = gravity_weight(dst, inliers, problem.upright_bias * cfg.gravity_gamma0)
     cos_tilt = np.cos(tilt_angle(poses[:, :3, :3], problem.up_world))
-    return 2.0 * problem.upright_bias * cfg.gravity_gamma0 * spread * (1.0 - cos_tilt)
+    return lam * 2.0 * (1.0 - cos_tilt) / pairs.residual.shape[1]
 
 
 def _keep_best(restarts: _Restarts, problem: Problem, model: matching.ModelIndex, cfg: IcpConfig) -> RegistrationResult:
@@ -192,7 +194,7 @@ def _keep_best(restarts: _Restarts, problem: Problem, model: matching.ModelIndex
     upright penalty when the bias is on), keep the lowest."""
     alive = np.flatnonzero(~restarts.pruned)
     scores, pairs = score_poses(model, restarts.poses[alive], problem.scene_pts_world, cfg)
-    scores = scores + upright_penalty(restarts.poses[alive], problem, cfg)
+    scores = scores + upright_penalty(restarts.poses[alive], pairs, problem, cfg)
     best = int(np.argmin(scores))
     distance = pairs.residual[best]
     inliers = distance < cfg.score_distance
