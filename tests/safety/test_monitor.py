@@ -42,6 +42,10 @@ def test_a_day_with_three_tools_emits_start_eav_elv_and_end_events_in_order(make
     assert [round(e.data["a_hv"], 1) for e in ended] == [5.0, 15.0, 25.0]
     assert [e.data["trigger_s"] for e in ended] == pytest.approx([300, 900, 900], abs=1.5)
     assert ended[-1].data["risk"] == "above_elv" and ended[-1].data["day_a8"] == pytest.approx(expected, rel=0.01)
+    day = monitor.day(subject, DAY)  # the day is exactly the sum of its activities: no block lost or counted twice
+    assert day.seconds == pytest.approx(sum(e.data["trigger_s"] for e in ended), rel=1e-9)
+    assert day.a8**2 == pytest.approx(sum(e.data["activity_a8"] ** 2 for e in ended), rel=1e-9)
+    assert monitor.days_of(subject) == [DAY]
     assert all(e.subject == subject and e.data["zone"] == "zone-A" for e in sink.events)
 
 

@@ -10,6 +10,7 @@ and A(8) = sqrt(energy / 8 h), so EAV is crossed at 2.5^2 * 8 h of energy and EL
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -50,21 +51,30 @@ class DayState:
     eav_at: float | None = None
     elv_at: float | None = None
 
+    def __post_init__(self) -> None:
+        self._greater = max(self.hands.values(), default=[0.0, 0.0])
+
     @property
     def energy(self) -> float:
-        return max((energy for energy, _ in self.hands.values()), default=0.0)
+        """The greater hand's accumulated energy, m^2/s^3."""
+        return self._greater[0]
 
     @property
     def seconds(self) -> float:
-        return max(self.hands.values(), default=[0.0, 0.0])[1] if self.hands else 0.0
+        """The greater hand's trigger time, s."""
+        return self._greater[1]
 
     def hand_energy(self, hand: str) -> float:
-        return self.hands.get(hand, [0.0, 0.0])[0]
+        return self.hands.get(hand, (0.0, 0.0))[0]
 
     def add(self, hand: str, energy: float, seconds: float) -> None:
-        record = self.hands.setdefault(hand, [0.0, 0.0])
+        record = self.hands.get(hand)
+        if record is None:
+            record = self.hands[hand] = [0.0, 0.0]
         record[0] += energy
         record[1] += seconds
+        if record[0] >= self._greater[0]:
+            self._greater = record
 
     @property
     def a8(self) -> float:
@@ -114,14 +124,15 @@ class ActivityTracker:
         self.trigger, self.name, self.hand = trigger, name, hand
         self.state = state or ActivityState()
 
-    def frame(self, end: float, seconds: float, energy: float, day_key: str, day_of: DayLookup) -> list[Notice]:
-        """Account one clean frame covering ``seconds`` of samples up to device time ``end``."""
+    def frame(self, end: float, seconds: float, energy: float, day_of: DayLookup) -> list[Notice]:
+        """Account one clean block covering ``seconds`` of samples up to device time ``end``."""
         act, notices = self.state, []
         level = math.sqrt(energy / seconds) if seconds > 0 else 0.0
         if act.id is None:
             if level < self.trigger.start_threshold:
                 return notices
-            notices += self._start(end - seconds, day_key)
+            notices += self._start(end - seconds, utc_day(end - seconds))
+            act = self.state
         if level < self.trigger.stop_threshold:
             act.low_energy, act.low_seconds = act.low_energy + energy, act.low_seconds + seconds
             act.low_since = act.low_since if act.low_since is not None else end - seconds
@@ -187,3 +198,8 @@ class ActivityTracker:
         to_elv = (E_ELV - own) / rate if rate > 0 else math.inf
         return (EAV_PREDICTED, end, {"activity": act.id, "day": act.day, "seconds_to_eav": to_eav,
                                      "eav_expected_at": end + to_eav, "seconds_to_elv": to_elv})
+
+
+def utc_day(when: float) -> str:
+    """The UTC date ('YYYY-MM-DD') of device time ``when``: the day an activity's exposure counts towards."""
+    return time.strftime("%Y-%m-%d", time.gmtime(when))

@@ -24,7 +24,7 @@ from bim2rdt.bus.event import Event
 from bim2rdt.bus.payloads import AccelBatch, PayloadError, decode_accel
 from bim2rdt.bus.topics import device_of, wearable_pattern
 from bim2rdt.safety.activity import (ACTIVITY_ENDED, ACTIVITY_STARTED, ARTEFACT, GAP, ActivityState, ActivityTracker,
-                                     DayState, Notice, Trigger)
+                                     DayState, Notice, Trigger, utc_day)
 from bim2rdt.safety.blocks import ArtefactLimits, describe_flags
 from bim2rdt.safety.mounting import MountingCorrection
 from bim2rdt.safety.privacy import IdentityMap, pseudonym
@@ -217,7 +217,7 @@ class HavMonitor:
     def day(self, subject: str, day: str | None = None) -> DayState:
         """The worker-day's exposure (A(8), points, trigger time); today (UTC) by default."""
         with self._lock:
-            return self._days.get((subject, day or _day_key(self.clock())), DayState())
+            return self._days.get((subject, day or utc_day(self.clock())), DayState())
 
     def days_of(self, subject: str) -> list[str]:
         """The days (UTC, 'YYYY-MM-DD') with exposure on record for a worker, oldest first."""
@@ -268,10 +268,10 @@ class HavMonitor:
 
     def _note_push(self, stream: _Stream, batch: AccelBatch, result: PushResult) -> list[Event]:
         stream.count("batches")
-        stream.count("duplicates", result.duplicates)
-        stream.count("late", result.late)
         for name in ("duplicates", "late"):
-            self._count(name, getattr(result, name))
+            if getattr(result, name):
+                stream.count(name, getattr(result, name))
+                self._count(name, getattr(result, name))
         if result.duplicates == result.late == 0:
             # receive time minus device time of the last sample = clock skew + delivery delay; the least
             # delayed batches show the skew, so follow drops at once and rises slowly (clocks drift)
@@ -318,7 +318,7 @@ class HavMonitor:
                 stream.count("rejected_s", seconds)
                 notices.append((ARTEFACT, end - seconds, {"seconds": seconds, "kinds": describe_flags(flags)}))
                 continue
-            notices += tracker.frame(end, seconds, energy, _day_key(end - seconds), day_of)
+            notices += tracker.frame(end, seconds, energy, day_of)
             if self.config.keep_timeline and tracker.state.id is not None:
                 self.timeline.append((end, subject, day_of(tracker.state.day).a8))
         return [self._event(stream, notice) for notice in notices]
@@ -345,7 +345,7 @@ class HavMonitor:
         kind, when, data = notice
         session, fs = stream.session, stream.buffer.fs
         coverage = covered_band(fs) if fs else None
-        day = self._days.get((session.subject, data.get("day", _day_key(when))), DayState())
+        day = self._days.get((session.subject, data.get("day", utc_day(when))), DayState())
         body = {"site": self.config.site, "device": stream.device, "tool": session.tool,
                 "position": session.position, "zone": session.zone, "estimate": session.estimate,
                 "corrected": self._correction(session) is not None, "a_hv": stream.tracker.state.a_hv,
@@ -408,10 +408,6 @@ class HavMonitor:
 
     def _count(self, name: str, amount: float = 1) -> None:
         self.stats[name] = self.stats.get(name, 0) + amount
-
-
-def _day_key(when: float) -> str:
-    return time.strftime("%Y-%m-%d", time.gmtime(when))
 
 
 def _finite(body: dict) -> dict:

@@ -85,7 +85,8 @@ class ExposureStore:
     # JSON state rows -----------------------------------------------------------------------------------
     def save_streams(self, states: Iterable[tuple[str, dict[str, Any], bytes]]) -> None:
         """(device, JSON-able state, filter-state blob) rows."""
-        self._db.executemany("INSERT OR REPLACE INTO streams VALUES (?, ?, ?)",
+        self._db.executemany("INSERT INTO streams VALUES (?, ?, ?) ON CONFLICT (device) DO UPDATE SET "
+                             "state = excluded.state, filter = excluded.filter",
                              [(device, json.dumps(state), blob) for device, state, blob in states])
 
     def streams(self) -> dict[str, tuple[dict[str, Any], bytes]]:
@@ -95,7 +96,9 @@ class ExposureStore:
     def save_days(self, rows: Iterable[tuple[str, str, Any]]) -> None:
         """(subject, day, DayState) rows: the day's energy (m^2/s^3) and trigger seconds of the greater hand,
         EAV/ELV times, and every hand's figures."""
-        self._db.executemany("INSERT OR REPLACE INTO days VALUES (?, ?, ?, ?, ?, ?, ?)", [
+        self._db.executemany("INSERT INTO days VALUES (?, ?, ?, ?, ?, ?, ?) ON CONFLICT (subject, day) DO UPDATE SET "
+                             "energy = excluded.energy, seconds = excluded.seconds, eav_at = excluded.eav_at, "
+                             "elv_at = excluded.elv_at, hands = excluded.hands", [
             (subject, day, state.energy, state.seconds, state.eav_at, state.elv_at, json.dumps(state.hands))
             for subject, day, state in rows])
 
