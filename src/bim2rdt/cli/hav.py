@@ -319,7 +319,9 @@ def _show_bench(result: dict) -> None:
                  ("floor: bare scipy.signal.sosfilt", t["floor_round_s"], f"{t['floor_streams_realtime']:.0f}", 1.0)])
     if "latency" in result:
         lat = result["latency"]
-        print_table("Publish-to-event latency through Mosquitto (QoS 1)", ["messages", "p50 ms", "p99 ms", "max ms"],
-                    [(lat["messages"], lat["p50_ms"], lat["p99_ms"], lat["max_ms"])])
+        print_table("Publish-to-event latency through Mosquitto (QoS 1)",
+                    ["messages", "p50 ms", "p99 ms", "max ms", "with events", "events p50 ms", "events p99 ms"],
+                    [(lat["messages"], lat["p50_ms"], lat["p99_ms"], lat["max_ms"], lat["event_messages"],
+                      lat["event_p50_ms"], lat["event_p99_ms"])])
     for name, ok in result["targets"].items():
         console.print(f"{name}: {'[green]PASS[/green]' if ok else '[red]FAIL[/red]'}")
