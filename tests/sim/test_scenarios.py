@@ -42,7 +42,9 @@ def test_initial_poses_are_perturbed_within_the_scenario_bounds():
 
 
 def test_sg_icp_beats_icp_on_tilted_partial_views_of_poorly_featured_families():
-    upright = dataclasses.replace(SCENARIOS["S4"], knocked_fraction=0.0)
+    """Upright scaffold, tripod and pallet from starts up to 45 degrees tilted: where gravity is right and the
+    start is far off, ICP sometimes ends tilted and SG-ICP does not."""
+    upright = dataclasses.replace(SCENARIOS["S4"], knocked_fraction=0.0, max_tilt_deg=45.0)
     built = scenario("S4", trials=3, seed=0, spec=upright)
     priors = upright_priors([family for family, *_ in built.spec.layout])
     config = IcpConfig()
@@ -50,6 +52,7 @@ def test_sg_icp_beats_icp_on_tilted_partial_views_of_poorly_featured_families():
     icp, sg = result.stats["ICP"], result.stats["SG-ICP"]
     assert sg.tilt_deg < icp.tilt_deg
     assert sg.rmse < icp.rmse
+    assert sg.modes["tilt"] < icp.modes["tilt"]
 
 
 def test_a_leaning_cone_rests_on_the_ground_tilted_within_the_knocked_range():
