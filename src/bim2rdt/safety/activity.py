@@ -112,6 +112,10 @@ class ActivityState:
     def to_dict(self) -> dict:
         return dict(vars(self))
 
+    def to_list(self) -> list:
+        """The fields in declaration order (``ActivityState(*values)`` rebuilds it)."""
+        return list(vars(self).values())
+
 
 DayLookup = Callable[[str], DayState]
 

@@ -387,24 +387,23 @@ class HavMonitor:
         if self.config.raw_retention_s <= 0:
             self._raw_devices.difference_update(s.device for s in stored if not s.buffer.pending)
 
-    def _stream_state(self, stream: _Stream) -> dict:
-        return {"buffer": stream.buffer.to_dict(), "activity": stream.tracker.state.to_dict(),
-                "clock_offset_s": stream.clock_offset_s, "counters": stream.counters}
+    def _stream_state(self, stream: _Stream) -> list:
+        """[buffer, activity, clock offset, counters]: a flat JSON list, saved for every stream on every ingest."""
+        return [stream.buffer.to_list(), stream.tracker.state.to_list(), stream.clock_offset_s, stream.counters]
 
     def _open_activity(self, stream: _Stream) -> tuple[str, str, str, dict]:
         act, session = stream.tracker.state, stream.session
         return (act.id, session.subject, act.day, {**act.to_dict(), "a_hv": act.a_hv, "tool": session.tool,
                                                     "device": stream.device, "zone": session.zone, "open": True})
 
-    def _restore(self, device: str, row: tuple[dict, bytes], session: dict | None) -> _Stream:
-        state, blob = row
+    def _restore(self, device: str, row: tuple[list, bytes], session: dict | None) -> _Stream:
+        (buffer_state, activity, clock_offset_s, counters), blob = row
         buffer = self._buffer()
-        next_seq = state["buffer"]["next_seq"]
-        buffer.load(state["buffer"], self.store.raw_batches(device, next_seq) if next_seq is not None else [])
+        next_seq = buffer_state[0]
+        buffer.load(buffer_state, self.store.raw_batches(device, next_seq) if next_seq is not None else [])
         session = Session(**session) if session else self._anonymous_session(device)
-        tracker = ActivityTracker(self.config.trigger, device, ActivityState(**state["activity"]), session.hand)
-        return _Stream(device, buffer, FilterState.from_bytes(blob), tracker, session, state["clock_offset_s"],
-                       state["counters"])
+        tracker = ActivityTracker(self.config.trigger, device, ActivityState(*activity), session.hand)
+        return _Stream(device, buffer, FilterState.from_bytes(blob), tracker, session, clock_offset_s, counters)
 
     def _count(self, name: str, amount: float = 1) -> None:
         self.stats[name] = self.stats.get(name, 0) + amount

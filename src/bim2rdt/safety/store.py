@@ -83,13 +83,13 @@ class ExposureStore:
         return self._db.execute("SELECT COUNT(*) FROM raw").fetchone()[0]
 
     # JSON state rows -----------------------------------------------------------------------------------
-    def save_streams(self, states: Iterable[tuple[str, dict[str, Any], bytes]]) -> None:
+    def save_streams(self, states: Iterable[tuple[str, Any, bytes]]) -> None:
         """(device, JSON-able state, filter-state blob) rows."""
         self._db.executemany("INSERT INTO streams VALUES (?, ?, ?) ON CONFLICT (device) DO UPDATE SET "
                              "state = excluded.state, filter = excluded.filter",
                              [(device, json.dumps(state), blob) for device, state, blob in states])
 
-    def streams(self) -> dict[str, tuple[dict[str, Any], bytes]]:
+    def streams(self) -> dict[str, tuple[Any, bytes]]:
         rows = self._db.execute("SELECT device, state, filter FROM streams")
         return {device: (json.loads(state), blob) for device, state, blob in rows}
 
@@ -99,13 +99,14 @@ class ExposureStore:
         self._db.executemany("INSERT INTO days VALUES (?, ?, ?, ?, ?, ?, ?) ON CONFLICT (subject, day) DO UPDATE SET "
                              "energy = excluded.energy, seconds = excluded.seconds, eav_at = excluded.eav_at, "
                              "elv_at = excluded.elv_at, hands = excluded.hands", [
-            (subject, day, state.energy, state.seconds, state.eav_at, state.elv_at, json.dumps(state.hands))
+            (subject, day, state.energy, state.seconds, state.eav_at, state.elv_at, _hands_json(state.hands))
             for subject, day, state in rows])
 
     def days(self) -> dict[tuple[str, str], tuple[dict, float | None, float | None]]:
         """(subject, day) -> (hands, EAV time, ELV time)."""
-        rows = self._db.execute("SELECT subject, day, hands, eav_at, elv_at FROM days")
-        return {(subject, day): (json.loads(hands), eav, elv) for subject, day, hands, eav, elv in rows}
+        rows = self._db.execute("SELECT subject, day, energy, seconds, hands, eav_at, elv_at FROM days")
+        return {(subject, day): (json.loads(hands) if hands else {"": [energy, seconds]}, eav, elv)
+                for subject, day, energy, seconds, hands, eav, elv in rows}
 
     def save_session(self, device: str, session: dict[str, Any]) -> None:
         self._db.execute("INSERT OR REPLACE INTO sessions VALUES (?, ?)", (device, json.dumps(session)))
@@ -141,3 +142,8 @@ class ExposureStore:
 
     def close(self) -> None:
         self._db.close()
+
+
+def _hands_json(hands: dict[str, list[float]]) -> str | None:
+    """Per-hand figures as JSON; None for the usual single unnamed hand (the energy/seconds columns hold it)."""
+    return None if len(hands) == 1 and "" in hands else json.dumps(hands)

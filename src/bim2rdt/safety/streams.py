@@ -103,11 +103,11 @@ class StreamBuffer:
         self.end_time = batch.device_time + batch.duration_s
         result.pieces.append((batch, new_segment))
 
-    def to_dict(self) -> dict:
-        return {"next_seq": self.next_seq, "fs": self.fs, "end_time": self.end_time,
-                "skipped": list(self._skipped)}
+    def to_list(self) -> list:
+        """[next seq, rate, segment end time, skipped seq ranges]: compact, saved with every ingest."""
+        return [self.next_seq, self.fs, self.end_time, list(self._skipped)]
 
-    def load(self, state: dict, pending: list[AccelBatch]) -> None:
-        self.next_seq, self.fs, self.end_time = state["next_seq"], state["fs"], state["end_time"]
-        self._skipped.extend(tuple(pair) for pair in state["skipped"])
+    def load(self, state: list, pending: list[AccelBatch]) -> None:
+        self.next_seq, self.fs, self.end_time, skipped = state
+        self._skipped.extend(tuple(pair) for pair in skipped)
         self.pending = {b.seq: b for b in pending if self.next_seq is None or b.seq >= self.next_seq}

@@ -40,9 +40,10 @@ class FilterState:
 
     def to_bytes(self) -> bytes:
         """Compact persistence: settle flag, section count, IIR state, then FIR state (float64)."""
-        sections = 0 if self.zi is None else self.zi.shape[0]
-        header = struct.pack("<dd", float(self.settle), float(sections))
-        return header + b"".join(a.tobytes() for a in (self.zi, self.fir_zi) if a is not None)
+        if self.zi is None:
+            return struct.pack("<dd", float(self.settle), 0.0)
+        blob = struct.pack("<dd", float(self.settle), float(self.zi.shape[0])) + self.zi.tobytes()
+        return blob if self.fir_zi is None else blob + self.fir_zi.tobytes()
 
     @classmethod
     def from_bytes(cls, blob: bytes) -> FilterState:
