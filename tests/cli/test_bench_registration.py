@@ -19,6 +19,8 @@ def test_bench_registration_json_has_every_scenario_method_and_target(tmp_path):
     methods = report["scenarios"]["S1"]["methods"]
     assert {"ICP", "SG-ICP", "Open3D pt-pt", "Open3D pt-plane"} <= set(methods)
     assert all(0.0 <= m["success"] <= 1.0 and m["rmse"] > 0.0 for m in methods.values())
+    assert all(sum(m["modes"].values()) == m["registrations"] for m in methods.values())
+    assert all(m["knocked_tilt_deg"] is None or m["knocked_tilt_deg"] >= 0.0 for m in methods.values())
     assert len(report["targets"]) == 4
     assert report["priors"]["Survey_Tripod_Aluminium"]["upright_bias"] < report["priors"][
         "Wooden_Crate_1200x800x600"]["upright_bias"]
@@ -30,6 +32,7 @@ def test_bench_registration_prints_the_table_with_pass_or_fail(tmp_path):
     result = run_cli("bench", "registration", "--trials", "1", "--no-peers", "--out", str(tmp_path))
     assert result.returncode == 0, result.stderr
     assert "SG-ICP" in result.stdout and "Targets" in result.stdout
+    assert "fails t/f/y/s" in result.stdout and "leaning tilt" in result.stdout
     assert ("PASS" in result.stdout) or ("FAIL" in result.stdout)
 
 

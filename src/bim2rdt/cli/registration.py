@@ -59,7 +59,7 @@ def show_run(run) -> None:
             rows.append((result.name, label, f"{icp:.6f}", f"{sg:.6f}", f"{improvement(icp, sg):+.1f} %",
                          *[f"{getattr(s[p], key) * scale:.6f}" for p in peers]))
         for label, key, fmt in (("success", "success", "{:.0%}"), ("tilt err (deg)", "tilt_deg", "{:.2f}"),
-                                (f"leaning tilt (n={s['ICP'].knocked})", "knocked_tilt_deg", "{:.2f}"),
+                                (f"leaning tilt (n={s['ICP'].knocked})", "knocked_tilt_deg", _degrees),
                                 ("fails t/f/y/s", "modes", _modes), ("time (ms)", "time_ms", "{:.1f}")):
             fmt = fmt.format if isinstance(fmt, str) else fmt
             rows.append((result.name, label, fmt(getattr(s["ICP"], key)), fmt(getattr(s["SG-ICP"], key)), "",
@@ -69,6 +69,11 @@ def show_run(run) -> None:
                 ["scenario", "metric", "ICP", "SG-ICP", "improvement", *peers], rows)
     print_table("Targets", ["target", "result", "detail"],
                 [(t.name, "PASS" if t.passed else "FAIL", t.detail) for t in run.targets])
+
+
+def _degrees(value: float) -> str:
+    """A median in degrees, or '-' when there was nothing to take it over (no leaning object in the run)."""
+    return "-" if value != value else f"{value:.2f}"
 
 
 def _modes(counts: dict[str, int]) -> str:
