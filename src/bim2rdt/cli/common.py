@@ -3,13 +3,15 @@
 from __future__ import annotations
 
 import json
+import sys
 from collections.abc import Sequence
 from typing import Any
 
 from rich.console import Console
 from rich.table import Table
 
-console = Console()
+console = Console(width=None if sys.stdout.isatty() else 140)
+"""Rich console; piped output (CI logs, files) gets 140 columns instead of rich's 80 so tables do not fold."""
 
 
 def print_json(payload: Any) -> None:

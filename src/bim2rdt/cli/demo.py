@@ -38,19 +38,21 @@ def demo_command(
 
         result = run_demo(out, trials=trials, seed=seed, workers=workers, minutes=minutes, tick=tick)
     _show_site_day(result)
-    show_run(result.registration)
+    show_run(result.registration, targets=False)
+    console.print(f"(registration: {trials} trials per scenario, a quick look; the paper's targets are judged on "
+                  "50 trials by `bim2rdt bench registration`)")
     console.print(f"twin: {result.site_day.twin_path}; report: {result.report['report']}; plots and JSON in {out}")
 
 
 def _show_site_day(result) -> None:
     from bim2rdt.site_report import observation_rows
 
-    rows = [(r["family"], r["status"], r["truth"], f"{r['upright_bias']:.2f}", f"{r['shift_m']:.2f}",
+    rows = [(r["label"], r["status"], r["truth"], f"{r['upright_bias']:.2f}", f"{r['shift_m']:.2f}",
              f"{r['yaw_deg']:.1f}", f"{r['tilt_deg']:.1f}", f"{r['fitness']:.2f}",
              f"{100 * r['error_translation_m']:.1f}", f"{r['error_rotation_deg']:.1f}")
             for r in observation_rows(result.site_day)]
     print_table("Robot mission: BIM objects verified with SG-ICP",
-                ("family", "verdict", "truth", "bias", "shift m", "yaw °", "tilt °", "fitness", "err cm", "err °"),
+                ("object", "verdict", "truth", "bias", "shift m", "yaw °", "tilt °", "fitness", "err cm", "err °"),
                 rows)
     events = [e for e in result.site_day.hav_events if not e.kind.endswith("predicted")]
     print_table("Hand-arm vibration events (written to the twin as IfcEvent/IfcTask)",

@@ -46,8 +46,8 @@ def bench_registration(
     console.print(f"plots and results.json in {out}")
 
 
-def show_run(run) -> None:
-    """Print the paper's table plus success/tilt/time per scenario, then the targets."""
+def show_run(run, targets: bool = True) -> None:
+    """Print the paper's table plus success/tilt/time per scenario, then (with ``targets``) the targets."""
     from bim2rdt.sim.benchmark import improvement
 
     peers = [name for name in PEER_COLUMNS if name in run.results[0].stats]
@@ -67,8 +67,9 @@ def show_run(run) -> None:
     print_table(f"Registration: Hausdorff means over {run.trials} trials x objects per scenario "
                 "(improvement = RMSE/Mean/Max cut by SG-ICP)",
                 ["scenario", "metric", "ICP", "SG-ICP", "improvement", *peers], rows)
-    print_table("Targets", ["target", "result", "detail"],
-                [(t.name, "PASS" if t.passed else "FAIL", t.detail) for t in run.targets])
+    if targets:
+        print_table("Targets", ["target", "result", "detail"],
+                    [(t.name, "PASS" if t.passed else "FAIL", t.detail) for t in run.targets])
 
 
 def _degrees(value: float) -> str:
