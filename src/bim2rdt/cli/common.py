@@ -1,17 +1,31 @@
-"""Helpers shared by the CLI modules: JSON output and rich tables. No command lives here."""
+"""Helpers shared by the CLI modules: --out folder checks, JSON output and rich tables. No command lives here."""
 
 from __future__ import annotations
 
 import json
 import sys
+import tempfile
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Any
 
+import typer
 from rich.console import Console
 from rich.table import Table
 
 console = Console(width=None if sys.stdout.isatty() else 140)
 """Rich console; piped output (CI logs, files) gets 140 columns instead of rich's 80 so tables do not fold."""
+
+
+def writable_folder(path: Path) -> Path:
+    """Callback of ``--out`` folder options: create the folder and probe it with a temporary file now, so a path
+    that cannot take files fails in one line before a run of minutes, not with a traceback after it."""
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        tempfile.TemporaryFile(dir=path).close()
+    except OSError as error:
+        raise typer.BadParameter(f"cannot write into {path}: {error.strerror or error}") from error
+    return path
 
 
 def print_json(payload: Any) -> None:
