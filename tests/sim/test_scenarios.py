@@ -92,3 +92,16 @@ def test_the_benchmark_counts_every_registration_in_exactly_one_failure_mode():
     assert sum(stats.modes.values()) == stats.registrations
     assert stats.modes["ok"] == round(stats.success * stats.registrations)
     assert stats.knocked == sum(obj.knocked for trial in built.trials for obj in trial)
+
+
+@pytest.mark.parametrize("name, options, message", [
+    ("S9", {}, "unknown scenario 'S9'"),
+    ("S1", dict(trials=0), "trials must be >= 1, got 0"),
+    ("S1", dict(views=0), "views must be >= 1, got 0"),
+    ("S1", dict(sample_count=3), "sample_count must be >= 6, got 3"),
+])
+def test_bad_scenario_arguments_raise_a_scenario_error_that_says_which(name, options, message):
+    from bim2rdt.sim.scenarios import ScenarioError
+
+    with pytest.raises(ScenarioError, match=message):
+        scenario(name, **options)

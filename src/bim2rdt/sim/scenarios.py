@@ -28,8 +28,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from bim2rdt.errors import Bim2RdtError
 from bim2rdt.perception.camera import Intrinsics, look_at
 from bim2rdt.registration.sampling import sample_model
+from bim2rdt.registration.validation import MIN_SCENE_POINTS
 from bim2rdt.registration.so3 import axis_angle
 from bim2rdt.sim.meshes import mesh_for_family
 from bim2rdt.sim.render import RgbdFrame, add_sensor_noise, cast_frame
@@ -39,6 +41,10 @@ from bim2rdt.sim.views import object_scene_points
 CONE, DRUM, CRATE = "Traffic_Cone_Orange_70cm", "Steel_Drum_55gal", "Wooden_Crate_1200x800x600"
 SCAFFOLD, TRIPOD, PALLET = "Scaffold_Frame_1000x2000", "Survey_Tripod_Aluminium", "Pallet_Wood_EUR"
 _TRIO = ((CONE, 0.0, 0.0, 0.3, 0.8), (DRUM, 0.9, 0.35, 1.0, 0.35), (CRATE, 0.25, 1.35, 0.4, 0.6))
+
+
+class ScenarioError(Bim2RdtError):
+    """Bad arguments to :func:`scenario`: an unknown name, or a count that leaves nothing to register."""
 
 
 @dataclass(frozen=True)
@@ -96,7 +102,8 @@ def scenario(name: str, trials: int = 50, seed: int = 0, sample_count: int = 200
              intrinsics: Intrinsics = Intrinsics(), spec: ScenarioSpec | None = None) -> Scenario:
     """Build scenario ``name`` (S1-S4) with ``trials`` seeded trials; ``views`` jittered camera poses are ray
     cast once and shared by the trials (each trial draws its own sensor noise, corners and perturbations).
-    ``spec`` replaces the named spec (e.g. a variant with every cone leaning)."""
+    ``spec`` replaces the named spec (e.g. a variant with every cone leaning). Raises :class:`ScenarioError`."""
+    _check_arguments(name, trials, views, sample_count)
     spec = spec or SCENARIOS[name]
     site = SiteScene([PlacedObject(family, mesh_for_family(family), _ground_pose(x, y, yaw), albedo)
                       for family, x, y, yaw, albedo in spec.layout])
@@ -115,6 +122,16 @@ def scenario(name: str, trials: int = 50, seed: int = 0, sample_count: int = 200
         view = t % views
         out.append(_trial(spec, views_of_kind[view][0], frames[kind][view], intrinsics, rng))
     return Scenario(spec, site, models, out)
+
+
+def _check_arguments(name: str, trials: int, views: int, sample_count: int) -> None:
+    """One line per mistake; the name seeds the trials, so a variant ``spec`` still needs a known name."""
+    if name not in SCENARIOS:
+        raise ScenarioError(f"unknown scenario {name!r}; choose one of {', '.join(SCENARIOS)}")
+    for label, value, least in (("trials", trials, 1), ("views", views, 1),
+                                ("sample_count", sample_count, MIN_SCENE_POINTS)):
+        if value < least:
+            raise ScenarioError(f"{label} must be >= {least}, got {value}")
 
 
 def _trial(spec: ScenarioSpec, site: SiteScene, clean: RgbdFrame, intrinsics: Intrinsics,
