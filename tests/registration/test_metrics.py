@@ -23,6 +23,13 @@ def test_identical_sets_have_zero_distance():
     assert hausdorff(a, a.copy()).max == 0.0
 
 
-def test_bad_point_sets_raise():
-    with pytest.raises(RegistrationError, match="points_b"):
-        hausdorff(np.zeros((3, 3)), np.zeros((0, 3)))
+@pytest.mark.parametrize("points_a, points_b, message", [
+    (np.zeros((3, 3)), np.zeros((0, 3)), r"points_b must have shape \(N, 3\) with N >= 1, got \(0, 3\)"),
+    (np.zeros((3, 2)), np.zeros((3, 3)), r"points_a must have shape \(N, 3\) with N >= 1, got \(3, 2\)"),
+    (np.zeros(3), np.zeros((3, 3)), r"points_a must have shape"),
+    (np.zeros((3, 3)), [[0.0, np.nan, 0.0]], "points_b contains NaN or infinite values"),
+    ([[np.inf, 0.0, 0.0]], np.zeros((3, 3)), "points_a contains NaN or infinite values"),
+])
+def test_bad_point_sets_raise_a_registration_error_naming_the_set(points_a, points_b, message):
+    with pytest.raises(RegistrationError, match=message):
+        hausdorff(points_a, points_b)

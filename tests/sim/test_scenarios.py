@@ -38,6 +38,9 @@ def test_initial_poses_are_perturbed_within_the_scenario_bounds():
             error = pose_error("none", obj.T_init, obj.T_world_model)
             assert 0.0 < error.tilt_deg <= spec.max_tilt_deg + 1e-6
             assert error.rotation_deg <= spec.max_tilt_deg + spec.max_yaw_deg + 1e-6
+            centroid = built.site.objects[[o.family for o in built.site.objects].index(obj.family)].mesh.centroid
+            moved = lambda T: T[:3, :3] @ centroid + T[:3, 3]  # noqa: E731  (turns are about the centroid)
+            assert 0.0 < np.linalg.norm(moved(obj.T_init) - moved(obj.T_world_model)) <= spec.max_offset + 1e-9
             assert len(obj.scene_pts_world) >= 6
 
 
