@@ -192,8 +192,10 @@ def test_ending_a_session_ends_the_running_activity_with_the_day_exposure(make_m
     subject = monitor.start_session("dev-1", "jo", "breaker")
     feed(monitor, plan_batches("dev-1", [("idle", 2), ("breaker", 30)]), clock)
     assert monitor.activity("dev-1").id is not None
+    clock.now += 300.0  # the offline status (last will) reaches us five minutes after the last sample
     events = monitor.end_session("dev-1")
     assert [e.kind for e in events][-1] == "hav.activity_ended"
+    assert events[-1].time - T0 == events[-1].data["ended"] - T0 == pytest.approx(32.0, abs=1e-6)  # device time, last sample
     assert events[-1].data["day_a8"] == pytest.approx(monitor.day(subject, DAY).a8)
     assert monitor.store.activities(subject)[-1]["open"] is False
 

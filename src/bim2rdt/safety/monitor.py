@@ -122,15 +122,17 @@ class HavMonitor:
             return subject
 
     def end_session(self, device: str, when: float | None = None) -> list[Event]:
-        """The device went offline or the session is over: flush its stream and end its activity."""
+        """The device went offline or the session is over: flush its stream and end its activity at ``when``
+        (default: the device time of its last sample, not when the news reached us)."""
         with self._lock:
             stream = self._streams.get(device)
             if stream is None:
                 return []
             result = PushResult()
-            stream.buffer.close(result)
+            last = stream.buffer.close(result)
             events = self._note_gaps(stream, result) + self._process([(stream, b, s) for b, s in result.pieces])
-            events += self._stop_activity(stream, when if when is not None else self._last_time(stream))
+            when = when if when is not None else last if last is not None else self.clock()
+            events += self._stop_activity(stream, when)
             self._commit([], [stream], events)
             return events
 

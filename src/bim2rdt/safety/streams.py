@@ -65,11 +65,13 @@ class StreamBuffer:
         """Declare a gap if the oldest waiting batch has waited longer than ``reorder_s``."""
         self._drain(result, now)
 
-    def close(self, result: PushResult) -> None:
-        """The device went away: take every waiting batch in order (gaps and all) and end the segment."""
+    def close(self, result: PushResult) -> float | None:
+        """The device went away: take every waiting batch in order (gaps and all) and end the segment; returns
+        the device time just after its last sample (None if no segment was open)."""
         while self.pending:
             self._drain(result, float("inf"))
-        self.end_time = None
+        end, self.end_time = self.end_time, None
+        return end
 
     def _drain(self, result: PushResult, now: float) -> None:
         while self.pending:
