@@ -11,7 +11,8 @@ def test_world_points_go_to_map_coordinates_and_back(site_model):
     world = np.array([[0.0, 0.0, 0.0], [10.0, 0.0, 0.0], [3.0, 4.0, 1.5]])
     on_map = frame.to_map(world)
     angle = np.radians(12.0)
-    assert on_map[1] == pytest.approx([456000 + 10 * np.cos(angle), 5430000 + 10 * np.sin(angle), 115.0])
+    # absolute tolerance: rel=1e-6 of a 5.43e6 m northing would be 5 m, hiding a dropped rotation
+    assert on_map[1] == pytest.approx([456000 + 10 * np.cos(angle), 5430000 + 10 * np.sin(angle), 115.0], abs=1e-6)
     assert np.allclose(frame.to_world(on_map), world)
     assert np.linalg.norm(on_map[2] - on_map[0]) == pytest.approx(np.linalg.norm(world[2]))
 
