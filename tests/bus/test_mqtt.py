@@ -28,18 +28,18 @@ def connect(broker, user: str, password: str | None = None, **kw) -> MqttBus:
 
 def collect(bus: MqttBus, pattern: str) -> list:
     got: list = []
-    bus.subscribe(pattern, lambda topic, payload: got.append((topic, payload)))
-    time.sleep(0.2)
+    assert bus.subscribe(pattern, lambda topic, payload: got.append((topic, payload))) < 128  # SUBACK received
     return got
 
 
-def wait_for(predicate, timeout: float = 5.0) -> bool:
+def wait_for(predicate, what: str, timeout: float = 10.0) -> None:
+    """Poll ``predicate`` until true; fail the test naming ``what`` did not happen (never hang)."""
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
         if predicate():
-            return True
+            return
         time.sleep(0.02)
-    return False
+    pytest.fail(f"{what} did not happen within {timeout} s")
 
 
 def test_the_broker_is_not_the_system_one(broker):
@@ -53,8 +53,8 @@ def test_a_device_publishes_its_own_topic_but_cannot_publish_as_another(broker):
     assert w1.publish(accel_topic("s", "w1"), b"mine", qos=1, wait=True) == 0
     assert w1.publish(accel_topic("s", "w2"), b"forged", qos=1, wait=True) == NOT_AUTHORIZED
     assert w1.publish(status_topic("s", "w2"), b"forged", qos=1, wait=True) == NOT_AUTHORIZED
-    assert wait_for(lambda: len(got) >= 1)
-    time.sleep(0.3)
+    wait_for(lambda: len(got) >= 1, "the monitor receiving w1's own message")
+    time.sleep(0.3)  # a forged message, had the broker let it through, would arrive in this window
     assert got == [("site/s/wearable/w1/accel", b"mine")]
     w1.close()
     monitor.close()
@@ -72,7 +72,7 @@ def test_a_device_cannot_read_other_devices(broker):
     got = collect(w2, "site/+/wearable/#")
     w1 = connect(broker, "w1")
     w1.publish(accel_topic("s", "w1"), b"private", qos=1, wait=True)
-    time.sleep(0.3)
+    time.sleep(0.3)  # a device reads nothing (ACL), so there is no event to wait for: a window for a leak
     assert got == []
     w1.close()
     w2.close()
@@ -90,7 +90,7 @@ def test_a_vanished_device_is_marked_offline_by_its_retained_last_will(broker):
     subprocess.run([sys.executable, "-c", script], check=True, timeout=30)
     dashboard = connect(broker, "dashboard")
     got = collect(dashboard, "site/s/wearable/+/status")
-    assert wait_for(lambda: any(json.loads(p) == {"online": False} for _, p in got))
+    wait_for(lambda: any(json.loads(p) == {"online": False} for _, p in got), "the retained last will arriving")
     dashboard.close()
 
 
@@ -98,8 +98,7 @@ def test_the_monitor_over_mqtt_ignores_payloads_whose_device_is_not_the_topics(b
     sink = ListSink()
     monitor = HavMonitor(tmp_path, "secret", [sink], MonitorConfig(site="s"))
     bus = connect(broker, "monitor")
-    monitor.attach(bus)
-    time.sleep(0.2)
+    monitor.attach(bus)  # returns after the SUBACKs
     w1 = connect(broker, "w1")
     w1.publish(status_topic("s", "w1"), json.dumps({"online": True, "worker": "nia", "tool": "grinder"}).encode(),
                qos=1, retain=True, wait=True)
@@ -111,7 +110,7 @@ def test_the_monitor_over_mqtt_ignores_payloads_whose_device_is_not_the_topics(b
         w1.publish(accel_topic("s", "w1"), encode_accel(item), qos=1)
     for item in sent:
         w1.publish(accel_topic("s", "w1"), encode_accel(item), qos=1)
-    assert wait_for(lambda: "hav.activity_started" in sink.kinds(), timeout=10)
+    wait_for(lambda: "hav.activity_started" in sink.kinds(), "an activity start from w1's batches")
     assert monitor.stats["mismatched"] == 3
     assert monitor.session("w2") is None
     assert monitor.session("w1").tool == "grinder"
@@ -129,12 +128,11 @@ def test_a_restarted_monitor_gets_what_was_published_while_it_was_away(broker, t
     first = HavMonitor(tmp_path, "secret", [sink], MonitorConfig(site="r"))
     bus = client(broker, "monitor", client_id="hav-monitor-r", session_expiry_s=600)
     first.attach(bus)
-    bus.connect()
-    time.sleep(0.2)
+    bus.connect()  # returns after the SUBACKs of what attach asked for
     w2 = connect(broker, "w2")
     for item in sent[:4]:
         w2.publish(accel_topic("r", "w2"), encode_accel(item), qos=1, wait=True)
-    assert wait_for(lambda: (first.stream_status("w2") or {}).get("next_seq") == 4)
+    wait_for(lambda: (first.stream_status("w2") or {}).get("next_seq") == 4, "the first monitor taking 4 batches")
     bus.close()  # the monitor stops mid-shift ...
     first.close()
     for item in sent[2:]:  # ... the device keeps publishing (and repeats two batches it was unsure about)
@@ -143,7 +141,7 @@ def test_a_restarted_monitor_gets_what_was_published_while_it_was_away(broker, t
     bus = client(broker, "monitor", client_id="hav-monitor-r", session_expiry_s=600)
     second.attach(bus)
     bus.connect()
-    assert wait_for(lambda: second.stream_status("w2")["next_seq"] == len(sent), timeout=10)
+    wait_for(lambda: second.stream_status("w2")["next_seq"] == len(sent), "the restarted monitor catching up")
     assert second.stats["duplicates"] == 2
     assert "hav.activity_started" in sink.kinds()
     bus.close()

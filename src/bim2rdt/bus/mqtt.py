@@ -5,7 +5,8 @@ while the client is away (a restarted monitor gets what it missed; its de-duplic
 
 Handlers run on paho's network thread, one message at a time, in arrival order. ``publish(..., wait=True)``
 blocks until the broker's PUBACK and returns its reason code: 0 when accepted, 135 (not authorized) when the
-broker's ACL refused it.
+broker's ACL refused it. ``connect`` and ``subscribe`` return once the broker acknowledged the subscriptions
+(SUBACK), so a message published after they return reaches the handler; every wait is bounded by ``timeout_s``.
 """
 
 from __future__ import annotations
@@ -45,12 +46,14 @@ class MqttBus:
         self._handlers: list[tuple[str, Handler, int]] = []
         self._connected = threading.Event()
         self._connect_reason: str | None = None
-        self._acks: dict[int, threading.Event] = {}
+        self._acks: dict[int, threading.Event] = {}  # PUBACK and SUBACK by message id (one counter in paho)
+        self._resubscribed: list[int] = []
         self._ack_codes: dict[int, int] = {}
         self._lock = threading.Lock()
         self._client.on_connect = self._on_connect
         self._client.on_message = self._on_message
         self._client.on_publish = self._on_publish
+        self._client.on_subscribe = self._on_subscribe
         self._client.max_inflight_messages_set(1000)
 
     def connect(self) -> MqttBus:
@@ -69,13 +72,17 @@ class MqttBus:
             self.close()
             raise BusError(f"MQTT broker {self.host}:{self.port} refused the connection: "
                            f"{self._connect_reason or 'no answer'}")
+        for mid in list(self._resubscribed):
+            self._await_ack(mid, "SUBACK", "the subscriptions")
         return self
 
-    def subscribe(self, pattern: str, handler: Handler, qos: int = 1) -> None:
-        """Call ``handler(topic, payload)`` for every message matching ``pattern`` (on the network thread)."""
+    def subscribe(self, pattern: str, handler: Handler, qos: int = 1) -> int:
+        """Call ``handler(topic, payload)`` for every message matching ``pattern`` (on the network thread).
+        When connected, wait for the SUBACK and return its reason code (the granted QoS, >= 128 if refused)."""
         self._handlers.append((pattern, handler, qos))
-        if self._connected.is_set():
-            self._client.subscribe(pattern, qos=qos)
+        if not self._connected.is_set():
+            return 0
+        return self._await_ack(self._client.subscribe(pattern, qos=qos)[1], "SUBACK", pattern)
 
     def publish(self, topic: str, payload: bytes, qos: int = 0, retain: bool = False, wait: bool = False) -> int:
         """Publish; with ``wait`` (QoS >= 1) block until the PUBACK and return its reason code."""
@@ -84,15 +91,19 @@ class MqttBus:
             raise BusError(f"publish to {topic} failed: {mqtt.error_string(info.rc)}")
         if not wait or qos == 0:
             return 0
+        return self._await_ack(info.mid, "PUBACK", topic)
+
+    def _await_ack(self, mid: int, kind: str, what: str) -> int:
+        """Block until the broker acknowledged message ``mid`` (at most ``timeout_s``); its reason code."""
         with self._lock:
-            done = self._acks.setdefault(info.mid, threading.Event())
-            if info.mid in self._ack_codes:
+            done = self._acks.setdefault(mid, threading.Event())
+            if mid in self._ack_codes:
                 done.set()
         if not done.wait(self.timeout_s):
-            raise BusError(f"no PUBACK from {self.host}:{self.port} for {topic} within {self.timeout_s} s")
+            raise BusError(f"no {kind} from {self.host}:{self.port} for {what} within {self.timeout_s} s")
         with self._lock:
-            self._acks.pop(info.mid, None)
-            return self._ack_codes.pop(info.mid, 0)
+            self._acks.pop(mid, None)
+            return self._ack_codes.pop(mid, 0)
 
     def close(self) -> None:
         """Disconnect cleanly (a clean disconnect does not fire the last will)."""
@@ -109,14 +120,16 @@ class MqttBus:
         if reason_code.is_failure:
             self._connect_reason = str(reason_code)
         else:
-            for pattern, _, qos in self._handlers:
-                client.subscribe(pattern, qos=qos)
+            self._resubscribed = [client.subscribe(pattern, qos=qos)[1] for pattern, _, qos in self._handlers]
         self._connected.set()
 
     def _on_message(self, client, userdata, message) -> None:
         for pattern, handler, _ in self._handlers:
             if topic_matches(pattern, message.topic):
                 handler(message.topic, message.payload)
+
+    def _on_subscribe(self, client, userdata, mid, reason_codes, properties) -> None:
+        self._on_publish(client, userdata, mid, reason_codes[0], properties)
 
     def _on_publish(self, client, userdata, mid, reason_code, properties) -> None:
         with self._lock:

@@ -92,7 +92,6 @@ def run_latency(messages: int = 200, rate_hz: float = 20.0, fs: float = 5000.0, 
         listener.subscribe(wearable_pattern("bench", "accel"), on_accel)
         listener.connect()
         device = MqttBus("127.0.0.1", broker.port, username="w1", password=users["w1"]).connect()
-        time.sleep(0.3)
         published = _publish_paced(device, messages, rate_hz, fs, batch_s, tick)
         finished.wait(30.0)
         device.close()
