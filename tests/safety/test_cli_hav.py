@@ -7,7 +7,7 @@ import json
 import os
 import subprocess
 import sys
-import time
+import threading
 
 import numpy as np
 import pytest
@@ -83,22 +83,45 @@ def test_bench_hav_reports_throughput_against_the_floor_and_latency(cli_env):
 
 
 def test_a_live_run_through_mosquitto_with_the_shipped_config(tmp_path, cli_env):
-    port = free_port()
+    port, env = free_port(), {**os.environ, **cli_env, "PYTHONUNBUFFERED": "1"}
     broker = subprocess.Popen([sys.executable, "-m", "bim2rdt", "hav", "broker", "--port", str(port), "--devices",
-                               "1", "--duration", "60"], env={**os.environ, **cli_env}, stdout=subprocess.PIPE,
-                              stderr=subprocess.PIPE, text=True)
+                               "1", "--duration", "60"], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                              text=True)
+    listener = None
     try:
-        time.sleep(3.0)
+        follow(broker, "mosquitto on", timeout=30)
         listener = subprocess.Popen([sys.executable, "-m", "bim2rdt", "hav", "listen", "--mqtt", f"127.0.0.1:{port}",
-                                     "--duration", "12"], env={**os.environ, **cli_env}, stdout=subprocess.PIPE,
-                                    stderr=subprocess.PIPE, text=True)
-        time.sleep(4.0)
+                                     "--duration", "15"], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                    text=True)
+        out, reader = follow(listener, "listening on", timeout=30)  # printed once its subscriptions are acked
         sim = run_cli("sim", "wearables", "--mqtt", f"127.0.0.1:{port}", "--workers", "1", "--minutes", "1",
                       "--fs", "1000", env=cli_env)
         assert sim.returncode == 0, sim.stderr
-        out, err = listener.communicate(timeout=60)
-        assert listener.returncode == 0, err
-        assert "activity_started" in out and "activity_ended" in out
+        assert listener.wait(timeout=60) == 0, listener.stderr.read()
+        reader.join(timeout=10)
+        text = "".join(out)
+        assert "activity_started" in text and "activity_ended" in text
     finally:
-        broker.terminate()
-        broker.wait(timeout=10)
+        for process in (listener, broker):
+            if process is not None and process.poll() is None:
+                process.kill()
+                process.wait(timeout=10)
+
+
+def follow(process: subprocess.Popen, text: str, timeout: float) -> tuple[list[str], threading.Thread]:
+    """Read ``process``'s stdout on a thread; return once a line holds ``text``, fail (never hang) after
+    ``timeout`` s. Returns the lines (the thread keeps adding the rest of the output) and the thread."""
+    lines: list[str] = []
+    seen = threading.Event()
+
+    def read() -> None:
+        for line in process.stdout:
+            lines.append(line)
+            if text in line:
+                seen.set()
+
+    reader = threading.Thread(target=read, daemon=True)
+    reader.start()
+    if not seen.wait(timeout):
+        pytest.fail(f"{process.args[3:5]} printed no {text!r} within {timeout} s: {''.join(lines)[-300:]!r}")
+    return lines, reader
