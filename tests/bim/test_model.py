@@ -112,6 +112,16 @@ def test_the_cache_is_keyed_by_content_so_an_edited_file_is_read_again(samples, 
     assert not edited.from_cache and "Wall #9" in edited.families()
 
 
+@pytest.mark.parametrize("damage", [b"", b"PK\x03\x04 not a zip", "half"])
+def test_a_damaged_cache_is_ignored_and_rewritten(site_ifc, tmp_path, damage):
+    first = load_ifc(site_ifc, cache_dir=tmp_path)
+    (cache,) = tmp_path.glob("*.npz")
+    cache.write_bytes(cache.read_bytes()[: cache.stat().st_size // 2] if damage == "half" else damage)
+    again = load_ifc(site_ifc, cache_dir=tmp_path)
+    assert not again.from_cache and [el.global_id for el in again.elements] == [el.global_id for el in first.elements]
+    assert load_ifc(site_ifc, cache_dir=tmp_path).from_cache  # the damaged file was replaced by a whole one
+
+
 def test_the_default_cache_lives_under_the_configured_cache_dir(samples, tmp_path, monkeypatch):
     from bim2rdt.config import get_settings
 

@@ -49,7 +49,7 @@ def read_cache(path: Path) -> tuple[dict[str, Any], MeshSet] | None:
             meta = json.loads(str(data["meta"]))
             meshes = MeshSet([str(i) for i in data["ids"]], data["vertices"], data["faces"],
                              data["vertex_offsets"], data["face_offsets"])
-    except (OSError, ValueError, KeyError, zipfile.BadZipFile):
+    except (OSError, EOFError, ValueError, KeyError, zipfile.BadZipFile):  # EOFError: an empty file
         return None
     return meta, meshes
 
