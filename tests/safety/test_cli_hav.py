@@ -43,11 +43,13 @@ def test_analyze_reports_the_exposure_of_a_recording_and_plots_the_day(tmp_path)
     assert len(report["activities"]) == 1 and report["activities"][0]["a_hv"] == pytest.approx(6.0, rel=0.05)
     assert report["a8"] == pytest.approx(daily_exposure(6.0, 40.0), rel=0.05)
     assert report["band_limited"] is True  # 2 kHz covers up to 794 Hz, not 1000 Hz
+    assert report["rejected_s"] == 0.0 and report["rejected_kinds"] == []
     assert (tmp_path / "out" / "day_a8.png").stat().st_size > 10_000
 
 
 @pytest.mark.parametrize("content, message", [("a,b\n1,2\n", "header needs a time column"),
-                                              ("t,ax,ay,az\n0,1,2,x\n", "not numeric")])
+                                              ("t,ax,ay,az\n0,1,2,x\n", "not numeric"),
+                                              ("t,ax,ay,az\n", "only 0 samples"), ("", "header needs")])
 def test_analyze_refuses_a_bad_file_in_one_line(tmp_path, content, message):
     path = tmp_path / "bad.csv"
     path.write_text(content)

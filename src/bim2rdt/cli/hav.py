@@ -154,6 +154,7 @@ def hav_analyze(
                "trigger_s": report.trigger_s, "seconds_to_eav": report.seconds_to_eav,
                "seconds_to_elv": report.seconds_to_elv, "band_hz": [report.band.low_hz, report.band.high_hz],
                "band_limited": not report.band.complete, "estimate": position != "handle",
+               "rejected_s": report.rejected_s, "rejected_kinds": report.rejected_kinds,
                "activities": report.activities, "plot": str(plot)}
     if as_json:
         print_json(summary)
@@ -163,6 +164,9 @@ def hav_analyze(
     print_table(f"Activities in {file.name}", ["start (UTC)", "minutes", "a_hv m/s²", "A(8) share", "points"], rows)
     console.print(f"day: A(8) {report.a8:.2f} m/s², {report.points:.0f} points, trigger time "
                   f"{report.trigger_s / 60:.1f} min; plot {plot}")
+    if report.rejected_s:
+        console.print(f"[yellow]rejected {report.rejected_s:.1f} s of samples as artefacts "
+                      f"({', '.join(report.rejected_kinds)}): not counted as exposure[/yellow]")
     if not report.band.complete:
         console.print(f"[yellow]band-limited: {recording.fs:g} Hz covers {report.band.low_hz:.1f}-"
                       f"{report.band.high_hz:.0f} Hz of the 8-1000 Hz range[/yellow]")

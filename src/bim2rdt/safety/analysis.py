@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import csv
 import tempfile
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -17,7 +18,7 @@ import numpy as np
 
 from bim2rdt.bus.event import Event
 from bim2rdt.bus.payloads import AccelBatch
-from bim2rdt.safety.activity import ACTIVITY_ENDED
+from bim2rdt.safety.activity import ACTIVITY_ENDED, ARTEFACT
 from bim2rdt.safety.errors import HavError
 from bim2rdt.safety.exposure import EAV, ELV, time_to_limit
 from bim2rdt.safety.monitor import HavMonitor, MonitorConfig
@@ -38,7 +39,8 @@ class Recording:
 
 @dataclass
 class DayReport:
-    """What a recording amounts to: activities, the day's A(8) and points, its A(8) curve and all events."""
+    """What a recording amounts to: activities, the day's A(8) and points, its A(8) curve and all events;
+    ``rejected_s`` seconds of samples were artefacts (``rejected_kinds``) and count as no exposure."""
 
     a8: float
     points: float
@@ -47,6 +49,8 @@ class DayReport:
     activities: list[dict] = field(default_factory=list)
     timeline: list[tuple[float, float]] = field(default_factory=list)
     events: list[Event] = field(default_factory=list)
+    rejected_s: float = 0.0
+    rejected_kinds: list[str] = field(default_factory=list)
 
     @property
     def seconds_to_eav(self) -> float | None:
@@ -72,7 +76,9 @@ def read_accel_csv(path: Path) -> Recording:
         header = [name.strip().lower() for name in next(csv.reader(handle), [])]
     columns = _columns(header, path)
     try:
-        data = np.loadtxt(path, delimiter=",", skiprows=1, usecols=columns, ndmin=2)
+        with warnings.catch_warnings():  # 'input contained no data': the sample count below says it in one line
+            warnings.simplefilter("ignore", UserWarning)
+            data = np.loadtxt(path, delimiter=",", skiprows=1, usecols=columns, ndmin=2)
     except ValueError as error:
         raise HavError(f"{path}: not numeric CSV data ({str(error).splitlines()[0]})") from None
     if data.shape[0] < 16:
@@ -109,7 +115,10 @@ def analyze_recording(recording: Recording, tool: str = "unknown", position: str
         timeline = [(t, a8) for t, _, a8 in monitor.timeline]
         monitor.close()
     ended = [e.data for e in sink.events if e.kind == ACTIVITY_ENDED]
-    return DayReport(day.a8, day.points, day.seconds, covered_band(recording.fs), ended, timeline, sink.events)
+    artefacts = [e.data for e in sink.events if e.kind == ARTEFACT]
+    kinds = sorted({kind for data in artefacts for kind in data["kinds"]})
+    return DayReport(day.a8, day.points, day.seconds, covered_band(recording.fs), ended, timeline, sink.events,
+                     sum(data["seconds"] for data in artefacts), kinds)
 
 
 def plot_day(report: DayReport, path: Path, title: str = "Daily vibration exposure") -> Path:
