@@ -44,7 +44,8 @@ def test_zones_are_tagged_and_the_site_is_geo_referenced(tmp_path):
     model = load_ifc(build_site_ifc(tmp_path / "site.ifc"), cache_dir=tmp_path / "cache")
     assert {(z.kind, z.off_limits) for z in model.zones} == {("work", False), ("exclusion", True)}
     assert model.site_frame.source == "IfcMapConversion" and model.site_frame.crs_name == "EPSG:25832"
-    assert np.allclose(model.site_frame.to_map(np.zeros((1, 3))), [[456000.0, 5430000.0, 115.0]])
+    # rtol=0: allclose's default rtol=1e-5 would accept 54 m of error on a 5.43e6 m northing
+    assert np.allclose(model.site_frame.to_map(np.zeros((1, 3))), [[456000.0, 5430000.0, 115.0]], rtol=0, atol=1e-6)
 
 
 def test_two_builds_write_the_same_bytes_and_a_valid_file(tmp_path):
