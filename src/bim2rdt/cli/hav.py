@@ -159,16 +159,21 @@ def hav_analyze(
     if as_json:
         print_json(summary)
         return
+    _print_day(report, file.name, recording.fs, plot)
+
+
+def _print_day(report, name: str, fs: float, plot: Path) -> None:
+    """The analyzed day as a table of activities, a summary line and warnings on what limits it."""
     rows = [(time.strftime("%H:%M:%S", time.gmtime(a["started"])), a["trigger_s"] / 60.0, a["a_hv"],
              a["activity_a8"], a["activity_points"]) for a in report.activities]
-    print_table(f"Activities in {file.name}", ["start (UTC)", "minutes", "a_hv m/s²", "A(8) share", "points"], rows)
+    print_table(f"Activities in {name}", ["start (UTC)", "minutes", "a_hv m/s²", "A(8) share", "points"], rows)
     console.print(f"day: A(8) {report.a8:.2f} m/s², {report.points:.0f} points, trigger time "
                   f"{report.trigger_s / 60:.1f} min; plot {plot}")
     if report.rejected_s:
         console.print(f"[yellow]rejected {report.rejected_s:.1f} s of samples as artefacts "
                       f"({', '.join(report.rejected_kinds)}): not counted as exposure[/yellow]")
     if not report.band.complete:
-        console.print(f"[yellow]band-limited: {recording.fs:g} Hz covers {report.band.low_hz:.1f}-"
+        console.print(f"[yellow]band-limited: {fs:g} Hz covers {report.band.low_hz:.1f}-"
                       f"{report.band.high_hz:.0f} Hz of the 8-1000 Hz range[/yellow]")
 
 
