@@ -93,7 +93,7 @@ def test_a_live_run_through_mosquitto_with_the_shipped_config(tmp_path, cli_env)
     try:
         follow(broker, "mosquitto on", timeout=30)
         listener = subprocess.Popen([sys.executable, "-m", "bim2rdt", "hav", "listen", "--mqtt", f"127.0.0.1:{port}",
-                                     "--duration", "15"], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                     "--duration", "12"], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                                     text=True)
         out, reader = follow(listener, "listening on", timeout=30)  # printed once its subscriptions are acked
         sim = run_cli("sim", "wearables", "--mqtt", f"127.0.0.1:{port}", "--workers", "1", "--minutes", "1",
