@@ -9,9 +9,10 @@ from __future__ import annotations
 from functools import lru_cache
 from pathlib import Path
 
-from pydantic import BaseModel, Field
+from pydantic import BaseModel, Field, ValidationError
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
+from bim2rdt.errors import Bim2RdtError
 from bim2rdt.registration.config import IcpConfig
 
 
@@ -82,7 +83,16 @@ class Settings(BaseSettings):
     registration: IcpConfig = IcpConfig()
 
 
+class ConfigError(Bim2RdtError):
+    """A setting from the environment failed validation; the message names the variable."""
+
+
 @lru_cache(maxsize=1)
 def get_settings() -> Settings:
-    """The process-wide settings, read from the environment once."""
-    return Settings()
+    """The process-wide settings, read from the environment once. Raises :class:`ConfigError` on a bad value."""
+    try:
+        return Settings()
+    except ValidationError as error:
+        first = error.errors()[0]
+        variable = "BIM2RDT_" + "__".join(str(part) for part in first["loc"]).upper()
+        raise ConfigError(f"{variable}: {first['msg']} (got {first.get('input')!r})") from error
