@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
-from bim2rdt.perception.camera import Intrinsics, look_at
+from bim2rdt.perception.camera import CameraError, Intrinsics, look_at
 from bim2rdt.perception.corners import shi_tomasi
 
 
@@ -31,3 +32,12 @@ def test_shi_tomasi_finds_the_four_corners_of_a_square_inside_the_roi_only():
     assert len(corners) == 4
     for expected in ((30, 30), (59, 30), (30, 59), (59, 59)):
         assert np.min(np.linalg.norm(corners - expected, axis=1)) < 1.5
+
+
+@pytest.mark.parametrize("eye, target, message", [
+    ((0.0, 0.0, 2.0), (0.0, 0.0, 0.0), "parallel to up"),
+    ((1.0, 1.0, 1.0), (1.0, 1.0, 1.0), "eye and target coincide"),
+])
+def test_look_at_refuses_a_view_whose_image_axes_are_undefined(eye, target, message):
+    with pytest.raises(CameraError, match=message):
+        look_at(eye, target)
