@@ -6,6 +6,7 @@ import numpy as np
 import trimesh
 
 from bim2rdt.registration.errors import RegistrationError
+from bim2rdt.registration.validation import MIN_SCENE_POINTS
 
 RESTING_FACE_TOLERANCE = 0.01
 """Samples this close (m) to the model's lowest point and facing down count as the resting face."""
@@ -18,6 +19,8 @@ def sample_model(mesh: trimesh.Trimesh, count: int = 2000, seed: int = 0,
     With ``drop_resting_face`` the face an upright object stands on (facing down, at its lowest z) is left out:
     no camera sees it, and its samples would fit the ground around the object perfectly at any yaw and any
     position in the plane, pulling a flat object (a pallet) off its true pose."""
+    if count < MIN_SCENE_POINTS:
+        raise RegistrationError(f"count must be >= {MIN_SCENE_POINTS}, got {count}: register needs that many")
     if mesh.is_empty or mesh.area <= 0.0:
         raise RegistrationError("cannot sample a model from an empty mesh")
     keep = np.ones(len(mesh.faces), dtype=bool)
