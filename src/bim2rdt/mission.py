@@ -200,10 +200,11 @@ def _best_fit(model_pts: np.ndarray, model_normals: np.ndarray, object_pts: np.n
     return local if local.score <= config.tie_ratio * best.score else best
 
 
-def _off_the_slab(points_world: np.ndarray, config: MissionConfig) -> np.ndarray:
-    """The ROI's points above the slab: the slab is in the BIM, so its corners are known clutter."""
+def _off_the_slab(points_world: np.ndarray, config: MissionConfig, least: int | None = None) -> np.ndarray:
+    """The ROI's points above the slab (the slab is in the BIM, so its corners are known clutter), or all of
+    them when fewer than ``least`` (default ``config.min_points``) are above it."""
     above = points_world[points_world[:, 2] > config.ground_clearance]
-    return above if len(above) >= config.min_points else points_world
+    return above if len(above) >= (config.min_points if least is None else least) else points_world
 
 
 def _initial_poses(detection: Detection, target: Target | None, model_pts: np.ndarray,
@@ -239,15 +240,13 @@ def _shifted(T: np.ndarray, offset: np.ndarray) -> np.ndarray:
 
 def _object_centroid(points_world: np.ndarray, config: MissionConfig) -> np.ndarray:
     """Median (3,) of the points above the slab: robust to the ROI's clutter, for association."""
-    above = points_world[points_world[:, 2] > config.ground_clearance]
-    return np.median(above if len(above) else points_world, axis=0)
+    return np.median(_off_the_slab(points_world, config, least=1), axis=0)
 
 
 def _box_centre(points_world: np.ndarray, axes: np.ndarray, config: MissionConfig) -> np.ndarray:
     """Centre (2,) of the points' 5-95 % extent along the body axes ``axes`` (columns). Extents, unlike a mean
     or median, are not pulled towards the near end, where perspective puts most of the corners."""
-    above = points_world[points_world[:, 2] > config.ground_clearance]
-    along = (above if len(above) else points_world)[:, :2] @ axes
+    along = _off_the_slab(points_world, config, least=1)[:, :2] @ axes
     low, high = np.percentile(along, [5.0, 95.0], axis=0)
     return (low + high) / 2
 
