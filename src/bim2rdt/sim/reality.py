@@ -20,7 +20,7 @@ from bim2rdt.perception.camera import Intrinsics
 from bim2rdt.registration.so3 import axis_angle
 from bim2rdt.sim.meshes import mesh_for_family
 from bim2rdt.sim.render import RgbdFrame, render_rgbd
-from bim2rdt.sim.scene import PlacedObject, SiteScene
+from bim2rdt.sim.scene import PlacedObject, SiteScene, ground_pose
 from bim2rdt.sim.views import object_scene_points
 
 UNPLANNED_FAMILY = "Steel_Drum_55gal"
@@ -62,7 +62,7 @@ def simulate_reality(model: BimModel, global_ids: list[str], seed: int = 0, move
     truth = [_changed(model, gid, rng, move_fraction) for gid in global_ids]
     truth = _knock_one_cone(truth)
     if unplanned_at is not None:
-        truth.append(TrueObject(None, UNPLANNED_FAMILY, _ground_pose(*unplanned_at, yaw_deg=25.0), "unplanned"))
+        truth.append(TrueObject(None, UNPLANNED_FAMILY, ground_pose(*unplanned_at, yaw_rad=np.deg2rad(25.0)), "unplanned"))
     objects = [PlacedObject(t.family, _mesh(model, t), t.T_world_model, albedo=0.35 + 0.3 * rng.random())
                for t in truth]
     return Reality(SiteScene(objects, ground_size=60.0), truth)
@@ -98,13 +98,6 @@ def _knock_one_cone(truth: list[TrueObject]) -> list[TrueObject]:
 
 def _mesh(model: BimModel, obj: TrueObject) -> trimesh.Trimesh:
     return mesh_for_family(obj.family) if obj.global_id is None else body_mesh(model, obj.global_id)
-
-
-def _ground_pose(x: float, y: float, yaw_deg: float) -> np.ndarray:
-    T = np.eye(4)
-    T[:3, :3] = axis_angle(np.array([0.0, 0.0, 1.0]), np.array(np.deg2rad(yaw_deg)))
-    T[:3, 3] = (x, y, 0.0)
-    return T
 
 
 class SimulatedPerception:

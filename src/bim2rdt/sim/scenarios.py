@@ -35,7 +35,7 @@ from bim2rdt.registration.validation import MIN_SCENE_POINTS
 from bim2rdt.registration.so3 import axis_angle
 from bim2rdt.sim.meshes import mesh_for_family
 from bim2rdt.sim.render import RgbdFrame, add_sensor_noise, cast_frame
-from bim2rdt.sim.scene import PlacedObject, SiteScene
+from bim2rdt.sim.scene import PlacedObject, SiteScene, ground_pose
 from bim2rdt.sim.views import object_scene_points
 
 CONE, DRUM, CRATE = "Traffic_Cone_Orange_70cm", "Steel_Drum_55gal", "Wooden_Crate_1200x800x600"
@@ -105,7 +105,7 @@ def scenario(name: str, trials: int = 50, seed: int = 0, sample_count: int = 200
     ``spec`` replaces the named spec (e.g. a variant with every cone leaning). Raises :class:`ScenarioError`."""
     _check_arguments(name, trials, views, sample_count)
     spec = spec or SCENARIOS[name]
-    site = SiteScene([PlacedObject(family, mesh_for_family(family), _ground_pose(x, y, yaw), albedo)
+    site = SiteScene([PlacedObject(family, mesh_for_family(family), ground_pose(x, y, yaw), albedo)
                       for family, x, y, yaw, albedo in spec.layout])
     models = {o.family: sample_model(o.mesh, sample_count, seed=seed) for o in site.objects}
     rng = np.random.default_rng([seed, int(name[1:])])
@@ -177,13 +177,6 @@ def perturb(T_true: np.ndarray, centroid_body: np.ndarray, spec: ScenarioSpec, r
     T[:3, :3] = turn @ T_true[:3, :3]
     T[:3, 3] = centre + turn @ (T_true[:3, 3] - centre)
     T[:3, 3] += direction / np.linalg.norm(direction) * rng.uniform(0.0, spec.max_offset)
-    return T
-
-
-def _ground_pose(x: float, y: float, yaw: float) -> np.ndarray:
-    T = np.eye(4)
-    T[:3, :3] = axis_angle(np.array([0.0, 0.0, 1.0]), np.array(yaw))
-    T[:3, 3] = (x, y, 0.0)
     return T
 
 

@@ -12,6 +12,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import trimesh
 
+from bim2rdt.registration.so3 import axis_angle
+
 GROUND = -2
 """Label of ground pixels in a rendered frame (misses are -1, objects their index)."""
 MISS = -1
@@ -45,6 +47,14 @@ class SiteScene:
             self._mesh = trimesh.util.concatenate(parts)
             self._face_owner = np.concatenate(owners)
         return self._mesh, self._face_owner
+
+
+def ground_pose(x: float, y: float, yaw_rad: float) -> np.ndarray:
+    """T_world_model of an upright object standing on the slab at (x, y) m, turned by ``yaw_rad`` about +z."""
+    T = np.eye(4)
+    T[:3, :3] = axis_angle(np.array([0.0, 0.0, 1.0]), np.array(yaw_rad))
+    T[:3, 3] = (x, y, 0.0)
+    return T
 
 
 def _ground(size: float) -> trimesh.Trimesh:
