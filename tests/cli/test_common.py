@@ -30,3 +30,10 @@ def test_writable_folder_creates_the_folder_and_returns_it(tmp_path):
     folder = tmp_path / "a" / "b"
     assert writable_folder(folder) == folder and folder.is_dir()
     assert list(folder.iterdir()) == []  # the probe file is gone
+
+
+@pytest.mark.parametrize("command", [("bench", "registration", "--no-peers"), ("demo",)])
+def test_a_negative_seed_is_a_usage_error_not_a_numpy_traceback(tmp_path, command):
+    result = run_cli(*command, "--trials", "1", "--seed", "-1", "--out", str(tmp_path))
+    assert result.returncode == 2 and "Traceback" not in result.stderr
+    assert "'--seed'" in result.stderr

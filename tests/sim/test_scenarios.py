@@ -102,6 +102,7 @@ def test_the_benchmark_counts_every_registration_in_exactly_one_failure_mode():
     ("S1", dict(trials=0), "trials must be >= 1, got 0"),
     ("S1", dict(views=0), "views must be >= 1, got 0"),
     ("S1", dict(sample_count=3), "sample_count must be >= 6, got 3"),
+    ("S1", dict(seed=-1), "seed must be >= 0, got -1"),
 ])
 def test_bad_scenario_arguments_raise_a_scenario_error_that_says_which(name, options, message):
     from bim2rdt.sim.scenarios import ScenarioError

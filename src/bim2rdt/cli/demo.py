@@ -19,7 +19,7 @@ def demo_command(
     trials: int = typer.Option(6, "--trials", min=1, help="Seeded trials per registration scenario."),
     workers: int = typer.Option(2, "--workers", min=1, help="Workers with vibration wearables."),
     minutes: float = typer.Option(60.0, "--minutes", min=1.0, help="Minutes of tool work per worker."),
-    seed: int = typer.Option(0, "--seed", help="Seed of the simulated site changes, sensor noise and trials."),
+    seed: int = typer.Option(0, "--seed", min=0, help="Seed of the simulated site changes, sensor noise and trials."),
 ) -> None:
     """Run a simulated day on the embedded site: the robot verifies the BIM's site objects with SG-ICP, the twin
     is updated and hand-arm vibration exposure becomes IfcEvent/IfcTask records; then the paper's registration

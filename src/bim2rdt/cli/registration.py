@@ -19,7 +19,7 @@ def register(app: typer.Typer, bench_app: typer.Typer) -> None:
 
 def bench_registration(
     trials: int = typer.Option(50, "--trials", min=1, help="Seeded trials per scenario (3 objects each)."),
-    seed: int = typer.Option(0, "--seed", help="Seed of scenes, noise, corners and initial poses."),
+    seed: int = typer.Option(0, "--seed", min=0, help="Seed of scenes, noise, corners and initial poses."),
     out: Path = typer.Option(Path("out/bench/registration"), "--out", callback=writable_folder,
                               help="Folder for plots and results.json."),
     peers: bool | None = typer.Option(None, "--peers/--no-peers",

@@ -103,7 +103,7 @@ def scenario(name: str, trials: int = 50, seed: int = 0, sample_count: int = 200
     """Build scenario ``name`` (S1-S4) with ``trials`` seeded trials; ``views`` jittered camera poses are ray
     cast once and shared by the trials (each trial draws its own sensor noise, corners and perturbations).
     ``spec`` replaces the named spec (e.g. a variant with every cone leaning). Raises :class:`ScenarioError`."""
-    _check_arguments(name, trials, views, sample_count)
+    _check_arguments(name, trials, views, sample_count, seed)
     spec = spec or SCENARIOS[name]
     site = SiteScene([PlacedObject(family, mesh_for_family(family), ground_pose(x, y, yaw), albedo)
                       for family, x, y, yaw, albedo in spec.layout])
@@ -124,12 +124,12 @@ def scenario(name: str, trials: int = 50, seed: int = 0, sample_count: int = 200
     return Scenario(spec, site, models, out)
 
 
-def _check_arguments(name: str, trials: int, views: int, sample_count: int) -> None:
+def _check_arguments(name: str, trials: int, views: int, sample_count: int, seed: int) -> None:
     """One line per mistake; the name seeds the trials, so a variant ``spec`` still needs a known name."""
     if name not in SCENARIOS:
         raise ScenarioError(f"unknown scenario {name!r}; choose one of {', '.join(SCENARIOS)}")
     for label, value, least in (("trials", trials, 1), ("views", views, 1),
-                                ("sample_count", sample_count, MIN_SCENE_POINTS)):
+                                ("sample_count", sample_count, MIN_SCENE_POINTS), ("seed", seed, 0)):
         if value < least:
             raise ScenarioError(f"{label} must be >= {least}, got {value}")
 
