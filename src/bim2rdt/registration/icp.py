@@ -131,11 +131,22 @@ def _iterate(restarts: _Restarts, active: np.ndarray, problem: Problem, model: m
     gravity correspondence and optional yaw-only projection), apply, test convergence."""
     delta = matching.annealed_delta(iteration, cfg.max_pair_distance, cfg.huber_delta, cfg.huber_anneal_iterations)
     T = restarts.poses[active]
-    T_body_world = invert_poses(T)
     annealing = delta > cfg.huber_delta
     stride = max(1, cfg.coarse_stride) if annealing else 1  # coarse-to-fine: the wide-scale steps need few points
-    scene_world = problem.scene_pts_world[::stride]
-    scene_body = _transform(T_body_world, scene_world)
+    scene_body, pairs, w = _weighted_pairs(invert_poses(T), problem, model, normals_world, cfg, delta, stride)
+    dst = problem.model_pts_body[pairs.model_index]
+    up_body = np.einsum("kji,j->ki", T[:, :3, :3], problem.up_world)
+    lam = gravity_weight(dst, w, problem.upright_bias * cfg.gravity_gamma0)
+    dR, dt = SOLVERS[cfg.method].step(scene_body, dst, problem.model_normals_body[pairs.model_index], w,
+                                      up_body, BODY_UP, lam, yaw_only)
+    _advance(restarts, active, dR, dt, matching.truncated_score(pairs, cfg.score_distance), cfg, annealing)
+
+
+def _weighted_pairs(T_body_world: np.ndarray, problem: Problem, model: matching.ModelIndex,
+                    normals_world: np.ndarray | None, cfg: IcpConfig, delta: float, stride: int):
+    """MatchPairs, the normal gate, RelaxIfFew, TrimPairs and RobustWeights at Huber scale ``delta`` (m) for
+    every ``stride``-th scene point -> (scene points in each body frame (k, N, 3), pairs, weights (k, N))."""
+    scene_body = _transform(T_body_world, problem.scene_pts_world[::stride])
     pair_distance = min(cfg.max_pair_distance,
                         max(cfg.pair_distance_per_delta * delta, cfg.score_distance) + model.spacing)
     pairs = matching.match_pairs(model, scene_body, pair_distance)
@@ -143,22 +154,22 @@ def _iterate(restarts: _Restarts, active: np.ndarray, problem: Problem, model: m
         normals_body = normals_world[::stride] @ np.swapaxes(T_body_world[:, :3, :3], 1, 2)
         matching.gate_normals(pairs, normals_body, problem.model_normals_body, cfg.normal_gate_deg)
     matching.relax_if_few(pairs, model, scene_body, cfg.min_pairs, cfg.max_pair_distance)
-    solver = SOLVERS[cfg.method]
-    residual = solver.residual(pairs, model.spacing)
+    residual = SOLVERS[cfg.method].residual(pairs, model.spacing)
     matching.trim_pairs(pairs, residual, cfg.trim_fraction, cfg.min_pairs, cfg.trim_floor_per_delta * delta)
-    w = matching.huber_weights(pairs, residual, delta)
-    dst = problem.model_pts_body[pairs.model_index]
-    up_body = np.einsum("kji,j->ki", T[:, :3, :3], problem.up_world)
-    lam = gravity_weight(dst, w, problem.upright_bias * cfg.gravity_gamma0)
-    dR, dt = solver.step(scene_body, dst, problem.model_normals_body[pairs.model_index], w,
-                         up_body, BODY_UP, lam, yaw_only)
+    return scene_body, pairs, matching.huber_weights(pairs, residual, delta)
+
+
+def _advance(restarts: _Restarts, active: np.ndarray, dR: np.ndarray, dt: np.ndarray, scores: np.ndarray,
+             cfg: IcpConfig, annealing: bool) -> None:
+    """Apply the body-frame steps (T_new = T inv(step)), record the scores, and mark restarts done whose step
+    was small or whose score settled (never while the Huber scale is still annealing)."""
     step = np.tile(np.eye(4), (len(active), 1, 1))
     step[:, :3, :3], step[:, :3, 3] = dR, dt
-    restarts.poses[active] = T @ invert_poses(step)
+    restarts.poses[active] = restarts.poses[active] @ invert_poses(step)
     restarts.iterations[active] += 1
-    previous, restarts.scores[active] = restarts.scores[active], matching.truncated_score(pairs, cfg.score_distance)
+    previous, restarts.scores[active] = restarts.scores[active], scores
     small = (rotation_angle(dR) < cfg.convergence_rot_rad) & (np.linalg.norm(dt, axis=1) < cfg.convergence_trans)
-    stalled = np.abs(previous - restarts.scores[active]) <= cfg.convergence_score_rel * restarts.scores[active]
+    stalled = np.abs(previous - scores) <= cfg.convergence_score_rel * scores
     if not annealing:
         restarts.done[active[small | stalled]] = True
 
