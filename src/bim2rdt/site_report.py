@@ -60,18 +60,9 @@ def plot_plan(day: SiteDay, path: Path) -> Path:
         if el.ifc_class in ("IfcWall", "IfcWallStandardCase", "IfcColumn") and day.model.has_mesh(el.global_id):
             vertices, _ = day.model.mesh(el.global_id)
             ax.fill(*_hull(vertices[:, :2]).T, color="0.8", zorder=0)
-    targets = {t.global_id: t for t in _targets(day)}
+    targets = {t.global_id: t for t in objects_of_interest(day.model)}
     for obs in day.mission.observations:
-        colour = STATUS_COLOURS[obs.status]
-        mesh = targets[obs.global_id].mesh_body if obs.global_id in targets else None
-        if mesh is not None:
-            bim = _footprint(mesh.vertices, targets[obs.global_id].placement)
-            ax.plot(*np.vstack([bim, bim[:1]]).T, "--", color="0.3", lw=0.8)
-        body = mesh.vertices if mesh is not None else _new_mesh_vertices(obs.family)
-        ax.fill(*_footprint(body, obs.pose).T, color=colour, alpha=0.7)
-        truth = day.reality.truth[obs.truth_index].T_world_model if obs.truth_index is not None else None
-        if truth is not None:
-            ax.plot(truth[0, 3], truth[1, 3], "kx", ms=6)
+        _draw_observation(ax, obs, targets.get(obs.global_id), day)
     stations = np.array([T[:3, 3] for T in day.mission.stations])
     ax.plot(stations[:, 0], stations[:, 1], "-o", color="tab:blue", ms=4, lw=1, label="robot stations")
     for status, colour in STATUS_COLOURS.items():
@@ -82,6 +73,19 @@ def plot_plan(day: SiteDay, path: Path) -> Path:
     fig.savefig(path, dpi=110, bbox_inches="tight")
     plt.close(fig)
     return path
+
+
+def _draw_observation(ax, obs, target, day: SiteDay) -> None:
+    """One object on the plan: its BIM footprint (dashed, if planned), the measured one filled with the verdict's
+    colour, and its true centre (x)."""
+    if target is not None:
+        bim = _footprint(target.mesh_body.vertices, target.placement)
+        ax.plot(*np.vstack([bim, bim[:1]]).T, "--", color="0.3", lw=0.8)
+    body = target.mesh_body.vertices if target is not None else mesh_for_family(obs.family).vertices
+    ax.fill(*_footprint(body, obs.pose).T, color=STATUS_COLOURS[obs.status], alpha=0.7)
+    if obs.truth_index is not None:
+        truth = day.reality.truth[obs.truth_index].T_world_model
+        ax.plot(truth[0, 3], truth[1, 3], "kx", ms=6)
 
 
 def plot_exposure(day: SiteDay, path: Path) -> Path:
@@ -127,14 +131,6 @@ def _event_row(event) -> dict:
     a8 = event.data.get("day_a8")
     return {"time": datetime.fromtimestamp(event.time, timezone.utc).strftime("%H:%M:%S"), "kind": event.kind,
             "subject": event.subject, "a8": round(float(a8), 2) if a8 is not None else None}
-
-
-def _targets(day: SiteDay):
-    return objects_of_interest(day.model)
-
-
-def _new_mesh_vertices(family: str) -> np.ndarray:
-    return np.asarray(mesh_for_family(family).vertices)
 
 
 def _footprint(vertices_body: np.ndarray, T: np.ndarray) -> np.ndarray:
