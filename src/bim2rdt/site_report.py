@@ -20,6 +20,9 @@ from bim2rdt.sim.meshes import mesh_for_family  # noqa: E402
 from bim2rdt.sim.truth import pose_error  # noqa: E402
 
 STATUS_COLOURS = {"as-planned": "tab:green", "moved": "tab:orange", "new": "tab:red", "unverified": "tab:grey"}
+OBSERVATION_COLUMNS = ("object", "verdict", "truth", "bias", "shift m", "yaw °", "tilt °", "fitness", "err cm",
+                       "err °")
+"""Headers of :func:`observation_cells`, shared by the terminal table and report.md."""
 
 
 def observation_rows(day: SiteDay) -> list[dict]:
@@ -37,6 +40,17 @@ def observation_rows(day: SiteDay) -> list[dict]:
             "error_translation_m": error.translation if error else None,
             "error_tilt_deg": error.tilt_deg if error else None})
     return rows
+
+
+def observation_cells(row: dict) -> tuple[str, ...]:
+    """One row of :func:`observation_rows` as table cells (see :data:`OBSERVATION_COLUMNS`); truth and errors
+    are '-' for an object with no simulated truth to score against (a real robot's observations)."""
+    def maybe(value, scale: float = 1.0) -> str:
+        return "-" if value is None else f"{scale * value:.1f}"
+
+    return (row["label"], row["status"], row["truth"] or "-", f"{row['upright_bias']:.2f}", f"{row['shift_m']:.2f}",
+            f"{row['yaw_deg']:.1f}", f"{row['tilt_deg']:.1f}", f"{row['fitness']:.2f}",
+            maybe(row["error_translation_m"], 100.0), maybe(row["error_rotation_deg"]))
 
 
 def write_site_report(day: SiteDay, out_dir: Path) -> dict[str, Path]:
@@ -110,12 +124,8 @@ def plot_exposure(day: SiteDay, path: Path) -> Path:
 def _markdown(day: SiteDay, rows: list[dict], record: dict) -> str:
     lines = ["# bim2rdt site day", "", f"Twin written to `{day.twin_path.name}` (as-designed model: `site.ifc`).", "",
              "## Objects verified by the robot", "",
-             "| family | label | bias | verdict | truth | shift m | yaw ° | tilt ° | fitness | error cm | error ° |",
-             "|---|---|---|---|---|---|---|---|---|---|---|"]
-    for r in rows:
-        lines.append(f"| {r['family']} | {r['label']} | {r['upright_bias']:.2f} | {r['status']} | {r['truth']} | "
-                     f"{r['shift_m']:.2f} | {r['yaw_deg']:.1f} | {r['tilt_deg']:.1f} | {r['fitness']:.2f} | "
-                     f"{100 * r['error_translation_m']:.1f} | {r['error_rotation_deg']:.1f} |")
+             "| " + " | ".join(("family", *OBSERVATION_COLUMNS)) + " |", "|---" * (len(OBSERVATION_COLUMNS) + 1) + "|"]
+    lines += ["| " + " | ".join((r["family"], *observation_cells(r))) + " |" for r in rows]
     lines += ["", f"Not seen: {', '.join(day.mission.not_seen) or 'none'}.", "", "## Safety events", "",
               "| time (UTC) | event | worker | A(8) m/s² |", "|---|---|---|---|"]
     for e in record["hav_events"]:

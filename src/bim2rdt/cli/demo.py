@@ -46,15 +46,10 @@ def demo_command(
 
 
 def _show_site_day(result) -> None:
-    from bim2rdt.site_report import observation_rows
+    from bim2rdt.site_report import OBSERVATION_COLUMNS, observation_cells, observation_rows
 
-    rows = [(r["label"], r["status"], r["truth"], f"{r['upright_bias']:.2f}", f"{r['shift_m']:.2f}",
-             f"{r['yaw_deg']:.1f}", f"{r['tilt_deg']:.1f}", f"{r['fitness']:.2f}",
-             f"{100 * r['error_translation_m']:.1f}", f"{r['error_rotation_deg']:.1f}")
-            for r in observation_rows(result.site_day)]
-    print_table("Robot mission: BIM objects verified with SG-ICP",
-                ("object", "verdict", "truth", "bias", "shift m", "yaw °", "tilt °", "fitness", "err cm", "err °"),
-                rows)
+    print_table("Robot mission: BIM objects verified with SG-ICP", OBSERVATION_COLUMNS,
+                [observation_cells(r) for r in observation_rows(result.site_day)])
     events = [e for e in result.site_day.hav_events if not e.kind.endswith("predicted")]
     print_table("Hand-arm vibration events (written to the twin as IfcEvent/IfcTask)",
                 ("event", "worker", "A(8) m/s²"),
