@@ -31,3 +31,10 @@ def test_float32_round_trip_keeps_nan():
 def test_garbage_is_a_payload_error(payload):
     with pytest.raises(PayloadError):
         decode_accel(payload)
+
+
+@pytest.mark.parametrize("fs", [0.0, -5000.0, float("nan"), float("inf")])
+def test_a_header_without_a_usable_sampling_rate_is_a_payload_error(fs):
+    with pytest.raises(PayloadError, match="sampling rate"):
+        decode_accel(encode_accel(AccelBatch("w1", 0, 1_700_000_000.0, fs, np.ones((4, 3), np.float32)),
+                                  dtype="float32"))

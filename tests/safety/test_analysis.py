@@ -40,3 +40,10 @@ def test_a_header_without_samples_is_refused_in_one_line_without_a_warning(tmp_p
         warnings.simplefilter("error")  # numpy's 'input contained no data' would be a second line on stderr
         with pytest.raises(HavError, match="only 0 samples"):
             read_accel_csv(path)
+
+
+def test_a_recording_sampled_below_every_wh_band_is_refused(tmp_path):
+    path = tmp_path / "slow.csv"
+    path.write_text("t,ax,ay,az\n" + "".join(f"{i / 10},1,1,1\n" for i in range(100)))
+    with pytest.raises(HavError, match="10 Hz"):
+        read_accel_csv(path)

@@ -7,7 +7,8 @@ import dataclasses
 import numpy as np
 import pytest
 
-from bim2rdt.safety import Trigger, combine_exposures, time_to_limit
+from bim2rdt.bus import AccelBatch, encode_accel
+from bim2rdt.safety import HavError, Trigger, combine_exposures, time_to_limit
 from bim2rdt.safety.activity import E_EAV, E_ELV
 
 from hav_helpers import DAY, T0, feed, main_kinds, plan_batches
@@ -211,3 +212,14 @@ def test_with_both_hands_exposed_the_day_counts_the_greater_hand(make_monitor, c
     assert day.a8 == pytest.approx(combine_exposures([(12.0, 60.0)]), rel=0.02)  # not the sum of both hands
     assert set(day.hands) == {"left", "right"}
     assert day.hand_energy("left") == pytest.approx(25.0 * 60, rel=0.03)
+
+
+def test_a_batch_at_a_rate_below_every_wh_band_is_counted_and_ignored_not_fatal(make_monitor, clock):
+    monitor, sink = make_monitor()
+    slow = AccelBatch("dev-1", 0, T0, 10.0, np.ones((20, 3), np.float32))  # 10 Hz: Nyquist below the 8 Hz band
+    assert monitor.ingest_payload("site/demo/wearable/dev-1/accel", encode_accel(slow)) == []
+    assert monitor.stats["malformed"] == 1
+    with pytest.raises(HavError, match="10 Hz"):
+        monitor.ingest(slow)
+    feed(monitor, plan_batches("dev-1", SHORT_PLAN), clock)  # the stream itself is untouched and still works
+    assert "hav.activity_started" in sink.kinds()

@@ -11,6 +11,7 @@ Layout: b"HAV1", uint16 header length, UTF-8 JSON header, samples.
 from __future__ import annotations
 
 import json
+import math
 import struct
 from dataclasses import dataclass, replace
 
@@ -70,11 +71,14 @@ def decode_accel(payload: bytes) -> AccelBatch:
     (head_len,) = struct.unpack("<H", payload[4:6])
     try:
         header = json.loads(payload[6:6 + head_len])
+        fs = float(header["fs"])
+        if not (math.isfinite(fs) and fs > 0):
+            raise ValueError(f"sampling rate must be a positive number of Hz, got {header['fs']!r}")
         dtype = _DTYPES[header["dtype"]]
         n = int(header["n"])
         samples = np.frombuffer(payload, dtype=dtype, offset=6 + head_len, count=3 * n).reshape(n, 3)
         xyz = (samples.astype(np.float32) * np.float32(header["scale"])) if dtype.kind == "i" else samples.copy()
         return AccelBatch(str(header["device"]), int(header["seq"]), float(header["t_ms"]) / 1000.0,
-                          float(header["fs"]), xyz, header.get("full_scale"))
+                          fs, xyz, header.get("full_scale"))
     except (ValueError, KeyError, TypeError) as error:
         raise PayloadError(f"malformed accel payload: {error}") from error

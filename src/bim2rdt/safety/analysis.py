@@ -23,7 +23,7 @@ from bim2rdt.safety.errors import HavError
 from bim2rdt.safety.exposure import EAV, ELV, time_to_limit
 from bim2rdt.safety.monitor import HavMonitor, MonitorConfig
 from bim2rdt.safety.sinks import ListSink
-from bim2rdt.safety.weighting import BandCoverage, covered_band
+from bim2rdt.safety.weighting import BandCoverage, covered_band, require_weighable_rate
 
 TIME_NAMES, AXIS_NAMES = ("t", "time", "time_s"), (("ax", "ay", "az"), ("x", "y", "z"))
 
@@ -86,7 +86,12 @@ def read_accel_csv(path: Path) -> Recording:
     step = float(np.median(np.diff(data[:, 0])))
     if not step > 0:
         raise HavError(f"{path}: the time column does not increase")
-    return Recording(float(data[0, 0]), round(1.0 / step, 6), data[:, 1:4])
+    fs = round(1.0 / step, 6)
+    try:
+        require_weighable_rate(fs)
+    except HavError as error:
+        raise HavError(f"{path}: {error} (is the time column in seconds?)") from None
+    return Recording(float(data[0, 0]), fs, data[:, 1:4])
 
 
 def _columns(header: list[str], path: Path) -> list[int]:

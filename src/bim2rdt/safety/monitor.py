@@ -32,7 +32,8 @@ from bim2rdt.safety.sinks import EventSink
 from bim2rdt.safety.store import ExposureStore
 from bim2rdt.safety.streams import PushResult, StreamBuffer
 from bim2rdt.safety.weighing import Blocks, FilterState, Piece, weigh_round
-from bim2rdt.safety.weighting import covered_band
+from bim2rdt.safety.errors import HavError
+from bim2rdt.safety.weighting import covered_band, require_weighable_rate
 
 ISO_POSITIONS = ("handle",)
 """Positions where ISO 5349-1 measures (at the hand-tool interface): no correction, not an estimate."""
@@ -148,7 +149,11 @@ class HavMonitor:
         return self.ingest_many([batch])
 
     def ingest_many(self, batches: Iterable[AccelBatch], now: float | None = None) -> list[Event]:
-        """Take batches from any devices in any order; returns (and emits) the events they caused."""
+        """Take batches from any devices in any order; returns (and emits) the events they caused. HavError,
+        before any state changes, if a batch's rate is too low to weigh."""
+        batches = list(batches)
+        for batch in batches:
+            require_weighable_rate(batch.fs)
         with self._lock:
             now = self.clock() if now is None else now
             accepted, touched, ordered, events = [], {}, [], []
@@ -166,10 +171,12 @@ class HavMonitor:
             return events
 
     def ingest_payload(self, topic: str, payload: bytes, received: float | None = None) -> list[Event]:
-        """An MQTT accel message; ignored (and counted) if malformed or its device id is not the topic's."""
+        """An MQTT accel message; ignored (and counted) if malformed, too slowly sampled to weigh, or its device
+        id is not the topic's (a handler must never raise: it would stop the MQTT client's network thread)."""
         try:
             batch = decode_accel(payload)
-        except PayloadError:
+            require_weighable_rate(batch.fs)
+        except (PayloadError, HavError):
             self._count("malformed")
             return []
         if batch.device != device_of(topic):

@@ -30,6 +30,9 @@ SETTLE_S = 0.7
 """Zero padding, seconds: longer than the weighting's impulse response (decays below 1e-7 by 0.7 s)."""
 NOMINAL_BANDS = (9, 30)
 """ISO 5349-1 nominal range as one-third-octave band numbers n (centre 10^(n/10) Hz): 8 Hz to 1000 Hz."""
+MIN_FS_HZ = 2.0 * 10 ** ((NOMINAL_BANDS[0] + 0.5) / 10)
+"""Slowest usable sampling rate, Hz (17.8): below it the Nyquist frequency lies under the 8 Hz band's upper edge
+and the rate covers no Wh band at all."""
 
 
 def wh_response(freq_hz: np.ndarray | float) -> np.ndarray:
@@ -120,3 +123,10 @@ def _as_signal(accel: np.ndarray, fs: float) -> np.ndarray:
 def _check_rate(fs: float) -> None:
     if not np.isfinite(fs) or fs <= 0:
         raise HavError(f"sampling rate must be a positive number of Hz, got {fs!r}")
+
+
+def require_weighable_rate(fs: float) -> None:
+    """HavError unless ``fs`` is finite and covers at least the lowest Wh band (``MIN_FS_HZ``)."""
+    if not MIN_FS_HZ <= fs < np.inf:  # also false for NaN
+        raise HavError(f"sampling rate {fs:g} Hz is unusable: the lowest Wh band (8 Hz) needs at least "
+                       f"{MIN_FS_HZ:.1f} Hz")
