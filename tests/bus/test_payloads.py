@@ -2,10 +2,14 @@
 
 from __future__ import annotations
 
+import json
+import struct
+
 import numpy as np
 import pytest
 
 from bim2rdt.bus import AccelBatch, PayloadError, decode_accel, encode_accel
+from bim2rdt.bus.payloads import MAGIC
 
 
 def batch(xyz) -> AccelBatch:
@@ -38,3 +42,13 @@ def test_a_header_without_a_usable_sampling_rate_is_a_payload_error(fs):
     with pytest.raises(PayloadError, match="sampling rate"):
         decode_accel(encode_accel(AccelBatch("w1", 0, 1_700_000_000.0, fs, np.ones((4, 3), np.float32)),
                                   dtype="float32"))
+
+
+@pytest.mark.parametrize("field, value, message", [("n", 0, "sample count"), ("n", -1, "sample count"),
+                                                   ("t_ms", float("nan"), "device time")])
+def test_a_header_with_no_samples_or_no_time_is_a_payload_error(field, value, message):
+    header = {"device": "w1", "seq": 0, "t_ms": 1.7e12, "fs": 1000.0, "n": 4, "dtype": "float32", "scale": 1.0}
+    head = json.dumps({**header, field: value}).encode()
+    payload = MAGIC + struct.pack("<H", len(head)) + head + np.ones(12, "<f4").tobytes()
+    with pytest.raises(PayloadError, match=message):
+        decode_accel(payload)

@@ -71,14 +71,22 @@ def decode_accel(payload: bytes) -> AccelBatch:
     (head_len,) = struct.unpack("<H", payload[4:6])
     try:
         header = json.loads(payload[6:6 + head_len])
-        fs = float(header["fs"])
-        if not (math.isfinite(fs) and fs > 0):
-            raise ValueError(f"sampling rate must be a positive number of Hz, got {header['fs']!r}")
+        fs, n, t_ms = float(header["fs"]), int(header["n"]), float(header["t_ms"])
+        _check_header(fs, n, t_ms)
         dtype = _DTYPES[header["dtype"]]
-        n = int(header["n"])
         samples = np.frombuffer(payload, dtype=dtype, offset=6 + head_len, count=3 * n).reshape(n, 3)
         xyz = (samples.astype(np.float32) * np.float32(header["scale"])) if dtype.kind == "i" else samples.copy()
-        return AccelBatch(str(header["device"]), int(header["seq"]), float(header["t_ms"]) / 1000.0,
-                          fs, xyz, header.get("full_scale"))
+        return AccelBatch(str(header["device"]), int(header["seq"]), t_ms / 1000.0, fs, xyz,
+                          header.get("full_scale"))
     except (ValueError, KeyError, TypeError) as error:
         raise PayloadError(f"malformed accel payload: {error}") from error
+
+
+def _check_header(fs: float, n: int, t_ms: float) -> None:
+    """ValueError for a header no stream can use: no positive finite rate, no samples, no device time."""
+    if not (math.isfinite(fs) and fs > 0):
+        raise ValueError(f"sampling rate must be a positive number of Hz, got {fs!r}")
+    if n < 1:
+        raise ValueError(f"sample count must be at least 1, got {n}")
+    if not math.isfinite(t_ms):
+        raise ValueError(f"device time must be a finite epoch in ms, got {t_ms!r}")
