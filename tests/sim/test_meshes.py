@@ -25,6 +25,11 @@ def test_sizes_match_the_family_names():
     assert crate[2] == pytest.approx(0.6, abs=0.03)
 
 
-def test_unknown_family_names_the_known_ones():
-    with pytest.raises(KeyError, match="Steel_Drum_55gal"):
+def test_unknown_family_is_a_typed_one_line_error_naming_the_known_ones():
+    from bim2rdt.errors import Bim2RdtError
+
+    with pytest.raises(Bim2RdtError) as raised:
         mesh_for_family("Unobtainium_Widget")
+    assert isinstance(raised.value, KeyError)  # still a lookup miss for callers that catch KeyError
+    assert str(raised.value).startswith("no mesh for family 'Unobtainium_Widget'; known: ")
+    assert "Steel_Drum_55gal" in str(raised.value) and "\n" not in str(raised.value)

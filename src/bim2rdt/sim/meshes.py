@@ -12,6 +12,8 @@ from collections.abc import Callable
 import numpy as np
 import trimesh
 
+from bim2rdt.errors import Bim2RdtError
+
 _ROUND_SECTIONS = 32
 
 
@@ -139,10 +141,17 @@ MESH_LIBRARY: dict[str, Callable[[], trimesh.Trimesh]] = {
 """BIM family name -> mesh builder (body frame, metres, upright +z)."""
 
 
+class UnknownFamilyError(Bim2RdtError, KeyError):
+    """No procedural mesh for a family name (a KeyError too, for callers that treat it as a lookup miss)."""
+
+    def __str__(self) -> str:  # KeyError's own str() would quote the whole message
+        return str(self.args[0])
+
+
 def mesh_for_family(family: str) -> trimesh.Trimesh:
-    """The mesh of a known site family; a KeyError names the known families otherwise."""
+    """The mesh of a known site family; :class:`UnknownFamilyError` names the known families otherwise."""
     try:
         return MESH_LIBRARY[family]()
     except KeyError:
         known = ", ".join(sorted(MESH_LIBRARY))
-        raise KeyError(f"no mesh for family {family!r}; known: {known}") from None
+        raise UnknownFamilyError(f"no mesh for family {family!r}; known: {known}") from None
