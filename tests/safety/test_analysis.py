@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from bim2rdt.safety import HavError, daily_exposure
-from bim2rdt.safety.analysis import Recording, analyze_recording, read_accel_csv
+from bim2rdt.safety.analysis import Recording, analyze_recording, plot_day, read_accel_csv
 from bim2rdt.sim.vibration import session_signal
 
 from hav_helpers import T0
@@ -47,3 +47,19 @@ def test_a_recording_sampled_below_every_wh_band_is_refused(tmp_path):
     path.write_text("t,ax,ay,az\n" + "".join(f"{i / 10},1,1,1\n" for i in range(100)))
     with pytest.raises(HavError, match="10 Hz"):
         read_accel_csv(path)
+
+
+@pytest.mark.parametrize("make, message", [(lambda p: p.mkdir(), "not a file"),
+                                           (lambda p: p.write_bytes(b"\xff\xfe\x00\x01 binary"), "not a text CSV")])
+def test_a_folder_or_a_binary_file_is_refused_in_one_line(tmp_path, make, message):
+    path = tmp_path / "day.csv"
+    make(path)
+    with pytest.raises(HavError, match=message):
+        read_accel_csv(path)
+
+
+def test_a_plot_that_cannot_be_written_is_a_hav_error(tmp_path):
+    (tmp_path / "taken").write_text("a file where the plot folder should be")
+    report = analyze_recording(Recording(T0, FS, session_signal([("grinder", 3)], FS)))
+    with pytest.raises(HavError, match="cannot write the plot"):
+        plot_day(report, tmp_path / "taken" / "day.png")

@@ -70,10 +70,7 @@ class DayReport:
 
 def read_accel_csv(path: Path) -> Recording:
     """Read a CSV recording; HavError with the reason if it is not one."""
-    if not Path(path).is_file():
-        raise HavError(f"no such file: {path}")
-    with open(path, newline="") as handle:
-        header = [name.strip().lower() for name in next(csv.reader(handle), [])]
+    header = _header(Path(path))
     columns = _columns(header, path)
     try:
         with warnings.catch_warnings():  # 'input contained no data': the sample count below says it in one line
@@ -92,6 +89,19 @@ def read_accel_csv(path: Path) -> Recording:
     except HavError as error:
         raise HavError(f"{path}: {error} (is the time column in seconds?)") from None
     return Recording(float(data[0, 0]), fs, data[:, 1:4])
+
+
+def _header(path: Path) -> list[str]:
+    """The CSV's first row, lower-cased; HavError if the path is no readable text file."""
+    if not path.exists():
+        raise HavError(f"no such file: {path}")
+    if not path.is_file():
+        raise HavError(f"{path}: not a file")
+    try:
+        with open(path, newline="", encoding="utf-8") as handle:
+            return [name.strip().lower() for name in next(csv.reader(handle), [])]
+    except UnicodeDecodeError:
+        raise HavError(f"{path}: not a text CSV (it is not UTF-8)") from None
 
 
 def _columns(header: list[str], path: Path) -> list[int]:
@@ -144,7 +154,11 @@ def plot_day(report: DayReport, path: Path, title: str = "Daily vibration exposu
     ax.legend(loc="upper left")
     ax.grid(alpha=0.3)
     fig.tight_layout()
-    Path(path).parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    try:
+        Path(path).parent.mkdir(parents=True, exist_ok=True)
+        fig.savefig(path, dpi=120)
+    except OSError as error:
+        raise HavError(f"cannot write the plot {path}: {error.strerror or error}") from None
+    finally:
+        plt.close(fig)
     return Path(path)
