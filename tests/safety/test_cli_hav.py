@@ -58,6 +58,14 @@ def test_analyze_refuses_a_bad_file_in_one_line(tmp_path, content, message):
     assert message in result.stderr and len(result.stderr.strip().splitlines()) == 1
 
 
+def test_an_unwritable_csv_path_is_a_one_line_error(tmp_path, cli_env):
+    (tmp_path / "taken").write_text("a file where the folder should be")
+    result = run_cli("sim", "wearables", "--workers", "1", "--minutes", "1", "--fs", "1000", "--csv",
+                     str(tmp_path / "taken" / "w1.csv"), env=cli_env)
+    assert result.returncode == 1 and result.stderr.startswith("error: cannot write")
+    assert len(result.stderr.strip().splitlines()) == 1
+
+
 def test_a_malformed_broker_address_is_a_one_line_error():
     result = run_cli("hav", "listen", "--mqtt", "no-port-here")
     assert result.returncode == 1 and "HOST:PORT" in result.stderr

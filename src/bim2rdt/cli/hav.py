@@ -269,13 +269,17 @@ def _simulate_over_mqtt(plans, fs, speed, tick, mqtt) -> None:
 def _write_csv(plan, fs: float, path: Path) -> None:
     import numpy as np
 
+    from bim2rdt.safety import HavError
     from bim2rdt.sim.wearables import plan_signal
 
     signal = plan_signal(plan, fs)
     t = np.arange(signal.shape[0]) / fs
-    path.parent.mkdir(parents=True, exist_ok=True)
-    np.savetxt(path, np.column_stack([t, signal]), delimiter=",", header="t,ax,ay,az", comments="",
-               fmt=["%.6f", "%.4f", "%.4f", "%.4f"])
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        np.savetxt(path, np.column_stack([t, signal]), delimiter=",", header="t,ax,ay,az", comments="",
+                   fmt=["%.6f", "%.4f", "%.4f", "%.4f"])
+    except OSError as error:
+        raise HavError(f"cannot write {path}: {error.strerror or error}") from None
     console.print(f"worker 1's samples written to {path}")
 
 
