@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+import socket
 import subprocess
 import sys
 import threading
@@ -111,11 +112,25 @@ def test_a_live_run_through_mosquitto_with_the_shipped_config(tmp_path, cli_env)
         reader.join(timeout=10)
         text = "".join(out)
         assert "activity_started" in text and "activity_ended" in text
+        broker.terminate()
+        assert broker.wait(timeout=10) == 0
+        assert not _listening(port)  # the command stopped its mosquitto: nothing left running
     finally:
         for process in (listener, broker):
             if process is not None and process.poll() is None:
-                process.kill()
-                process.wait(timeout=10)
+                process.terminate()
+                try:
+                    process.wait(timeout=10)
+                except subprocess.TimeoutExpired:
+                    process.kill()
+
+
+def _listening(port: int) -> bool:
+    try:
+        socket.create_connection(("127.0.0.1", port), timeout=1.0).close()
+        return True
+    except OSError:
+        return False
 
 
 def follow(process: subprocess.Popen, text: str, timeout: float) -> tuple[list[str], threading.Thread]:

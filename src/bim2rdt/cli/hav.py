@@ -184,9 +184,12 @@ def hav_broker(
     duration: float = typer.Option(0.0, "--duration", min=0.0, help="Stop after this many seconds (0: Ctrl-C)."),
 ) -> None:
     """Run the shipped Mosquitto config (password per device, per-device ACL) on 127.0.0.1 for local runs."""
+    import signal
+
     from bim2rdt.bus.broker import MosquittoBroker
     from bim2rdt.config import get_settings
 
+    signal.signal(signal.SIGTERM, _interrupt)  # a terminated command stops its mosquitto instead of orphaning it
     settings = get_settings()
     names = [settings.mqtt.username, "dashboard"] + [f"w{i + 1}" for i in range(devices)]
     with MosquittoBroker({name: _password(settings, name) for name in names}, port=port) as broker:
@@ -195,6 +198,10 @@ def hav_broker(
             time.sleep(duration) if duration else _wait_forever()
         except KeyboardInterrupt:
             pass
+
+
+def _interrupt(signum, frame) -> None:
+    raise KeyboardInterrupt
 
 
 def _wait_forever() -> None:
