@@ -23,6 +23,7 @@ import trimesh
 from pydantic import BaseModel, ConfigDict, Field
 
 from bim2rdt.perception.camera import look_at
+from bim2rdt.perception.slab import SLAB_CLEARANCE, off_the_slab
 from bim2rdt.registration import IcpConfig, RegistrationResult, register, sample_model
 from bim2rdt.semantics import UprightPrior
 from bim2rdt.sim.truth import closest_equivalent
@@ -38,14 +39,14 @@ class MissionConfig(BaseModel):
     standoff: float = Field(2.6, gt=0.5, description="Camera distance from each object it is sent to look at.")
     camera_height: float = Field(1.1, gt=0.1, description="Camera height above the slab (quadruped with a mast).")
     min_points: int = Field(30, ge=6, description="Fewer ROI points than this and the object is 'not seen'.")
-    ground_clearance: float = Field(0.03, ge=0.0, description="ROI points below this height are slab, not object.")
+    ground_clearance: float = Field(SLAB_CLEARANCE, ge=0.0, description="ROI points below this height are slab, not object.")
     association_radius: float = Field(1.5, gt=0.0, description="Farthest a detection may be from its BIM element.")
     moved_translation: float = Field(0.05, gt=0.0, description="A shift beyond this is a deviation.")
     moved_rotation_deg: float = Field(5.0, gt=0.0, description="A yaw or tilt change beyond this is a deviation.")
     min_fitness: float = Field(0.5, ge=0.0, le=1.0, description="Below this inlier fraction (of the points above the slab) the fit is unverified.")
     tie_ratio: float = Field(1.15, ge=1.0, description="A fit from the BIM pose within this factor of the best "
                                                         "score wins (the BIM is the prior).")
-    model_samples: int = Field(2000, ge=6, description="Surface samples per model.")
+    model_samples: int = Field(10000, ge=6, description="Surface samples per model (see IcpConfig.sample_count).")
 
 
 @dataclass(frozen=True)
@@ -203,8 +204,8 @@ def _best_fit(model_pts: np.ndarray, model_normals: np.ndarray, object_pts: np.n
 def _off_the_slab(points_world: np.ndarray, config: MissionConfig, least: int | None = None) -> np.ndarray:
     """The ROI's points above the slab (the slab is in the BIM, so its corners are known clutter), or all of
     them when fewer than ``least`` (default ``config.min_points``) are above it."""
-    above = points_world[points_world[:, 2] > config.ground_clearance]
-    return above if len(above) >= (config.min_points if least is None else least) else points_world
+    return off_the_slab(points_world, clearance=config.ground_clearance,
+                        least=config.min_points if least is None else least)
 
 
 def _initial_poses(detection: Detection, target: Target | None, model_pts: np.ndarray,

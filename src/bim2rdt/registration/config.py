@@ -23,7 +23,12 @@ class IcpConfig(BaseModel):
                     "the basin of a partly seen crate (S1: ICP RMSE 0.018 -> 0.011 m, flips 12 -> 6 of 30 crates); "
                     "batched and pruned, they cost ~1.5x, not 2x.")
     yaw_jitter_deg: float = Field(10.0, ge=0.0, le=180.0, description="Uniform jitter added to each restart's yaw.")
-    sample_count: int = Field(2000, ge=6, description="Model surface samples (points with normals) per object.")
+    sample_count: int = Field(
+        10000, ge=6,
+        description="Model surface samples (points with normals) per object. 10,000, not 2,000: Shi-Tomasi corners sit on "
+                    "edges, where the nearest of sparse samples often lies on the neighbouring face; from the true "
+                    "pose a pallet then slid 1.4 cm and turned 1.3 degrees (median), at 10,000 it stays within 2 mm "
+                    "and 0.2 degrees, and S1-S4 ICP RMSE fell 10-40 %. The k-d tree query grows only with log M.")
     max_iterations: int = Field(30, ge=1, le=1000, description="Iteration cap per restart.")
     max_pair_distance: float = Field(0.25, gt=0.0, description="Pairs farther apart than this are not matched, m.")
     pair_distance_per_delta: float = Field(

@@ -30,6 +30,7 @@ import numpy as np
 
 from bim2rdt.errors import Bim2RdtError
 from bim2rdt.perception.camera import Intrinsics, look_at
+from bim2rdt.perception.slab import off_the_slab
 from bim2rdt.registration.sampling import sample_model
 from bim2rdt.registration.validation import MIN_SCENE_POINTS
 from bim2rdt.registration.so3 import axis_angle
@@ -139,8 +140,8 @@ def _trial(spec: ScenarioSpec, site: SiteScene, clean: RgbdFrame, intrinsics: In
     frame = add_sensor_noise(clean, rng)
     out = []
     for index, placed in enumerate(site.objects):
-        points = object_scene_points(frame, intrinsics, index, rng)
-        if len(points) >= 6:
+        points = off_the_slab(object_scene_points(frame, intrinsics, index, rng), least=MIN_SCENE_POINTS)
+        if len(points) >= MIN_SCENE_POINTS:
             tilted = not np.isclose(placed.T_world_model[2, 2], 1.0)
             out.append(ObjectTrial(placed.family, placed.T_world_model,
                                    perturb(placed.T_world_model, placed.mesh.centroid, spec, rng), points, tilted))
