@@ -52,11 +52,36 @@ def test_the_upright_bias_pulls_the_pose_towards_upright_and_zero_bias_does_not(
                                                                                   placed):
     truth = make_pose(0.2, np.deg2rad(8.0), (0.0, 0.0, 0.3))  # a crate that really is tilted by 8 degrees
     scene = placed(truth, crate_view)
-    tilts = [np.rad2deg(tilt_angle(register(*crate_model, scene, truth, upright_bias=b).pose[:3, :3]))
+    held = IcpConfig(release_iterations=0)  # the soft prior's own equilibrium, without the release test
+    tilts = [np.rad2deg(tilt_angle(register(*crate_model, scene, truth, upright_bias=b, config=held).pose[:3, :3]))
              for b in (0.0, 0.2, 1.0)]
     assert tilts[0] == pytest.approx(8.0, abs=0.5)
     assert tilts[0] > tilts[1] > tilts[2]
     assert tilts[1] > 2.0  # a low bias leaves a tilted object visibly tilted (an equilibrium, not a clamp)
+
+
+def test_a_clear_lean_overrules_a_moderate_prior_but_not_a_certain_one(crate_model, crate_view, make_pose, placed):
+    """The release test: the crate's 8 degree lean is plain in the data, so a bias of 0.5 (even odds) gives way
+    and the lean is kept to within half a degree, while a bias of 1.0 (certain) is never overruled."""
+    truth = make_pose(0.2, np.deg2rad(8.0), (0.0, 0.0, 0.3))
+    scene = placed(truth, crate_view)
+    even, certain = (register(*crate_model, scene, truth, upright_bias=b) for b in (0.5, 1.0))
+    assert even.released and np.rad2deg(tilt_angle(even.pose[:3, :3])) == pytest.approx(8.0, abs=0.5)
+    held = register(*crate_model, scene, truth, upright_bias=0.5, config=IcpConfig(release_iterations=0))
+    assert np.rad2deg(tilt_angle(held.pose[:3, :3])) < 7.5  # what the release undid
+    assert not certain.released and np.rad2deg(tilt_angle(certain.pose[:3, :3])) < 6.0
+
+
+def test_an_upright_object_is_not_released_by_noise(crate_model, crate_view, make_pose, placed):
+    """Noise alone never buys a lean: an upright crate seen with 3 mm noise keeps its prior, at a strong and at
+    a weak bias, so the release test does not undo the prior where it should hold."""
+    rng = np.random.default_rng(3)
+    truth = make_pose(0.7, 0.0, (0.4, -0.2, 0.0))
+    scene = placed(truth, crate_view) + rng.normal(0.0, 0.003, crate_view.shape)
+    for bias in (0.3, 0.9):
+        result = register(*crate_model, scene, truth, upright_bias=bias)
+        assert not result.released
+        assert np.rad2deg(tilt_angle(result.pose[:3, :3])) < 0.5
 
 
 def test_result_reports_fit_and_iterations_of_the_restart_it_kept(crate_model, crate_view, make_pose, placed):

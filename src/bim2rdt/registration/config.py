@@ -66,6 +66,10 @@ class IcpConfig(BaseModel):
     start_leveling: float = Field(
         1.0, ge=0.0, le=1.0,
         description="Before the loop, remove upright_bias x this fraction of the initial tilt (0 = start as given).")
+    release_iterations: int = Field(
+        10, ge=0, le=1000,
+        description="Iterations of the prior-free polish that tests whether the data show a lean strongly enough "
+                    "to overrule the upright prior (a BIC Bayes factor against the bias as prior odds); 0 = off.")
     method: Literal["point_to_point", "point_to_plane"] = Field(
         "point_to_plane", description="Rigid solve: closed-form weighted Kabsch, or Gauss-Newton on model normals.")
     score_distance: float = Field(0.03, gt=0.0, description="Truncation of the restart score and inlier radius, m.")
