@@ -49,7 +49,7 @@ def bench_registration(
 
 def show_run(run, targets: bool = True) -> None:
     """Print the paper's table plus success/tilt/time per scenario, then (with ``targets``) the targets."""
-    from bim2rdt.sim.benchmark import improvement
+    from bim2rdt.sim.benchmark import cut_interval, improvement
 
     peers = [name for name in PEER_COLUMNS if name in run.results[0].stats]
     rows = []
@@ -57,7 +57,9 @@ def show_run(run, targets: bool = True) -> None:
         s = result.stats
         for label, key, scale in (("RMSE (m)", "rmse", 1.0), ("Mean (m)", "mean", 1.0), ("Max (m)", "max", 1.0)):
             icp, sg = getattr(s["ICP"], key), getattr(s["SG-ICP"], key)
-            rows.append((result.name, label, f"{icp:.6f}", f"{sg:.6f}", f"{improvement(icp, sg):+.1f} %",
+            low, high = cut_interval(result, key)
+            rows.append((result.name, label, f"{icp:.6f}", f"{sg:.6f}",
+                         f"{improvement(icp, sg):+.1f} % [{low:+.0f}, {high:+.0f}]",
                          *[f"{getattr(s[p], key) * scale:.6f}" for p in peers]))
         for label, key, fmt in (("success", "success", "{:.0%}"), ("tilt err (deg)", "tilt_deg", "{:.2f}"),
                                 (f"leaning tilt (n={s['ICP'].knocked})", "knocked_tilt_deg", _degrees),
@@ -66,7 +68,7 @@ def show_run(run, targets: bool = True) -> None:
             rows.append((result.name, label, fmt(getattr(s["ICP"], key)), fmt(getattr(s["SG-ICP"], key)), "",
                          *[fmt(getattr(s[p], key)) for p in peers]))
     print_table(f"Registration: Hausdorff means over {run.trials} trials x objects per scenario "
-                "(improvement = RMSE/Mean/Max cut by SG-ICP)",
+                "(improvement = RMSE/Mean/Max cut by SG-ICP [95 % paired bootstrap interval])",
                 ["scenario", "metric", "ICP", "SG-ICP", "improvement", *peers], rows)
     if targets:
         print_table("Targets", ["target", "result", "detail"],

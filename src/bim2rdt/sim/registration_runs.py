@@ -11,7 +11,8 @@ from pathlib import Path
 
 from bim2rdt.atomic import write_bytes_atomic
 from bim2rdt.registration import IcpConfig
-from bim2rdt.sim.benchmark import Prior, ScenarioResult, Target, check_targets, run_scenario
+from bim2rdt.sim.benchmark import (COLUMNS, Prior, ScenarioResult, Target, check_targets, cut_interval, improvement,
+                                   run_scenario)
 from bim2rdt.sim.peers import Open3dIcp, SgIcp
 from bim2rdt.sim.plots import plot_before_after
 from bim2rdt.sim.scenarios import SCENARIOS, scenario
@@ -69,7 +70,11 @@ def run_record(run: RegistrationRun) -> dict:
         "config": run.config.model_dump(), "trials": run.trials, "seed": run.seed, "versions": versions(),
         "priors": {family: {"upright_bias": bias, "yaw_only": yaw} for family, (bias, yaw) in run.priors.items()},
         "scenarios": {r.name: {"description": r.description,
-                               "methods": {m: _no_nan(asdict(s)) for m, s in r.stats.items()}}
+                               "methods": {m: _no_nan(asdict(s)) for m, s in r.stats.items()},
+                               "sg_icp_cut_percent": {metric: {"value": improvement(getattr(r.stats["ICP"], metric),
+                                                                                    getattr(r.stats["SG-ICP"], metric)),
+                                                               "ci95": list(cut_interval(r, metric))}
+                                                      for metric in COLUMNS}}
                       for r in run.results},
         "targets": [asdict(t) for t in run.targets],
         "plots": [str(p) for p in run.plots],
