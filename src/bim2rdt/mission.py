@@ -29,6 +29,8 @@ from bim2rdt.semantics import UprightPrior
 from bim2rdt.sim.truth import closest_equivalent
 
 UP_WORLD = np.array([0.0, 0.0, 1.0])
+SLAB_HEIGHT = 0.0
+"""Height of the site's slab in the site frame, m (the embedded site's ground; ROI points near it are dropped)."""
 
 
 class MissionConfig(BaseModel):
@@ -39,6 +41,8 @@ class MissionConfig(BaseModel):
     standoff: float = Field(2.6, gt=0.5, description="Camera distance from each object it is sent to look at.")
     camera_height: float = Field(1.1, gt=0.1, description="Camera height above the slab (quadruped with a mast).")
     min_points: int = Field(30, ge=6, description="Fewer ROI points than this and the object is 'not seen'.")
+    slab_contact: float = Field(0.05, ge=0.0, description="A BIM element whose lowest point is this close to the "
+                                                          "slab stands on it (registration pulls it onto the slab).")
     ground_clearance: float = Field(SLAB_CLEARANCE, ge=0.0, description="ROI points below this height are slab, not object.")
     association_radius: float = Field(1.5, gt=0.0, description="Farthest a detection may be from its BIM element.")
     moved_translation: float = Field(0.05, gt=0.0, description="A shift beyond this is a deviation.")
@@ -177,7 +181,8 @@ def _observe(detection: Detection, target: Target | None, mesh: trimesh.Trimesh,
     model_pts, model_normals = sample_model(mesh, config.model_samples, seed=icp.seed)
     object_pts = _off_the_slab(detection.points_world, config)
     fit = _best_fit(model_pts, model_normals, object_pts, _initial_poses(detection, target, model_pts, config),
-                    prior, config, icp, local_first=target is not None)
+                    prior, config, icp, local_first=target is not None,
+                    support_height=SLAB_HEIGHT if _rests_on_slab(target, model_pts, config) else None)
     reference = target.placement if target else fit.pose
     shift, yaw, tilt = pose_delta(reference, closest_equivalent(detection.family, fit.pose, reference))
     return Observation(detection.family, target.global_id if target else None,
@@ -185,14 +190,25 @@ def _observe(detection: Detection, target: Target | None, mesh: trimesh.Trimesh,
                        detection.station, shift, yaw, tilt, prior.upright_bias, detection.truth_index)
 
 
+def _rests_on_slab(target: Target | None, model_pts: np.ndarray, config: MissionConfig) -> bool:
+    """Whether the object stands on the slab: the BIM places its lowest point within ``slab_contact`` of it (a
+    beam on trestles does not), and a new object found by the robot is taken to stand on it."""
+    if target is None:
+        return True
+    lowest = float(np.min(model_pts @ target.placement[:3, :3].T[:, 2] + target.placement[2, 3]))
+    return abs(lowest - SLAB_HEIGHT) <= config.slab_contact
+
+
 def _best_fit(model_pts: np.ndarray, model_normals: np.ndarray, object_pts: np.ndarray, inits: list[np.ndarray],
-              prior: UprightPrior, config: MissionConfig, icp: IcpConfig, local_first: bool) -> RegistrationResult:
+              prior: UprightPrior, config: MissionConfig, icp: IcpConfig, local_first: bool,
+              support_height: float | None = None) -> RegistrationResult:
     """Register from every start (yaw restarts each) and keep the lowest score. With ``local_first`` the first
     start (the BIM pose) is also refined without restarts, and that local fit wins any near-tie: when two yaws
     explain the points equally well (a tripod's three legs), the BIM's is the likelier."""
     def fit_from(init: np.ndarray, cfg: IcpConfig) -> RegistrationResult:
         return register(model_pts, model_normals, object_pts, init=init, up=UP_WORLD,
-                        upright_bias=prior.upright_bias, yaw_only=prior.yaw_only, config=cfg)
+                        upright_bias=prior.upright_bias, yaw_only=prior.yaw_only, config=cfg,
+                        support_height=support_height)
 
     best = min((fit_from(init, icp) for init in inits), key=lambda f: f.score)
     if not local_first:
@@ -204,7 +220,7 @@ def _best_fit(model_pts: np.ndarray, model_normals: np.ndarray, object_pts: np.n
 def _off_the_slab(points_world: np.ndarray, config: MissionConfig, least: int | None = None) -> np.ndarray:
     """The ROI's points above the slab (the slab is in the BIM, so its corners are known clutter), or all of
     them when fewer than ``least`` (default ``config.min_points``) are above it."""
-    return off_the_slab(points_world, clearance=config.ground_clearance,
+    return off_the_slab(points_world, slab_height=SLAB_HEIGHT, clearance=config.ground_clearance,
                         least=config.min_points if least is None else least)
 
 

@@ -111,6 +111,7 @@ def test_result_reports_fit_and_iterations_of_the_restart_it_kept(crate_model, c
         (dict(init=np.eye(3)), "4x4"),
         (dict(upright_bias=1.5), "upright_bias"),
         (dict(up=(0.0, 0.0, 0.0)), "up must be"),
+        (dict(support_height=float("nan")), "support_height"),
     ],
 )
 def test_bad_input_raises_a_registration_error_that_says_why(crate_model, change, message):
@@ -166,3 +167,44 @@ def test_the_restart_penalty_charges_the_upright_term_on_inlier_pairs_only(crate
         counts.append(int(inliers.sum()))
     assert counts[0] == counts[1] > 0.9 * len(scene)  # the clutter copy found no inliers
     assert expected == 0.0
+
+
+@pytest.fixture(scope="module")
+def drum_side_view():
+    """A drum's model and a view of its side only (no lid, no base, no rim): nothing in the points says how
+    high it stands, as when a low camera sees a drum whose base corners fell in the slab filter."""
+    from bim2rdt.registration import sample_model
+    from bim2rdt.sim.meshes import mesh_for_family
+
+    mesh = mesh_for_family("Steel_Drum_55gal")
+    model = sample_model(mesh, 6000, seed=1)
+    points, normals = sample_model(mesh, 6000, seed=5)
+    side = points[(np.abs(normals[:, 2]) < 0.1) & (points[:, 0] < -0.05) & (points[:, 2] > 0.2)
+                  & (points[:, 2] < 0.7)][:300]
+    return model, side + np.random.default_rng(4).normal(0.0, 0.002, side.shape)
+
+
+def test_the_slab_contact_sets_the_height_the_points_cannot(drum_side_view, make_pose, placed):
+    (points, normals), side = drum_side_view
+    truth = make_pose(0.0, 0.0, (1.0, 2.0, 0.0))  # standing on the slab at z = 0
+    init = make_pose(0.0, 0.0, (1.0, 2.0, 0.06))  # the guess floats 6 cm
+    config = IcpConfig(restarts=1)
+    alone = register(points, normals, placed(truth, side), init, upright_bias=0.8, config=config)
+    resting = register(points, normals, placed(truth, side), init, upright_bias=0.8, config=config,
+                       support_height=0.0)
+    assert abs(alone.pose[2, 3]) > 0.03  # the side alone leaves the height where the guess put it
+    assert abs(resting.pose[2, 3]) < 0.003
+    assert np.linalg.norm(resting.pose[:2, 3] - truth[:2, 3]) < 0.005
+
+
+def test_a_leaning_object_rests_on_its_lowest_edge_and_keeps_its_lean(crate_model, crate_view, make_pose, placed):
+    """The contact is the lowest point, not the base centre: a crate leaning 8 degrees on one edge keeps the
+    lean and has that edge on the slab."""
+    points, normals = crate_model
+    lean = make_pose(0.2, np.deg2rad(8.0))
+    lean[2, 3] = -float(np.min(points @ lean[:3, :3].T[:, 2]))  # lowest vertex on the slab at z = 0
+    result = register(points, normals, placed(lean, crate_view), lean @ make_pose(0.0, 0.0, (0.0, 0.0, 0.04)),
+                      upright_bias=0.5, support_height=0.0)
+    assert np.rad2deg(tilt_angle(result.pose[:3, :3])) == pytest.approx(8.0, abs=0.5)
+    lowest = float(np.min(points @ result.pose[:3, :3].T[:, 2] + result.pose[2, 3]))
+    assert abs(lowest) < 0.004

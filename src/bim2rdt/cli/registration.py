@@ -10,7 +10,7 @@ import typer
 
 from bim2rdt.cli.common import console, print_json, print_table, writable_folder
 
-PEER_COLUMNS = ("Open3D pt-pt", "Open3D pt-plane")
+PEER_COLUMNS = ("SG-ICP upright only", "Open3D pt-pt", "Open3D pt-plane")
 
 
 def register(app: typer.Typer, bench_app: typer.Typer) -> None:

@@ -67,6 +67,12 @@ class IcpConfig(BaseModel):
     start_leveling: float = Field(
         1.0, ge=0.0, le=1.0,
         description="Before the loop, remove upright_bias x this fraction of the initial tilt (0 = start as given).")
+    support_weight: float = Field(
+        1.0, ge=0.0,
+        description="Weight of the contact correspondence (the lowest model point onto the slab, when register is "
+                    "given a support_height) as a fraction of the data's total weight. A drum seen from 1 m up "
+                    "shows its rim in 5-17 corners, too few to pin its height (it floated 1.5-2 cm in S1); "
+                    "at 1.0 the slab pins it without outvoting a clear view.")
     release_iterations: int = Field(
         10, ge=0, le=1000,
         description="Iterations of the prior-free polish that tests whether the data show a lean strongly enough "

@@ -65,16 +65,18 @@ class _Restarts:
 
 
 def register(model_points, model_normals, scene_points, init=np.eye(4), up=(0.0, 0.0, 1.0),
-             upright_bias: float = 0.0, yaw_only: bool = False, config: IcpConfig | None = None
-             ) -> RegistrationResult:
+             upright_bias: float = 0.0, yaw_only: bool = False, config: IcpConfig | None = None,
+             support_height: float | None = None) -> RegistrationResult:
     """Align a model (body-frame surface samples with normals, upright along +z) to scene points (world frame).
 
     ``init`` is the initial T_world_model; ``up`` the measured world up (against gravity); ``upright_bias`` in
-    [0, 1] the family's prior of standing upright (0 = plain ICP); ``yaw_only`` keeps roll and pitch of ``init``.
+    [0, 1] the family's prior of standing upright (0 = plain ICP); ``yaw_only`` keeps roll and pitch of ``init``;
+    ``support_height`` (m along ``up``), when given, is the slab the object rests on, and its lowest point is
+    pulled onto it (gravity's other half: a body at rest touches its support).
     Raises :class:`RegistrationError` on bad input.
     """
     cfg = config or IcpConfig()
-    problem = validate_problem(model_points, model_normals, scene_points, init, up, upright_bias)
+    problem = validate_problem(model_points, model_normals, scene_points, init, up, upright_bias, support_height)
     model = matching.ModelIndex.build(problem.model_pts_body, problem.model_normals_body)
     normals_world = matching.scene_normals(problem.scene_pts_world, cfg.scene_normal_neighbours) \
         if cfg.normal_gate_deg < 90.0 else None
@@ -142,8 +144,27 @@ def _iterate(restarts: _Restarts, active: np.ndarray, problem: Problem, model: m
     normals = problem.model_normals_body[pairs.model_index]
     up_body = np.einsum("kji,j->ki", T[:, :3, :3], problem.up_world)
     lam = gravity_weight(dst, w, problem.upright_bias * cfg.gravity_gamma0)
+    if problem.support_height is not None:
+        scene_body, dst, normals, w = _with_contact_pair(T, up_body, problem, cfg.support_weight,
+                                                         (scene_body, dst, normals, w))
     dR, dt = SOLVERS[cfg.method].step(scene_body, dst, normals, w, up_body, BODY_UP, lam, yaw_only)
     _advance(restarts, active, dR, dt, matching.truncated_score(pairs, cfg.score_distance), cfg, annealing)
+
+
+def _with_contact_pair(T: np.ndarray, up_body: np.ndarray, problem: Problem, support_weight: float, pairs: tuple):
+    """Append the contact correspondence to the (scene, model, normal, weight) pair arrays: each restart's lowest
+    model point along the world up should touch the slab. Its scene partner is that point dropped onto the slab
+    plane and its normal the slab's, so the step sees one point-to-plane residual, the gap between the object
+    and its support (a tilted object touches with its lowest edge, so a leaning cone still rests on the slab).
+    Its weight is ``support_weight`` x the data's total weight, the same meaning for 40 points or 400."""
+    scene_body, dst, normals, w = pairs
+    contact = problem.model_pts_body[np.argmin(problem.model_pts_body @ up_body.T, axis=0)]  # (k, 3) body
+    slab_in_body = problem.support_height - T[:, :3, 3] @ problem.up_world
+    gap = np.einsum("ki,ki->k", up_body, contact) - slab_in_body
+    on_slab = contact - gap[:, None] * up_body
+    weight = support_weight * w.sum(axis=1)
+    return (np.concatenate([scene_body, on_slab[:, None]], axis=1), np.concatenate([dst, contact[:, None]], axis=1),
+            np.concatenate([normals, up_body[:, None]], axis=1), np.concatenate([w, weight[:, None]], axis=1))
 
 
 def _weighted_pairs(T_body_world: np.ndarray, problem: Problem, model: matching.ModelIndex,

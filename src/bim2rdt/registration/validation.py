@@ -22,9 +22,11 @@ class Problem:
     T_world_model_init: np.ndarray  # (4, 4)
     up_world: np.ndarray  # (3,), unit
     upright_bias: float
+    support_height: float | None = None  # m along up_world: the slab the object rests on, when known
 
 
-def validate_problem(model_points, model_normals, scene_points, init, up, upright_bias) -> Problem:
+def validate_problem(model_points, model_normals, scene_points, init, up, upright_bias,
+                     support_height=None) -> Problem:
     """Turn raw inputs into a :class:`Problem` or raise :class:`RegistrationError` naming the bad argument."""
     model = _points("model_points", model_points)
     normals = _points("model_normals", model_normals)
@@ -41,7 +43,10 @@ def validate_problem(model_points, model_normals, scene_points, init, up, uprigh
     bias = float(upright_bias)
     if not 0.0 <= bias <= 1.0:
         raise RegistrationError(f"upright_bias must be in [0, 1], got {bias}")
-    return Problem(model, normals / lengths[:, None], scene, _rigid_pose(init), _unit_up(up), bias)
+    support = None if support_height is None else float(support_height)
+    if support is not None and not np.isfinite(support):
+        raise RegistrationError(f"support_height must be a finite height in metres or None, got {support}")
+    return Problem(model, normals / lengths[:, None], scene, _rigid_pose(init), _unit_up(up), bias, support)
 
 
 def _points(name: str, values) -> np.ndarray:

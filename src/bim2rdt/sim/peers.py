@@ -22,20 +22,26 @@ UP = np.array([0.0, 0.0, 1.0])
 
 @dataclass(frozen=True)
 class SgIcp:
-    """bim2rdt's loop: plain robust ICP when ``use_prior`` is False, SG-ICP with the family prior otherwise."""
+    """bim2rdt's loop: plain robust ICP when ``use_prior`` is False; SG-ICP with the family prior otherwise, resting
+    on the slab at ``support_height`` (m; the scenarios' ground is z = 0), or, with None, on the upright prior
+    alone (the ablation that shows what the contact adds)."""
 
     config: IcpConfig
     use_prior: bool
+    support_height: float | None = 0.0
 
     @property
     def name(self) -> str:
-        return "SG-ICP" if self.use_prior else "ICP"
+        if not self.use_prior:
+            return "ICP"
+        return "SG-ICP" if self.support_height is not None else "SG-ICP upright only"
 
     def __call__(self, model_pts, model_normals, scene_pts, T_init, bias, yaw_only) -> np.ndarray:
         if not self.use_prior:
             return register(model_pts, model_normals, scene_pts, T_init, UP, 0.0, False, self.config).pose
         start = level(T_init) if yaw_only else T_init
-        return register(model_pts, model_normals, scene_pts, start, UP, bias, yaw_only, self.config).pose
+        return register(model_pts, model_normals, scene_pts, start, UP, bias, yaw_only, self.config,
+                        support_height=self.support_height).pose
 
 
 @dataclass(frozen=True)

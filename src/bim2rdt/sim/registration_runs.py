@@ -40,8 +40,10 @@ def upright_priors(families: Sequence[str]) -> dict[str, Prior]:
 
 
 def build_methods(config: IcpConfig, peers: bool) -> list:
-    """ICP and SG-ICP (one loop, with and without the prior), plus Open3D's two ICPs when ``peers``."""
-    methods = [SgIcp(config, use_prior=False), SgIcp(config, use_prior=True)]
+    """ICP and SG-ICP (one loop, with and without the priors), SG-ICP on the upright prior alone (an ablation),
+    plus Open3D's two ICPs when ``peers``."""
+    methods = [SgIcp(config, use_prior=False), SgIcp(config, use_prior=True),
+               SgIcp(config, use_prior=True, support_height=None)]
     if peers:
         methods += [Open3dIcp(config, plane=False), Open3dIcp(config, plane=True)]
     return methods
