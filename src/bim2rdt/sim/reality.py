@@ -89,7 +89,7 @@ def _knock_one_cone(truth: list[TrueObject]) -> list[TrueObject]:
             lean = np.eye(4)
             lean[:3, :3] = axis_angle(np.array([1.0, 0.0, 0.0]), np.array(np.deg2rad(12.0)))
             pivot = np.eye(4)
-            pivot[:3, 3] = (0.0, 0.19, 0.0)  # the base plate's edge, body frame
+            pivot[:3, 3] = (0.0, -0.19, 0.0)  # the base plate's edge that stays down (a +x turn lifts +y)
             T = obj.T_world_model @ pivot @ lean @ np.linalg.inv(pivot)
             truth[index] = TrueObject(obj.global_id, obj.family, T, "knocked")
             break
