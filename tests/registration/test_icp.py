@@ -208,3 +208,22 @@ def test_a_leaning_object_rests_on_its_lowest_edge_and_keeps_its_lean(crate_mode
     assert np.rad2deg(tilt_angle(result.pose[:3, :3])) == pytest.approx(8.0, abs=0.5)
     lowest = float(np.min(points @ result.pose[:3, :3].T[:, 2] + result.pose[2, 3]))
     assert abs(lowest) < 0.004
+
+
+def test_pruning_keeps_the_best_few_restarts_within_the_ratio():
+    from bim2rdt.registration.icp import _Restarts
+
+    restarts = _Restarts.start(np.tile(np.eye(4), (6, 1, 1)))
+    restarts.scores[:] = [4.0, 1.0, 1.2, 9.0, 1.1, 1.3]
+    restarts.prune(ratio=1.5, keep=3)
+    assert np.flatnonzero(~restarts.pruned).tolist() == [1, 2, 4]  # 9.0 and 4.0 beyond the ratio, 1.3 beyond keep
+
+
+def test_many_restarts_cost_little_more_than_few_once_pruned(crate_model, crate_view, make_pose, placed):
+    """48 restarts pruned to 6 after 3 iterations do at most 48 x 3 + 6 x (cap - 3) iterations in all (the
+    prune_keep option)."""
+    truth = make_pose(0.3, 0.0, (0.0, 0.0, 0.0))
+    config = IcpConfig(restarts=48, prune_after=3, prune_keep=6, max_iterations=30)
+    result = register(*crate_model, placed(truth, crate_view), truth, config=config)
+    assert result.total_iterations <= 48 * 3 + 6 * 27
+    assert np.rad2deg(rotation_angle(result.pose[:3, :3] @ truth[:3, :3].T)) < 1.0

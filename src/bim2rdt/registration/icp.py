@@ -57,11 +57,14 @@ class _Restarts:
     def active(self) -> np.ndarray:
         return np.flatnonzero(~self.done & ~self.pruned)
 
-    def prune(self, ratio: float) -> None:
-        """Drop restarts whose score is worse than ``ratio`` x the best so far (converged ones included)."""
+    def prune(self, ratio: float, keep: int) -> None:
+        """Drop restarts whose score is worse than ``ratio`` x the best so far (converged ones included), and all
+        but the ``keep`` best of the rest."""
         alive = ~self.pruned
         best = self.scores[alive].min()
         self.pruned |= alive & (self.scores > ratio * best + 1e-12)
+        survivors = np.flatnonzero(~self.pruned)
+        self.pruned[survivors[np.argsort(self.scores[survivors], kind="stable")[keep:]]] = True
 
 
 def register(model_points, model_normals, scene_points, init=np.eye(4), up=(0.0, 0.0, 1.0),
@@ -90,7 +93,7 @@ def register(model_points, model_normals, scene_points, init=np.eye(4), up=(0.0,
             break
         _iterate(restarts, active, problem, model, normals_world, cfg, iteration, yaw_only)
         if iteration + 1 == cfg.prune_after:
-            restarts.prune(cfg.prune_ratio)
+            restarts.prune(cfg.prune_ratio, cfg.prune_keep)
     best = _keep_best(restarts, problem, model, cfg)
     if not 0.0 < problem.upright_bias < 1.0 or yaw_only or cfg.release_iterations == 0:
         return best  # no prior, a certain one (bias 1: never overruled), or roll/pitch held by yaw_only
