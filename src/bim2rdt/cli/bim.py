@@ -62,7 +62,7 @@ def bench_ifc_command(
     iterator loop in the same run (target: <= 15 % overhead), and the cached reload (target: < 0.5 s)."""
     from rich.progress import Progress
 
-    from bim2rdt.bim.benchmark import run_ifc_bench
+    from bim2rdt.bench.ifc import run_ifc_bench
 
     path = ifc_file or _default_bench_file()
     with Progress(console=_status, transient=True, disable=not _status.is_terminal) as progress:

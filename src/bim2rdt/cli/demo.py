@@ -27,7 +27,7 @@ def demo_command(
     from rich.progress import Progress
 
     from bim2rdt.cli.registration import show_run
-    from bim2rdt.demo import run_demo
+    from bim2rdt.demo.run import run_demo
 
     stages = {"bim": "site model read", "station": "robot station", "twin": "twin updated",
               "hav": "vibration day monitored", "trial": "registration trial"}
@@ -46,7 +46,7 @@ def demo_command(
 
 
 def _show_site_day(result) -> None:
-    from bim2rdt.site_report import OBSERVATION_COLUMNS, observation_cells, observation_rows
+    from bim2rdt.demo.site_report import OBSERVATION_COLUMNS, observation_cells, observation_rows
 
     print_table("Robot mission: BIM objects verified with SG-ICP", OBSERVATION_COLUMNS,
                 [observation_cells(r) for r in observation_rows(result.site_day)])

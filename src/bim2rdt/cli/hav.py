@@ -310,7 +310,7 @@ def bench_hav(
     as_json: bool = typer.Option(False, "--json", help="Print JSON instead of tables."),
 ) -> None:
     """Streams processed in real time on one core vs the bare sosfilt floor; publish-to-event latency."""
-    from bim2rdt.safety.bench import run_latency, run_throughput
+    from bim2rdt.bench.hav import run_latency, run_throughput
 
     if hasattr(os, "sched_setaffinity"):
         os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})

@@ -31,7 +31,7 @@ def bench_registration(
 ) -> None:
     """Run S1-S4 with ICP, SG-ICP (priors from the knowledge base) and Open3D; print the table and targets."""
     from bim2rdt.config import get_settings
-    from bim2rdt.sim.registration_runs import run_registration_scenarios, run_record, save_run
+    from bim2rdt.bench.registration.runs import run_registration_scenarios, run_record, save_run
 
     if one_core and hasattr(os, "sched_setaffinity"):
         os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
@@ -49,7 +49,7 @@ def bench_registration(
 
 def show_run(run, targets: bool = True) -> None:
     """Print the paper's table plus success/tilt/time per scenario, then (with ``targets``) the targets."""
-    from bim2rdt.sim.benchmark import cut_interval, improvement
+    from bim2rdt.bench.registration.stats import cut_interval, improvement
 
     peers = [name for name in PEER_COLUMNS if name in run.results[0].stats]
     rows = []

@@ -15,7 +15,7 @@ import numpy as np
 import trimesh
 
 from bim2rdt.bim import BimModel
-from bim2rdt.mission import Detection
+from bim2rdt.perception.detection import Detection
 from bim2rdt.perception.camera import Intrinsics
 from bim2rdt.registration.so3 import axis_angle
 from bim2rdt.sim.meshes import mesh_for_family

@@ -15,7 +15,7 @@ import numpy as np  # noqa: E402
 
 from bim2rdt.atomic import write_bytes_atomic  # noqa: E402
 from bim2rdt.safety import EAV, ELV  # noqa: E402
-from bim2rdt.site_day import SiteDay, objects_of_interest  # noqa: E402
+from bim2rdt.demo.site_day import SiteDay, objects_of_interest  # noqa: E402
 from bim2rdt.sim.meshes import mesh_for_family  # noqa: E402
 from bim2rdt.sim.truth import pose_error  # noqa: E402
 

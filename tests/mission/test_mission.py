@@ -5,7 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from bim2rdt.mission import Detection, MissionConfig, Target, _associate, plan_stations, pose_delta
+from bim2rdt.mission import MissionConfig, Target, plan_stations, pose_delta
+from bim2rdt.mission.association import associate
+from bim2rdt.perception.detection import Detection
 from bim2rdt.registration.so3 import axis_angle
 from bim2rdt.sim.meshes import mesh_for_family
 
@@ -53,8 +55,8 @@ def test_a_detection_far_from_every_element_of_its_family_is_a_new_object():
     cones = [target("near", "Traffic_Cone_Orange_70cm", 0.0, 0.0), target("far", "Traffic_Cone_Orange_70cm", 9, 9)]
     points = np.random.default_rng(0).normal([4.0, 0.0, 0.3], 0.05, (50, 3))
     claimed: set[str] = set()
-    assert _associate(Detection("Traffic_Cone_Orange_70cm", points, 0), cones, claimed, MissionConfig()) is None
+    assert associate(Detection("Traffic_Cone_Orange_70cm", points, 0), cones, claimed, MissionConfig()) is None
     close = points - [3.5, 0.0, 0.0]
-    found = _associate(Detection("Traffic_Cone_Orange_70cm", close, 0), cones, claimed, MissionConfig())
+    found = associate(Detection("Traffic_Cone_Orange_70cm", close, 0), cones, claimed, MissionConfig())
     assert found.global_id == "near" and claimed == {"near"}
-    assert _associate(Detection("Traffic_Cone_Orange_70cm", close, 0), cones, claimed, MissionConfig()) is None
+    assert associate(Detection("Traffic_Cone_Orange_70cm", close, 0), cones, claimed, MissionConfig()) is None

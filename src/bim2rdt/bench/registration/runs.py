@@ -11,10 +11,10 @@ from pathlib import Path
 
 from bim2rdt.atomic import write_bytes_atomic
 from bim2rdt.registration import IcpConfig
-from bim2rdt.sim.benchmark import (COLUMNS, Prior, ScenarioResult, Target, check_targets, cut_interval, improvement,
+from bim2rdt.bench.registration.stats import (COLUMNS, Prior, ScenarioResult, Target, check_targets, cut_interval, improvement,
                                    run_scenario)
-from bim2rdt.sim.peers import Open3dIcp, SgIcp
-from bim2rdt.sim.plots import plot_before_after
+from bim2rdt.bench.registration.peers import Open3dIcp, SgIcp
+from bim2rdt.bench.registration.plots import plot_before_after
 from bim2rdt.sim.scenarios import SCENARIOS, scenario
 
 

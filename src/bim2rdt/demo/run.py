@@ -1,6 +1,6 @@
 """The demo job, on the embedded default site (``make demo``):
 
-1. a simulated site day (:mod:`bim2rdt.site_day`): BIM -> priors -> robot mission with SG-ICP -> twin update ->
+1. a simulated site day (:mod:`bim2rdt.demo.site_day`): BIM -> priors -> robot mission with SG-ICP -> twin update ->
    hand-arm vibration monitoring -> IfcEvent/IfcTask records -> ``site_twin.ifc``, with a plan view, an
    exposure plot, ``site_day.json`` and ``report.md``;
 2. the paper's four registration scenarios (ICP vs SG-ICP, a few trials) with a before/after plot each, in
@@ -16,8 +16,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from bim2rdt.atomic import write_bytes_atomic
-from bim2rdt.sim.registration_runs import RegistrationRun, run_registration_scenarios, save_run, versions
-from bim2rdt.site_day import SiteDay, run_site_day
+from bim2rdt.bench.registration.runs import RegistrationRun, run_registration_scenarios, save_run, versions
+from bim2rdt.demo.site_day import SiteDay, run_site_day
 
 DEMO_TRIALS = 6
 DEMO_SEED = 0
@@ -34,7 +34,7 @@ def run_demo(out_dir: Path, trials: int = DEMO_TRIALS, seed: int = DEMO_SEED, wo
              minutes: float = 60.0, tick: Callable[[str], None] = lambda stage: None) -> DemoResult:
     """Run the site day and the registration scenarios into ``out_dir`` (created)."""
     from bim2rdt.config import get_settings
-    from bim2rdt.site_report import write_site_report
+    from bim2rdt.demo.site_report import write_site_report
 
     out_dir = Path(out_dir)
     day = run_site_day(out_dir, seed=seed, workers=workers, minutes=minutes, tick=tick)

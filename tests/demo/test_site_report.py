@@ -6,7 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 from types import SimpleNamespace
 
-from bim2rdt.site_report import OBSERVATION_COLUMNS, _markdown, observation_cells
+from bim2rdt.demo.site_report import OBSERVATION_COLUMNS, _markdown, observation_cells
 
 
 def _row(**change):

@@ -1,0 +1,27 @@
+"""The mission's knobs (lengths in metres, angles in degrees)."""
+
+from __future__ import annotations
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from bim2rdt.perception.slab import SLAB_CLEARANCE
+
+
+class MissionConfig(BaseModel):
+    """Knobs of one mission. Lengths in metres, angles in degrees."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    standoff: float = Field(2.6, gt=0.5, description="Camera distance from each object it is sent to look at.")
+    camera_height: float = Field(1.1, gt=0.1, description="Camera height above the slab (quadruped with a mast).")
+    min_points: int = Field(30, ge=6, description="Fewer ROI points than this and the object is 'not seen'.")
+    slab_contact: float = Field(0.05, ge=0.0, description="A BIM element whose lowest point is this close to the "
+                                                          "slab stands on it (registration pulls it onto the slab).")
+    ground_clearance: float = Field(SLAB_CLEARANCE, ge=0.0, description="ROI points below this height are slab, not object.")
+    association_radius: float = Field(1.5, gt=0.0, description="Farthest a detection may be from its BIM element.")
+    moved_translation: float = Field(0.05, gt=0.0, description="A shift beyond this is a deviation.")
+    moved_rotation_deg: float = Field(5.0, gt=0.0, description="A yaw or tilt change beyond this is a deviation.")
+    min_fitness: float = Field(0.5, ge=0.0, le=1.0, description="Below this inlier fraction (of the points above the slab) the fit is unverified.")
+    tie_ratio: float = Field(1.15, ge=1.0, description="A fit from the BIM pose within this factor of the best "
+                                                        "score wins (the BIM is the prior).")
+    model_samples: int = Field(10000, ge=6, description="Surface samples per model (see IcpConfig.sample_count).")

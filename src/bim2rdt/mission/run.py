@@ -1,0 +1,72 @@
+"""The robot mission: visit stations, capture RGB-D, perceive objects, register them with SG-ICP, decide what
+changed against the BIM, and write the changes into the twin.
+
+The steps, per the paper's loop (Fig. 1):
+1. stations: one camera pose per object of interest, facing it from the site's interior, visited in a
+   nearest-neighbour tour from the start;
+2. capture: a frame per station (``capture(T_world_camera)``: the RGB-D simulator here, a robot driver on site);
+3. perceive: detections (an ROI and a family label each) -> Shi-Tomasi corners in the ROI -> depth -> world points;
+4. associate: a detection belongs to the nearest unclaimed BIM element of its family within ``association_radius``;
+   none means an object the BIM does not have;
+5. register: SG-ICP from the BIM pose moved onto the detection (BIM yaw, the detection's centroid), with the
+   family's upright prior;
+6. decide: as planned / moved / new / unverified (fit too poor to trust), with translation, yaw and tilt deltas.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+
+import numpy as np
+import trimesh
+
+from bim2rdt.mission.association import associate
+from bim2rdt.mission.config import MissionConfig
+from bim2rdt.mission.fitting import best_fit, initial_poses, rests_on_slab
+from bim2rdt.mission.ground import SLAB_HEIGHT, off_slab
+from bim2rdt.mission.records import MissionResult, Observation, Target
+from bim2rdt.mission.verdict import pose_delta, verdict
+from bim2rdt.perception.detection import Detection
+from bim2rdt.registration import IcpConfig, sample_model
+from bim2rdt.semantics import UprightPrior
+from bim2rdt.sim.truth import closest_equivalent
+
+
+def run_mission(targets: Sequence[Target], stations: Sequence[np.ndarray],
+                perceive: Callable[[int, np.ndarray], list[Detection]],
+                priors: dict[str, UprightPrior], new_object_mesh: Callable[[str], trimesh.Trimesh],
+                config: MissionConfig = MissionConfig(), icp: IcpConfig = IcpConfig(),
+                tick: Callable[[], None] = lambda: None) -> MissionResult:
+    """Visit ``stations``; ``perceive(station_index, T_world_camera)`` returns that frame's detections. Each
+    object is registered once, from the detection with the most points; returns every verdict."""
+    result = MissionResult(list(stations))
+    best: dict[object, Detection] = {}
+    for index, T_world_camera in enumerate(stations):
+        for detection in perceive(index, T_world_camera):
+            if len(detection.points_world) >= config.min_points:
+                key = detection.truth_index if detection.truth_index is not None else (index, id(detection))
+                if key not in best or len(detection.points_world) > len(best[key].points_world):
+                    best[key] = detection
+        tick()
+    claimed: set[str] = set()
+    for detection in sorted(best.values(), key=lambda d: -len(d.points_world)):
+        target = associate(detection, targets, claimed, config)
+        mesh = target.mesh_body if target else new_object_mesh(detection.family)
+        result.observations.append(_observe(detection, target, mesh, priors, config, icp))
+    result.not_seen = [t.global_id for t in targets if t.global_id not in claimed]
+    return result
+
+
+def _observe(detection: Detection, target: Target | None, mesh: trimesh.Trimesh, priors: dict[str, UprightPrior],
+             config: MissionConfig, icp: IcpConfig) -> Observation:
+    prior = priors[detection.family]
+    model_pts, model_normals = sample_model(mesh, config.model_samples, seed=icp.seed)
+    object_pts = off_slab(detection.points_world, config)
+    fit = best_fit(model_pts, model_normals, object_pts, initial_poses(detection, target, model_pts, config),
+                   prior, config, icp, local_first=target is not None,
+                   support_height=SLAB_HEIGHT if rests_on_slab(target, model_pts, config) else None)
+    reference = target.placement if target else fit.pose
+    shift, yaw, tilt = pose_delta(reference, closest_equivalent(detection.family, fit.pose, reference))
+    return Observation(detection.family, target.global_id if target else None,
+                       verdict(target, fit, shift, yaw, tilt, config), fit.pose, fit, len(object_pts),
+                       detection.station, shift, yaw, tilt, prior.upright_bias, detection.truth_index)

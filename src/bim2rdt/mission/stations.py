@@ -1,0 +1,48 @@
+"""Where the robot stands to look at each object, and in which order it visits them."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from bim2rdt.mission.config import MissionConfig
+from bim2rdt.mission.records import Target
+from bim2rdt.perception.camera import look_at
+
+
+def plan_stations(targets: Sequence[Target], start_xy: Sequence[float], config: MissionConfig) -> list[np.ndarray]:
+    """One camera pose per target, in nearest-neighbour order from ``start_xy``. Each looks at its object
+    obliquely across its long side (35 degrees off broadside: an end-on view of a beam cannot tell where along
+    its length it lies), from the side facing the other targets, far enough back for the whole object."""
+    centre = np.mean([t.placement[:2, 3] for t in targets], axis=0)
+    poses = []
+    for target in targets:
+        where = target.placement[:2, 3]
+        view = _view_direction(target, centre - where)
+        standoff = max(config.standoff, 1.2 * float(np.max(target.mesh_body.extents[:2])))
+        poses.append(look_at(np.r_[where + standoff * view, config.camera_height], np.r_[where, 0.35]))
+    return _tour(poses, np.asarray(start_xy, dtype=float))
+
+
+def _view_direction(target: Target, towards: np.ndarray) -> np.ndarray:
+    """Unit (2,) direction from the object to its camera: broadside +-35 degrees, the one nearest ``towards``."""
+    extents = target.mesh_body.extents
+    long_axis = target.placement[:2, 0] if extents[0] >= extents[1] else target.placement[:2, 1]
+    broadside = np.array([-long_axis[1], long_axis[0]]) / np.linalg.norm(long_axis)
+    candidates = []
+    for sign in (1.0, -1.0):
+        for turn in np.deg2rad([35.0, -35.0]):
+            c, s = np.cos(turn), np.sin(turn)
+            candidates.append(sign * np.array([c * broadside[0] - s * broadside[1], s * broadside[0] + c * broadside[1]]))
+    towards = towards / np.linalg.norm(towards) if np.linalg.norm(towards) > 1e-6 else np.array([0.0, -1.0])
+    return max(candidates, key=lambda d: float(d @ towards))
+
+
+def _tour(poses: list[np.ndarray], start_xy: np.ndarray) -> list[np.ndarray]:
+    remaining, ordered, here = list(poses), [], start_xy
+    while remaining:
+        nearest = min(range(len(remaining)), key=lambda k: np.linalg.norm(remaining[k][:2, 3] - here))
+        ordered.append(remaining.pop(nearest))
+        here = ordered[-1][:2, 3]
+    return ordered
