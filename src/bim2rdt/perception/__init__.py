@@ -1,1 +1,8 @@
-"""bim2rdt.perception"""
+"""The perception front end: camera model, frames, detections, corners and back-projection."""
+
+from bim2rdt.perception.camera import CameraError, Intrinsics, look_at
+from bim2rdt.perception.detection import Detection
+from bim2rdt.perception.errors import PerceptionError
+from bim2rdt.perception.frame import Frame
+
+__all__ = ["CameraError", "Detection", "Frame", "Intrinsics", "PerceptionError", "look_at"]
