@@ -6,4 +6,5 @@ from bim2rdt.perception.errors import PerceptionError
 from bim2rdt.perception.frame import Frame
 from bim2rdt.perception.observation import UNKNOWN_FAMILY, Observation
 
-__all__ = ["UNKNOWN_FAMILY", "CameraError", "Detection", "Frame", "Intrinsics", "Observation", "PerceptionError", "look_at"]
+__all__ = ["UNKNOWN_FAMILY", "CameraError", "Detection", "Frame", "Intrinsics", "Observation", "PerceptionError",
+           "look_at"]
