@@ -8,7 +8,7 @@ import json
 import pytest
 from fake_llm_server import Reply, asked_families, completion, error
 
-from bim2rdt.semantics import KnowledgeBasePriors, LlmPriors
+from bim2rdt.semantics import KnowledgeBasePriors, LlmPriors, LlmPriorsConfig
 from bim2rdt.semantics.llm_answer import PAPER_INSTRUCTION
 
 KB = KnowledgeBasePriors()
@@ -17,8 +17,8 @@ CONE, CRATE, TRIPOD = "Traffic_Cone_Orange_70cm", "Wooden_Crate_1200x800x600", "
 
 def make_priors(server, tmp_path=None, **options) -> LlmPriors:
     settings = {"model": "test-model", "base_url": server.url, "api_key": "sk-test", "timeout_s": 2.0,
-                "max_retries": 2, "backoff_s": 0.01, "backoff_max_s": 0.05, "cache_dir": tmp_path}
-    return LlmPriors(**{**settings, **options})
+                "max_retries": 2, "backoff_s": 0.01, "backoff_max_s": 0.05}
+    return LlmPriorsConfig(**{**settings, **options}).setup(cache_dir=tmp_path)
 
 
 def test_a_valid_answer_gives_the_models_labels_and_biases(llm_server):
@@ -145,8 +145,9 @@ def test_the_cache_is_per_model(llm_server, tmp_path):
 
 
 def test_an_unreachable_endpoint_falls_back_without_raising():
-    priors = LlmPriors(base_url="http://127.0.0.1:9/v1", api_key="k", timeout_s=0.5, max_retries=1,
-                       backoff_s=0.01).priors([CONE])
+    config = LlmPriorsConfig(base_url="http://127.0.0.1:9/v1", api_key="k", timeout_s=0.5, max_retries=1,
+                             backoff_s=0.01)
+    priors = LlmPriors(config).priors([CONE])
     assert priors[CONE].source == "knowledge-base (llm fallback)"
     assert "connection failed" in priors[CONE].rationale
 
@@ -156,4 +157,4 @@ def test_the_real_openai_endpoint_without_a_key_is_a_typed_error(monkeypatch):
 
     monkeypatch.delenv("OPENAI_API_KEY", raising=False)
     with pytest.raises(SemanticsError, match="no API key"):
-        LlmPriors(base_url=None).priors([CONE])
+        LlmPriors(LlmPriorsConfig(base_url=None)).priors([CONE])
