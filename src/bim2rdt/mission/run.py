@@ -28,8 +28,8 @@ from bim2rdt.mission.records import MissionResult, Observation, Target
 from bim2rdt.mission.verdict import pose_delta, verdict
 from bim2rdt.perception.detection import Detection
 from bim2rdt.registration import IcpConfig, sample_model
+from bim2rdt.registration.symmetry import closest_equivalent
 from bim2rdt.semantics import UprightPrior
-from bim2rdt.sim.truth import closest_equivalent
 
 
 def run_mission(targets: Sequence[Target], stations: Sequence[np.ndarray],
@@ -66,7 +66,7 @@ def _observe(detection: Detection, target: Target | None, mesh: trimesh.Trimesh,
                    prior, config, icp, local_first=target is not None,
                    support_height=SLAB_HEIGHT if rests_on_slab(target, model_pts, config) else None)
     reference = target.placement if target else fit.pose
-    shift, yaw, tilt = pose_delta(reference, closest_equivalent(detection.family, fit.pose, reference))
+    shift, yaw, tilt = pose_delta(reference, closest_equivalent(fit.pose, reference, prior.symmetry))
     return Observation(detection.family, target.global_id if target else None,
                        verdict(target, fit, shift, yaw, tilt, config), fit.pose, fit, len(object_pts),
                        detection.station, shift, yaw, tilt, prior.upright_bias, detection.truth_index)
