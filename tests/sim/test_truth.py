@@ -9,7 +9,7 @@ import pytest
 
 from bim2rdt.registration.so3 import axis_angle
 from bim2rdt.registration.symmetry import closest_equivalent
-from bim2rdt.sim.truth import MESH_SYMMETRY, pose_error, true_symmetry
+from bim2rdt.sim.truth import MESH_SYMMETRY, match_truth, pose_error, true_symmetry
 
 
 def _turned(yaw: float, tilt: float = 0.0) -> np.ndarray:
@@ -74,3 +74,19 @@ def test_a_shape_the_simulator_did_not_build_is_scored_with_its_priors_symmetry(
     assert pose_error("Bucket_20l", _turned(0.7), np.eye(4), prior_symmetry=math.inf).rotation_deg == pytest.approx(
         0.0, abs=1e-9)
     assert pose_error("Bucket_20l", _turned(0.7), np.eye(4)).rotation_deg == pytest.approx(np.rad2deg(0.7))
+
+
+def _at(x: float, y: float) -> np.ndarray:
+    T = np.eye(4)
+    T[:2, 3] = (x, y)
+    return T
+
+
+def test_observations_are_matched_to_the_truth_by_family_and_place_one_to_one():
+    truth = [("drum", _at(0.0, 0.0)), ("drum", _at(0.9, 0.0)), ("cone", _at(0.05, 0.0))]
+    found = [("drum", _at(0.88, 0.01)), ("cone", _at(0.0, 0.0)), ("drum", _at(0.02, 0.0)), ("drum", _at(0.5, 0.0))]
+    assert match_truth(found, truth) == [1, 2, 0, None]  # the 4th drum is a phantom: both drums are taken
+
+
+def test_an_observation_far_from_every_true_object_of_its_family_matches_none():
+    assert match_truth([("crate", _at(3.0, 0.0))], [("crate", _at(0.0, 0.0)), ("drum", _at(3.0, 0.0))]) == [None]

@@ -5,6 +5,7 @@ by 90 degrees (square base), a pallet or I-beam by 180 degrees are not errors.""
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -74,3 +75,24 @@ def pose_error(family: str, T_est: np.ndarray, T_true: np.ndarray,
     closest = closest_equivalent(T_est, T_true, true_symmetry(family, prior_symmetry))
     rotation = float(np.rad2deg(rotation_angle(closest[:3, :3] @ T_true[:3, :3].T)))
     return PoseError(rotation, float(np.linalg.norm(T_est[:3, 3] - T_true[:3, 3])), tilt)
+
+
+MATCH_DISTANCE = 0.5
+"""Farthest (m) an observation's body origin may lie from a true object's to be scored against it."""
+
+
+def match_truth(found: Sequence[tuple[str, np.ndarray]], truth: Sequence[tuple[str, np.ndarray]],
+                max_distance: float = MATCH_DISTANCE) -> list[int | None]:
+    """Which true object each found one is, by geometry alone (the mission never knows): pairs of the same family
+    (``(family, T_world_model)`` each) taken closest first, one to one, within ``max_distance``. Returns the index
+    into ``truth`` per found object, None for one that matches nothing (a phantom)."""
+    pairs = sorted((float(np.linalg.norm(T[:3, 3] - T_true[:3, 3])), i, j)
+                   for i, (family, T) in enumerate(found) for j, (true_family, T_true) in enumerate(truth)
+                   if family == true_family)
+    matched: list[int | None] = [None] * len(found)
+    taken: set[int] = set()
+    for distance, i, j in pairs:
+        if distance <= max_distance and matched[i] is None and j not in taken:
+            matched[i] = j
+            taken.add(j)
+    return matched
