@@ -27,7 +27,7 @@ from bim2rdt.mission.fitting import best_fit, initial_poses, rests_on_slab
 from bim2rdt.mission.ground import SLAB_HEIGHT, off_slab
 from bim2rdt.mission.records import MissionResult, Observation, Target
 from bim2rdt.mission.verdict import pose_delta, verdict
-from bim2rdt.mission.views import RegisteredObject, repeated_view, surface_tree
+from bim2rdt.mission.merging import RegisteredObject, repeated_view, surface_tree
 from bim2rdt.perception.detection import Detection
 from bim2rdt.registration import IcpConfig, sample_model
 from bim2rdt.registration.symmetry import closest_equivalent
@@ -41,7 +41,7 @@ def run_mission(targets: Sequence[Target], stations: Sequence[np.ndarray],
                 tick: Callable[[], None] = lambda: None) -> MissionResult:
     """Visit ``stations``; ``perceive(station_index, T_world_camera)`` returns that frame's detections. Each
     object is registered once, from its detection with the most points; a detection its registered neighbours
-    already explain is another view of them (:mod:`bim2rdt.mission.views`). Returns every verdict."""
+    already explain is another view of them (:mod:`bim2rdt.mission.merging`). Returns every verdict."""
     result = MissionResult(list(stations))
     detections = _capture(stations, perceive, config, tick)
     claimed: set[str] = set()
