@@ -25,6 +25,7 @@ from bim2rdt.semantics import KnowledgeBasePriors, UprightPrior
 from bim2rdt.sim.meshes import mesh_for_family
 from bim2rdt.sim.reality import Reality, SimulatedPerception, body_mesh, simulate_reality
 from bim2rdt.sim.site import ZONES, build_site_ifc
+from bim2rdt.twin import ElementStatus
 
 ROBOT_START_XY = (1.0, 1.0)
 """Where the robot's dock is on the default site, metres."""
@@ -75,13 +76,14 @@ def run_site_day(out_dir: Path, seed: int = 0, workers: int = 2, minutes: float 
 
 
 def apply_observations(writer: TwinWriter, observations: list[Observation]) -> dict[str, str]:
-    """Write verdicts into the twin: moved objects get their measured placement, new ones become proxies.
+    """Write verdicts into the twin: deviating (moved) objects get their measured placement, new ones become
+    proxies.
     Returns {observation index: GlobalId} of the new proxies."""
     added = {}
     for index, obs in enumerate(observations):
-        if obs.status == "moved":
+        if obs.status is ElementStatus.DEVIATING:
             writer.move_element(obs.global_id, obs.pose)
-        elif obs.status == "new":
+        elif obs.status is ElementStatus.NEW:
             mesh = mesh_for_family(obs.family)
             added[str(index)] = writer.add_object(obs.family, np.asarray(mesh.vertices), np.asarray(mesh.faces),
                                                   obs.pose, properties=_observation_properties(obs))
@@ -89,7 +91,7 @@ def apply_observations(writer: TwinWriter, observations: list[Observation]) -> d
 
 
 def _observation_properties(obs: Observation) -> dict:
-    return {"Status": obs.status, "Fitness": float(obs.fit.fitness), "RmseMetres": float(obs.fit.rmse),
+    return {"Status": obs.status.value, "Fitness": float(obs.fitness), "RmseMetres": float(obs.rmse),
             "ScenePoints": int(obs.points), "UprightBias": float(obs.upright_bias), "TiltDegrees": float(obs.tilt_deg),
             "Station": int(obs.station)}
 

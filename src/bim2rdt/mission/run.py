@@ -11,7 +11,8 @@ The steps, per the paper's loop (Fig. 1):
    none means an object the BIM does not have;
 5. register: SG-ICP from the BIM pose moved onto the detection (BIM yaw, the detection's centroid), with the
    family's upright prior;
-6. decide: as planned / moved / new / unverified (fit too poor to trust), with translation, yaw and tilt deltas.
+6. decide: as planned / deviating (moved or turned) / new / unverified (fit too poor to trust), with
+   translation, yaw and tilt deltas modulo the family's symmetry.
 """
 
 from __future__ import annotations
@@ -26,11 +27,10 @@ from bim2rdt.mission.config import MissionConfig
 from bim2rdt.mission.fitting import best_fit, initial_poses, rests_on_slab
 from bim2rdt.mission.ground import SLAB_HEIGHT, off_slab
 from bim2rdt.mission.records import MissionResult, Observation, Target
-from bim2rdt.mission.verdict import pose_delta, verdict
+from bim2rdt.mission.verdict import judge
 from bim2rdt.mission.merging import RegisteredObject, repeated_view, surface_tree
 from bim2rdt.perception.detection import Detection
 from bim2rdt.registration import IcpConfig, sample_model
-from bim2rdt.registration.symmetry import closest_equivalent
 from bim2rdt.semantics import UprightPrior
 
 
@@ -83,9 +83,10 @@ def _observe(detection: Detection, target: Target | None, mesh: trimesh.Trimesh,
     fit = best_fit(model_pts, model_normals, object_pts, initial_poses(detection, target, model_pts, config),
                    prior, config, icp, local_first=target is not None,
                    support_height=SLAB_HEIGHT if rests_on_slab(target, model_pts, config) else None)
-    reference = target.placement if target else fit.pose
-    shift, yaw, tilt = pose_delta(reference, closest_equivalent(fit.pose, reference, prior.symmetry))
-    observation = Observation(detection.family, target.global_id if target else None,
-                              verdict(target, fit, shift, yaw, tilt, config), fit.pose, fit, len(object_pts),
-                              detection.station, shift, yaw, tilt, prior.upright_bias)
+    judged = judge(target, fit, prior.symmetry, config)
+    observation = Observation(family=detection.family, global_id=target.global_id if target else None,
+                              pose=fit.pose, rmse=fit.rmse, fitness=fit.fitness, points=len(object_pts),
+                              station=detection.station, frames=(detection.station,), fit=fit,
+                              status=judged.status, shift=judged.shift, yaw_deg=judged.yaw_deg,
+                              tilt_deg=judged.tilt_deg, upright_bias=prior.upright_bias)
     return observation, model_pts
