@@ -4,6 +4,7 @@ verdicts match the simulated truth, the twin IFC carries the moves, the new obje
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 
@@ -11,6 +12,7 @@ import numpy as np
 import pytest
 
 from bim2rdt.bim import load_ifc
+from bim2rdt.config import Settings, settings_record
 from bim2rdt.twin import ElementStatus
 
 
@@ -31,7 +33,22 @@ def test_demo_writes_the_twin_report_plots_and_resolved_config(demo_out):
     assert len(list((out / "registration").glob("*.png"))) == 4
     config = json.loads((out / "config.json").read_text())
     assert config["seed"] == 0 and config["workers"] == 1 and "numpy" in config["versions"]
+    recorded, defaults = config["settings"], settings_record(Settings())
+    assert set(recorded) == set(defaults)  # every section, as the run read it (defaults here)
+    assert recorded["mission"] == defaults["mission"] and recorded["registration"] == defaults["registration"]
+    assert config["settings"]["hav"]["site_secret"] == "***"  # and no secret in a file that travels with results
     assert "Robot mission" in stdout and "Hand-arm vibration events" in stdout
+
+
+def test_a_setting_changed_through_the_environment_is_what_runs_and_what_config_json_shows(tmp_path):
+    """BIM2RDT_MISSION__MIN_FITNESS=0.99: no fit explains 99 % of its points, so every verdict is unverified."""
+    env = {**os.environ, "BIM2RDT_MISSION__MIN_FITNESS": "0.99"}
+    result = subprocess.run([sys.executable, "-m", "bim2rdt", "demo", "--out", str(tmp_path), "--trials", "1",
+                             "--workers", "1", "--minutes", "1"], capture_output=True, text=True, timeout=600, env=env)
+    assert result.returncode == 0, result.stderr
+    assert json.loads((tmp_path / "config.json").read_text())["settings"]["mission"]["min_fitness"] == 0.99
+    rows = json.loads((tmp_path / "site_day.json").read_text())["observations"]
+    assert len(rows) == 11 and {r["status"] for r in rows} == {ElementStatus.UNVERIFIED}
 
 
 def test_the_robot_finds_the_unplanned_drum_and_flags_what_moved(demo_out):

@@ -69,7 +69,9 @@ def bench_ifc_command(
         task = progress.add_task(f"benchmarking {path.name}", total=2 * repeat + max(3, repeat))
         result = run_ifc_bench(path, repeat, step=lambda label: progress.update(task, advance=1, description=label))
     if as_json:
-        print_json(result.to_dict())
+        from bim2rdt.config import get_settings, settings_record
+
+        print_json({**result.to_dict(), "settings": settings_record(get_settings())})
         return
     summary = result.to_dict()
     bare = result.bare_loop

@@ -21,6 +21,7 @@ import numpy as np
 
 from bim2rdt.bim import BimModel, TwinWriter, load_ifc
 from bim2rdt.mission import MissionConfig, MissionResult, Observation, Target, plan_stations, run_mission
+from bim2rdt.registration import IcpConfig
 from bim2rdt.semantics import KnowledgeBasePriors, UprightPrior
 from bim2rdt.sim.meshes import mesh_for_family
 from bim2rdt.sim.reality import Reality, SimulatedPerception, body_mesh, simulate_reality
@@ -53,10 +54,12 @@ def objects_of_interest(model: BimModel) -> list[Target]:
 
 
 def run_site_day(out_dir: Path, seed: int = 0, workers: int = 2, minutes: float = 60.0, fs: float = 5000.0,
-                 mission_config: MissionConfig = MissionConfig(),
+                 mission_config: MissionConfig = MissionConfig(), icp: IcpConfig = IcpConfig(),
                  tick: Callable[[str], None] = lambda stage: None) -> SiteDay:
     """Run the day into ``out_dir``: ``site.ifc`` (as designed), ``site_twin.ifc`` (as built, with safety
-    records) and the monitor's state under ``state/`` (started afresh: the demo simulates a new day)."""
+    records) and the monitor's state under ``state/`` (started afresh: the demo simulates a new day). The
+    mission runs with ``mission_config`` and registers with ``icp`` (the demo passes ``Settings.mission`` and
+    ``Settings.registration``)."""
     out_dir.mkdir(parents=True, exist_ok=True)
     model = load_ifc(build_site_ifc(out_dir / "site.ifc"))
     tick("bim")
@@ -65,7 +68,7 @@ def run_site_day(out_dir: Path, seed: int = 0, workers: int = 2, minutes: float 
     priors = KnowledgeBasePriors().priors(sorted({t.family for t in reality.truth}))
     stations = plan_stations(targets, ROBOT_START_XY, mission_config)
     mission = run_mission(targets, stations, SimulatedPerception(reality, seed=seed), priors, mesh_for_family,
-                          mission_config, tick=lambda: tick("station"))
+                          mission_config, icp, tick=lambda: tick("station"))
     writer = TwinWriter(model)
     apply_observations(writer, mission.observations)
     tick("twin")

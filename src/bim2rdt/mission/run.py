@@ -78,7 +78,7 @@ def _observe(detection: Detection, target: Target | None, mesh: trimesh.Trimesh,
              config: MissionConfig, icp: IcpConfig) -> tuple[Observation, np.ndarray]:
     """Register one object and judge it; also returns the model's surface samples (body frame)."""
     prior = priors[detection.family]
-    model_pts, model_normals = sample_model(mesh, config.model_samples, seed=icp.seed)
+    model_pts, model_normals = sample_model(mesh, icp.sample_count, seed=icp.seed)
     object_pts = off_slab(detection.points_world, config)
     fit = best_fit(model_pts, model_normals, object_pts, initial_poses(detection, target, model_pts, config),
                    prior, config, icp, local_first=target is not None,
