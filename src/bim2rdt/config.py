@@ -22,6 +22,12 @@ from bim2rdt.registration.config import IcpConfig
 from bim2rdt.semantics.llm import LlmPriorsConfig
 
 
+def default_samples_dir() -> Path:
+    """Where real IFC samples are when ``samples`` is unset: ``../shared/data/ifc`` beside the checkout this
+    package runs from (this file is ``<checkout>/src/bim2rdt/config.py``)."""
+    return Path(__file__).resolve().parents[2].parent / "shared" / "data" / "ifc"
+
+
 def _default_cache_dir() -> Path:
     return Path.home() / ".cache" / "bim2rdt"
 
@@ -65,7 +71,8 @@ class Settings(BaseSettings):
 
     model_config = SettingsConfigDict(env_prefix="BIM2RDT_", env_nested_delimiter="__", extra="ignore")
 
-    samples: Path | None = Field(None, description="Folder of real IFC sample files used by tests/benchmarks.")
+    samples: Path | None = Field(None, description="Folder of real IFC sample files used by tests/benchmarks "
+                                                    "(unset: ../shared/data/ifc beside the checkout).")
     cache_dir: Path = Field(default_factory=_default_cache_dir, description="On-disk caches (meshes, LLM answers).")
     data_dir: Path = Field(Path("var"), description="Persistent state (SQLite exposure store, twin history).")
     bim: BimSettings = BimSettings()

@@ -143,9 +143,9 @@ def _info_payload(model, checks) -> dict:
 
 def _default_bench_file() -> Path:
     from bim2rdt.bim import BimError
-    from bim2rdt.config import get_settings
+    from bim2rdt.config import default_samples_dir, get_settings
 
-    folder = get_settings().samples or Path(__file__).resolve().parents[4].parent / "shared" / "data" / "ifc"
+    folder = get_settings().samples or default_samples_dir()
     path = Path(folder) / BENCH_FILE
     if not path.is_file():
         raise BimError(f"{path}: benchmark file absent (set BIM2RDT_SAMPLES or pass --file)")
