@@ -26,9 +26,9 @@ from bim2rdt.mission.association import associate
 from bim2rdt.mission.config import MissionConfig
 from bim2rdt.mission.fitting import best_fit, initial_poses, rests_on_slab
 from bim2rdt.mission.ground import SLAB_HEIGHT, off_slab
+from bim2rdt.mission.merging import RegisteredObject, repeated_view
 from bim2rdt.mission.records import MissionResult, Observation, Target
 from bim2rdt.mission.verdict import judge
-from bim2rdt.mission.merging import RegisteredObject, repeated_view, surface_tree
 from bim2rdt.perception.detection import Detection
 from bim2rdt.registration import IcpConfig, sample_model
 from bim2rdt.semantics import UprightPrior
@@ -50,16 +50,13 @@ def run_mission(targets: Sequence[Target], stations: Sequence[np.ndarray],
         seen_before = repeated_view(detection, registered, config)
         if seen_before is not None:
             if seen_before.family == detection.family:
-                seen_before.stations.add(detection.station)
+                seen_before.seen_from(detection.station)
             continue
         target = associate(detection, targets, claimed, config)
         mesh = target.mesh_body if target else new_object_mesh(detection.family)
         observation, model_pts = _observe(detection, target, mesh, priors, config, icp)
-        registered.append(RegisteredObject(detection.family, surface_tree(model_pts, observation.pose),
-                                           len(result.observations), {detection.station}))
+        registered.append(RegisteredObject.of(observation, model_pts))
         result.observations.append(observation)
-    for obj in registered:
-        result.observations[obj.observation].frames = tuple(sorted(obj.stations))
     result.not_seen = [t.global_id for t in targets if t.global_id not in claimed]
     return result
 
