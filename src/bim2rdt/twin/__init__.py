@@ -1,5 +1,23 @@
-"""bim2rdt.twin: the twin's element status (and, as it is built, its state, history and exports)."""
+"""bim2rdt.twin: the site's digital twin: element status against the BIM, an append-only history (SQLite or
+PostgreSQL through SQLAlchemy Core), and exports to IFC, JSON and BCF.
 
+```python
+from bim2rdt.twin import DigitalTwin, ElementStatus
+twin = DigitalTwin.open("sqlite:///out/twin.db", model)
+twin.record(observation, time); twin.state(at=None); twin.history(global_id)
+twin.export_ifc(path); twin.export_bcf(path)
+```
+"""
+
+from bim2rdt.twin.deviation import Deviation, pose_deviation
+from bim2rdt.twin.errors import TwinError
+from bim2rdt.twin.records import (EVENT_KINDS, MISSING, OBSERVATION, SAFETY, STATUS, ElementState, Evidence, Fit,
+                                  TwinEvent)
+from bim2rdt.twin.sink import TwinSink
 from bim2rdt.twin.status import ElementStatus
+from bim2rdt.twin.tolerance import Tolerance, TolerancePolicy, default_policy, tolerance_policy
+from bim2rdt.twin.twin import DigitalTwin
 
-__all__ = ["ElementStatus"]
+__all__ = ["DigitalTwin", "Deviation", "ElementState", "ElementStatus", "EVENT_KINDS", "Evidence", "Fit", "MISSING",
+           "OBSERVATION", "SAFETY", "STATUS", "Tolerance", "TolerancePolicy", "TwinError", "TwinEvent", "TwinSink",
+           "default_policy", "pose_deviation", "tolerance_policy"]
