@@ -101,6 +101,20 @@ def test_an_object_the_bim_lacks_is_new_and_seen_again_nearby_it_is_the_same_obj
     assert np.allclose(twin.state()[first.global_id].pose[:2, 3], (10.3, 8.1))
     new = [s for s in twin.state().values() if s.status is ElementStatus.NEW]
     assert len(new) == 2
+    assert all(np.array_equal(s.mesh[0], family_mesh("Steel_Drum_55gal")[0]) for s in new)
+    assert twin.state()[cone_id(site_model)].mesh is None  # the BIM has the mesh of its own elements
+
+
+def cone_id(model):
+    return _element(model, "Traffic_Cone_Orange_70cm").global_id
+
+
+def test_without_a_family_mesh_a_new_object_stands_in_as_a_half_metre_box(twin_url, site_model):
+    with DigitalTwin.open(twin_url, site_model) as twin:
+        new = twin.record(Observation("Rebar_Bundle", None, yaw_pose(6.0, 9.0, 0.0, 0.0), 0.01, 0.9, 50), T0)
+        vertices, faces = twin.state()[new.global_id].mesh
+    assert np.allclose(vertices.min(axis=0), (-0.25, -0.25, 0.0)) and np.allclose(vertices.max(axis=0), (0.25, 0.25, 0.5))
+    assert len(faces) == 12
 
 
 def test_a_place_seen_empty_is_missing(twin, site_model):

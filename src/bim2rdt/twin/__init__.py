@@ -14,10 +14,10 @@ from bim2rdt.twin.errors import TwinError
 from bim2rdt.twin.records import (EVENT_KINDS, MISSING, OBSERVATION, SAFETY, STATUS, ElementState, Evidence, Fit,
                                   TwinEvent)
 from bim2rdt.twin.sink import TwinSink
-from bim2rdt.twin.status import ElementStatus
+from bim2rdt.twin.status import STATUS_COLOURS, ElementStatus
 from bim2rdt.twin.tolerance import Tolerance, TolerancePolicy, default_policy, tolerance_policy
 from bim2rdt.twin.twin import DigitalTwin
 
 __all__ = ["DigitalTwin", "Deviation", "ElementState", "ElementStatus", "EVENT_KINDS", "Evidence", "Fit", "MISSING",
-           "OBSERVATION", "SAFETY", "STATUS", "Tolerance", "TolerancePolicy", "TwinError", "TwinEvent", "TwinSink",
+           "OBSERVATION", "SAFETY", "STATUS", "STATUS_COLOURS", "Tolerance", "TolerancePolicy", "TwinError", "TwinEvent", "TwinSink",
            "default_policy", "pose_deviation", "tolerance_policy"]

@@ -25,13 +25,9 @@ from bim2rdt.bim import BimModel
 from bim2rdt.perception.camera import Intrinsics, look_at
 from bim2rdt.twin.records import ElementState
 from bim2rdt.twin.snapshot import Layer, render_snapshot, vertical_fov_deg
-from bim2rdt.twin.status import ElementStatus
+from bim2rdt.twin.status import STATUS_COLOURS, ElementStatus
 
 ISSUES = (ElementStatus.DEVIATING, ElementStatus.MISSING, ElementStatus.NEW)
-STATUS_COLOURS = {ElementStatus.AS_PLANNED: "tab:green", ElementStatus.DEVIATING: "tab:orange",
-                  ElementStatus.MISSING: "tab:purple", ElementStatus.NEW: "tab:red",
-                  ElementStatus.UNVERIFIED: "tab:grey", ElementStatus.NOT_OBSERVED: "0.75"}
-"""One colour per status, shared by the snapshots and the report's plan map."""
 SNAPSHOT = "snapshot.png"
 CONTEXT_RADIUS_M = 8.0
 """BIM elements within this distance of the issue are drawn around it."""

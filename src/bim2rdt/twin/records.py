@@ -62,7 +62,10 @@ class Evidence:
 class ElementState:
     """One element as the twin knows it. ``ifc_class`` is None for an object the BIM lacks (status NEW, or
     UNVERIFIED when its fit is too poor). ``deviation`` is against the BIM pose (None when not observed, missing
-    or new); ``tolerance`` is the preset it was judged by; ``pose`` the measured T_world_model."""
+    or new); ``tolerance`` is the preset it was judged by; ``pose`` the measured T_world_model. ``mesh`` is the
+    body-frame (vertices (N,3), faces (M,3)) of an object the BIM lacks (its family's mesh, or a stand-in box), so
+    a planner or a viewer can draw it; None for BIM elements (the BIM has their mesh). It is not part of the
+    state's JSON or equality."""
 
     global_id: str
     family: str | None
@@ -74,6 +77,7 @@ class ElementState:
     evidence: Evidence | None = None
     robot: str | None = None
     pose: np.ndarray | None = None
+    mesh: tuple[np.ndarray, np.ndarray] | None = None
 
     @property
     def in_bim(self) -> bool:

@@ -19,6 +19,7 @@ Times are UTC epoch seconds on the site's clock; poses are 4x4 T_world_model in 
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from collections.abc import Callable, Iterable, Mapping
@@ -156,9 +157,10 @@ class DigitalTwin:
         any robot recorded so far), or, with ``at``, as it was at that time (a replay of the history)."""
         if at is None:
             self._catch_up()
-            return self._projection.states()
-        return Projection(self.model).apply_all(self.store.read(until=_checked_time(at), kinds=STATE_KINDS,
-                                                                  by_time=True)).states()
+            return self._with_meshes(self._projection.states())
+        replay = Projection(self.model).apply_all(self.store.read(until=_checked_time(at), kinds=STATE_KINDS,
+                                                                  by_time=True))
+        return self._with_meshes(replay.states())
 
     def history(self, global_id: str) -> list[TwinEvent]:
         """Every event about one element (observations, missing, status changes, safety events in its zone),
@@ -206,6 +208,8 @@ class DigitalTwin:
 
     def object_mesh(self, state: ElementState) -> tuple[np.ndarray, np.ndarray]:
         """(vertices in the body frame, faces) of an element: the BIM's mesh, else the family mesh, else a box."""
+        if state.mesh is not None:
+            return state.mesh
         if state.in_bim and self.model.has_mesh(state.global_id):
             vertices, faces = self.model.mesh(state.global_id)
             placement = self._elements[state.global_id].placement
@@ -215,6 +219,17 @@ class DigitalTwin:
         return _placeholder_box()
 
     # ---- helpers ------------------------------------------------------------------------------------------
+
+    def _with_meshes(self, states: dict[str, ElementState]) -> dict[str, ElementState]:
+        """Objects the BIM lacks get their mesh (family mesh or stand-in box), one lookup per family."""
+        meshes: dict[str | None, tuple[np.ndarray, np.ndarray]] = {}
+        for global_id, state in states.items():
+            if not state.in_bim:
+                if state.family not in meshes:
+                    meshes[state.family] = self.object_mesh(state)
+                states[global_id] = dataclasses.replace(state, mesh=meshes[state.family])
+        return states
+
 
     def _write(self, build: Callable[[Writer], list[TwinEvent]]) -> list[TwinEvent]:
         """One transaction under the writers' lock: catch up on others' events, build and append ours; the
