@@ -9,11 +9,12 @@ from __future__ import annotations
 from functools import lru_cache
 from pathlib import Path
 
-from pydantic import BaseModel, Field, ValidationError, model_validator
+from pydantic import BaseModel, Field, ValidationError
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
 from bim2rdt.errors import Bim2RdtError
 from bim2rdt.registration.config import IcpConfig
+from bim2rdt.twin.config import TwinConfig
 
 
 def _default_cache_dir() -> Path:
@@ -68,50 +69,6 @@ class MqttSettings(BaseModel):
                                "hashes of their ids with this secret (bim2rdt hav broker, sim wearables).")
 
 
-class TolerancePreset(BaseModel):
-    """How far an element may sit from its BIM pose and still be "as planned"."""
-
-    translation: float = Field(gt=0, description="Largest offset of the element's origin, metres.")
-    rotation_deg: float = Field(gt=0, description="Largest tilt, and largest yaw about up (modulo the family's "
-                                "symmetry), degrees.")
-
-
-def _default_presets() -> dict[str, TolerancePreset]:
-    return {"temporary": TolerancePreset(translation=0.05, rotation_deg=5.0),
-            "structural": TolerancePreset(translation=0.01, rotation_deg=0.5)}
-
-
-def _default_preset_classes() -> dict[str, str]:
-    structural = ("IfcColumn", "IfcWall", "IfcWallStandardCase", "IfcBeam", "IfcSlab", "IfcMember", "IfcFooting")
-    return {ifc_class: "structural" for ifc_class in structural} | {"IfcBuildingElementProxy": "temporary"}
-
-
-class TwinSettings(BaseModel):
-    """The digital twin: where its history is stored and the deviation tolerances it judges by."""
-
-    url: str | None = Field(None, description="SQLAlchemy URL of the twin's history: sqlite:///path/twin.db or "
-                            "postgresql+psycopg://user:password@host/db; None means data_dir/twin.db (SQLite).")
-    presets: dict[str, TolerancePreset] = Field(default_factory=_default_presets, description="Named tolerances: "
-                                                "temporary site objects are loose, structure is tight.")
-    classes: dict[str, str] = Field(default_factory=_default_preset_classes,
-                                    description="IFC class -> preset name.")
-    families: dict[str, str] = Field(default_factory=dict, description="Family -> preset name (wins over class).")
-    default_preset: str = Field("temporary", description="Preset of an element no class or family entry names.")
-    min_fitness: float = Field(0.5, ge=0.0, le=1.0, description="Below this fitness an observation is unverified.")
-
-    @model_validator(mode="after")
-    def _presets_exist(self) -> TwinSettings:
-        named = {self.default_preset, *self.classes.values(), *self.families.values()}
-        unknown = sorted(named - set(self.presets))
-        if unknown:
-            raise ValueError(f"tolerance preset(s) {', '.join(unknown)} not in presets ({', '.join(self.presets)})")
-        return self
-
-    def resolved_url(self, data_dir: Path) -> str:
-        """The URL, or SQLite at ``data_dir/twin.db`` when none is set."""
-        return self.url or f"sqlite:///{Path(data_dir) / 'twin.db'}"
-
-
 class Settings(BaseSettings):
     """All settings of bim2rdt. Read once with :func:`get_settings`."""
 
@@ -125,7 +82,7 @@ class Settings(BaseSettings):
     hav: HavSettings = HavSettings()
     mqtt: MqttSettings = MqttSettings()
     registration: IcpConfig = IcpConfig()
-    twin: TwinSettings = TwinSettings()
+    twin: TwinConfig = TwinConfig()
 
 
 class ConfigError(Bim2RdtError):

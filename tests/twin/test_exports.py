@@ -19,7 +19,7 @@ from bim2rdt.perception.observation import Observation
 from bim2rdt.sim.site import ZONES, yaw_pose
 from bim2rdt.twin import DigitalTwin, ElementStatus, TwinError
 
-from conftest import SYMMETRY, T0, family_mesh
+from twin_helpers import SYMMETRY, T0, family_mesh
 
 IFC2X3_TEXT = """ISO-10303-21;
 HEADER;

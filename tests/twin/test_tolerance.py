@@ -5,11 +5,11 @@ from __future__ import annotations
 import pytest
 
 from bim2rdt.config import ConfigError, get_settings
-from bim2rdt.twin import Tolerance, TolerancePolicy, TwinError, default_policy, tolerance_policy
+from bim2rdt.twin import Tolerance, TolerancePolicy, TwinConfig, TwinError
 
 
 def test_the_default_presets_are_loose_for_site_objects_and_tight_for_structure():
-    policy = default_policy()
+    policy = TwinConfig().tolerance_policy()
     cone = policy.for_element("IfcBuildingElementProxy", "Traffic_Cone_Orange_70cm")
     assert cone == Tolerance("temporary", 0.05, 5.0)
     assert policy.for_element("IfcColumn", "Concrete Column 400x400") == Tolerance("structural", 0.01, 0.5)
@@ -35,8 +35,7 @@ def test_presets_come_from_the_environment(monkeypatch):
     monkeypatch.setenv("BIM2RDT_TWIN__CLASSES", "{}")
     monkeypatch.setenv("BIM2RDT_TWIN__DEFAULT_PRESET", "site")
     get_settings.cache_clear()
-    twin = get_settings().twin
-    policy = tolerance_policy(twin.presets, twin.classes, twin.families, twin.default_preset)
+    policy = get_settings().twin.tolerance_policy()
     assert policy.for_element("IfcColumn", None) == Tolerance("site", 0.2, 12.0)
 
 

@@ -15,7 +15,7 @@ from bim2rdt.perception.observation import Observation
 from bim2rdt.sim.site import ZONES, yaw_pose
 from bim2rdt.twin import MISSING, OBSERVATION, SAFETY, STATUS, DigitalTwin, ElementStatus, TwinError, TwinSink
 
-from conftest import SYMMETRY, T0, family_mesh
+from twin_helpers import SYMMETRY, T0, family_mesh
 
 
 @pytest.fixture
@@ -113,7 +113,8 @@ def test_without_a_family_mesh_a_new_object_stands_in_as_a_half_metre_box(twin_u
     with DigitalTwin.open(twin_url, site_model) as twin:
         new = twin.record(Observation("Rebar_Bundle", None, yaw_pose(6.0, 9.0, 0.0, 0.0), 0.01, 0.9, 50), T0)
         vertices, faces = twin.state()[new.global_id].mesh
-    assert np.allclose(vertices.min(axis=0), (-0.25, -0.25, 0.0)) and np.allclose(vertices.max(axis=0), (0.25, 0.25, 0.5))
+    assert np.allclose(vertices.min(axis=0), (-0.25, -0.25, 0.0))
+    assert np.allclose(vertices.max(axis=0), (0.25, 0.25, 0.5))
     assert len(faces) == 12
 
 
@@ -303,12 +304,14 @@ def test_an_sqlite_path_that_cannot_be_created_is_a_one_line_error(site_model, t
         DigitalTwin.open(f"sqlite:///{blocker / 'twin.db'}", site_model)
 
 
-def test_the_default_url_is_sqlite_in_the_data_folder(site_model, tmp_path, monkeypatch):
+def test_the_settings_give_sqlite_in_the_data_folder_unless_a_url_is_set(tmp_path, monkeypatch):
     from bim2rdt.config import get_settings
 
     monkeypatch.setenv("BIM2RDT_DATA_DIR", str(tmp_path / "var"))
     get_settings.cache_clear()
-    with DigitalTwin.open(None, site_model) as twin:
-        cone = _element(site_model, "Traffic_Cone_Orange_70cm")
-        twin.record(_seen(cone), T0)
-    assert (tmp_path / "var" / "twin.db").is_file()
+    settings = get_settings()
+    assert settings.twin.resolved_url(settings.data_dir) == f"sqlite:///{tmp_path / 'var' / 'twin.db'}"
+    monkeypatch.setenv("BIM2RDT_TWIN__URL", "postgresql+psycopg://robot@db/site")
+    get_settings.cache_clear()
+    settings = get_settings()
+    assert settings.twin.resolved_url(settings.data_dir) == "postgresql+psycopg://robot@db/site"

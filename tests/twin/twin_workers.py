@@ -9,7 +9,8 @@ from bim2rdt.perception.observation import Observation
 from bim2rdt.sim.site import yaw_pose
 from bim2rdt.twin import DigitalTwin
 
-T0 = 1_780_000_000.0
+from twin_helpers import T0
+
 NEW_DRUM_XY = (10.0, 8.0)
 
 

@@ -15,9 +15,17 @@ from bim2rdt.twin.records import (EVENT_KINDS, MISSING, OBSERVATION, SAFETY, STA
                                   TwinEvent)
 from bim2rdt.twin.sink import TwinSink
 from bim2rdt.twin.status import STATUS_COLOURS, ElementStatus
-from bim2rdt.twin.tolerance import Tolerance, TolerancePolicy, default_policy, tolerance_policy
-from bim2rdt.twin.twin import DigitalTwin
+from bim2rdt.twin.config import TolerancePreset, TwinConfig
+from bim2rdt.twin.tolerance import Tolerance, TolerancePolicy
 
 __all__ = ["DigitalTwin", "Deviation", "ElementState", "ElementStatus", "EVENT_KINDS", "Evidence", "Fit", "MISSING",
-           "OBSERVATION", "SAFETY", "STATUS", "STATUS_COLOURS", "Tolerance", "TolerancePolicy", "TwinError", "TwinEvent", "TwinSink",
-           "default_policy", "pose_deviation", "tolerance_policy"]
+           "OBSERVATION", "SAFETY", "STATUS", "STATUS_COLOURS", "Tolerance", "TolerancePolicy", "TolerancePreset",
+           "TwinConfig", "TwinError", "TwinEvent", "TwinSink", "pose_deviation"]
+
+
+def __getattr__(name: str):
+    if name == "DigitalTwin":  # imported on first use: the store (SQLAlchemy) and the BIM reader are heavy
+        from bim2rdt.twin.twin import DigitalTwin
+
+        return DigitalTwin
+    raise AttributeError(name)

@@ -42,19 +42,3 @@ class TolerancePolicy:
     def for_element(self, ifc_class: str | None, family: str | None) -> Tolerance:
         name = self.families.get(family or "") or self.classes.get(ifc_class or "") or self.default
         return self.presets[name]
-
-
-def tolerance_policy(presets: Mapping[str, object], classes: Mapping[str, str], families: Mapping[str, str],
-                     default: str) -> TolerancePolicy:
-    """A policy from config presets (anything with ``translation`` and ``rotation_deg``, e.g. the settings'
-    ``twin.presets``)."""
-    return TolerancePolicy({name: Tolerance(name, float(p.translation), float(p.rotation_deg))
-                            for name, p in presets.items()}, dict(classes), dict(families), default)
-
-
-def default_policy() -> TolerancePolicy:
-    """The presets of the default settings (``TwinSettings``)."""
-    from bim2rdt.config import TwinSettings
-
-    settings = TwinSettings()
-    return tolerance_policy(settings.presets, settings.classes, settings.families, settings.default_preset)

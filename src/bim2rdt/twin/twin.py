@@ -37,7 +37,8 @@ from bim2rdt.twin.projection import STATE_KINDS, Projection
 from bim2rdt.twin.records import MISSING, OBSERVATION, SAFETY, STATUS, ElementState, TwinEvent
 from bim2rdt.twin.status import ElementStatus
 from bim2rdt.twin.store import EventStore, NewEvent, Writer
-from bim2rdt.twin.tolerance import TolerancePolicy, default_policy
+from bim2rdt.twin.config import TwinConfig
+from bim2rdt.twin.tolerance import TolerancePolicy
 from bim2rdt.twin.verdict import judge
 
 FamilyMesh = Callable[[str], tuple[np.ndarray, np.ndarray]]
@@ -59,27 +60,22 @@ class DigitalTwin:
         self._projection = Projection(model).apply_all(store.read())
 
     @classmethod
-    def open(cls, url: str | None, model: BimModel | str | Path, *, tolerances: TolerancePolicy | None = None,
+    def open(cls, url: str, model: BimModel | str | Path, *, tolerances: TolerancePolicy | None = None,
              symmetry: Mapping[str, float] | None = None, min_fitness: float = 0.5, robot: str = "robot",
              family_mesh: FamilyMesh | None = None, new_match_radius: float = NEW_MATCH_RADIUS) -> DigitalTwin:
-        """Open (creating if needed) the twin at ``url`` (None: the settings' ``twin.url``, else SQLite at
-        ``data_dir/twin.db``) over ``model`` (a BimModel or an IFC path).
+        """Open (creating if needed) the twin at ``url`` over ``model`` (a BimModel or an IFC path).
 
-        ``tolerances`` picks each element's preset (default: the default settings' presets); ``symmetry`` maps
-        a family to its rotational order about up (``math.inf`` for axial; 1 where absent); observations under
+        ``tolerances`` picks each element's preset (default: ``TwinConfig()``'s presets); ``symmetry`` maps a
+        family to its rotational order about up (``math.inf`` for axial; 1 where absent); observations under
         ``min_fitness`` are unverified; ``robot`` is the default source of records; ``family_mesh`` gives the
-        mesh of objects the BIM lacks (exports; a 0.5 m box stands in without it)."""
+        mesh of objects the BIM lacks (exports; a 0.5 m box stands in without it). The edge builds these from
+        ``Settings.twin`` (``TwinConfig.resolved_url``, ``.tolerance_policy()``, ``.min_fitness``)."""
         _check_symmetry(symmetry or {})
         if not 0.0 <= min_fitness <= 1.0:
             raise TwinError(f"min_fitness is a fraction in [0, 1], got {min_fitness}")
-        if url is None:
-            from bim2rdt.config import get_settings
-
-            settings = get_settings()
-            url = settings.twin.resolved_url(settings.data_dir)
         model = model if isinstance(model, BimModel) else load_ifc(model)
-        return cls(EventStore.open(url), model, tolerances or default_policy(), symmetry or {}, min_fitness,
-                   robot, family_mesh, new_match_radius)
+        return cls(EventStore.open(url), model, tolerances or TwinConfig().tolerance_policy(), symmetry or {},
+                   min_fitness, robot, family_mesh, new_match_radius)
 
     def close(self) -> None:
         self.store.close()
