@@ -8,8 +8,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from bim2rdt.twin import TwinError, pose_deviation
-from bim2rdt.twin.deviation import wrap_yaw
+from bim2rdt.twin import pose_deviation
 
 
 def _pose(x=0.0, y=0.0, z=0.0, yaw=0.0, tilt=0.0, base_yaw=0.0):
@@ -43,17 +42,6 @@ def test_tilt_is_the_angle_between_up_axes_whatever_the_yaw():
 def test_yaw_is_taken_modulo_the_family_symmetry(symmetry, turn, expected):
     d = pose_deviation(_pose(yaw=10), _pose(yaw=10 + turn), symmetry)
     assert d.yaw_deg == pytest.approx(expected, abs=1e-9)
-
-
-def test_a_symmetric_half_turn_lands_on_the_positive_edge():
-    assert wrap_yaw(-45.0, 4) == pytest.approx(45.0)
-    assert wrap_yaw(45.0, 4) == pytest.approx(45.0)
-
-
-@pytest.mark.parametrize("order", [0, 0.5, 2.5, -1])
-def test_a_symmetry_order_that_is_not_whole_is_refused(order):
-    with pytest.raises(TwinError, match="symmetry order"):
-        wrap_yaw(10.0, order)
 
 
 def test_within_checks_all_three_against_the_tolerance():

@@ -224,6 +224,11 @@ def test_events_serve_a_poller_by_seq_and_a_reader_by_time(twin, site_model):
 
 # ---- bad input ------------------------------------------------------------------------------------------------
 
+@pytest.mark.parametrize("order", [0, 2.5, -1, float("nan")])
+def test_a_symmetry_order_that_is_not_whole_is_refused_at_open(twin_url, site_model, order):
+    with pytest.raises(TwinError, match="rotational order about up"):
+        DigitalTwin.open(twin_url, site_model, symmetry={"Pallet_Wood_EUR": order})
+
 def _rows(url: str) -> int:
     engine = sa.create_engine(url)
     try:

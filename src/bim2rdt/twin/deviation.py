@@ -1,8 +1,9 @@
 """How far a measured pose is from the BIM's: translation of the origin, tilt of the up axis, yaw about it.
 
-Yaw is taken modulo the family's rotational symmetry about its body up axis (``symmetry`` is the order n: a
-square-based cone is 4, a pallet 2, a drum ``math.inf``): a pallet turned by 180 degrees is where the BIM wants
-it. Poses are T_world_model (4x4, metres); angles are degrees.
+Yaw is taken modulo the family's rotational symmetry about its body up axis (``symmetry`` is the order n of
+``UprightPrior.symmetry``: a square-based cone is 4, a pallet 2, a drum ``math.inf``): the measured pose is first
+turned by the symmetry that brings it closest to the BIM's (``registration.symmetry.closest_equivalent``), so a
+pallet turned by 180 degrees is where the BIM wants it. Poses are T_world_model (4x4, metres); angles degrees.
 """
 
 from __future__ import annotations
@@ -12,13 +13,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from bim2rdt.twin.errors import TwinError
+from bim2rdt.registration.symmetry import closest_equivalent
 
 
 @dataclass(frozen=True)
 class Deviation:
-    """``translation`` (m) between the origins, ``tilt_deg`` between the up axes, ``yaw_deg`` about up, wrapped
-    to +-180/n for a family of symmetry order n (0 for an axially symmetric one)."""
+    """``translation`` (m) between the origins, ``tilt_deg`` between the up axes, ``yaw_deg`` about up, within
+    +-180/n for a family of symmetry order n (0 for an axially symmetric one)."""
 
     translation: float
     tilt_deg: float
@@ -35,20 +36,10 @@ class Deviation:
 def pose_deviation(T_bim: np.ndarray, T_measured: np.ndarray, symmetry: float = 1) -> Deviation:
     """The deviation of ``T_measured`` from ``T_bim``, in the BIM element's body frame (an element the BIM
     places tilted is judged against its own up axis, not against world z)."""
-    relative = T_bim[:3, :3].T @ T_measured[:3, :3]
+    equivalent = closest_equivalent(T_measured, T_bim, symmetry)
+    relative = T_bim[:3, :3].T @ equivalent[:3, :3]
     tilt = math.degrees(math.acos(float(np.clip(relative[2, 2], -1.0, 1.0))))
     # the twist about body z that best explains the rotation (argmax of tr(R Rz(-theta)))
     yaw = math.degrees(math.atan2(relative[1, 0] - relative[0, 1], relative[0, 0] + relative[1, 1]))
     translation = float(np.linalg.norm(T_measured[:3, 3] - T_bim[:3, 3]))
-    return Deviation(translation, tilt, wrap_yaw(yaw, symmetry))
-
-
-def wrap_yaw(yaw_deg: float, symmetry: float) -> float:
-    """``yaw_deg`` reduced to (-180/n, 180/n] for symmetry order n >= 1; 0 for an axial one (n = inf)."""
-    if math.isinf(symmetry):
-        return 0.0
-    if symmetry < 1 or symmetry != int(symmetry):
-        raise TwinError(f"a symmetry order is a whole number >= 1 or math.inf, got {symmetry}")
-    period = 360.0 / symmetry
-    wrapped = math.remainder(yaw_deg, period)
-    return period / 2 if math.isclose(wrapped, -period / 2) else wrapped
+    return Deviation(translation, tilt, yaw)
