@@ -20,9 +20,10 @@ from bim2rdt.atomic import write_bytes_atomic
 from bim2rdt.safety import EAV, ELV
 from bim2rdt.twin import STATUS_COLOURS, ElementState, ElementStatus, TolerancePolicy
 
-STYLE = """body{font-family:system-ui,sans-serif;margin:2em auto;max-width:1100px;color:#222}
-table{border-collapse:collapse;margin:.5em 0 1.5em;font-size:.9em}th,td{border:1px solid #ccc;padding:.25em .6em;
-text-align:right}th{background:#f3f3f3}td.l,th.l{text-align:left}img{max-width:100%;border:1px solid #ddd}
+STYLE = """body{font-family:system-ui,sans-serif;margin:2em auto;max-width:1300px;padding:0 1em;color:#222}
+.scroll{overflow-x:auto}table{border-collapse:collapse;margin:.5em 0 1.5em;font-size:.85em}
+th,td{border:1px solid #ccc;padding:.2em .5em;text-align:right;white-space:nowrap}th{background:#f3f3f3}
+td.l,th.l{text-align:left}img{max-width:100%;border:1px solid #ddd}
 .badge{display:inline-block;padding:0 .5em;border-radius:.6em;color:#fff;font-size:.85em}.note{color:#666}
 .fail{color:#b00}.ok{color:#070}"""
 
@@ -167,7 +168,7 @@ def _table(header: Sequence[str], rows: Sequence[Sequence[str]], left: int = 1, 
         return "".join(f'<{tag}{_align(i, len(values), left, left_last)}>{v}</{tag}>' for i, v in enumerate(values))
 
     body = "".join(f"<tr>{cells(row, 'td')}</tr>" for row in rows)
-    return f"<table><tr>{cells([_e(h) for h in header], 'th')}</tr>{body}</table>"
+    return f"<div class=\"scroll\"><table><tr>{cells([_e(h) for h in header], 'th')}</tr>{body}</table></div>"
 
 
 def _align(index: int, count: int, left: int, left_last: bool) -> str:

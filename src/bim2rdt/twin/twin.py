@@ -41,8 +41,9 @@ from bim2rdt.twin.config import TwinConfig
 from bim2rdt.twin.tolerance import TolerancePolicy
 from bim2rdt.twin.verdict import judge
 
-FamilyMesh = Callable[[str], tuple[np.ndarray, np.ndarray]]
-"""family -> (vertices (N,3) in the body frame, metres; faces (M,3)): the mesh of an object the BIM lacks."""
+FamilyMesh = Callable[[str], tuple[np.ndarray, np.ndarray] | None]
+"""family -> (vertices (N,3) in the body frame, metres; faces (M,3)): the mesh of an object the BIM lacks (None
+when the family is unknown: a 0.5 m box stands in)."""
 NEW_MATCH_RADIUS = 1.0
 """A new object seen within this distance (m, horizontal) of a known new object of its family is that object."""
 
@@ -210,9 +211,8 @@ class DigitalTwin:
             vertices, faces = self.model.mesh(state.global_id)
             placement = self._elements[state.global_id].placement
             return (vertices - placement[:3, 3]) @ placement[:3, :3], faces
-        if self.family_mesh is not None and state.family:
-            return self.family_mesh(state.family)
-        return _placeholder_box()
+        mesh = self.family_mesh(state.family) if self.family_mesh is not None and state.family else None
+        return mesh if mesh is not None else _placeholder_box()
 
     # ---- helpers ------------------------------------------------------------------------------------------
 
