@@ -64,14 +64,23 @@ class EventStore:
         self.label = url.render_as_string(hide_password=True)
 
     @classmethod
-    def open(cls, url: str) -> EventStore:
-        """Connect and create the table if absent; TwinError (naming the URL without its password) if the store
-        cannot be reached."""
+    def open(cls, url: str, create: bool = True) -> EventStore:
+        """Connect and create the table if absent (with ``create``; without it a store that has no history yet is
+        a TwinError); TwinError (naming the URL without its password) if the store cannot be reached."""
         parsed = _parse(url)
+        label = parsed.render_as_string(hide_password=True)
+        if not create and parsed.get_backend_name() == "sqlite" and not Path(parsed.database or "").is_file():
+            raise TwinError(f"no twin at {label}: the file does not exist")
         store = cls(_engine(parsed), parsed)
-        with store._errors("cannot reach the twin at"), store._write_connection() as conn, conn.begin():
-            store._lock(conn)
-            _metadata.create_all(conn)
+        try:
+            with store._errors("cannot reach the twin at"), store._write_connection() as conn, conn.begin():
+                store._lock(conn)
+                if not create and not sa.inspect(conn).has_table(events_table.name):
+                    raise TwinError(f"no twin at {label}: it has no {events_table.name} table")
+                _metadata.create_all(conn)
+        except TwinError:
+            store.close()
+            raise
         return store
 
     def close(self) -> None:

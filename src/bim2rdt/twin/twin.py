@@ -63,8 +63,10 @@ class DigitalTwin:
     @classmethod
     def open(cls, url: str, model: BimModel | str | Path, *, tolerances: TolerancePolicy | None = None,
              symmetry: Mapping[str, float] | None = None, min_fitness: float = 0.5, robot: str = "robot",
-             family_mesh: FamilyMesh | None = None, new_match_radius: float = NEW_MATCH_RADIUS) -> DigitalTwin:
-        """Open (creating if needed) the twin at ``url`` over ``model`` (a BimModel or an IFC path).
+             family_mesh: FamilyMesh | None = None, new_match_radius: float = NEW_MATCH_RADIUS,
+             create: bool = True) -> DigitalTwin:
+        """Open the twin at ``url`` over ``model`` (a BimModel or an IFC path); with ``create`` (default) an empty
+        store gets its table, without it a URL that holds no twin is a TwinError (for readers).
 
         ``tolerances`` picks each element's preset (default: ``TwinConfig()``'s presets); ``symmetry`` maps a
         family to its rotational order about up (``math.inf`` for axial; 1 where absent); observations under
@@ -75,7 +77,7 @@ class DigitalTwin:
         if not 0.0 <= min_fitness <= 1.0:
             raise TwinError(f"min_fitness is a fraction in [0, 1], got {min_fitness}")
         model = model if isinstance(model, BimModel) else load_ifc(model)
-        return cls(EventStore.open(url), model, tolerances or TwinConfig().tolerance_policy(), symmetry or {},
+        return cls(EventStore.open(url, create), model, tolerances or TwinConfig().tolerance_policy(), symmetry or {},
                    min_fitness, robot, family_mesh, new_match_radius)
 
     def close(self) -> None:
