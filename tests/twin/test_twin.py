@@ -320,3 +320,12 @@ def test_the_settings_give_sqlite_in_the_data_folder_unless_a_url_is_set(tmp_pat
     get_settings.cache_clear()
     settings = get_settings()
     assert settings.twin.resolved_url(settings.data_dir) == "postgresql+psycopg://robot@db/site"
+
+
+def test_a_reader_that_opens_a_url_without_a_twin_gets_an_error_and_creates_nothing(twin_url, site_model):
+    with pytest.raises(TwinError, match="^no twin at "):
+        DigitalTwin.open(twin_url, site_model, create=False)
+    with DigitalTwin.open(twin_url, site_model) as created:  # a writer creates it ...
+        assert created.events() == []
+    with DigitalTwin.open(twin_url, site_model, create=False) as reader:  # ... and then readers find it
+        assert reader.state().keys() == {el.global_id for el in site_model.elements}
