@@ -19,7 +19,7 @@ from bim2rdt.bim import BimModel, load_ifc
 from bim2rdt.perception.observation import Observation as PerceivedObject
 from bim2rdt.semantics import UprightPrior
 from bim2rdt.sim.meshes import UnknownFamilyError, mesh_for_family
-from bim2rdt.twin import DigitalTwin, TwinConfig, TwinError
+from bim2rdt.twin import DigitalTwin, ElementState, ElementStatus, TwinConfig, TwinError
 
 TWIN_DB = "twin.db"
 ROBOT = "robot-1"
@@ -82,6 +82,43 @@ def ifc_records(path: Path | None) -> list[tuple[str, str]]:
         return []
     written = load_ifc(path, geometry=False)
     return [("IfcEvent", e.global_id) for e in written.events] + [("IfcTask", t.global_id) for t in written.tasks]
+
+
+@dataclass(frozen=True)
+class Outline:
+    """An observed object on a plan: ``name``, its plan outline where the robot found it (N,2 world metres; the
+    BIM's outline for a missing one), its status value, and the BIM's outline (None for an object the BIM
+    lacks): the fields of the plan map's ``MapObject``."""
+
+    name: str
+    outline_xy: np.ndarray
+    status: str
+    planned_xy: np.ndarray | None
+
+
+def map_outlines(twin: DigitalTwin, states: Mapping[str, ElementState]) -> list[Outline]:
+    """Plan outlines (convex hulls of the footprint) of every observed object of ``states``."""
+    outlines = []
+    for state in states.values():
+        if state.status is ElementStatus.NOT_OBSERVED:
+            continue
+        body, _ = twin.object_mesh(state)
+        planned = None
+        if state.in_bim:
+            placement = twin.model.element(state.global_id).placement
+            planned = _hull_xy(np.asarray(body) @ placement[:3, :3].T + placement[:3, 3])
+        pose = state.pose
+        found = _hull_xy(np.asarray(body) @ pose[:3, :3].T + pose[:3, 3]) if pose is not None else planned
+        if found is not None:
+            outlines.append(Outline(state.family or state.global_id, found, state.status.value, planned))
+    return outlines
+
+
+def _hull_xy(points_world: np.ndarray) -> np.ndarray:
+    from scipy.spatial import ConvexHull
+
+    unique = np.unique(np.round(points_world[:, :2], 4), axis=0)
+    return unique[ConvexHull(unique).vertices] if len(unique) >= 3 else unique
 
 
 def _family_mesh(family: str) -> tuple[np.ndarray, np.ndarray] | None:
