@@ -45,3 +45,13 @@ def test_a_setting_naming_an_undefined_preset_is_a_one_line_config_error(monkeyp
     with pytest.raises(ConfigError, match="BIM2RDT_TWIN.*lax") as caught:
         get_settings()
     assert "\n" not in str(caught.value)
+
+
+def test_a_run_record_never_holds_the_twin_database_password(monkeypatch):
+    from bim2rdt.config import settings_record
+
+    monkeypatch.setenv("BIM2RDT_TWIN__URL", "postgresql+psycopg://robot:s3cret-pw@db.site:5432/twin")
+    get_settings.cache_clear()
+    settings = get_settings()
+    assert settings.twin.url.endswith("robot:s3cret-pw@db.site:5432/twin")  # the twin itself gets the password
+    assert settings_record(settings)["twin"]["url"] == "postgresql+psycopg://robot:***@db.site:5432/twin"

@@ -21,14 +21,14 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from bim2rdt.bim import BimModel, load_ifc
-from bim2rdt.config import get_settings
 from bim2rdt.demo.site_twin import TwinFiles, export_day_twin, ifc_records, open_day_twin, record_mission
 from bim2rdt.mission import MissionConfig, MissionResult, Target, plan_stations, run_mission
+from bim2rdt.registration import IcpConfig
 from bim2rdt.semantics import KnowledgeBasePriors, UprightPrior
 from bim2rdt.sim.meshes import mesh_for_family
 from bim2rdt.sim.reality import Reality, SimulatedPerception, body_mesh, simulate_reality
 from bim2rdt.sim.site import ZONES, build_site_ifc
-from bim2rdt.twin import DigitalTwin
+from bim2rdt.twin import DigitalTwin, TwinConfig
 
 ROBOT_START_XY = (1.0, 1.0)
 """Where the robot's dock is on the default site, metres."""
@@ -60,10 +60,14 @@ def objects_of_interest(model: BimModel) -> list[Target]:
 
 
 def run_site_day(out_dir: Path, seed: int = 0, workers: int = 2, minutes: float = 60.0, fs: float = 5000.0,
-                 mission_config: MissionConfig = MissionConfig(),
+                 mission_config: MissionConfig = MissionConfig(), icp: IcpConfig = IcpConfig(),
+                 twin_config: TwinConfig = TwinConfig(),
                  tick: Callable[[str], None] = lambda stage: None) -> SiteDay:
-    """Run the day into ``out_dir``: ``site.ifc`` (as designed), ``site_twin.ifc`` (as built, with safety
-    records) and the monitor's state under ``state/`` (started afresh: the demo simulates a new day)."""
+    """Run the day into ``out_dir``: ``site.ifc`` (as designed), the day's twin (``twin.db``) and its exports
+    (``site_twin.ifc`` as built with safety records, ``site_issues.bcf``, ``twin.json``), and the monitor's state
+    under ``state/`` (both started afresh: the demo simulates a new day). The mission runs with
+    ``mission_config`` and registers with ``icp``; the twin judges with ``twin_config``'s presets (the demo passes
+    ``Settings.mission``, ``Settings.registration`` and ``Settings.twin``)."""
     out_dir.mkdir(parents=True, exist_ok=True)
     model = load_ifc(build_site_ifc(out_dir / "site.ifc"))
     tick("bim")
@@ -72,8 +76,8 @@ def run_site_day(out_dir: Path, seed: int = 0, workers: int = 2, minutes: float 
     priors = KnowledgeBasePriors().priors(sorted({t.family for t in reality.truth}))
     stations = plan_stations(targets, ROBOT_START_XY, mission_config)
     mission = run_mission(targets, stations, SimulatedPerception(reality, seed=seed), priors, mesh_for_family,
-                          mission_config, tick=lambda: tick("station"))
-    twin = open_day_twin(out_dir, model, priors, get_settings().twin)
+                          mission_config, icp, tick=lambda: tick("station"))
+    twin = open_day_twin(out_dir, model, priors, twin_config)
     record_mission(twin, mission.observations, mission.stations, _shift_start() + MISSION_START_S)
     tick("twin")
     events, timeline = _hav_day(twin, out_dir / "state", workers, minutes, fs)
@@ -85,6 +89,7 @@ def run_site_day(out_dir: Path, seed: int = 0, workers: int = 2, minutes: float 
 def _hav_day(twin: DigitalTwin, state_dir: Path, workers: int, minutes: float, fs: float):
     """Simulated wearables -> in-process bus -> monitor -> events into the twin's history."""
     from bim2rdt.bus import LocalBus
+    from bim2rdt.config import get_settings
     from bim2rdt.safety import HavMonitor, ListSink
     from bim2rdt.safety.setup import monitor_config
     from bim2rdt.sim.wearables import default_plans, publish_plans

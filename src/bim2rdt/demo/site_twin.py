@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from bim2rdt.bim import BimModel, load_ifc
-from bim2rdt.perception.observation import Observation as PerceivedObject
+from bim2rdt.perception.observation import Observation
 from bim2rdt.semantics import UprightPrior
 from bim2rdt.sim.meshes import UnknownFamilyError, mesh_for_family
 from bim2rdt.twin import DigitalTwin, ElementState, ElementStatus, TwinConfig, TwinError
@@ -49,22 +49,13 @@ def open_day_twin(out_dir: Path, model: BimModel, priors: Mapping[str, UprightPr
                             min_fitness=config.min_fitness, robot=ROBOT, family_mesh=_family_mesh)
 
 
-def record_mission(twin: DigitalTwin, observations: Iterable, stations: list[np.ndarray], start: float) -> None:
+def record_mission(twin: DigitalTwin, observations: Iterable[Observation], stations: list[np.ndarray],
+                   start: float) -> None:
     """Record each observation at the time its station was reached (``start`` + ``STATION_SECONDS`` per
     station), with that station's camera as the view it was seen from."""
     for obs in observations:
-        record = perceived(obs)
-        camera = stations[record.station] if record.station is not None else None
-        when = start + STATION_SECONDS * (record.station or 0)
-        twin.record(record, when, camera=camera)
-
-
-def perceived(obs) -> PerceivedObject:
-    """The shared perception record of a mission observation (the mission's own record carries its fit)."""
-    if isinstance(obs, PerceivedObject):
-        return obs
-    return PerceivedObject(obs.family, obs.global_id, obs.pose, float(obs.fit.rmse), float(obs.fit.fitness),
-                           int(obs.points), station=obs.station, frames=tuple(obs.frames), fit=obs.fit)
+        camera = stations[obs.station] if obs.station is not None else None
+        twin.record(obs, start + STATION_SECONDS * (obs.station or 0), camera=camera)
 
 
 def export_day_twin(twin: DigitalTwin, out_dir: Path) -> TwinFiles:

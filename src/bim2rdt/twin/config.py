@@ -3,9 +3,10 @@ deviation tolerances it judges by. The edge (CLI, demo) unpacks it: the twin its
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
-from pydantic import BaseModel, Field, model_validator
+from pydantic import BaseModel, Field, field_serializer, model_validator
 
 from bim2rdt.twin.tolerance import Tolerance, TolerancePolicy
 
@@ -42,6 +43,11 @@ class TwinConfig(BaseModel):
     families: dict[str, str] = Field(default_factory=dict, description="Family -> preset name (wins over class).")
     default_preset: str = Field("temporary", description="Preset of an element no class or family entry names.")
     min_fitness: float = Field(0.5, ge=0.0, le=1.0, description="Below this fitness an observation is unverified.")
+
+    @field_serializer("url")
+    def _url_without_password(self, url: str | None) -> str | None:
+        """A dump (a run's config.json) never holds the database password."""
+        return None if url is None else re.sub(r"(://[^:/@]*:)[^@]*@", r"\1***@", url)
 
     @model_validator(mode="after")
     def _presets_exist(self) -> TwinConfig:
