@@ -45,3 +45,13 @@ def test_a_day_twin_starts_empty_and_records_each_observation_with_its_station_c
                        atol=0.02)
     assert outlines["new"].planned_xy is None
     assert np.allclose(outlines["new"].outline_xy.mean(axis=0), (10.0, 8.0), atol=0.05)
+
+
+def test_the_page_links_the_files_present_and_prefers_the_planner_s_map(tmp_path):
+    from bim2rdt.demo.day_html import present_links
+
+    for name in ("site_twin.ifc", "site_issues.bcf", "nav2/site.yaml"):
+        (tmp_path / name).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / name).write_text("x")
+    assert present_links(tmp_path) == {"twin IFC (as built)": "site_twin.ifc", "BCF issues": "site_issues.bcf",
+                                       "Nav2 map": "nav2/site.yaml"}

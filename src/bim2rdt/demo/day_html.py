@@ -10,10 +10,15 @@ from bim2rdt.demo.html_report import HtmlReport, WorkerExposure, write_html_repo
 from bim2rdt.safety import EAV
 from bim2rdt.twin import ElementStatus
 
-LINKS = {"twin IFC (as built)": "site_twin.ifc", "BCF issues": "site_issues.bcf", "twin state (JSON)": "twin.json",
-         "BIM (as designed)": "site.ifc", "Nav2 map": "site.yaml", "Markdown report": "report.md",
-         "run configuration": "config.json"}
-"""The files the page links to, by label; only those present in the folder are listed."""
+LINKS = {"twin IFC (as built)": ("site_twin.ifc",), "BCF issues": ("site_issues.bcf",),
+         "twin state (JSON)": ("twin.json",), "BIM (as designed)": ("site.ifc",),
+         "Nav2 map": ("nav2/site.yaml", "site.yaml"), "Markdown report": ("report.md",),
+         "run configuration": ("config.json",)}
+"""The files the page links to, by label (the first of the candidates present in the folder; absent ones are
+left out)."""
+PLAN_MAPS = ("plan_map.png", "plan.png")
+"""The plan map the page shows: the planner's (walls, objects by twin status, paths, stations, zones) when the
+run drew one, else the site report's plan view."""
 
 
 def write_day_html(day, registration, out_dir: Path) -> Path:
@@ -26,10 +31,11 @@ def write_day_html(day, registration, out_dir: Path) -> Path:
                "and the HAV monitor's safety events)."]
     if day.twin_files is not None and day.twin_files.ifc_note:
         summary.append(f"IFC write-back: {day.twin_files.ifc_note}")
-    report = HtmlReport("bim2rdt site day", summary=summary, plan_png=_read(out_dir / "plan.png"), states=states,
+    plan = next((out_dir / name for name in PLAN_MAPS if (out_dir / name).exists()), None)
+    report = HtmlReport("bim2rdt site day", summary=summary, plan_png=_read(plan), states=states,
                         tolerances=day.twin.tolerances, registration=registration,
                         exposure_png=_read(out_dir / "exposure.png"), workers=worker_exposures(day.exposure_timeline),
-                        links={label: name for label, name in LINKS.items() if (out_dir / name).exists()})
+                        links=present_links(out_dir))
     return write_html_report(report, out_dir / "report.html")
 
 
@@ -42,5 +48,15 @@ def worker_exposures(timeline) -> list[WorkerExposure]:
     return [WorkerExposure(subject, a8, 100.0 * (a8 / EAV) ** 2) for subject, a8 in sorted(last.items())]
 
 
-def _read(path: Path) -> bytes | None:
-    return path.read_bytes() if path.exists() else None
+def present_links(out_dir: Path) -> dict[str, str]:
+    """{label: relative path} of the :data:`LINKS` files present in ``out_dir``."""
+    links = {}
+    for label, candidates in LINKS.items():
+        found = next((name for name in candidates if (out_dir / name).exists()), None)
+        if found is not None:
+            links[label] = found
+    return links
+
+
+def _read(path: Path | None) -> bytes | None:
+    return path.read_bytes() if path is not None and path.exists() else None
