@@ -20,6 +20,7 @@ from bim2rdt.errors import Bim2RdtError
 from bim2rdt.mission.config import MissionConfig
 from bim2rdt.registration.config import IcpConfig
 from bim2rdt.semantics.llm import LlmPriorsConfig
+from bim2rdt.twin.config import TwinConfig
 
 
 def default_samples_dir() -> Path:
@@ -81,6 +82,7 @@ class Settings(BaseSettings):
     mqtt: MqttSettings = MqttSettings()
     registration: IcpConfig = IcpConfig()
     mission: MissionConfig = MissionConfig()
+    twin: TwinConfig = TwinConfig()
 
 
 SECRET_WORDS = ("secret", "password", "api_key")
