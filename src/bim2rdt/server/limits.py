@@ -5,6 +5,8 @@ from __future__ import annotations
 import threading
 import time
 
+from fastapi import HTTPException
+
 
 class RateLimiter:
     """A token bucket per key: ``per_minute`` requests in a burst, refilled evenly over a minute."""
@@ -27,13 +29,10 @@ class RateLimiter:
             return 0.0
 
 
-class BodyTooLarge(Exception):
-    pass
-
-
 class BodyLimitMiddleware:
     """Refuses a request whose body exceeds ``max_bytes`` with 413: by its Content-Length before reading, or by
-    counting as it streams in (chunked uploads), so nothing larger is ever buffered."""
+    counting as it streams in (chunked uploads: the app's body read fails with 413 there, and the exception
+    handlers inside answer it), so nothing larger is ever buffered."""
 
     def __init__(self, app, max_bytes: int):
         self.app, self.max_bytes = app, max_bytes
@@ -52,21 +51,10 @@ class BodyLimitMiddleware:
             if message["type"] == "http.request":
                 seen += len(message.get("body", b""))
                 if seen > self.max_bytes:
-                    raise BodyTooLarge()
+                    raise HTTPException(413, f"request body larger than {self.max_bytes} bytes")
             return message
 
-        started = False
-
-        async def tracked_send(message):
-            nonlocal started
-            started = started or message["type"] == "http.response.start"
-            await send(message)
-
-        try:
-            await self.app(scope, counted_receive, tracked_send)
-        except BodyTooLarge:
-            if not started:
-                await _too_large(send, self.max_bytes)
+        await self.app(scope, counted_receive, send)
 
 
 async def _too_large(send, max_bytes: int) -> None:
