@@ -58,6 +58,7 @@ class Hub:
         self._ids = itertools.count(1)
         self._backlog: deque[Message] = deque(maxlen=backlog)
         self._subscribers: set[Subscription] = set()
+        self._latest: dict[str, Message] = {}
         self._lock = threading.Lock()
         self._loop: asyncio.AbstractEventLoop | None = None
         self.queue_size = queue_size
@@ -71,6 +72,7 @@ class Hub:
         with self._lock:
             message = Message(next(self._ids), kind, data, time.time())
             self._backlog.append(message)
+            self._latest[kind] = message
         loop = self._loop
         if loop is not None and not loop.is_closed():
             try:
@@ -79,11 +81,15 @@ class Hub:
                 pass
         return message
 
-    def subscribe(self, last_id: int | None = None) -> Subscription:
-        """A new subscriber (on the loop's thread); with ``last_id``, the backlog after it is queued first."""
+    def subscribe(self, last_id: int | None = None, snapshots: tuple[str, ...] = ()) -> Subscription:
+        """A new subscriber (on the loop's thread); with ``last_id``, the backlog after it is queued first, else
+        the newest message of each kind in ``snapshots`` (a state such as the workers' exposure)."""
         subscription = Subscription(self.queue_size)
         with self._lock:
-            missed = [m for m in self._backlog if last_id is not None and m.id > last_id]
+            if last_id is None:
+                missed = sorted((self._latest[k] for k in snapshots if k in self._latest), key=lambda m: m.id)
+            else:
+                missed = [m for m in self._backlog if m.id > last_id]
         for message in missed:
             subscription.offer(message)
         self._subscribers.add(subscription)

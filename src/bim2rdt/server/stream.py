@@ -20,6 +20,8 @@ from bim2rdt.server.hub import Hub
 from bim2rdt.server.routes import READ, router
 
 KEEP_ALIVE_S = 15.0
+SNAPSHOTS = ("workers",)
+"""Kinds that are a whole state: a new client gets the newest one at once."""
 
 
 @router.get("/stream", openapi_extra=READ, response_class=StreamingResponse,
@@ -28,7 +30,7 @@ KEEP_ALIVE_S = 15.0
 async def stream(request: Request, last_event_id: str | None = Header(None, max_length=20)) -> StreamingResponse:
     hub: Hub = request.app.state.hub
     resume = int(last_event_id) if last_event_id and last_event_id.isdigit() else None
-    subscription = hub.subscribe(resume)
+    subscription = hub.subscribe(resume, snapshots=SNAPSHOTS)
 
     async def body():
         try:
