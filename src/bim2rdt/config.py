@@ -20,6 +20,7 @@ from bim2rdt.errors import Bim2RdtError
 from bim2rdt.mission.config import MissionConfig
 from bim2rdt.registration.config import IcpConfig
 from bim2rdt.semantics.llm import LlmPriorsConfig
+from bim2rdt.server.config import ServerConfig
 from bim2rdt.twin.config import TwinConfig
 
 
@@ -83,9 +84,10 @@ class Settings(BaseSettings):
     registration: IcpConfig = IcpConfig()
     mission: MissionConfig = MissionConfig()
     twin: TwinConfig = TwinConfig()
+    server: ServerConfig = ServerConfig()
 
 
-SECRET_WORDS = ("secret", "password", "api_key")
+SECRET_WORDS = ("secret", "password", "api_key", "tokens")
 """Settings whose name holds one of these are masked in a run's record (a config.json is shared with results)."""
 
 

@@ -36,9 +36,11 @@ CSP = ("default-src 'self'; script-src 'self'; style-src 'self'; img-src 'self' 
 
 
 def create_app(twin=None, monitor=None, *, identity=None, config: ServerConfig = ServerConfig(),
-               audit_log: Path | None = None, hub: Hub | None = None) -> FastAPI:
+               audit_log: Path | None = None, hub: Hub | None = None, record_safety: bool = False) -> FastAPI:
     """The app over a twin and/or a HAV monitor; ``identity`` (an IdentityMap with role 'safety') enables
-    revealing identities; ``audit_log`` defaults to ``config.audit_log`` (required one way or the other)."""
+    revealing identities; ``audit_log`` defaults to ``config.audit_log`` (required one way or the other). With
+    ``record_safety`` the monitor's events also go into the twin's history (through the view's lock, so the
+    server's reads never interleave with the monitor thread's writes)."""
     from bim2rdt.server.safety_view import SafetyView
     from bim2rdt.server.stream import poll_twin, running, tick_exposure
     from bim2rdt.server.twin_view import TwinView
@@ -47,7 +49,9 @@ def create_app(twin=None, monitor=None, *, identity=None, config: ServerConfig =
     twin_view = TwinView(twin) if twin is not None else None
     safety_view = SafetyView(monitor, identity) if monitor is not None else None
     if monitor is not None:
-        monitor.sinks.append(HubSink(hub))
+        monitor.sinks.append(HubSink(hub))  # first: the stream hears of an event before anything slower runs
+        if record_safety and twin_view is not None:
+            monitor.sinks.append(twin_view.safety_sink())
     path = audit_log or config.audit_log
     if path is None:
         raise ValueError("create_app needs an audit log path (audit_log= or config.audit_log)")

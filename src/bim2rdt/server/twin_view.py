@@ -79,6 +79,17 @@ class TwinView:
         return [(event_dict(e), self._record(states[e.global_id]) if e.global_id in states else None)
                 for e in wanted]
 
+    def safety_sink(self):
+        """A monitor sink that appends each safety event to the twin's history, under this view's lock."""
+        view = self
+
+        class LockedTwinSink:
+            def emit(self, event) -> None:
+                with view._lock:
+                    view.twin.record_event(event)
+
+        return LockedTwinSink()
+
     # ---- plan and 3-D -----------------------------------------------------------------------------------
     def plan(self) -> dict:
         """Structure, floors and zones from the BIM; elements by status (where the robot found them, and where the
