@@ -112,7 +112,7 @@ class RevealRequest(BaseModel):
 class RawRequest(RevealRequest):
     start: float | None = Field(None, ge=0, le=1e11, description="Device time of the window's start (UTC s); "
                                 "None: the newest samples kept.")
-    seconds: float = Field(2.0, gt=0, le=600, description="Window length, seconds (at most the server's limit).")
+    seconds: float = Field(2.0, gt=0, le=600, description="Window length, seconds (cut to the server's limit, 10 s by default).")
 
 
 class Identity(BaseModel):
@@ -130,6 +130,7 @@ class RawWindow(BaseModel):
 
 class RawWindows(BaseModel):
     subject: str
+    seconds: float = Field(description="The window length served (the request's, cut to the server's limit).")
     windows: list[RawWindow]
 
 
