@@ -10,6 +10,7 @@ import { TwinView } from "./view3d.js";
 const $ = (id) => document.getElementById(id);
 const state = { elements: new Map(), workers: [], role: null, view: null, selected: null, timeline: [] };
 const MAX_TIMELINE = 200;
+const FORECAST = "hav.eav_predicted"; // the gauges show the time to the EAV; the timeline keeps what happened
 
 async function start() {
   if (!takeToken()) return askToken();
@@ -71,9 +72,9 @@ async function loadWorkers() {
 async function loadEvents() {
   const [events, records] = await Promise.all([
     getJson("/api/events?limit=100").catch(() => []),
-    state.plan ? getJson("/api/observations?limit=100") : Promise.resolve([]),
+    getJson("/api/observations?limit=100").catch(() => []),
   ]);
-  const entries = [...events.map((event) => ({ type: "safety", time: event.time, event })),
+  const entries = [...events.filter((e) => e.kind !== FORECAST).map((event) => ({ type: "safety", time: event.time, event })),
     ...records.map((record) => ({ type: "twin", time: record.time, record }))];
   entries.sort((a, b) => b.time - a.time);
   state.timeline = entries.slice(0, MAX_TIMELINE);
@@ -93,7 +94,7 @@ function onWorkers(workers) {
 }
 
 function onSafety(event) {
-  addTimeline({ type: "safety", time: event.time, event });
+  if (event.kind !== FORECAST) addTimeline({ type: "safety", time: event.time, event });
   if (event.kind === "hav.eav_reached" || event.kind === "hav.elv_reached") {
     // the banner shows the moment the monitor says so, before the next exposure update
     const workers = state.workers.map((w) => w.subject !== event.subject ? w : {

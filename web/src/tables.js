@@ -5,21 +5,20 @@ export function drawDeviations(table, elements, onPick) {
   const seen = [...elements.values()].filter((e) => e.status !== "not observed");
   seen.sort((a, b) => STATUS_ORDER.indexOf(a.status) - STATUS_ORDER.indexOf(b.status)
     || (b.deviation?.translation ?? 0) - (a.deviation?.translation ?? 0));
-  const head = el("tr", {}, ["element", "status", "shift\u00a0cm", "tilt\u00a0°", "yaw\u00a0°", "tolerance", "fitness", "seen\u00a0UTC"].map((h) => el("th", {}, h)));
+  const head = el("tr", {}, ["element", "status", "shift\u00a0cm", "tilt\u00a0°", "yaw\u00a0°", "tolerance", "fitness"].map((h) => el("th", {}, h)));
   const rows = seen.map((e) => {
     const d = e.deviation, t = e.tolerance;
     const over = (value, limit) => (d && t && value > limit ? "n out" : "n");
     return el("tr", { "data-gid": e.global_id, onclick: () => onPick(e.global_id) },
-      el("td", {}, e.name || e.family || e.global_id),
+      el("td", { class: "name", title: e.global_id }, e.name || e.family || e.global_id),
       el("td", {}, chip(e)),
       el("td", { class: over(d?.translation, t?.translation) }, d ? num(100 * d.translation, 1) : "–"),
       el("td", { class: over(d?.tilt_deg, t?.rotation_deg) }, d ? num(d.tilt_deg, 1) : "–"),
       el("td", { class: over(Math.abs(d?.yaw_deg ?? 0), t?.rotation_deg) }, d ? num(d.yaw_deg, 1) : "–"),
-      el("td", {}, t ? `${t.name} ${num(100 * t.translation, 0)} cm / ${num(t.rotation_deg, 1)}°` : "–"),
-      el("td", { class: "n" }, e.fit ? num(e.fit.fitness, 2) : "–"),
-      el("td", {}, e.evidence ? utc(e.evidence.time) : "–"));
+      el("td", { title: t ? t.name : "" }, t ? `${num(100 * t.translation, 0)} cm / ${num(t.rotation_deg, 1)}°` : "–"),
+      el("td", { class: "n" }, e.fit ? num(e.fit.fitness, 2) : "–"));
   });
-  table.replaceChildren(el("thead", {}, head), el("tbody", {}, rows.length ? rows : el("tr", {}, el("td", { colspan: 8 }, "Nothing observed yet."))));
+  table.replaceChildren(el("thead", {}, head), el("tbody", {}, rows.length ? rows : el("tr", {}, el("td", { colspan: 7 }, "Nothing observed yet."))));
 }
 
 export function chip(element) {

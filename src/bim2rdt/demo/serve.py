@@ -10,6 +10,7 @@ below sim and demo): the wiring lives here, above both.
 from __future__ import annotations
 
 import shutil
+import signal
 import threading
 import time
 from collections.abc import Callable
@@ -134,8 +135,10 @@ class LiveServe:
         self.close()
 
     def wait(self, duration_s: float = 0.0) -> None:
-        """Until Ctrl-C, the server stops, or ``duration_s`` (0: no limit) passed."""
+        """Until Ctrl-C (or SIGTERM), the server stops, or ``duration_s`` (0: no limit) passed; then the caller's
+        ``with`` closes everything in order (the monitor commits what waits, the twin closes)."""
         deadline = time.monotonic() + duration_s if duration_s > 0 else float("inf")
+        signal.signal(signal.SIGTERM, _interrupt)
         try:
             while self.server.thread.is_alive() and time.monotonic() < deadline:
                 self.server.thread.join(0.2)
@@ -220,6 +223,10 @@ class LiveServe:
         wearables = LiveWearables(monitor, bus, live_plans(WORK_ZONE), site, self.speed).start()
         self._closers.append(wearables.stop)
         return f"3 simulated wearables at {self.speed:g}x"
+
+
+def _interrupt(signum, frame) -> None:
+    raise KeyboardInterrupt
 
 
 def _family_mesh(family: str):
