@@ -76,6 +76,15 @@ def test_the_plan_has_walls_zones_elements_and_the_robot_path(client, twin):
     assert xmax - xmin > 15 and ymax - ymin > 10  # the 20 x 14 m site
 
 
+def test_the_plan_at_a_past_time_has_what_the_robot_had_found_by_then(client, twin):
+    plan = get(client, "/api/plan", at=T_TWIN + 10).json()
+    statuses = {e["global_id"]: e["status"] for e in plan["elements"]}
+    assert statuses[twin.ids["planned"]] == "as planned" and statuses[twin.ids["moved"]] == "not observed"
+    assert twin.ids["new"] not in statuses
+    assert [(p["x"], p["y"]) for p in plan["robot_path"]] == [(1.0, 1.0)]
+    assert get(client, "/api/state").json()["span"] == [T_TWIN, T_TWIN + 90]
+
+
 def test_the_3d_model_is_binary_gltf_with_a_node_per_element(client, twin):
     data = get(client, "/api/model.glb").content
     assert data[:4] == b"glTF"

@@ -8,7 +8,7 @@ import { drawDeviations, drawDetail, timelineItem } from "./tables.js";
 import { TwinView } from "./view3d.js";
 
 const $ = (id) => document.getElementById(id);
-const state = { elements: new Map(), workers: [], role: null, view: null, selected: null, timeline: [] };
+const state = { elements: new Map(), workers: [], role: null, view: null, selected: null, timeline: [], at: null };
 const MAX_TIMELINE = 200;
 const FORECAST = "hav.eav_predicted"; // the gauges show the time to the EAV; the timeline keeps what happened
 
@@ -50,6 +50,7 @@ async function loadTwin() {
     updateCounts();
     state.view = new TwinView($("view3d"), pick);
     await loadModel();
+    await wireTimebar();
   } catch (error) {
     if (String(error).includes("503")) $("plan-card").append(el("p", { class: "empty" }, "This server has no twin."));
     else throw error;
@@ -111,6 +112,8 @@ function onElement({ record, state: element }) {
   if (!element) return;
   const before = state.elements.get(element.global_id);
   state.elements.set(element.global_id, element);
+  $("at").max = String(Math.max(Number($("at").max), Math.ceil(record.time)));
+  if (state.at !== null) return; // looking at the past: the present is kept and shown on "back to now"
   drawDeviations($("deviations"), state.elements, pick);
   updateCounts();
   if (!before || JSON.stringify(before.pose) !== JSON.stringify(element.pose)) {
@@ -130,6 +133,36 @@ function scheduleReload() {
     drawPlan($("plan"), state.plan, pick);
     if (state.view) await loadModel();
   }, 500);
+}
+
+// The time bar: the plan, the table and the 3-D colours as the twin was at a past time (GET ...?at=), or live.
+async function wireTimebar() {
+  const { span } = await getJson("/api/state");
+  const slider = $("at");
+  if (!span) return;
+  slider.min = String(Math.floor(span[0]) - 60);
+  slider.max = String(Math.ceil(Math.max(span[1], Date.now() / 1000)));
+  slider.value = slider.max;
+  let pending = null;
+  slider.addEventListener("input", () => {
+    clearTimeout(pending);
+    pending = setTimeout(() => showAt(Number(slider.value) >= Number(slider.max) ? null : Number(slider.value)), 250);
+  });
+  $("at-now").addEventListener("click", () => { slider.value = slider.max; showAt(null); });
+}
+
+async function showAt(at) {
+  state.at = at;
+  $("at-now").hidden = at === null;
+  $("at-label").textContent = at === null ? "now (live)" : `${new Date(at * 1000).toISOString().replace("T", " ").slice(0, 19)} UTC`;
+  document.body.dataset.at = at === null ? "" : String(at);
+  const query = at === null ? "" : `?at=${at}`;
+  const [plan, past] = await Promise.all([getJson(`/api/plan${query}`), getJson(`/api/state${query}`)]);
+  const shown = at === null ? state.elements : new Map(past.elements.map((e) => [e.global_id, e]));
+  if (at === null) for (const e of past.elements) state.elements.set(e.global_id, e);
+  drawPlan($("plan"), plan, pick);
+  drawDeviations($("deviations"), shown, pick);
+  for (const element of shown.values()) state.view?.colour(element);
 }
 
 function addTimeline(entry) {

@@ -39,14 +39,15 @@ export function drawPlan(root, plan, onPick) {
     shape.addEventListener("click", () => onPick(element.global_id));
     world.append(shape);
   }
-  if (plan.robot_path.length) {
-    world.append(svg("polyline", { points: plan.robot_path.map((p) => `${p.x},${p.y}`).join(" "), class: "path", "marker-mid": "url(#arrow)", "marker-end": "url(#arrow)" }));
-    plan.robot_path.forEach((p, i) => {
-      const dot = svg("circle", { cx: p.x, cy: p.y, r: i === 0 ? 0.22 : 0.14, class: i === 0 ? "station first" : "station" });
-      dot.append(title(`station ${p.station ?? i} · ${p.robot}`));
-      world.append(dot);
-    });
+  const path = plan.robot_path;
+  if (path.length > 1) {
+    world.append(svg("polyline", { points: path.map((p) => `${p.x},${p.y}`).join(" "), class: "path", "marker-mid": "url(#arrow)", "marker-end": "url(#arrow)" }));
   }
+  path.forEach((p, i) => {
+    const dot = svg("circle", { cx: p.x, cy: p.y, r: i === 0 ? 0.22 : 0.14, class: i === 0 ? "station first" : "station" });
+    dot.append(title(`station ${p.station ?? i} · ${p.robot}`));
+    world.append(dot);
+  });
 }
 
 function title(text) {

@@ -60,11 +60,13 @@ async def element(request: Request, global_id: str = GLOBAL_ID) -> dict:
             summary="The twin's state now, or as it was at a past time")
 async def state(request: Request, at: float | None = Query(None, ge=0, le=1e11, description="UTC epoch seconds.")
                 ) -> dict:
-    records = await run_in_threadpool(_twin(request).elements, at)
+    view = _twin(request)
+    records = await run_in_threadpool(view.elements, at)
     counts: dict[str, int] = {}
     for record in records:
         counts[record["status"]] = counts.get(record["status"], 0) + 1
-    return {"at": at, "counts": counts, "elements": records}
+    span = await run_in_threadpool(view.span)
+    return {"at": at, "counts": counts, "span": list(span) if span else None, "elements": records}
 
 
 @router.get("/observations", response_model=list[TwinRecord], openapi_extra=READ, responses=UNAVAILABLE,
@@ -76,8 +78,9 @@ async def observations(request: Request, after: int = Query(0, ge=0, le=2**62, d
 
 @router.get("/plan", openapi_extra=READ, responses=UNAVAILABLE,
             summary="The site plan: structure, zones, elements by status and the robot's path (world metres)")
-async def plan(request: Request) -> dict:
-    return await run_in_threadpool(_twin(request).plan)
+async def plan(request: Request, at: float | None = Query(None, ge=0, le=1e11, description="UTC epoch seconds: "
+                                                         "the plan as the twin was then.")) -> dict:
+    return await run_in_threadpool(_twin(request).plan, at)
 
 
 @router.get("/model.glb", openapi_extra=READ, response_class=Response, summary="The twin in 3-D (binary glTF)",

@@ -57,6 +57,7 @@ class ElementDetail(Element):
 class TwinState(BaseModel):
     at: float | None = Field(description="The time the state is of (UTC s); None: now.")
     counts: dict[str, int]
+    span: list[float] | None = Field(description="[first, last] time of the twin's records (UTC s).")
     elements: list[Element]
 
 

@@ -60,11 +60,11 @@ class TwinView:
             events = self.twin.events(after=after, kinds=[OBSERVATION, MISSING])
         return [event_dict(e) for e in events[:limit]]
 
-    def counts(self) -> dict[str, int]:
-        counts = {status.value: 0 for status in ElementStatus}
-        for record in self.elements():
-            counts[record["status"]] += 1
-        return counts
+    def span(self) -> tuple[float, float] | None:
+        """(first, last) time of the twin's records (UTC s), None while it has none."""
+        with self._lock:
+            times = [e.time for e in self.twin.events(kinds=[OBSERVATION, MISSING, SAFETY])]
+        return (min(times), max(times)) if times else None
 
     # ---- live changes -----------------------------------------------------------------------------------
     def changes(self) -> list[tuple[dict, dict | None]]:
@@ -91,12 +91,13 @@ class TwinView:
         return LockedTwinSink()
 
     # ---- plan and 3-D -----------------------------------------------------------------------------------
-    def plan(self) -> dict:
+    def plan(self, at: float | None = None) -> dict:
         """Structure, floors and zones from the BIM; elements by status (where the robot found them, and where the
-        BIM has them); the robot's path from the twin's evidence; bounds and the palette."""
+        BIM has them); the robot's path from the twin's evidence; bounds and the palette. Now, or as the twin was
+        at time ``at``."""
         with self._lock:
-            states = self.twin.state()
-            path = robot_path(self.twin.events(kinds=[OBSERVATION, MISSING]))
+            states = self.twin.state(at)
+            path = robot_path(e for e in self.twin.events(kinds=[OBSERVATION, MISSING]) if at is None or e.time <= at)
             structure, floors, zones, elements = [], [], [], []
             for el in self.model.elements:
                 if el.ifc_class in ZONES or not self.model.has_mesh(el.global_id):
@@ -114,7 +115,7 @@ class TwinView:
                     continue
                 elements.append(self._element_outline(state))
         drawn = [o["outline"] for o in structure + floors + elements if o["outline"]]
-        return {"bounds": bounds(drawn + [[[p["x"], p["y"]]] for p in path]), "palette": self._colours,
+        return {"at": at, "bounds": bounds(drawn + [[[p["x"], p["y"]]] for p in path]), "palette": self._colours,
                 "floors": floors, "structure": structure, "zones": [z for z in zones if z is not None],
                 "elements": elements, "robot_path": path}
 
