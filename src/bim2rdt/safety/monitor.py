@@ -390,8 +390,8 @@ class HavMonitor:
                 sink.emit(event)
 
     def _drop_raw(self, streams: list[_Stream], now: float) -> None:
-        """Delete processed raw batches past retention, only for streams that stored any."""
-        stored = [s for s in streams if s.device in self._raw_devices and s.buffer.next_seq is not None]
+        """Delete processed raw batches past retention, of every stream that stored any."""
+        stored = [s for s in self._streams.values() if s.device in self._raw_devices and s.buffer.next_seq is not None]
         self.store.drop_raw([(s.device, s.buffer.next_seq) for s in stored], now - self.config.raw_retention_s)
         if self.config.raw_retention_s <= 0:
             self._raw_devices.difference_update(s.device for s in stored if not s.buffer.pending)

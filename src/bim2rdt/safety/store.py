@@ -24,7 +24,8 @@ from bim2rdt.bus.payloads import AccelBatch
 _SCHEMA = """
 CREATE TABLE IF NOT EXISTS raw (device TEXT, seq INTEGER, device_time REAL, received_time REAL, fs REAL,
     full_scale REAL, n INTEGER, samples BLOB, PRIMARY KEY (device, seq));
-CREATE INDEX IF NOT EXISTS raw_received ON raw (received_time);
+DROP INDEX IF EXISTS raw_received;
+CREATE INDEX IF NOT EXISTS raw_expiry ON raw (received_time, device, seq);
 CREATE TABLE IF NOT EXISTS streams (device TEXT PRIMARY KEY, state TEXT, filter BLOB);
 CREATE TABLE IF NOT EXISTS days (subject TEXT, day TEXT, energy REAL, seconds REAL, eav_at REAL, elv_at REAL,
     hands TEXT, PRIMARY KEY (subject, day));
@@ -72,9 +73,16 @@ class ExposureStore:
 
     def drop_raw(self, streams: Iterable[tuple[str, int]], received_by: float) -> None:
         """Delete each (device, next seq) stream's processed batches (seq < next seq) received at or before
-        ``received_by``."""
-        self._db.executemany("DELETE FROM raw WHERE device = ? AND seq < ? AND received_time <= ?",
-                             [(device, before, received_by) for device, before in streams])
+        ``received_by``.
+
+        The candidates come from the covering index on (received_time, device, seq): only rows past retention
+        are visited, never a stream's whole history. Searching by (device, seq < next seq) instead read every
+        stored row of the stream on every commit (each one a page read): quadratic in the shift's length."""
+        before = dict(streams)
+        expired = self._db.execute("SELECT device, seq FROM raw INDEXED BY raw_expiry WHERE received_time <= ?",
+                                   (received_by,)).fetchall()
+        self._db.executemany("DELETE FROM raw WHERE device = ? AND seq = ?",
+                             [(device, seq) for device, seq in expired if seq < before.get(device, seq)])
 
     def raw_seqs(self, device: str) -> list[int]:
         return [row[0] for row in self._db.execute("SELECT seq FROM raw WHERE device = ? ORDER BY seq", (device,))]
