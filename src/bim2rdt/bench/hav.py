@@ -28,9 +28,9 @@ import scipy.signal
 
 from bim2rdt.bus.payloads import AccelBatch, encode_accel
 from bim2rdt.bus.topics import accel_topic, wearable_pattern
-from bim2rdt.safety.activity import Trigger
 from bim2rdt.safety.filters import design_weighting
-from bim2rdt.safety.monitor import HavMonitor, MonitorConfig
+from bim2rdt.safety.config import MonitorConfig
+from bim2rdt.safety.monitor import HavMonitor
 from bim2rdt.sim.vibration import WEARABLE_RANGE, tool_vibration
 
 DISTINCT_SIGNALS = 12
@@ -79,7 +79,7 @@ def run_latency(messages: int = 200, rate_hz: float = 20.0, fs: float = 5000.0, 
     users = {"monitor": "bench-monitor", "w1": "bench-w1"}
     done, produced, finished = [], [], threading.Event()
     with tempfile.TemporaryDirectory(prefix="bim2rdt-bench-") as folder, MosquittoBroker(users) as broker:
-        config = MonitorConfig(site="bench", trigger=Trigger(predict_every_s=1.0))  # events on many messages
+        config = MonitorConfig(site="bench", predict_every_s=1.0, commit_delay_s=0.0)  # events on many messages
         monitor = HavMonitor(Path(folder), "bench", [], config)
 
         def on_accel(topic: str, payload: bytes) -> None:

@@ -21,7 +21,8 @@ from bim2rdt.bus.payloads import AccelBatch
 from bim2rdt.safety.activity import ACTIVITY_ENDED, ARTEFACT
 from bim2rdt.safety.errors import HavError
 from bim2rdt.safety.exposure import EAV, ELV, time_to_limit
-from bim2rdt.safety.monitor import HavMonitor, MonitorConfig
+from bim2rdt.safety.config import MonitorConfig
+from bim2rdt.safety.monitor import HavMonitor
 from bim2rdt.safety.sinks import ListSink
 from bim2rdt.safety.weighting import BandCoverage, covered_band, require_weighable_rate
 
@@ -113,12 +114,13 @@ def _columns(header: list[str], path: Path) -> list[int]:
 
 
 def analyze_recording(recording: Recording, tool: str = "unknown", position: str = "handle",
-                      batch_s: float = 1.0) -> DayReport:
-    """Run a recording through a throw-away monitor and collect the day."""
+                      batch_s: float = 1.0, config: MonitorConfig = MonitorConfig()) -> DayReport:
+    """Run a recording through a throw-away monitor configured like the live one (``config``) and collect the
+    day."""
     sink = ListSink()
+    config = config.model_copy(update={"keep_timeline": True})
     with tempfile.TemporaryDirectory(prefix="bim2rdt-hav-") as folder:
-        monitor = HavMonitor(Path(folder), "analysis", [sink], MonitorConfig(keep_timeline=True),
-                             clock=lambda: recording.t0)
+        monitor = HavMonitor(Path(folder), "analysis", [sink], config, clock=lambda: recording.t0)
         subject = monitor.start_session("file", "recording", tool, position)
         step = max(1, int(round(batch_s * recording.fs)))
         for seq, start in enumerate(range(0, recording.xyz.shape[0], step)):

@@ -4,25 +4,21 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Sequence
+from pathlib import Path
 
 from bim2rdt.config import Settings
-from bim2rdt.safety.activity import Trigger
-from bim2rdt.safety.blocks import ArtefactLimits
-from bim2rdt.safety.monitor import HavMonitor, MonitorConfig
+from bim2rdt.safety.config import MonitorConfig
+from bim2rdt.safety.monitor import HavMonitor
 from bim2rdt.safety.sinks import EventSink
 
 
 def monitor_config(settings: Settings, **overrides) -> MonitorConfig:
-    """The monitor's configuration from ``settings.hav`` and ``settings.mqtt.site``."""
-    hav = settings.hav
-    trigger = Trigger(hav.start_threshold, hav.stop_threshold, hav.stop_hold_s, hav.predict_every_s)
-    values = {"site": settings.mqtt.site, "trigger": trigger, "artefacts": ArtefactLimits(crest_limit=hav.crest_limit),
-              "max_reorder": hav.max_reorder, "reorder_s": hav.reorder_s, "raw_retention_s": hav.raw_retention_s}
-    return MonitorConfig(**{**values, **overrides})
+    """The monitor's configuration: ``settings.hav`` (its site is ``settings.mqtt.site``) with ``overrides``."""
+    return MonitorConfig(**{**settings.hav.monitor_config().model_dump(), **overrides})
 
 
 def open_monitor(settings: Settings, sinks: Sequence[EventSink] = (), clock: Callable[[], float] = time.time,
-                 **overrides) -> HavMonitor:
-    """A monitor storing its state under ``settings.data_dir/hav``."""
-    return HavMonitor(settings.data_dir / "hav", settings.hav.site_secret, sinks, monitor_config(settings, **overrides),
-                      clock)
+                 data_dir: Path | None = None, **overrides) -> HavMonitor:
+    """A monitor storing its state under ``data_dir`` (default ``settings.data_dir/hav``)."""
+    folder = data_dir if data_dir is not None else settings.data_dir / "hav"
+    return HavMonitor(folder, settings.hav.site_secret, sinks, monitor_config(settings, **overrides), clock)
