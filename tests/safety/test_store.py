@@ -30,3 +30,21 @@ def test_a_commit_late_in_the_shift_costs_what_an_early_one_did(make_monitor, cl
     late = _vm_steps_per_commit(monitor, batches[1100:], clock)
     assert monitor.store.raw_count() == 1200  # nothing dropped: the cost is not saved by losing raw data
     assert late < 1.5 * early, (early, late)  # before the fix: a scan of the stream's whole raw history
+
+
+def test_raw_int16_batches_are_stored_as_counts_and_restored_bit_for_bit(tmp_path):
+    from bim2rdt.bus import decode_accel, encode_accel
+    from bim2rdt.safety.store import ExposureStore
+
+    xyz = np.random.default_rng(1).normal(0, 80, (2500, 3)).astype(np.float32)
+    sent = decode_accel(encode_accel(AccelBatch("w1", 3, T0, 5000.0, xyz, 1961.3))).received_at(T0 + 1)
+    floats = AccelBatch("w2", 0, T0, 5000.0, xyz, 1961.3, T0 + 1)  # not counts: kept as float32
+    store = ExposureStore(tmp_path / "hav.sqlite")
+    with store.transaction():
+        store.save_raw([sent, floats])
+    sizes = dict(store._db.execute("SELECT device, length(samples) FROM raw").fetchall())
+    assert sizes == {"w1": 2500 * 3 * 2, "w2": 2500 * 3 * 4}
+    back = store.raw_batches("w1", 0)[0]
+    assert back.xyz.dtype == np.float32 and np.array_equal(back.xyz, sent.xyz) and back.scale == sent.scale
+    assert np.array_equal(store.raw_batches("w2", 0)[0].xyz, xyz)
+    store.close()

@@ -23,7 +23,7 @@ from bim2rdt.bus.payloads import AccelBatch
 
 _SCHEMA = """
 CREATE TABLE IF NOT EXISTS raw (device TEXT, seq INTEGER, device_time REAL, received_time REAL, fs REAL,
-    full_scale REAL, n INTEGER, samples BLOB, PRIMARY KEY (device, seq));
+    full_scale REAL, n INTEGER, samples BLOB, scale REAL, PRIMARY KEY (device, seq));
 DROP INDEX IF EXISTS raw_received;
 CREATE INDEX IF NOT EXISTS raw_expiry ON raw (received_time, device, seq);
 CREATE TABLE IF NOT EXISTS streams (device TEXT PRIMARY KEY, state TEXT, filter BLOB);
@@ -47,6 +47,8 @@ class ExposureStore:
         self._db.execute("PRAGMA journal_mode=WAL")
         self._db.execute("PRAGMA synchronous=NORMAL")
         self._db.executescript(_SCHEMA)
+        if "scale" not in {row[1] for row in self._db.execute("PRAGMA table_info(raw)")}:  # a store from 0.1
+            self._db.execute("ALTER TABLE raw ADD COLUMN scale REAL")
 
     @contextmanager
     def transaction(self) -> Iterator[ExposureStore]:
@@ -61,15 +63,16 @@ class ExposureStore:
 
     # raw batches ---------------------------------------------------------------------------------------
     def save_raw(self, batches: Iterable[AccelBatch]) -> None:
-        self._db.executemany("INSERT OR IGNORE INTO raw VALUES (?, ?, ?, ?, ?, ?, ?, ?)", [
-            (b.device, b.seq, b.device_time, b.received_time, b.fs, b.full_scale, b.xyz.shape[0],
-             np.ascontiguousarray(b.xyz, dtype=np.float32).tobytes()) for b in batches])
+        """Samples as they came: int16 counts (half the bytes) when the batch has a count ``scale``, else float32."""
+        self._db.executemany("INSERT OR IGNORE INTO raw VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)", [
+            (b.device, b.seq, b.device_time, b.received_time, b.fs, b.full_scale, b.xyz.shape[0], *_packed(b))
+            for b in batches])
 
     def raw_batches(self, device: str, from_seq: int) -> list[AccelBatch]:
-        rows = self._db.execute("SELECT device, seq, device_time, received_time, fs, full_scale, n, samples FROM raw "
-                                "WHERE device = ? AND seq >= ? ORDER BY seq", (device, from_seq)).fetchall()
-        return [AccelBatch(d, s, t, fs, np.frombuffer(blob, np.float32).reshape(n, 3), fsc, rt)
-                for d, s, t, rt, fs, fsc, n, blob in rows]
+        rows = self._db.execute("SELECT device, seq, device_time, received_time, fs, full_scale, n, samples, scale "
+                                "FROM raw WHERE device = ? AND seq >= ? ORDER BY seq", (device, from_seq)).fetchall()
+        return [AccelBatch(d, s, t, fs, _xyz(blob, n, scale), fsc, rt, scale)
+                for d, s, t, rt, fs, fsc, n, blob, scale in rows]
 
     def drop_raw(self, streams: Iterable[tuple[str, int]], received_by: float) -> None:
         """Delete each (device, next seq) stream's processed batches (seq < next seq) received at or before
@@ -150,6 +153,24 @@ class ExposureStore:
 
     def close(self) -> None:
         self._db.close()
+
+
+def _packed(batch: AccelBatch) -> tuple[bytes, float | None]:
+    """(samples, count scale): int16 counts when xyz is exactly counts x float32(scale) (as decoded from an int16
+    payload; dividing back errs by under 0.01 count), else float32 and no scale."""
+    if batch.scale is not None:
+        scale = np.float32(batch.scale)
+        with np.errstate(all="ignore"):
+            counts = np.rint(batch.xyz / scale)
+            if np.array_equal(np.clip(counts, -32768, 32767).astype(np.float32) * scale, batch.xyz):
+                return counts.astype("<i2").tobytes(), batch.scale
+    return np.ascontiguousarray(batch.xyz, dtype=np.float32).tobytes(), None
+
+
+def _xyz(blob: bytes, n: int, scale: float | None) -> np.ndarray:
+    if scale is None:
+        return np.frombuffer(blob, np.float32).reshape(n, 3)
+    return np.frombuffer(blob, "<i2").reshape(n, 3).astype(np.float32) * np.float32(scale)
 
 
 def _hands_json(hands: dict[str, list[float]]) -> str | None:
