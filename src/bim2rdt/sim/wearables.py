@@ -109,3 +109,35 @@ def plan_signal(plan: WorkerPlan, fs: float, seed: int = 0) -> np.ndarray:
 
 def _piece_signal(plan: WorkerPlan, tool: str, seconds: float, fs: float, seed: int) -> ToolSignal:
     return ToolSignal(tool, seconds, fs, TOOLS[tool].a_hv * plan.intensity, seed=seed)
+
+
+def run_in_process(plans: list[WorkerPlan], monitor, site: str, fs: float, speed: float = 0.0,
+                   tick: Callable[[float], None] | None = None) -> int:
+    """Publish every plan on an in-process bus that ``monitor`` (a :class:`~bim2rdt.safety.HavMonitor`) is
+    attached to, then commit what waits; returns the number of messages sent."""
+    from bim2rdt.bus.local import LocalBus
+
+    bus = LocalBus().connect()
+    monitor.attach(bus)
+    sent = publish_plans(lambda device: bus, plans, site, fs, speed=speed, tick=tick)
+    monitor.flush()
+    return sent
+
+
+def run_over_mqtt(plans: list[WorkerPlan], site: str, fs: float, host: str, port: int,
+                  password_of: Callable[[str], str], speed: float = 0.0,
+                  tick: Callable[[float], None] | None = None) -> int:
+    """Publish every plan to a broker, each device logged in as itself (``password_of(device)``) with its
+    retained offline status as last will; returns the number of messages sent."""
+    from bim2rdt.bus.mqtt import MqttBus
+
+    buses = {}
+    try:
+        for plan in plans:
+            will = (status_topic(site, plan.device), status_payload(plan, "", False))
+            buses[plan.device] = MqttBus(host, port, client_id=plan.device, username=plan.device,
+                                         password=password_of(plan.device), will=will).connect()
+        return publish_plans(buses.__getitem__, plans, site, fs, speed=speed, tick=tick)
+    finally:
+        for bus in buses.values():
+            bus.close()
