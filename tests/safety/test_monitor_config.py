@@ -6,7 +6,7 @@ import pytest
 
 from bim2rdt.config import ConfigError, Settings, get_settings
 from bim2rdt.safety import MonitorConfig
-from bim2rdt.safety.setup import monitor_config, open_monitor
+from bim2rdt.cli.hav_output import open_monitor
 
 
 def test_the_hav_settings_are_the_monitor_config_and_repeat_no_default():
@@ -19,7 +19,7 @@ def test_an_environment_value_reaches_the_monitor_that_runs(monkeypatch, tmp_pat
     monkeypatch.setenv("BIM2RDT_MQTT__SITE", "north")
     monitor = open_monitor(get_settings(), data_dir=tmp_path)
     assert monitor.config.max_reorder == 3 and monitor.config.site == "north"
-    assert monitor_config(get_settings(), keep_timeline=True).keep_timeline is True
+    assert get_settings().hav.monitor_config(keep_timeline=True).keep_timeline is True
     monitor.close()
 
 

@@ -9,7 +9,7 @@ from pathlib import Path
 import typer
 
 from bim2rdt.cli.common import console, print_json, print_table
-from bim2rdt.cli.hav_output import event_line, print_summary, progress, twin_sink
+from bim2rdt.cli.hav_output import event_line, open_monitor, print_summary, progress, twin_sink
 
 hav_app = typer.Typer(help="Hand-arm vibration (ISO 5349-1): live monitor, recorded files, a dev broker.",
                       no_args_is_help=True)
@@ -47,7 +47,6 @@ def hav_listen(
     from bim2rdt.bus.mqtt import MqttBus
     from bim2rdt.config import get_settings
     from bim2rdt.safety import BusSink, CallbackSink
-    from bim2rdt.safety.setup import open_monitor
 
     settings = get_settings()
     host, port = parse_address(mqtt or _configured_broker(settings))
@@ -85,9 +84,8 @@ def hav_analyze(
     from bim2rdt.config import get_settings
     from bim2rdt.safety.analysis import analyze_recording, plot_day
     from bim2rdt.safety.recording import read_accel_csv
-    from bim2rdt.safety.setup import monitor_config
 
-    config = monitor_config(get_settings())  # the live monitor's trigger and artefact limits
+    config = get_settings().hav.monitor_config()  # the live monitor's trigger and artefact limits
     recording = read_accel_csv(file)
     with console.status(f"weighing {recording.xyz.shape[0] / recording.fs / 60:.1f} min at {recording.fs:g} Hz"):
         report = analyze_recording(recording, tool, position, config=config)

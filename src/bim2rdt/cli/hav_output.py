@@ -33,6 +33,15 @@ def print_summary(monitor, devices) -> None:
     print_table("Daily exposure", ["worker (pseudonym)", "device", "A(8) m/s²", "points", "trigger min", "risk"], rows)
 
 
+def open_monitor(settings, sinks=(), data_dir: Path | None = None, **overrides):
+    """The HAV monitor as configured: state under ``data_dir`` (default ``settings.data_dir/hav``), the
+    ``settings.hav`` section (site = ``settings.mqtt.site``) with ``overrides``."""
+    from bim2rdt.safety import HavMonitor
+
+    folder = data_dir if data_dir is not None else settings.data_dir / "hav"
+    return HavMonitor(folder, settings.hav.site_secret, list(sinks), settings.hav.monitor_config(**overrides))
+
+
 @contextmanager
 def twin_sink(ifc: Path | None, out: Path | None) -> Iterator:
     """An IfcSink writing into ``out`` (default <ifc>_hav.ifc) from ``ifc``; None when no IFC is asked for."""

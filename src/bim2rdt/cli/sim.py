@@ -7,7 +7,7 @@ from pathlib import Path
 import typer
 
 from bim2rdt.cli.common import console
-from bim2rdt.cli.hav_output import event_line, print_summary, progress, twin_sink
+from bim2rdt.cli.hav_output import event_line, open_monitor, print_summary, progress, twin_sink
 
 sim_app = typer.Typer(help="Simulators: wearables on the site bus.", no_args_is_help=True)
 
@@ -46,7 +46,6 @@ def sim_wearables(
 def _in_process(plans, fs: float, speed: float, tick, ifc: Path | None, out: Path | None) -> None:
     from bim2rdt.config import get_settings
     from bim2rdt.safety import CallbackSink
-    from bim2rdt.safety.setup import open_monitor
     from bim2rdt.sim.wearables import run_in_process
 
     settings = get_settings()

@@ -98,15 +98,15 @@ def _hav_day(writer: TwinWriter, model: BimModel, state_dir: Path, workers: int,
     """Simulated wearables -> in-process bus -> monitor -> IFC records on ``writer``."""
     from bim2rdt.bus import LocalBus
     from bim2rdt.config import get_settings
-    from bim2rdt.safety import ListSink
+    from bim2rdt.safety import HavMonitor, ListSink
     from bim2rdt.safety.ifc_sink import IfcSink
-    from bim2rdt.safety.setup import open_monitor
     from bim2rdt.sim.wearables import default_plans, publish_plans
 
     shutil.rmtree(state_dir, ignore_errors=True)
     settings = get_settings()
     events, ifc_sink = ListSink(), IfcSink(writer, model)
-    monitor = open_monitor(settings, [events, ifc_sink], data_dir=state_dir, keep_timeline=True)
+    monitor = HavMonitor(state_dir, settings.hav.site_secret, [events, ifc_sink],
+                         settings.hav.monitor_config(keep_timeline=True))
     bus = LocalBus().connect()
     monitor.attach(bus)
     publish_plans(lambda device: bus, default_plans(workers, minutes, WORK_ZONE), settings.mqtt.site, fs,
