@@ -30,3 +30,13 @@ def test_the_monitor_site_follows_the_bus_site_and_a_different_one_is_refused(mo
     monkeypatch.setenv("BIM2RDT_HAV__SITE", "south")
     with pytest.raises(ConfigError, match="BIM2RDT_MQTT__SITE only"):
         get_settings()
+
+
+def test_a_runs_record_holds_the_hav_section_with_its_secret_masked(monkeypatch):
+    from bim2rdt.config import settings_record
+
+    monkeypatch.setenv("BIM2RDT_HAV__START_THRESHOLD", "1.5")
+    monkeypatch.setenv("BIM2RDT_HAV__SITE_SECRET", "a-real-secret")
+    record = settings_record(get_settings())
+    assert record["hav"]["start_threshold"] == 1.5 and record["hav"]["site"] == record["mqtt"]["site"]
+    assert record["hav"]["site_secret"] == "***" and "a-real-secret" not in str(record)

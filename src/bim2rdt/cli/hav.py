@@ -163,6 +163,7 @@ def bench_hav(
     """Streams processed in real time on one core vs the bare sosfilt floor; the store's commits and reads per
     batch vs a bare SQLite insert; publish-to-event latency."""
     from bim2rdt.bench.hav import run_latency, run_store, run_throughput, targets
+    from bim2rdt.config import get_settings, settings_record
 
     if hasattr(os, "sched_setaffinity"):
         os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
@@ -178,6 +179,7 @@ def bench_hav(
             counter = iter(range(1, messages + 1))
             result["latency"] = run_latency(messages, tick=lambda: tick(next(counter)))
     result["targets"] = targets(result)
+    result["settings"] = settings_record(get_settings())  # what ran (secrets masked)
     if as_json:
         print_json(result)
         return

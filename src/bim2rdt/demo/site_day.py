@@ -21,10 +21,12 @@ import numpy as np
 
 from bim2rdt.bim import BimModel, TwinWriter, load_ifc
 from bim2rdt.mission import MissionConfig, MissionResult, Observation, Target, plan_stations, run_mission
+from bim2rdt.registration import IcpConfig
 from bim2rdt.semantics import KnowledgeBasePriors, UprightPrior
 from bim2rdt.sim.meshes import mesh_for_family
 from bim2rdt.sim.reality import Reality, SimulatedPerception, body_mesh, simulate_reality
 from bim2rdt.sim.site import ZONES, build_site_ifc
+from bim2rdt.twin import ElementStatus
 
 ROBOT_START_XY = (1.0, 1.0)
 """Where the robot's dock is on the default site, metres."""
@@ -52,10 +54,12 @@ def objects_of_interest(model: BimModel) -> list[Target]:
 
 
 def run_site_day(out_dir: Path, seed: int = 0, workers: int = 2, minutes: float = 60.0, fs: float = 5000.0,
-                 mission_config: MissionConfig = MissionConfig(),
+                 mission_config: MissionConfig = MissionConfig(), icp: IcpConfig = IcpConfig(),
                  tick: Callable[[str], None] = lambda stage: None) -> SiteDay:
     """Run the day into ``out_dir``: ``site.ifc`` (as designed), ``site_twin.ifc`` (as built, with safety
-    records) and the monitor's state under ``state/`` (started afresh: the demo simulates a new day)."""
+    records) and the monitor's state under ``state/`` (started afresh: the demo simulates a new day). The
+    mission runs with ``mission_config`` and registers with ``icp`` (the demo passes ``Settings.mission`` and
+    ``Settings.registration``)."""
     out_dir.mkdir(parents=True, exist_ok=True)
     model = load_ifc(build_site_ifc(out_dir / "site.ifc"))
     tick("bim")
@@ -64,7 +68,7 @@ def run_site_day(out_dir: Path, seed: int = 0, workers: int = 2, minutes: float 
     priors = KnowledgeBasePriors().priors(sorted({t.family for t in reality.truth}))
     stations = plan_stations(targets, ROBOT_START_XY, mission_config)
     mission = run_mission(targets, stations, SimulatedPerception(reality, seed=seed), priors, mesh_for_family,
-                          mission_config, tick=lambda: tick("station"))
+                          mission_config, icp, tick=lambda: tick("station"))
     writer = TwinWriter(model)
     apply_observations(writer, mission.observations)
     tick("twin")
@@ -75,13 +79,14 @@ def run_site_day(out_dir: Path, seed: int = 0, workers: int = 2, minutes: float 
 
 
 def apply_observations(writer: TwinWriter, observations: list[Observation]) -> dict[str, str]:
-    """Write verdicts into the twin: moved objects get their measured placement, new ones become proxies.
+    """Write verdicts into the twin: deviating (moved) objects get their measured placement, new ones become
+    proxies.
     Returns {observation index: GlobalId} of the new proxies."""
     added = {}
     for index, obs in enumerate(observations):
-        if obs.status == "moved":
+        if obs.status is ElementStatus.DEVIATING:
             writer.move_element(obs.global_id, obs.pose)
-        elif obs.status == "new":
+        elif obs.status is ElementStatus.NEW:
             mesh = mesh_for_family(obs.family)
             added[str(index)] = writer.add_object(obs.family, np.asarray(mesh.vertices), np.asarray(mesh.faces),
                                                   obs.pose, properties=_observation_properties(obs))
@@ -89,7 +94,7 @@ def apply_observations(writer: TwinWriter, observations: list[Observation]) -> d
 
 
 def _observation_properties(obs: Observation) -> dict:
-    return {"Status": obs.status, "Fitness": float(obs.fit.fitness), "RmseMetres": float(obs.fit.rmse),
+    return {"Status": obs.status.value, "Fitness": float(obs.fitness), "RmseMetres": float(obs.rmse),
             "ScenePoints": int(obs.points), "UprightBias": float(obs.upright_bias), "TiltDegrees": float(obs.tilt_deg),
             "Station": int(obs.station)}
 
