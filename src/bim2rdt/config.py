@@ -13,12 +13,13 @@ from __future__ import annotations
 from functools import lru_cache
 from pathlib import Path
 
-from pydantic import BaseModel, Field, ValidationError
+from pydantic import BaseModel, Field, ValidationError, model_validator
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
 from bim2rdt.errors import Bim2RdtError
 from bim2rdt.mission.config import MissionConfig
 from bim2rdt.registration.config import IcpConfig
+from bim2rdt.safety.config import MonitorConfig
 from bim2rdt.semantics.llm import LlmPriorsConfig
 from bim2rdt.server.config import ServerConfig
 from bim2rdt.twin.config import TwinConfig
@@ -40,18 +41,15 @@ class BimSettings(BaseModel):
     tessellation_cache: bool = Field(True, description="Cache tessellated meshes on disk, keyed by file hash.")
 
 
-class HavSettings(BaseModel):
-    """Hand-arm vibration monitoring."""
+class HavSettings(MonitorConfig):
+    """Hand-arm vibration monitoring: the monitor's configuration (defaults in :class:`MonitorConfig`; ``site``
+    always follows ``mqtt.site``) and the key of the worker pseudonyms."""
 
     site_secret: str = Field("change-me", description="Key for worker pseudonyms (keyed hash).")
-    raw_retention_s: float = Field(7 * 24 * 3600.0, description="How long raw sensor windows are kept, seconds.")
-    start_threshold: float = Field(1.0, description="Block a_hv (m/s^2) at which a tool activity starts (trigger).")
-    stop_threshold: float = Field(0.5, description="Block a_hv (m/s^2) under which an activity is winding down.")
-    stop_hold_s: float = Field(2.0, description="Seconds under stop_threshold that end an activity.")
-    predict_every_s: float = Field(60.0, description="Activity seconds between predictions of the time to EAV.")
-    reorder_s: float = Field(2.0, description="Seconds a batch waits for a missing predecessor before a gap.")
-    max_reorder: int = Field(8, description="Out-of-order batches held before a missing one is declared a gap.")
-    crest_limit: float = Field(25.0, description="Crest factor above which a block is a shock artefact.")
+
+    def monitor_config(self, **overrides) -> MonitorConfig:
+        """The monitor's part with ``overrides``, without the secret (the monitor takes it as its own argument)."""
+        return MonitorConfig(**{**self.model_dump(include=set(MonitorConfig.model_fields)), **overrides})
 
 
 class MqttSettings(BaseModel):
@@ -85,6 +83,16 @@ class Settings(BaseSettings):
     mission: MissionConfig = MissionConfig()
     twin: TwinConfig = TwinConfig()
     server: ServerConfig = ServerConfig()
+
+    @model_validator(mode="after")
+    def _one_site(self) -> Settings:
+        """The monitor reads the topics of the bus's site: ``hav.site`` follows ``mqtt.site``."""
+        if "site" not in self.hav.model_fields_set:
+            self.hav = self.hav.model_copy(update={"site": self.mqtt.site})
+        elif self.hav.site != self.mqtt.site:
+            raise ValueError(f"hav.site {self.hav.site!r} differs from mqtt.site {self.mqtt.site!r}: set "
+                             "BIM2RDT_MQTT__SITE only")
+        return self
 
 
 SECRET_WORDS = ("secret", "password", "api_key", "tokens")

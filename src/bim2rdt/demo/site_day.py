@@ -91,7 +91,6 @@ def _hav_day(twin: DigitalTwin, state_dir: Path, workers: int, minutes: float, f
     from bim2rdt.bus import LocalBus
     from bim2rdt.config import get_settings
     from bim2rdt.safety import HavMonitor, ListSink
-    from bim2rdt.safety.setup import monitor_config
     from bim2rdt.sim.wearables import default_plans, publish_plans
     from bim2rdt.twin import TwinSink
 
@@ -99,7 +98,7 @@ def _hav_day(twin: DigitalTwin, state_dir: Path, workers: int, minutes: float, f
     settings = get_settings()
     events = ListSink()
     monitor = HavMonitor(state_dir, settings.hav.site_secret, [events, TwinSink(twin)],
-                         monitor_config(settings, keep_timeline=True))
+                         settings.hav.monitor_config(keep_timeline=True))
     bus = LocalBus().connect()
     monitor.attach(bus)
     publish_plans(lambda device: bus, default_plans(workers, minutes, WORK_ZONE), settings.mqtt.site, fs,
