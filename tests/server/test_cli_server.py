@@ -106,7 +106,7 @@ def test_token_prints_a_token_and_the_entry_that_stores_only_its_digest():
 @pytest.mark.parametrize("args, words", [
     (("token", "--role", "boss", "--name", "x"), "role must be one of"),
     (("serve", "--twin", "sqlite:////nonexistent/twin.db"), "--twin needs --ifc"),
-    (("serve", "--twin", "sqlite:///x.db", "--ifc", "x.ifc", "--mqtt", "localhost"), "is not HOST:PORT"),
+    (("serve", "--twin", "sqlite:///x.db", "--ifc", "x.ifc", "--mqtt", "localhost"), "wants HOST:PORT"),
 ])
 def test_bad_options_are_one_line_usage_errors(args, words):
     result = _cli(*args)

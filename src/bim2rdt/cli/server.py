@@ -41,13 +41,12 @@ def serve_command(
 
     if twin_url and ifc is None:
         raise typer.BadParameter("--twin needs --ifc: the BIM the twin is kept over", param_hint="--ifc")
-    if mqtt is not None:
-        _host_port(mqtt)
+    address = _host_port(mqtt) if mqtt is not None else None
     settings = get_settings()
     config = settings.server.model_copy(update={k: v for k, v in (("host", host), ("port", port)) if v is not None})
     from bim2rdt.demo.serve import LiveServe
 
-    with LiveServe(settings, config, out, twin_url, ifc, _host_port(mqtt) if mqtt else None, speed, all_roles,
+    with LiveServe(settings, config, out, twin_url, ifc, address, speed, all_roles,
                    progress=lambda stage: console.print(f"[dim]{stage}[/dim]")) as live:
         console.print(f"bim2rdt dashboard: {live.url}/#token={live.tokens['viewer']}")
         console.print(f"viewer token: {live.tokens['viewer']}")
@@ -102,7 +101,9 @@ def bench_server_command(
 
 
 def _host_port(text: str) -> tuple[str, int]:
-    host, _, port = text.rpartition(":")
-    if not host or not port.isdigit() or not 0 < int(port) < 65536:
-        raise typer.BadParameter(f"{text!r} is not HOST:PORT", param_hint="--mqtt")
-    return host, int(port)
+    from bim2rdt.bus.credentials import CredentialError, parse_address
+
+    try:
+        return parse_address(text)
+    except CredentialError as error:
+        raise typer.BadParameter(str(error), param_hint="--mqtt") from None

@@ -187,11 +187,10 @@ class LiveServe:
         if not (self.demo or self.mqtt):
             return None, None
         from bim2rdt.safety import HavMonitor, IdentityMap
-        from bim2rdt.safety.setup import monitor_config
 
         folder = fresh_folder(self.out_dir / "live") / "hav" if self.demo and not self.mqtt \
             else self.settings.data_dir / "hav"
-        monitor = HavMonitor(folder, self.settings.hav.site_secret, [], monitor_config(self.settings))
+        monitor = HavMonitor(folder, self.settings.hav.site_secret, [], self.settings.hav.monitor_config())
         self._closers.append(monitor.close)
         identity = IdentityMap(folder / "private" / "identity.sqlite", role="safety")
         self._closers.append(identity.close)
@@ -203,14 +202,14 @@ class LiveServe:
             return "no HAV monitor (give --mqtt HOST:PORT for wearables)"
         site = self.settings.mqtt.site
         if self.mqtt:
-            from bim2rdt.bus.broker import device_password
+            from bim2rdt.bus.credentials import user_password
             from bim2rdt.bus.mqtt import MqttBus
 
             mqtt = self.settings.mqtt
-            password = mqtt.password or device_password(mqtt.device_secret, mqtt.username)
-            bus = MqttBus(*self.mqtt, client_id=f"bim2rdt-serve-{site}", username=mqtt.username, password=password,
-                          session_expiry_s=mqtt.session_expiry_s)
-            monitor.attach(bus)
+            password = user_password(mqtt.username, mqtt.username, mqtt.password, mqtt.device_secret)
+            bus = MqttBus(*self.mqtt, client_id=f"bim2rdt-hav-monitor-{site}", username=mqtt.username,
+                          password=password, session_expiry_s=mqtt.session_expiry_s, manual_ack=True)
+            monitor.attach(bus)  # before connecting: the broker may deliver what it queued for us at once
             bus.connect()
             self._closers.append(bus.close)
             ticker = LiveWearables(monitor, bus, [], site).start_ticking()

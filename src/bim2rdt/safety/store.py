@@ -108,11 +108,11 @@ class ExposureStore:
     def raw_window(self, device: str, start: float, end: float) -> list[AccelBatch]:
         """The device's kept batches with samples in device time [start, end), in seq order (the dashboard's
         raw sensor window; what retention already dropped is not there)."""
-        rows = self._db.execute("SELECT device, seq, device_time, received_time, fs, full_scale, n, samples FROM raw "
-                                "WHERE device = ? AND device_time < ? AND device_time + n / fs > ? ORDER BY seq",
-                                (device, end, start)).fetchall()
-        return [AccelBatch(d, s, t, fs, np.frombuffer(blob, np.float32).reshape(n, 3), fsc, rt)
-                for d, s, t, rt, fs, fsc, n, blob in rows]
+        rows = self._db.execute("SELECT device, seq, device_time, received_time, fs, full_scale, n, samples, scale "
+                                "FROM raw WHERE device = ? AND device_time < ? AND device_time + n / fs > ? "
+                                "ORDER BY seq", (device, end, start)).fetchall()
+        return [AccelBatch(d, s, t, fs, _xyz(blob, n, scale), fsc, rt, scale)
+                for d, s, t, rt, fs, fsc, n, blob, scale in rows]
 
     # JSON state rows -----------------------------------------------------------------------------------
     def save_streams(self, states: Iterable[tuple[str, Any, bytes]]) -> None:
