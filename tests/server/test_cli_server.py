@@ -117,3 +117,34 @@ def test_a_twin_url_that_holds_no_twin_is_a_one_line_error(tmp_path, site_ifc):
     result = _cli("serve", "--twin", f"sqlite:///{tmp_path / 'none.db'}", "--ifc", site_ifc, "--port", 0)
     assert result.returncode == 1
     assert result.stderr.strip().startswith("error: no twin at") and len(result.stderr.strip().splitlines()) == 1
+
+
+@pytest.mark.mqtt
+def test_serve_takes_real_wearables_from_a_broker(recorded_site, tmp_path):
+    import os
+    from pathlib import Path
+
+    from bim2rdt.bus.broker import MOSQUITTO, MosquittoBroker
+    from bim2rdt.sim.wearables import WorkerPlan, run_over_mqtt
+
+    if not Path(MOSQUITTO).exists():
+        pytest.fail("Debian's mosquitto is required (.ci/run installs it)")
+    folder, _ = recorded_site
+    users = {"monitor": "monitor-pw", "w7": "w7-pw"}
+    with MosquittoBroker(users, folder=tmp_path / "mosquitto") as broker:
+        env = {**os.environ, "BIM2RDT_MQTT__PASSWORD": "monitor-pw", "BIM2RDT_DATA_DIR": str(tmp_path / "var")}
+        served = Served("--twin", f"sqlite:///{folder / 'twin.db'}", "--ifc", folder / "site.ifc", "--port", 0,
+                        "--mqtt", f"127.0.0.1:{broker.port}", "--duration", 120, env=env)
+        try:
+            plan = WorkerPlan("w7", "worker-777", "Work zone A", (("idle", 2.0), ("grinder", 20.0), ("idle", 3.0)))
+            run_over_mqtt([plan], "demo", 2500.0, "127.0.0.1", broker.port, users.__getitem__)
+            deadline, workers = time.monotonic() + 30, []
+            while time.monotonic() < deadline and not (workers and workers[0]["a8"]):
+                time.sleep(0.5)
+                workers = httpx.get(f"{served.url}/api/workers", headers=auth(served.token), timeout=30).json()
+            events = httpx.get(f"{served.url}/api/events", headers=auth(served.token), timeout=30).json()
+        finally:
+            served.stop()
+    assert len(workers) == 1 and workers[0]["a8"] > 0 and workers[0]["devices"][0]["tool"] == "grinder"
+    assert {"hav.activity_started", "hav.activity_ended"} <= {e["kind"] for e in events}
+    assert (tmp_path / "var" / "hav" / "hav.sqlite").is_file()
