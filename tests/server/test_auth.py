@@ -138,6 +138,8 @@ def test_bodies_over_the_limit_are_refused_whole_or_chunked(limited, monitor):
     safety = auth(limited.tokens["safety"])
     big = {"reason": "x" * 2000}
     assert limited.post(f"/api/workers/{subject}/identity", json=big, headers=safety).status_code == 413
+    # by its Content-Length, even where the endpoint would never read a body
+    assert limited.request("GET", "/api/workers", content=b"x" * 2000, headers=safety).status_code == 413
 
     def chunks():
         yield b'{"reason": "'

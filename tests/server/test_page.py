@@ -86,6 +86,7 @@ def test_the_page_shows_the_twin_and_warns_the_moment_a_worker_crosses_the_eav(p
         crossed = time.time()
         banner = page.locator("#banner")
         expect(banner).to_have_attribute("data-level", "warning", timeout=5_000)
+        expect(banner).to_be_visible()
         shown = time.time() - crossed
         expect(banner).to_contain_text(monitor.session("dev-1").subject)
         expect(gauge).to_have_attribute("data-risk", "above_eav")
@@ -98,6 +99,7 @@ def test_the_page_shows_the_twin_and_warns_the_moment_a_worker_crosses_the_eav(p
 
         feed(monitor, vibration("dev-1", 700.0, A_HV, start + 220.0, seq0=440))  # on to the ELV
         expect(banner).to_have_attribute("data-level", "alarm", timeout=5_000)
+        expect(banner).to_be_visible()
         expect(gauge).to_have_attribute("data-risk", "above_elv")
         shots.append(_shot(page, tmp_path / "page-elv-alarm.png"))
         browser.close()
