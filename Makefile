@@ -25,6 +25,7 @@ bench: $(STAMP)
 	$(VENV)/bin/bim2rdt bench registration
 	$(VENV)/bin/bim2rdt bench ifc
 	$(VENV)/bin/bim2rdt bench hav
+	$(VENV)/bin/bim2rdt bench server
 
 # The dashboard's page (web/ -> src/bim2rdt/server/static, committed): needs node 20 and npm from the npm registry.
 web:
