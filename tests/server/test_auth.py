@@ -61,7 +61,8 @@ def test_auth_matrix_every_role_on_every_endpoint(client, served, ids):
 
 def test_reveals_are_for_the_safety_officer_only(client, ids):
     for role, expected in (("viewer", 403), ("admin", 403)):
-        response = client.post(f"/api/workers/{ids['subject']}/identity", json=REASON, headers=auth(client.tokens[role]))
+        response = client.post(f"/api/workers/{ids['subject']}/identity", json=REASON,
+                               headers=auth(client.tokens[role]))
         assert response.status_code == expected
     response = client.get("/api/audit", headers=auth(client.tokens["safety"]))
     assert response.status_code == 403

@@ -56,5 +56,5 @@ async def main(host: str, port: int, token: str, clients: int, timeout_s: float)
 
 
 if __name__ == "__main__":
-    host, port, token, clients, timeout_s = sys.argv[1], int(sys.argv[2]), sys.argv[3], int(sys.argv[4]), float(sys.argv[5])
-    print(json.dumps(asyncio.run(main(host, port, token, clients, timeout_s))))
+    host, port, token, clients, timeout_s = sys.argv[1:6]
+    print(json.dumps(asyncio.run(main(host, int(port), token, int(clients), float(timeout_s)))))

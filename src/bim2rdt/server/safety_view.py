@@ -100,7 +100,7 @@ class SafetyView:
         counters = {k: v for k, v in status.items() if isinstance(v, int | float) and not isinstance(v, bool)
                     and k not in ("next_seq", "clock_offset_s")}
         return {"device": device, "tool": session.tool, "position": session.position, "zone": session.zone,
-                "hand": getattr(session, "hand", ""), "estimate": session.estimate, "active": running,
+                "hand": session.hand, "estimate": session.estimate, "active": running,
                 "a_hv": _finite(activity.a_hv) if running else 0.0,
                 "activity_started": activity.started if running else None, "counters": counters}
 

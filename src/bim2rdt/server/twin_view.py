@@ -193,4 +193,4 @@ def event_dict(event) -> dict:
             "source": event.source, "data": event.data, "recorded": event.recorded}
 
 
-__all__ = ["CHANGE_KINDS", "SAFETY", "TwinView", "event_dict", "palette"]
+__all__ = ["CHANGE_KINDS", "TwinView", "event_dict", "palette"]
