@@ -1,1 +1,18 @@
-"""bim2rdt.planning"""
+"""bim2rdt.planning: the robot's paths through the site, from the BIM and what the twin observed.
+
+``OccupancyGrid.from_bim`` slices a storey's element meshes in the robot's height band (doors open or closed by
+a policy, openings left free, where there is no floor blocked) and grows them by the robot's radius;
+``with_obstacles`` puts in the objects the twin observed, ``with_zones`` the keep-out zones (the BIM's off-limits
+zones, ``worker_keepouts`` around people); ``plan_path`` runs A* (pyastar2d) and smooths the result through free
+space; ``save_nav2`` writes the map for ROS map_server / Nav2.
+"""
+
+from bim2rdt.planning.errors import PlanningError
+from bim2rdt.planning.frame import GridFrame
+from bim2rdt.planning.grid import OccupancyGrid
+from bim2rdt.planning.path import path_length, plan_path
+from bim2rdt.planning.raster import Footprint
+from bim2rdt.planning.zones import KeepOut, worker_keepouts
+
+__all__ = ["Footprint", "GridFrame", "KeepOut", "OccupancyGrid", "PlanningError", "path_length", "plan_path",
+           "worker_keepouts"]
