@@ -36,6 +36,10 @@ class GridFrame:
         """World (..., 2) metres -> cell coordinates (u, v), floats."""
         return (np.asarray(xy, float) - self.origin_xy) / self.resolution
 
+    def to_world(self, uv: np.ndarray) -> np.ndarray:
+        """Cell coordinates (..., 2) -> world metres."""
+        return np.asarray(uv, float) * self.resolution + self.origin_xy
+
     def cell_of(self, xy) -> tuple[int, int]:
         """(row, col) of the cell holding world point ``xy`` (may lie outside the grid; see ``contains``)."""
         u, v = self.to_cells(xy)
