@@ -38,3 +38,16 @@ def test_smoothing_goes_round_an_obstacle_not_through_it():
     corners = smooth(cells, blocked, np.array([2.5, 2.5]), np.array([27.5, 17.5]))
     assert all(in_sight(blocked, a, b) for a, b in zip(corners[:-1], corners[1:]))
     assert len(corners) >= 3
+
+
+def test_line_of_sight_agrees_with_dense_sampling_on_random_segments():
+    rng = np.random.default_rng(3)
+    blocked = rng.random((60, 60)) < 0.02
+    for _ in range(300):
+        a, b = rng.uniform(0.0, 60.0, 2), rng.uniform(0.0, 60.0, 2)
+        if rng.random() < 0.3:
+            b = a + rng.uniform(-3.0, 3.0, 2)
+            b = np.clip(b, 0.0, 59.999)
+        t = np.linspace(0.0, 1.0, 20000)[:, None]
+        cells = np.floor(a + t * (b - a)).astype(int)
+        assert in_sight(blocked, a, b) == (not blocked[cells[:, 0], cells[:, 1]].any()), (a, b)

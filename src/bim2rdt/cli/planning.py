@@ -96,7 +96,7 @@ def bench_planning_command(
 
     path = ifc_file or sample_file(BENCH_FILE)
     with Progress(console=_status, transient=True, disable=not _status.is_terminal) as progress:
-        task = progress.add_task("planning benchmark", total=7 * repeat)
+        task = progress.add_task("planning benchmark", total=6 * repeat)
         result = run_planning_bench(path, repeat, step=lambda label: progress.update(task, advance=1, description=label))
     summary = result.to_dict()
     if as_json:
