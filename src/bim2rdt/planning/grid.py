@@ -134,7 +134,12 @@ class OccupancyGrid:
 
     def layer(self, kinds: Iterable[str]) -> np.ndarray:
         """Bool (rows, cols): cells covered by footprints of these kinds (e.g. ``KEEPOUT_KINDS``)."""
-        return _union([fp for fp in self.footprints if fp.kind in tuple(kinds)], self.frame.shape)
+        kinds = tuple(kinds)
+        return self.layer_of([fp for fp in self.footprints if fp.kind in kinds])
+
+    def layer_of(self, footprints: Iterable[Footprint]) -> np.ndarray:
+        """Bool (rows, cols): cells covered by these footprints."""
+        return _union(footprints, self.frame.shape)
 
     def is_free(self, xy) -> bool:
         """True when the robot's centre may stand at world ``xy``."""
