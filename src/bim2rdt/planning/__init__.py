@@ -17,8 +17,10 @@ from bim2rdt.planning.path import path_length, plan_path
 from bim2rdt.planning.raster import Footprint
 from bim2rdt.planning.sight import first_blocked_leg, line_of_sight, occluders
 from bim2rdt.planning.tour import Tour, plan_tour
+from bim2rdt.planning.viewpoints import pick_viewpoint, reachable
 from bim2rdt.planning.zones import KeepOut, worker_keepouts
 
 __all__ = ["Footprint", "GridFrame", "KeepOut", "Leg", "Navigator", "OccupancyGrid", "PlanningError", "Replan", "Tour",
            "first_blocked_leg",
-           "line_of_sight", "occluders", "path_length", "plan_path", "plan_tour", "worker_keepouts"]
+           "line_of_sight", "occluders", "path_length", "pick_viewpoint", "plan_path", "plan_tour", "reachable",
+           "worker_keepouts"]
