@@ -8,8 +8,10 @@
 3. replanning after one new obstacle dropped on the path: ``with_obstacles`` + ``plan_path`` against rebuilding
    the grid from scratch with the obstacle + ``plan_path``.
 
-Contenders are interleaved and each figure is the best of ``repeat`` runs (wall time; the machine is shared, so
-ratios are what to read). Path planning, the fastest, runs ``PATH_ROUNDS`` pairs per repeat.
+Contenders run in pairs, back to back (alternating which goes first), and each ratio is the median over pairs
+of ours / peer: on a machine shared with other jobs, two runs a few milliseconds apart see the same load, while
+the best-of of each alone may come from different quiet moments. Times shown are the best of each. Path
+planning, the fastest, runs ``PATH_ROUNDS`` pairs per repeat.
 """
 
 from __future__ import annotations
@@ -45,21 +47,22 @@ class PlanningBenchResult:
     times: dict[str, float] = field(default_factory=dict)
     facts: dict[str, object] = field(default_factory=dict)
 
+    ratios: dict[str, float] = field(default_factory=dict)
+
     @property
     def path_ratio(self) -> float:
-        return self.times["plan_path"] / self.times["pyastar2d"]
+        return self.ratios["path"]
 
     def to_dict(self) -> dict:
-        t = self.times
-        return {"file": self.file, "repeat": self.repeat, "times_s": t, **self.facts,
-                "grid_vs_cold_load": t["grid_build"] / t["load_cold"],
-                "grid_vs_section_floor": t["grid_build"] / t["section_floor"],
+        return {"file": self.file, "repeat": self.repeat, "times_s": self.times, **self.facts,
+                "grid_vs_cold_load": self.ratios["grid_vs_cold_load"],
+                "grid_vs_section_floor": self.ratios["grid_vs_section_floor"],
                 "path_ratio": self.path_ratio, "path_target": PATH_TARGET, "path_ok": self.path_ratio <= PATH_TARGET,
-                "replan_vs_rebuild": t["replan"] / t["rebuild_and_plan"]}
+                "replan_vs_rebuild": self.ratios["replan_vs_rebuild"]}
 
 
 def run_planning_bench(ifc_path: Path, repeat: int = 3, step: Callable[[str], None] | None = None) -> PlanningBenchResult:
-    """All three benchmarks; ``step(label)`` after each timed step (for a progress bar: 6 * repeat steps)."""
+    """All three benchmarks; ``step(label)`` after each timed step (for a progress bar: 5 * repeat steps)."""
     result = PlanningBenchResult(ifc_path.name, repeat)
     _grid_build(result, ifc_path, repeat, step or (lambda label: None))
     _path_and_replan(result, repeat, step or (lambda label: None))
@@ -112,6 +115,7 @@ def _grid_build(result: PlanningBenchResult, ifc_path: Path, repeat: int, step: 
             _timed(floor, lambda: section_floor(model, z, grid.frame))
             step("one-section floor")
     result.times.update(load_cold=min(cold), grid_build=min(built), section_floor=min(floor))
+    result.ratios.update(grid_vs_cold_load=_paired(built, cold), grid_vs_section_floor=_paired(built, floor))
     result.facts["grid"] = {"storey": grid.storey, "floor": grid.floor_source, "cells": list(grid.frame.shape),
                             "footprints": len(grid.footprints), "open_doors": len(grid.open_doors)}
 
@@ -123,20 +127,21 @@ def _path_and_replan(result: PlanningBenchResult, repeat: int, step: Callable[[s
     start_cell, goal_cell = grid.frame.cell_of(start), grid.frame.cell_of(goal)
     ours, bare = [], []
     for _ in range(repeat):
-        for _ in range(PATH_ROUNDS):
-            path = _timed(ours, lambda: plan_path(grid, start, goal))
-            cells = _timed(bare, lambda: pyastar2d.astar_path(grid.cost, start_cell, goal_cell, allow_diagonal=True))
+        for k in range(PATH_ROUNDS):
+            path, cells = _pair(ours, lambda: plan_path(grid, start, goal), bare,
+                                lambda: pyastar2d.astar_path(grid.cost, start_cell, goal_cell, allow_diagonal=True),
+                                swap=k % 2 == 1)
         step("plan_path vs pyastar2d.astar_path")
     drop = _on_path(path)
     obstacle = {"drum": _Dropped(drop)}
     with_drum = grid.with_obstacles(obstacle).occupied
     replan, rebuild = [], []
-    for _ in range(repeat):
-        detour = _timed(replan, lambda: plan_path(grid.with_obstacles(obstacle), start, goal))
-        step("with_obstacles + plan_path")
-        _timed(rebuild, lambda: plan_path(_rebuilt(with_drum), start, goal))
-        step("rebuild + plan_path")
+    for k in range(repeat):
+        detour, _ = _pair(replan, lambda: plan_path(grid.with_obstacles(obstacle), start, goal),
+                          rebuild, lambda: plan_path(_rebuilt(with_drum), start, goal), swap=k % 2 == 1)
+        step("with_obstacles + plan_path vs rebuild + plan_path")
     result.times.update(plan_path=min(ours), pyastar2d=min(bare), replan=min(replan), rebuild_and_plan=min(rebuild))
+    result.ratios.update(path=_paired(ours, bare), replan_vs_rebuild=_paired(replan, rebuild))
     result.facts["maze"] = {"cells": list(grid.frame.shape), "grid_path_cells": int(len(cells)),
                             "waypoints": int(len(path)), "path_m": path_length(path),
                             "obstacle_xy": [float(drop[0]), float(drop[1])], "detour_m": path_length(detour)}
@@ -163,6 +168,20 @@ def _on_path(path: np.ndarray) -> np.ndarray:
 def _rebuilt(occupied: np.ndarray) -> OccupancyGrid:
     """The peer of an incremental update: the whole grid inflated again, the new obstacle already drawn in."""
     return OccupancyGrid.from_occupancy(occupied, MAZE_RESOLUTION, robot_radius=ROBOT_RADIUS)
+
+
+def _pair(ours: list[float], our_work: Callable, peers: list[float], peer_work: Callable, swap: bool):
+    """Time both back to back (the peer first when ``swap``); returns (our result, the peer's)."""
+    if swap:
+        theirs = _timed(peers, peer_work)
+        return _timed(ours, our_work), theirs
+    mine = _timed(ours, our_work)
+    return mine, _timed(peers, peer_work)
+
+
+def _paired(ours: list[float], peer: list[float]) -> float:
+    """Median over runs of ours / peer (run k of each ran back to back)."""
+    return float(np.median(np.asarray(ours) / np.asarray(peer)))
 
 
 def _timed(times: list[float], work: Callable):

@@ -96,7 +96,7 @@ def bench_planning_command(
 
     path = ifc_file or sample_file(BENCH_FILE)
     with Progress(console=_status, transient=True, disable=not _status.is_terminal) as progress:
-        task = progress.add_task("planning benchmark", total=6 * repeat)
+        task = progress.add_task("planning benchmark", total=5 * repeat)
         result = run_planning_bench(path, repeat, step=lambda label: progress.update(task, advance=1, description=label))
     summary = result.to_dict()
     if as_json:
@@ -111,5 +111,5 @@ def bench_planning_command(
              f"{summary['path_ratio']:.3f}", f"<= {summary['path_target']}", "yes" if summary["path_ok"] else "NO"),
             ("replan: with_obstacles + plan_path", "one drum on the path", t["replan"], "rebuild grid + plan_path",
              t["rebuild_and_plan"], f"{summary['replan_vs_rebuild']:.3f}", "", "")]
-    print_table(f"Planning benchmark (best of {repeat}; wall seconds)",
+    print_table(f"Planning benchmark (wall seconds, best of {repeat}; ratio: median over back-to-back pairs)",
                 ["ours", "on", "s", "peer", "peer s", "ratio", "target", "met"], rows)
