@@ -9,7 +9,7 @@ import trimesh
 from bim2rdt.planning import KeepOut, Navigator, PlanningError, path_length, plan_path, worker_keepouts
 from bim2rdt.sim.site import yaw_pose
 
-from planning_checks import samples_free
+from path_checks import samples_free
 
 DOCK, EAST_ROOM = np.array([1.0, 1.0]), np.array([16.0, 10.0])
 

@@ -11,7 +11,7 @@ from bim2rdt.planning import KeepOut, OccupancyGrid, PlanningError, path_length,
 from bim2rdt.sim.site import yaw_pose
 from bim2rdt.twin import ElementStatus
 
-from planning_checks import samples_free, segments_through, wall_mesh
+from path_checks import samples_free, segments_through, wall_mesh
 
 DOCK, EAST_ROOM = (1.0, 1.0), (16.0, 10.0)
 

@@ -6,7 +6,7 @@ import pytest
 
 from bim2rdt.planning import OccupancyGrid, PlanningError, path_length, plan_path
 
-from planning_checks import samples_free, segments_through, wall_mesh
+from path_checks import samples_free, segments_through, wall_mesh
 
 pytestmark = pytest.mark.samples
 

@@ -50,6 +50,12 @@ def _show_site_day(result) -> None:
 
     print_table("Robot mission: BIM objects verified with SG-ICP", OBSERVATION_COLUMNS,
                 [observation_cells(r) for r in observation_rows(result.site_day)])
+    if result.site_day.route is not None:
+        from bim2rdt.demo.routes import route_rows
+
+        summary = result.site_day.route.summary()
+        print_table(f"Robot route: {summary['stations']} stations, {summary['walked_m']} m walked on planned paths; "
+                    "replans", ("time (UTC)", "at (x, y) m", "why"), route_rows(result.site_day.route))
     events = [e for e in result.site_day.hav_events if not e.kind.endswith("predicted")]
     print_table("Hand-arm vibration events (written to the twin as IfcEvent/IfcTask)",
                 ("event", "worker", "A(8) m/s²"),

@@ -77,6 +77,14 @@ def save_plan_map(grid: OccupancyGrid, path: Path, **kwargs) -> Path:
     return Path(path)
 
 
+def outline(points_xy: np.ndarray) -> np.ndarray:
+    """The convex outline (K, 2) of plan points (N, 2), e.g. an object's mesh vertices at its pose."""
+    from scipy.spatial import ConvexHull
+
+    unique = np.unique(np.round(points_xy, 4), axis=0)
+    return unique[ConvexHull(unique).vertices] if len(unique) >= 3 else unique
+
+
 def _layer_image(grid: OccupancyGrid) -> np.ndarray:
     """RGBA (rows, cols, 4): one colour per layer, the later ones on top."""
     masks = {"floor edge": grid.layer(["floor edge"]), "margin": grid.blocked,

@@ -18,9 +18,9 @@ from bim2rdt.planning.raster import Footprint
 from bim2rdt.planning.sight import first_blocked_leg, line_of_sight, occluders
 from bim2rdt.planning.tour import Tour, plan_tour
 from bim2rdt.planning.viewpoints import pick_viewpoint, reachable
-from bim2rdt.planning.zones import KeepOut, worker_keepouts
+from bim2rdt.planning.zones import KeepOut, WorkerZones, activity_windows, worker_keepouts
 
-__all__ = ["Footprint", "GridFrame", "KeepOut", "Leg", "Navigator", "OccupancyGrid", "PlanningError", "Replan", "Tour",
+__all__ = ["Footprint", "GridFrame", "KeepOut", "Leg", "WorkerZones", "activity_windows", "Navigator", "OccupancyGrid", "PlanningError", "Replan", "Tour",
            "first_blocked_leg",
            "line_of_sight", "occluders", "path_length", "pick_viewpoint", "plan_path", "plan_tour", "reachable",
            "worker_keepouts"]

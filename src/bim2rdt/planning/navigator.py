@@ -73,9 +73,17 @@ class Navigator:
         self.grid = self._current_grid()
 
     def wait(self, seconds: float) -> None:
-        """Stand still (capturing at a station); zones that change meanwhile take effect."""
-        self.time += float(seconds)
-        self._catch_up()
+        """Stand still (capturing at a station); a zone that switches on around the robot meanwhile makes it
+        step out at once."""
+        end = self.time + float(seconds)
+        change = self._next_change()
+        while change is not None and change <= end:
+            self.time = max(self.time, change)
+            self._zone_time = change
+            self.grid = self._current_grid()
+            self._step_out([self.position.copy()], "a keep-out zone switched on around the robot")
+            change = self._next_change()
+        self.time = max(self.time, end)
 
     def go(self, goal_xy, path: np.ndarray | None = None) -> np.ndarray:
         """Walk to ``goal_xy`` along ``path`` (planned now if None), replanning as the world changes; returns the
@@ -119,8 +127,10 @@ class Navigator:
     def _checked(self, path: np.ndarray | None, goal: np.ndarray) -> tuple[np.ndarray, str | None]:
         """The given path, or a new one if there is none, it no longer starts here, or the grid now blocks it
         (then also why)."""
-        if path is None or not np.allclose(np.asarray(path, float)[0], self.position):
+        if path is None:
             return self._plan(goal, None), None
+        if not np.allclose(np.asarray(path, float)[0], self.position):
+            return self._plan(goal, "the planned leg starts elsewhere"), "the planned leg starts elsewhere"
         reason = self._blocked_reason(np.asarray(path, float))
         return (np.asarray(path, float), None) if reason is None else (self._plan(goal, reason), reason)
 
@@ -150,6 +160,10 @@ class Navigator:
         free = self.grid.nearest_free(self.position, ESCAPE_DISTANCE)
         if free is None:
             raise PlanningError(f"the robot at ({self.position[0]:.2f}, {self.position[1]:.2f}) is trapped: {reason}")
+        blockers = self.grid.blockers_at(self.position)
+        reason = f"{blockers[0][0].label} closed in around the robot" if blockers else reason
+        self.replans.append(Replan(self.time, (float(self.position[0]), float(self.position[1])),
+                                   f"stepped out: {reason}"))
         self._walk(np.array([self.position, free]), self.time + np.linalg.norm(free - self.position) / self.speed,
                    f"stepped out: {reason}", walked)
 

@@ -20,6 +20,7 @@ from bim2rdt.bim import BimModel, BimZone
 from bim2rdt.planning.errors import PlanningError
 from bim2rdt.planning.frame import GridFrame
 from bim2rdt.planning.raster import Footprint, disc_cells, mesh_cells, polygon_cells
+from bim2rdt.safety.activity import ACTIVITY_ENDED, ACTIVITY_STARTED
 
 WORKER_RADIUS = 1.0
 """Keep-out radius around a worker, m: room to pass without crowding them."""
@@ -103,3 +104,42 @@ def _bim_zone_cells(zone: BimZone, model: BimModel | None, z_band: tuple[float, 
     for r, c, part in parts:
         mask[r - row0:r - row0 + part.shape[0], c - col0:c - col0 + part.shape[1]] |= part
     return row0, col0, mask
+
+
+def activity_windows(events: Iterable) -> dict[str, list[tuple[float, float]]]:
+    """{device: [(start, end) s]} of live tool use, from the HAV monitor's events (read duck-typed: ``kind``,
+    ``time``, ``source`` = the wearable's device id). An activity not yet ended runs to infinity."""
+    windows: dict[str, list[tuple[float, float]]] = {}
+    open_since: dict[str, float] = {}
+    for event in sorted(events, key=lambda e: e.time):
+        if event.kind == ACTIVITY_STARTED:
+            open_since.setdefault(event.source, event.time)
+        elif event.kind == ACTIVITY_ENDED and event.source in open_since:
+            windows.setdefault(event.source, []).append((open_since.pop(event.source), event.time))
+    for device, since in open_since.items():
+        windows.setdefault(device, []).append((since, float("inf")))
+    return windows
+
+
+@dataclass(frozen=True)
+class WorkerZones:
+    """Workers' keep-out circles through the day: ``spots`` {device: (x, y) m} where each worker is (a tag, the
+    site plan), ``windows`` when each one's tool runs (``activity_windows``). Call it with a time for the zones
+    in force; ``changes`` are the times they change (a navigator's ``zone_changes``)."""
+
+    spots: dict[str, tuple[float, float]]
+    windows: dict[str, list[tuple[float, float]]]
+    radius: float = WORKER_RADIUS
+    live_radius: float = WORKER_LIVE_RADIUS
+
+    def __call__(self, time: float) -> list[KeepOut]:
+        return worker_keepouts([(device, xy, self.live(device, time)) for device, xy in self.spots.items()],
+                               self.radius, self.live_radius)
+
+    def live(self, device: str, time: float) -> bool:
+        return any(start <= time < end for start, end in self.windows.get(device, ()))
+
+    @property
+    def changes(self) -> list[float]:
+        return sorted({t for device in self.spots for window in self.windows.get(device, ()) for t in window
+                       if np.isfinite(t)})
