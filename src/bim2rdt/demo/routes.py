@@ -32,13 +32,14 @@ looking ahead and walks round it."""
 
 @dataclass
 class DayRoute:
-    """The map the robot planned on (the BIM, its off-limits zones), its route plan and walk, and the workers'
-    zones through the day."""
+    """The map the robot planned on (the BIM, its off-limits zones), its route plan and walk, the workers' zones
+    through the day, and the mission's config with the storey's own slab height."""
 
     grid: OccupancyGrid
     plan: RoutePlan
     route: PlannedRoute
     workers: WorkerZones
+    config: MissionConfig
 
     @property
     def navigator(self) -> Navigator:
@@ -74,7 +75,8 @@ def plan_day_route(model: BimModel, targets: Sequence[Target], start_xy, config:
     plan = plan_route(targets, start_xy, grid.with_zones(zones_at(leaves)), config)
     navigator = Navigator(grid, np.asarray(start_xy, float), time=leaves, zones_at=zones_at,
                           zone_changes=workers.changes)
-    return DayRoute(grid, plan, PlannedRoute(plan, navigator, config.camera_height), workers)
+    return DayRoute(grid, plan, PlannedRoute(plan, navigator, config.camera_height), workers,
+                    config.model_copy(update={"slab_height": grid.floor_z}))
 
 
 def draw_walk(ax, day_route: DayRoute, stations: Sequence[np.ndarray]) -> None:

@@ -69,7 +69,7 @@ def run_site_day(out_dir: Path, seed: int = 0, workers: int = 2, minutes: float 
     tick("hav")
     route = plan_day_route(model, targets, ROBOT_START_XY, mission_config, events, _shift_start())
     mission = run_mission(targets, route.plan.stations, SimulatedPerception(reality, seed=seed), priors,
-                          mesh_for_family, mission_config, tick=lambda: tick("station"), route=route.route)
+                          mesh_for_family, route.config, tick=lambda: tick("station"), route=route.route)
     apply_observations(writer, mission.observations)
     tick("twin")
     twin_path = writer.save(out_dir / "site_twin.ifc")
@@ -96,8 +96,10 @@ def _observation_properties(obs: Observation) -> dict:
             "Station": int(obs.station)}
 
 
-def _hav_day(writer: TwinWriter, model: BimModel, state_dir: Path, workers: int, minutes: float, fs: float):
-    """Simulated wearables -> in-process bus -> monitor -> IFC records on ``writer``."""
+def _hav_day(writer: TwinWriter | None, model: BimModel, state_dir: Path, workers: int, minutes: float, fs: float,
+             zone: str | None = WORK_ZONE):
+    """Simulated wearables -> in-process bus -> monitor -> IFC records on ``writer`` (none without one: an IFC2X3
+    model has no IfcEvent/IfcTask to write), the workers in work zone ``zone``."""
     from bim2rdt.bus import LocalBus
     from bim2rdt.config import get_settings
     from bim2rdt.safety import HavMonitor, ListSink
@@ -107,15 +109,15 @@ def _hav_day(writer: TwinWriter, model: BimModel, state_dir: Path, workers: int,
 
     shutil.rmtree(state_dir, ignore_errors=True)
     settings = get_settings()
-    events, ifc_sink = ListSink(), IfcSink(writer, model)
-    monitor = HavMonitor(state_dir, settings.hav.site_secret, [events, ifc_sink],
+    events, ifc_sink = ListSink(), IfcSink(writer, model) if writer is not None else None
+    monitor = HavMonitor(state_dir, settings.hav.site_secret, [events] + ([ifc_sink] if ifc_sink else []),
                          monitor_config(settings, keep_timeline=True))
     bus = LocalBus().connect()
     monitor.attach(bus)
-    publish_plans(lambda device: bus, default_plans(workers, minutes, WORK_ZONE), settings.mqtt.site, fs,
+    publish_plans(lambda device: bus, default_plans(workers, minutes, zone), settings.mqtt.site, fs,
                   t0=_shift_start())
     monitor.close()
-    return events.events, list(monitor.timeline), list(ifc_sink.records)
+    return events.events, list(monitor.timeline), list(ifc_sink.records) if ifc_sink else []
 
 
 def _shift_start() -> float:

@@ -137,7 +137,10 @@ def plot_exposure(day: SiteDay, path: Path) -> Path:
 
 
 def _markdown(day: SiteDay, rows: list[dict], record: dict) -> str:
-    lines = ["# bim2rdt site day", "", f"Twin written to `{day.twin_path.name}` (as-designed model: `site.ifc`).", "",
+    twin = (f"Twin written to `{day.twin_path.name}` (as-designed model: `site.ifc`)." if day.twin_path else
+            f"No IFC twin written: `site.ifc` is {day.model.schema}, which has no IfcEvent or IfcTaskTime; IFC "
+            "write-back needs IFC4 (the twin lives in the history and BCF).")
+    lines = ["# bim2rdt site day", "", twin, "",
              "## Objects verified by the robot", "",
              "| " + " | ".join(("family", *OBSERVATION_COLUMNS)) + " |", "|---" * (len(OBSERVATION_COLUMNS) + 1) + "|"]
     lines += ["| " + " | ".join((r["family"], *observation_cells(r))) + " |" for r in rows]

@@ -24,7 +24,7 @@ import trimesh
 from bim2rdt.mission.association import associate
 from bim2rdt.mission.config import MissionConfig
 from bim2rdt.mission.fitting import best_fit, initial_poses, rests_on_slab
-from bim2rdt.mission.ground import SLAB_HEIGHT, off_slab
+from bim2rdt.mission.ground import off_slab
 from bim2rdt.mission.records import MissionResult, Observation, Target
 from bim2rdt.mission.route import DirectRoute, Locate, Route
 from bim2rdt.mission.verdict import pose_delta, verdict
@@ -100,7 +100,7 @@ def _observe(detection: Detection, target: Target | None, mesh: trimesh.Trimesh,
     object_pts = off_slab(detection.points_world, config)
     fit = best_fit(model_pts, model_normals, object_pts, initial_poses(detection, target, model_pts, config),
                    prior, config, icp, local_first=target is not None,
-                   support_height=SLAB_HEIGHT if rests_on_slab(target, model_pts, config) else None)
+                   support_height=config.slab_height if rests_on_slab(target, model_pts, config) else None)
     reference = target.placement if target else fit.pose
     shift, yaw, tilt = pose_delta(reference, closest_equivalent(fit.pose, reference, prior.symmetry))
     observation = Observation(detection.family, target.global_id if target else None,
