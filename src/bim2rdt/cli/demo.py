@@ -52,7 +52,8 @@ def demo_command(
         console.print(f"(registration: {trials} trials per scenario, a quick look; the paper's targets are judged "
                       "on 50 trials by `bim2rdt bench registration`)")
     twin = result.site_day.twin_path or f"not written back ({result.site_day.model.schema}: IFC write-back needs IFC4)"
-    console.print(f"twin: {twin}; report: {result.report['report']}; plots and JSON in {out}")
+    console.print(f"twin: {twin} (history {out / 'twin.db'}, issues {out / 'site_issues.bcf'}); report: "
+                  f"{result.report['html']} and {result.report['report']}; plots and JSON in {out}")
 
 
 def _show_site_day(result) -> None:

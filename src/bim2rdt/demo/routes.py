@@ -103,6 +103,24 @@ def save_route_map(day_route: DayRoute, objects: Sequence[MapObject], stations: 
                                f"{len(navigator.replans)} replans")
 
 
+def write_route_files(day, out_dir: Path) -> dict[str, Path]:
+    """For a day with a planned route (a ``SiteDay``): ``plan_map.png`` (the robot's map, the objects by their
+    twin status, the walk, stations and zones; ``report.html`` shows it) and the Nav2 map of what the robot knows
+    at the end of the day (the BIM with the twin's observed objects, the off-limits zones as the keep-out mask)
+    in ``nav2/site.*``."""
+    from bim2rdt.demo.site_twin import map_outlines
+
+    if day.twin is not None:
+        states = day.twin.state()
+        objects = [MapObject(o.name, o.outline_xy, o.status, o.planned_xy) for o in map_outlines(day.twin, states)]
+    else:
+        states, objects = {}, map_objects(day.model, day.mission.observations)
+    written = {"plan_map": save_route_map(day.route, objects, day.mission.stations, out_dir / "plan_map.png")}
+    known = day.route.grid.with_obstacles(states).with_zones(day.model.zones)
+    written.update({f"nav2_{what}": path for what, path in known.save_nav2(out_dir / "nav2", "site").items()})
+    return written
+
+
 def map_objects(model: BimModel, observations) -> list[MapObject]:
     """Map objects from the mission's observations: each body mesh at its measured pose, coloured by status,
     with its BIM outline where it is a BIM element."""
@@ -135,7 +153,7 @@ def route_markdown(day_route: DayRoute) -> list[str]:
         lines += [f"Not visited: {'; '.join([*summary['unplaced'].values(), *summary['skipped'].values()])}.", ""]
     lines += ["| time (UTC) | at (x, y) m | why the robot replanned |", "|---|---|---|"]
     lines += [f"| {t} | {xy} | {why} |" for t, xy, why in route_rows(day_route)]
-    return lines + ["", "![route](route.png)", ""]
+    return lines + ["", "![plan map](plan_map.png)", ""]
 
 
 def _outline(vertices_body: np.ndarray, T_world_model: np.ndarray) -> np.ndarray:

@@ -16,13 +16,15 @@ import numpy as np  # noqa: E402
 from bim2rdt.atomic import write_bytes_atomic  # noqa: E402
 from bim2rdt.safety import EAV, ELV  # noqa: E402
 from bim2rdt.demo.plan_map import outline  # noqa: E402
-from bim2rdt.demo.routes import draw_walk, map_objects, route_markdown, save_route_map  # noqa: E402
+from bim2rdt.demo.routes import draw_walk, route_markdown, write_route_files  # noqa: E402
 from bim2rdt.demo.site_day import SiteDay, objects_of_interest  # noqa: E402
 from bim2rdt.sim.meshes import mesh_for_family  # noqa: E402
 from bim2rdt.sim.reality import TrueObject  # noqa: E402
 from bim2rdt.sim.truth import match_truth, pose_error  # noqa: E402
+from bim2rdt.twin import ElementStatus  # noqa: E402
 
-STATUS_COLOURS = {"as-planned": "tab:green", "moved": "tab:orange", "new": "tab:red", "unverified": "tab:grey"}
+STATUS_COLOURS = {ElementStatus.AS_PLANNED: "tab:green", ElementStatus.DEVIATING: "tab:orange",
+                  ElementStatus.NEW: "tab:red", ElementStatus.UNVERIFIED: "tab:grey"}
 OBSERVATION_COLUMNS = ("object", "verdict", "truth", "bias", "shift m", "yaw °", "tilt °", "fitness", "err cm",
                        "err °")
 """Headers of :func:`observation_cells`, shared by the terminal table and report.md."""
@@ -43,9 +45,9 @@ def observation_rows(day: SiteDay) -> list[dict]:
                  if truth else None)
         rows.append({
             "family": obs.family, "label": day.priors[obs.family].label, "global_id": obs.global_id,
-            "status": obs.status, "truth": truth.change if truth else None, "upright_bias": obs.upright_bias,
+            "status": obs.status.value, "truth": truth.change if truth else None, "upright_bias": obs.upright_bias,
             "shift_m": obs.shift, "yaw_deg": obs.yaw_deg, "tilt_deg": obs.tilt_deg, "points": obs.points,
-            "fitness": obs.fit.fitness, "rmse_m": obs.fit.rmse, "frames": list(obs.frames),
+            "fitness": obs.fitness, "rmse_m": obs.rmse, "frames": list(obs.frames),
             "error_rotation_deg": error.rotation_deg if error else None,
             "error_translation_m": error.translation if error else None,
             "error_tilt_deg": error.tilt_deg if error else None})
@@ -64,15 +66,15 @@ def observation_cells(row: dict) -> tuple[str, ...]:
 
 
 def write_site_report(day: SiteDay, out_dir: Path) -> dict[str, Path]:
-    """Write plan.png, exposure.png, site_day.json and report.md into ``out_dir``; returns their paths."""
+    """Write plan.png, exposure.png, site_day.json and report.md into ``out_dir``, and with a planned route the
+    plan map and the Nav2 map (:func:`bim2rdt.demo.routes.write_route_files`); returns their paths."""
     rows = observation_rows(day)
     paths = {"plan": plot_plan(day, out_dir / "plan.png"), "exposure": plot_exposure(day, out_dir / "exposure.png")}
     record = {"twin": str(day.twin_path), "observations": rows, "not_seen": day.mission.not_seen,
               "hav_events": [_event_row(e) for e in day.hav_events if not e.kind.endswith("predicted")],
               "twin_records": day.twin_records, "route": day.route.summary() if day.route else None}
     if day.route is not None:
-        paths["route"] = save_route_map(day.route, map_objects(day.model, day.mission.observations),
-                                        day.mission.stations, out_dir / "route.png")
+        paths.update(write_route_files(day, out_dir))
     paths["json"] = out_dir / "site_day.json"
     write_bytes_atomic(paths["json"], json.dumps(record, indent=2, default=float).encode("utf-8"))
     paths["report"] = out_dir / "report.md"
@@ -96,7 +98,7 @@ def plot_plan(day: SiteDay, path: Path) -> Path:
         stations = np.array([T[:3, 3] for T in day.mission.stations])
         ax.plot(stations[:, 0], stations[:, 1], "-o", color="tab:blue", ms=4, lw=1, label="robot stations")
     for status, colour in STATUS_COLOURS.items():
-        ax.fill([], [], color=colour, alpha=0.7, label=status)
+        ax.fill([], [], color=colour, alpha=0.7, label=status.value)
     ax.set(aspect="equal", xlabel="x (m)", ylabel="y (m)",
            title="Site plan: BIM (dashed) vs measured by SG-ICP (filled); x = true position")
     ax.legend(loc="upper right", fontsize=8)

@@ -132,12 +132,14 @@ class Located:
 
 class PlannedRoute:
     """Walks ``plan`` with ``navigator`` (start it at the dock, on the shift's clock), standing ``dwell_s`` at
-    each station. Afterwards ``walked`` has the path walked to each station, ``skipped`` {station: why},
+    each station. Afterwards ``walked`` has the path walked to each station, ``arrivals`` when it got there
+    (the navigator's clock), ``skipped`` {station: why},
     ``located`` the objects put into the map, and ``navigator.replans`` every replan."""
 
     def __init__(self, plan: RoutePlan, navigator: Navigator, camera_height: float, dwell_s: float = DWELL_S) -> None:
         self.plan, self.navigator, self.camera_height, self.dwell_s = plan, navigator, camera_height, dwell_s
         self.walked: dict[int, np.ndarray] = {}
+        self.arrivals: dict[int, float] = {}
         self.skipped: dict[int, str] = {}
         self.located: dict[str, Located] = {}
 
@@ -152,6 +154,7 @@ class PlannedRoute:
         except PlanningError as error:
             taken = self._another_viewpoint(index, str(error))
         if taken is not None:
+            self.arrivals[index] = self.navigator.time
             self.navigator.wait(self.dwell_s)
         return taken
 
