@@ -82,3 +82,18 @@ def _along(path, fractions):
     lengths = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(path, axis=0), axis=1))]
     at = fractions * lengths[-1]
     return np.stack([np.interp(at, lengths, path[:, 0]), np.interp(at, lengths, path[:, 1])], axis=1)
+
+
+def test_the_report_gets_the_plan_map_and_a_nav2_map_with_what_the_twin_found(day, tmp_path):
+    from bim2rdt.demo.routes import write_route_files
+    from bim2rdt.planning.nav2 import read_pgm
+
+    written = write_route_files(day, tmp_path)
+    assert written["plan_map"] == tmp_path / "plan_map.png" and written["plan_map"].stat().st_size > 10_000
+    occupied = read_pgm(tmp_path / "nav2" / "site.pgm")[::-1] == 0
+    grid = day.route.grid
+    drum = next(t.T_world_model[:2, 3] for t in day.reality.truth if t.change == "unplanned")
+    assert occupied[grid.frame.cell_of(drum)]                 # the twin's new drum is on the map
+    assert not (day.route.grid.occupied[grid.frame.cell_of(drum)])   # the BIM alone did not have it
+    keepout = read_pgm(tmp_path / "nav2" / "site_keepout.pgm")[::-1] == 0
+    assert keepout[grid.frame.cell_of((16.5, 3.0))] and not keepout[grid.frame.cell_of((9.0, 8.0))]

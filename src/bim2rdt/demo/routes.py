@@ -92,11 +92,13 @@ def draw_walk(ax, day_route: DayRoute, stations: Sequence[np.ndarray]) -> None:
 
 
 def save_route_map(day_route: DayRoute, objects: Sequence[MapObject], stations: Sequence[np.ndarray],
-                   path: Path) -> Path:
+                   path: Path, twin_state=None) -> Path:
     """The plan map of the walk (``demo.plan_map``): the robot's final map (walls, margin, off-limits and worker
-    zones as they were when it finished), ``objects`` by status, the walk and its stations."""
+    zones as they were when it finished; with ``twin_state``, the objects where the twin has them), ``objects`` by
+    status, the walk and its stations."""
     navigator = day_route.navigator
-    return save_plan_map(navigator.grid, path, objects=objects, stations=stations,
+    grid = navigator.grid if twin_state is None else navigator.grid.with_obstacles(twin_state)
+    return save_plan_map(grid, path, objects=objects, stations=stations,
                          paths=[leg.path for leg in navigator.legs if not leg.replanned],
                          replanned=[leg.path for leg in navigator.legs if leg.replanned],
                          title=f"Robot route: {day_route.summary()['walked_m']} m walked, "
@@ -115,7 +117,8 @@ def write_route_files(day, out_dir: Path) -> dict[str, Path]:
         objects = [MapObject(o.name, o.outline_xy, o.status, o.planned_xy) for o in map_outlines(day.twin, states)]
     else:
         states, objects = {}, map_objects(day.model, day.mission.observations)
-    written = {"plan_map": save_route_map(day.route, objects, day.mission.stations, out_dir / "plan_map.png")}
+    written = {"plan_map": save_route_map(day.route, objects, day.mission.stations, out_dir / "plan_map.png",
+                                          states if day.twin is not None else None)}
     known = day.route.grid.with_obstacles(states).with_zones(day.model.zones)
     written.update({f"nav2_{what}": path for what, path in known.save_nav2(out_dir / "nav2", "site").items()})
     return written

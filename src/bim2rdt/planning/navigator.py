@@ -130,7 +130,8 @@ class Navigator:
         if path is None:
             return self._plan(goal, None), None
         if not np.allclose(np.asarray(path, float)[0], self.position):
-            return self._plan(goal, "the planned leg starts elsewhere"), "the planned leg starts elsewhere"
+            why = "the planned leg started elsewhere (the stop before it moved)"
+            return self._plan(goal, why), why
         reason = self._blocked_reason(np.asarray(path, float))
         return (np.asarray(path, float), None) if reason is None else (self._plan(goal, reason), reason)
 
