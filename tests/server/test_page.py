@@ -11,7 +11,9 @@ from pathlib import Path
 
 import pytest
 
-from server_helpers import SITE_SECRET, T_TWIN, config_with_tokens, feed, vibration
+import httpx
+
+from server_helpers import SITE_SECRET, T_TWIN, auth, config_with_tokens, feed, vibration
 
 CHROMIUM = "/usr/bin/chromium"
 FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
@@ -102,11 +104,23 @@ def test_the_page_shows_the_twin_and_warns_the_moment_a_worker_crosses_the_eav(p
         expect(banner).to_be_visible()
         expect(gauge).to_have_attribute("data-risk", "above_elv")
         shots.append(_shot(page, tmp_path / "page-elv-alarm.png"))
+        assert page.locator(".gauge .reveal").count() == 0  # a viewer cannot reveal
+
+        officer = browser.new_page(viewport={"width": 1400, "height": 900})
+        officer.on("dialog", lambda dialog: dialog.accept("HAV health surveillance referral"))
+        officer.goto(f"{url}/#token={tokens['safety']}")
+        officer.locator(".gauge .reveal").first.click()
+        expect(officer.locator(".gauge .name").first).to_have_text("carla.diaz")
+        officer.wait_for_timeout(1500)  # the next exposure update redraws the gauges: the name stays
+        expect(officer.locator(".gauge .name").first).to_have_text("carla.diaz")
         browser.close()
 
     assert shown < 2.0, f"the banner took {shown:.2f} s"
     assert not errors, errors
     assert all(u.startswith(url) or u.startswith(("data:", "blob:")) for u in requested), requested
+    audit = httpx.get(f"{url}/api/audit", headers=auth(tokens["admin"])).json()
+    assert [(e["who"], e["action"], e["why"]) for e in audit] == [
+        ("safety-user", "identity", "HAV health surveillance referral")]
     _keep(shots)
 
 

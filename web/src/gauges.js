@@ -4,15 +4,15 @@ import { duration, el, num, utc } from "./format.js";
 
 const SCALE = 6.0; // m/s² A(8) at the bar's right end (ELV 5 × 1.2)
 
-export function drawGauges(root, workers, canReveal, onReveal) {
+export function drawGauges(root, workers, canReveal, onReveal, names = new Map()) {
   if (!workers.length) {
     root.replaceChildren(el("p", { class: "empty" }, "No worker is wearing a sensor today."));
     return;
   }
-  root.replaceChildren(...workers.map((w) => gauge(w, canReveal, onReveal)));
+  root.replaceChildren(...workers.map((w) => gauge(w, canReveal, onReveal, names.get(w.subject))));
 }
 
-function gauge(worker, canReveal, onReveal) {
+function gauge(worker, canReveal, onReveal, name) {
   const a8 = worker.a8 ?? 0;
   const level = worker.risk === "above_elv" ? "alarm" : worker.risk === "above_eav" ? "warning" : "ok";
   const fill = el("div", { class: `fill ${level}` });
@@ -31,7 +31,7 @@ function gauge(worker, canReveal, onReveal) {
       : `ELV reached ${utc(worker.elv_at)} UTC — stop work`;
   const reveal = canReveal ? el("button", { class: "reveal", onclick: () => onReveal(worker.subject) }, "identify…") : null;
   return el("div", { class: `gauge ${level}`, "data-subject": worker.subject, "data-risk": worker.risk },
-    el("div", { class: "who" }, el("strong", {}, worker.subject), el("span", { class: "name", id: `name-${worker.subject}` }), reveal),
+    el("div", { class: "who" }, el("strong", {}, worker.subject), el("span", { class: "name" }, name ?? ""), name ? null : reveal),
     el("div", { class: "value" }, el("span", { class: "a8" }, num(a8, 2)), " m/s² A(8)", el("span", { class: "points" }, `${Math.round(worker.points ?? 0)} points`)),
     el("div", { class: "bar" }, fill, mark(worker.eav, "EAV 2.5"), mark(worker.elv, "ELV 5")),
     el("div", { class: "next" }, next),

@@ -8,7 +8,7 @@ import { drawDeviations, drawDetail, timelineItem } from "./tables.js";
 import { TwinView } from "./view3d.js";
 
 const $ = (id) => document.getElementById(id);
-const state = { elements: new Map(), workers: [], role: null, view: null, selected: null, timeline: [], at: null };
+const state = { elements: new Map(), workers: [], role: null, view: null, selected: null, timeline: [], at: null, names: new Map() };
 const MAX_TIMELINE = 200;
 const FORECAST = "hav.eav_predicted"; // the gauges show the time to the EAV; the timeline keeps what happened
 
@@ -90,7 +90,7 @@ function onMessage(message) {
 
 function onWorkers(workers) {
   state.workers = workers;
-  drawGauges($("gauges"), workers, state.role === "safety", reveal);
+  drawGauges($("gauges"), workers, state.role === "safety", reveal, state.names);
   drawBanner($("banner"), workers);
 }
 
@@ -190,8 +190,8 @@ async function reveal(subject) {
   const reason = prompt(`Why do you need to know who ${subject} is? (written to the audit log)`);
   if (!reason || reason.trim().length < 3) return;
   const answer = await postJson(`/api/workers/${encodeURIComponent(subject)}/identity`, { reason: reason.trim() });
-  const slot = document.getElementById(`name-${subject}`);
-  if (slot) slot.textContent = answer.worker;
+  state.names.set(subject, answer.worker); // kept in this tab only; the server logged the reveal
+  onWorkers(state.workers);
 }
 
 function updateCounts() {

@@ -1,5 +1,5 @@
 // The deviation table, the events timeline and the element detail panel.
-import { STATUS_ORDER, duration, el, num, utc } from "./format.js";
+import { STATUS_ORDER, duration, el, num, utc, when } from "./format.js";
 
 export function drawDeviations(table, elements, onPick) {
   const seen = [...elements.values()].filter((e) => e.status !== "not observed");
@@ -39,12 +39,12 @@ export function timelineItem(entry) {
     const extra = e.kind === "hav.eav_predicted" ? ` in ${duration(e.data.seconds_to_eav)}`
       : e.kind === "hav.activity_ended" ? ` · A(8) ${num(e.data.day_a8)} m/s²`
       : e.kind.endsWith("_reached") ? ` · ${num(e.data.day_a8)} m/s²` : "";
-    return el("li", { class: `safety ${level}`, "data-kind": e.kind }, el("time", {}, utc(e.time)),
+    return el("li", { class: `safety ${level}`, "data-kind": e.kind }, el("time", {}, when(e.time)),
       el("span", { class: "kind" }, LABELS[e.kind] || e.kind), ` ${e.subject}${extra}`);
   }
   const r = entry.record;
   const what = r.kind === "status" ? `${r.data.from} → ${r.data.to}` : r.kind === "missing" ? "seen missing" : `observed: ${r.data.status}`;
-  return el("li", { class: `twin ${r.kind}`, "data-kind": r.kind }, el("time", {}, utc(r.time)),
+  return el("li", { class: `twin ${r.kind}`, "data-kind": r.kind }, el("time", {}, when(r.time)),
     el("span", { class: "kind" }, r.kind), ` ${r.data.family || r.global_id} ${what} (${r.source})`);
 }
 

@@ -46,8 +46,15 @@ def serve_command(
     config = settings.server.model_copy(update={k: v for k, v in (("host", host), ("port", port)) if v is not None})
     from bim2rdt.demo.serve import LiveServe
 
-    with LiveServe(settings, config, out, twin_url, ifc, address, speed, all_roles,
-                   progress=lambda stage: console.print(f"[dim]{stage}[/dim]")) as live:
+    status = console.status("starting the server")
+    status.start()
+    live = LiveServe(settings, config, out, twin_url, ifc, address, speed, all_roles,
+                     progress=lambda stage: status.update(stage))
+    try:
+        live.start()
+    finally:
+        status.stop()
+    with live:
         console.print(f"bim2rdt dashboard: {live.url}/#token={live.tokens['viewer']}")
         console.print(f"viewer token: {live.tokens['viewer']}")
         for role in ("safety", "admin"):

@@ -37,14 +37,13 @@ def live_plans(zone: str | None) -> list[WorkerPlan]:
             WorkerPlan("w3", "worker-003", zone, (("idle", 40.0), ("grinder", 7200.0), ("idle", 30.0)))]
 
 
-def ensure_site_day(out_dir: Path, tick: Callable[[str], None] = lambda stage: None) -> tuple[Path, Path]:
-    """(site.ifc, twin.db) of the demo in ``out_dir``; runs the site day first when either is absent."""
+def ensure_site_day(out_dir: Path, settings, tick: Callable[[str], None] = lambda stage: None) -> tuple[Path, Path]:
+    """(site.ifc, twin.db) of the demo in ``out_dir``; runs the site day (with ``settings``' mission, registration
+    and twin sections) first when either is absent."""
     site, twin_db = out_dir / "site.ifc", out_dir / "twin.db"
     if not (site.is_file() and twin_db.is_file()):
-        from bim2rdt.config import get_settings
         from bim2rdt.demo.site_day import run_site_day
 
-        settings = get_settings()
         day = run_site_day(out_dir, mission_config=settings.mission, icp=settings.registration,
                            twin_config=settings.twin, tick=tick)
         day.twin.close()
@@ -122,15 +121,21 @@ class LiveServe:
         self.twin_url, self.ifc, self.mqtt, self.speed = twin_url, ifc, mqtt, speed
         self.all_roles, self.progress = all_roles, progress
         self.demo = twin_url is None
+        self.started = False
         self._closers: list[Callable[[], None]] = []
 
-    def __enter__(self) -> LiveServe:
+    def start(self) -> LiveServe:
+        """Open the twin and the monitor, start the server and feed the monitor (closing what opened on error)."""
         try:
             self._start()
         except BaseException:
             self.close()
             raise
+        self.started = True
         return self
+
+    def __enter__(self) -> LiveServe:
+        return self if self.started else self.start()
 
     def __exit__(self, *exc) -> None:
         self.close()
@@ -175,8 +180,12 @@ class LiveServe:
 
         url, ifc = self.twin_url, self.ifc
         if self.demo:
-            self.progress(f"the embedded demo in {self.out_dir} (its site day runs first if absent)")
-            ifc, database = ensure_site_day(self.out_dir, lambda stage: None)
+            self.progress(f"the embedded demo in {self.out_dir}")
+
+            def stage(name: str) -> None:
+                self.progress(f"no demo in {self.out_dir} yet: running its site day ({name})")
+
+            ifc, database = ensure_site_day(self.out_dir, self.settings, stage)
             url = f"sqlite:///{database}"
         twin = DigitalTwin.open(url, ifc, tolerances=self.settings.twin.tolerance_policy(),
                                 min_fitness=self.settings.twin.min_fitness, family_mesh=_family_mesh, create=False)
