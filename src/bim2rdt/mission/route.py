@@ -25,6 +25,7 @@ from typing import Protocol
 
 import numpy as np
 import trimesh
+from scipy import ndimage
 
 from bim2rdt.mission.config import MissionConfig
 from bim2rdt.mission.records import Observation, Target
@@ -214,8 +215,6 @@ class PlannedRoute:
 
     def _explained(self) -> np.ndarray:
         """Cells the map already accounts for: occupied, grown by ``EXPLAINED_MARGIN``."""
-        from scipy import ndimage
-
         grid = self.navigator.grid
         return ndimage.distance_transform_edt(~grid.occupied) * grid.resolution <= EXPLAINED_MARGIN
 
