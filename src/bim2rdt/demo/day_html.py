@@ -16,9 +16,9 @@ LINKS = {"twin IFC (as built)": ("site_twin.ifc",), "BCF issues": ("site_issues.
          "run configuration": ("config.json",)}
 """The files the page links to, by label (the first of the candidates present in the folder; absent ones are
 left out)."""
-PLAN_MAPS = ("plan_map.png", "route.png", "plan.png")
-"""The plan map the page shows: the planner's (walls, objects by status, the robot's walk, stations, zones) when
-the run drew one, else the site report's plan view."""
+PLAN_MAPS = ("plan_map.png", "plan.png")
+"""The plan map the page shows: the planner's (walls, objects by twin status, paths, stations, zones) when the
+run drew one, else the site report's plan view."""
 
 
 def write_day_html(day, registration, out_dir: Path) -> Path:
