@@ -13,6 +13,7 @@ from bim2rdt.cli.common import console, print_json, print_table
 _status = Console(stderr=True)  # progress bars go to stderr so stdout (tables or --json) stays clean
 
 FAMILY_ROWS = 25
+WARNING_ROWS = 20
 BENCH_FILE = "Office_A_20110811.ifc"
 
 
@@ -29,17 +30,23 @@ def info_command(
     geometry: bool = typer.Option(True, "--geometry/--no-geometry", help="Tessellate (cached by file hash) to find "
                                   "elements whose geometry fails and locate identity-placed elements."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON document instead of tables."),
+    strict: bool = typer.Option(False, "--strict", help="Also check every attribute value's type against the "
+                                "schema, and exit 1 after the report if the reader had to read past anything "
+                                "(dangling references, malformed entities, geometry that fails)."),
 ) -> None:
-    """Print schema, length unit, storeys with elevations (m), element counts by class and the families found."""
-    model = _load(ifc_file, geometry)
+    """Print schema, length unit, storeys with elevations (m), element counts by class and the families found,
+    and what the reader had to read past (warnings, with the elements they affect)."""
+    model = _load(ifc_file, geometry, strict)
     checks = _readiness(model) if readiness else None
     if as_json:
         print_json(_info_payload(model, checks))
-        return
-    _print_info(model)
-    if checks is not None:
-        print_table("BIM readiness (model conditioning)", ["check", "status", "result", "examples"],
-                    [(c.name, c.status, c.summary, "; ".join(c.examples[:3])) for c in checks])
+    else:
+        _print_info(model)
+        if checks is not None:
+            print_table("BIM readiness (model conditioning)", ["check", "status", "result", "examples"],
+                        [(c.name, c.status, c.summary, "; ".join(c.examples[:3])) for c in checks])
+    if strict:
+        _fail_if_doubtful(model)
 
 
 def site_command(
@@ -83,15 +90,26 @@ def bench_ifc_command(
                 ["contender", "wall s", "CPU s", "CPU vs bare loop", "target", "met"], rows)
 
 
-def _load(path: Path, geometry: bool):
+def _load(path: Path, geometry: bool, validate: bool = False):
     from rich.progress import Progress
 
     from bim2rdt.bim import load_ifc
 
     with Progress(console=_status, transient=True, disable=not _status.is_terminal) as progress:
         task = progress.add_task(f"reading {path.name}", total=100)
-        return load_ifc(path, geometry=geometry,
+        return load_ifc(path, geometry=geometry, validate=validate,
                         progress=lambda done, total: progress.update(task, completed=done, total=total))
+
+
+def _fail_if_doubtful(model) -> None:
+    """--strict: any reader warning or geometry failure is an error (after the report was printed)."""
+    from bim2rdt.bim import BimError
+
+    doubts = [w.message for w in model.warnings]
+    doubts += [f"{f.ifc_class} {f.global_id}: geometry fails ({f.reason})" for f in model.geometry_failures]
+    if doubts:
+        more = f" (and {len(doubts) - 1} more)" if len(doubts) > 1 else ""
+        raise BimError(f"{model.path.name}: --strict: {doubts[0]}{more}")
 
 
 def _readiness(model):
@@ -118,6 +136,11 @@ def _print_info(model) -> None:
                 families[:FAMILY_ROWS] + ([(f"... and {more} more (--json lists all)", "")] if more > 0 else []))
     if model.geometry_failures:
         console.print(f"[yellow]{len(model.geometry_failures)} elements whose geometry failed (skipped)[/yellow]")
+    if model.warnings:
+        print_table(f"Reader warnings ({len(model.warnings)}): read past, the elements affected may be wrong",
+                    ["kind", "warning"], [(w.kind, w.message) for w in model.warnings[:WARNING_ROWS]]
+                    + ([(f"... and {len(model.warnings) - WARNING_ROWS} more (--json lists all)", "")]
+                       if len(model.warnings) > WARNING_ROWS else []))
 
 
 def _info_payload(model, checks) -> dict:
@@ -133,6 +156,7 @@ def _info_payload(model, checks) -> dict:
                        "longitude_deg": frame.longitude_deg, "elevation_m": frame.elevation_m,
                        "true_north_deg": frame.true_north_deg, "T_map_world": frame.T_map_world},
         "geometry_failures": [f.__dict__ for f in model.geometry_failures],
+        "warnings": [w.__dict__ for w in model.warnings],
     }
     if checks is not None:
         payload["readiness"] = [c.__dict__ for c in checks]
