@@ -92,15 +92,15 @@ def load_ifc(path: str | Path, *, geometry: bool = True, cache_dir: Path | None 
     """Read an IFC2X3/IFC4/IFC4X3 file. Bad input raises ``BimError`` with a one-line reason; what the reader
     could read past is listed in ``model.warnings``.
 
-    With ``geometry`` the file is tessellated (world metres) and the result cached under ``cache_dir`` (default:
-    the settings' cache folder; caching off when ``BIM2RDT_BIM__TESSELLATION_CACHE=false``). With ``validate``
+    With ``geometry`` the file is tessellated (world metres) and, given a ``cache_dir``, the result cached there
+    (the CLI passes ``config.ifc_cache_dir``: ``$BIM2RDT_CACHE_DIR/ifc``). With ``validate``
     every attribute value is also checked against the schema (~1.5 s on Office_A); violations become warnings.
     """
     path = Path(path)
     source = read_source(path)
     ifc, digest = source.ifc, source.digest
     warnings = parser_warnings(ifc, source.messages) if source.messages else []
-    cache_path = _cache_path(digest, cache_dir) if geometry else None
+    cache_path = model_cache.cache_file(cache_dir, digest) if geometry and cache_dir is not None else None
     if cache_path is not None and (cached := model_cache.read_cache(cache_path)) is not None:
         model = _from_cache(path, digest, *cached)
     else:
@@ -147,17 +147,6 @@ def _locate_by_geometry(model: BimModel) -> None:
 def _unit_name(ifc: ifcopenshell.file) -> str:
     unit = ifcopenshell.util.unit.get_project_unit(ifc, "LENGTHUNIT")
     return ifcopenshell.util.unit.get_full_unit_name(unit).lower() if unit is not None else "metre"
-
-
-def _cache_path(digest: str, cache_dir: Path | None) -> Path | None:
-    if cache_dir is None:
-        from bim2rdt.config import get_settings
-
-        settings = get_settings()
-        if not settings.bim.tessellation_cache:
-            return None
-        cache_dir = settings.cache_dir / "ifc"
-    return model_cache.cache_file(cache_dir, digest)
 
 
 def _meta(model: BimModel) -> dict:

@@ -94,10 +94,12 @@ def _load(path: Path, geometry: bool, validate: bool = False):
     from rich.progress import Progress
 
     from bim2rdt.bim import load_ifc
+    from bim2rdt.config import get_settings, ifc_cache_dir
 
+    cache_dir = ifc_cache_dir(get_settings()) if geometry else None
     with Progress(console=_status, transient=True, disable=not _status.is_terminal) as progress:
         task = progress.add_task(f"reading {path.name}", total=100)
-        return load_ifc(path, geometry=geometry, validate=validate,
+        return load_ifc(path, geometry=geometry, validate=validate, cache_dir=cache_dir,
                         progress=lambda done, total: progress.update(task, completed=done, total=total))
 
 
