@@ -8,7 +8,7 @@ import typer
 
 from rich.console import Console
 
-from bim2rdt.cli.common import console, print_json, print_table
+from bim2rdt.cli.common import console, out_path, print_json, print_table
 
 _status = Console(stderr=True)  # progress bars go to stderr so stdout (tables or --json) stays clean
 
@@ -50,12 +50,20 @@ def info_command(
 
 
 def site_command(
-    out: Path = typer.Argument(Path("site.ifc"), help="Where to write the IFC4 file."),
+    out: Path = typer.Argument(Path("site.ifc"), parser=out_path, metavar="OUT", help="Where to write the IFC4 file "
+                               "(written atomically; an existing file keeps its permissions)."),
+    force: bool = typer.Option(False, "--force", help="Replace a symlink, device node, FIFO or socket at OUT with a "
+                               "regular file (refused without it)."),
 ) -> None:
     """Write the embedded construction site (the default site of the demo) as an IFC4 file."""
+    from bim2rdt.atomic import NotRegularFileError, WriteError, check_writable_file
     from bim2rdt.sim.site import build_site_ifc
 
-    path = build_site_ifc(out)
+    try:
+        check_writable_file(out, replace_special=force)
+    except NotRegularFileError as error:
+        raise WriteError(f"{error} (--force replaces it)") from None
+    path = build_site_ifc(out, replace_special=force)
     console.print(f"wrote {path} ({path.stat().st_size} bytes)")
 
 
