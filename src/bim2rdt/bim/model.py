@@ -26,7 +26,7 @@ from bim2rdt.bim.errors import BimError
 from bim2rdt.bim.processes import read_events, read_tasks
 from bim2rdt.bim.records import BimElement, BimProcess, BimStorey, BimWarning, BimZone, GeometryFailure
 from bim2rdt.bim.site_frame import SiteFrame, read_site_frame
-from bim2rdt.bim.source import read_source
+from bim2rdt.bim.source import check_bytes, file_digest, read_source
 from bim2rdt.bim.tessellation import MeshSet, Progress, has_body, tessellate
 
 ORIGIN_MARGIN_M = 0.01
@@ -95,8 +95,12 @@ def load_ifc(path: str | Path, *, geometry: bool = True, cache_dir: Path | None 
     With ``geometry`` the file is tessellated (world metres) and, given a ``cache_dir``, the result cached there
     (the CLI passes ``config.ifc_cache_dir``: ``$BIM2RDT_CACHE_DIR/ifc``). With ``validate``
     every attribute value is also checked against the schema (~1.5 s on Office_A); violations become warnings.
+    A cache hit skips parsing: those bytes were checked and parsed when the cache was written, and their
+    warnings were cached with them.
     """
     path = Path(path)
+    if geometry and cache_dir is not None and not validate and (cached := _cached(path, cache_dir)) is not None:
+        return cached
     source = read_source(path)
     ifc, digest = source.ifc, source.digest
     warnings = parser_warnings(ifc, source.messages) if source.messages else []
@@ -113,6 +117,13 @@ def load_ifc(path: str | Path, *, geometry: bool = True, cache_dir: Path | None 
     if validate:
         model.warnings = model.warnings + schema_violations(ifc)
     return model
+
+
+def _cached(path: Path, cache_dir: Path) -> BimModel | None:
+    check_bytes(path)
+    digest = file_digest(path)
+    cached = model_cache.read_cache(model_cache.cache_file(cache_dir, digest))
+    return _from_cache(path, digest, *cached) if cached is not None else None
 
 
 def _read(path: Path, digest: str, ifc: ifcopenshell.file, warnings: list[BimWarning]) -> BimModel:

@@ -45,7 +45,7 @@ class IfcSource:
 def read_source(path: str | Path) -> IfcSource:
     """Check, scan and parse an IFC-SPF file (see the module docstring); BimError on anything fatal."""
     path = Path(path)
-    _check_bytes(path)
+    check_bytes(path)
     with open(path, "rb") as stream, mmap.mmap(stream.fileno(), 0, access=mmap.ACCESS_READ) as data:
         digest = hashlib.sha256(data).hexdigest()
         _refuse_duplicate_ids(path, data)
@@ -72,7 +72,8 @@ def file_digest(path: str | Path) -> str:
     return digest.hexdigest()
 
 
-def _check_bytes(path: Path) -> None:
+def check_bytes(path: Path) -> None:
+    """The checks that need no parse: the file exists, is a non-empty file, starts as STEP and ends complete."""
     if not path.exists():
         raise BimError(f"{path}: no such IFC file")
     if not path.is_file():
