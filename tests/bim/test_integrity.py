@@ -79,7 +79,8 @@ def test_validate_finds_a_value_of_the_wrong_type_the_reader_never_reads(site_te
     assert load_ifc(path, geometry=False).warnings == []
     [warning] = load_ifc(path, geometry=False, validate=True).warnings
     assert warning == BimWarning(SCHEMA, f"#{site_text.entity_id(wall)} IfcWall.Tag is 3.5, which is not a valid "
-                                 "IfcIdentifier", (site_text.entity_id(wall),), (guid,))
+                                 "IfcIdentifier; affects IfcWall 'Exterior Wall - South'", (site_text.entity_id(wall),),
+                                 (guid,))
 
 
 def test_the_embedded_site_is_schema_valid(site_ifc):

@@ -63,8 +63,9 @@ def schema_violations(ifc: ifcopenshell.file, *, unset: bool = False, limit: int
         for index, attribute in enumerate(declaration.all_attributes()):
             problem = _attribute_problem(instance, index, attribute, derived[index], schema, unset)
             if problem is not None:
-                found.append(BimWarning(SCHEMA, f"#{instance.id()} {instance.is_a()}.{attribute.name()} {problem}",
-                                        (instance.id(),), affected_elements(ifc, instance)))
+                elements = affected_elements(ifc, instance)
+                text = f"#{instance.id()} {instance.is_a()}.{attribute.name()} {problem}{_affects(ifc, elements)}"
+                found.append(BimWarning(SCHEMA, text, (instance.id(),), elements))
                 if len(found) >= limit:
                     return found
     return found
