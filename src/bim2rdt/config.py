@@ -158,7 +158,9 @@ def ifc_cache_dir(settings: Settings) -> Path | None:
 
 def _variable(loc: tuple) -> str:
     """The variable the user set for a failing field: ``BIM2RDT_MQTT__PORT``, or ``BIM2RDT_MQTT`` (field port)
-    when the section came as one JSON variable."""
+    when the section came as one JSON variable; a check across sections (no location) names none."""
+    if not loc:
+        return "BIM2RDT settings"
     names = ["BIM2RDT_" + "__".join(str(part) for part in loc[:n]).upper() for n in range(len(loc), 0, -1)]
     present = {key.upper() for key in os.environ}
     chosen = next((name for name in names if name in present), names[0])

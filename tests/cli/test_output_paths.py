@@ -48,7 +48,8 @@ def test_site_onto_a_path_that_cannot_take_a_file_is_one_line(tmp_path, where, e
     assert message.startswith("error: cannot write ") and expected.format(tmp=tmp_path) in message
 
 
-@pytest.mark.parametrize("command", [("site",), ("demo", "--out"), ("bench", "registration", "--out")])
+@pytest.mark.parametrize("command", [("site",), ("demo", "--out"), ("bench", "registration", "--out"),
+                                     ("plan", "site.ifc", "--out"), ("twin", "export", "site.ifc", "--out")])
 def test_an_empty_output_path_is_a_usage_error_not_the_current_folder(tmp_path, command):
     result = subprocess.run([sys.executable, "-m", "bim2rdt", *command, ""], capture_output=True, text=True,
                             timeout=120, cwd=tmp_path)
