@@ -28,6 +28,7 @@ def run_cli(*args: str, env: dict | None = None, timeout: float = 180) -> subpro
 @pytest.fixture
 def cli_env(tmp_path):
     return {"BIM2RDT_DATA_DIR": str(tmp_path / "var"), "BIM2RDT_MQTT__DEVICE_SECRET": "test-devices",
+            "BIM2RDT_HAV__SITE_SECRET": "test-site", "BIM2RDT_MQTT__PASSWORD": "test-monitor",
             "BIM2RDT_MQTT__SITE": "t", "COLUMNS": "160"}
 
 

@@ -40,6 +40,7 @@ CREATE TABLE IF NOT EXISTS activities (id TEXT PRIMARY KEY, subject TEXT, day TE
 CREATE TABLE IF NOT EXISTS events (id INTEGER PRIMARY KEY AUTOINCREMENT, kind TEXT, time REAL, subject TEXT,
     source TEXT, data TEXT, received REAL);
 CREATE TABLE IF NOT EXISTS corrections (subject TEXT, position TEXT, fit TEXT, PRIMARY KEY (subject, position));
+CREATE TABLE IF NOT EXISTS malformed (device TEXT PRIMARY KEY, count INTEGER, last_reason TEXT, last_received REAL);
 """
 
 
@@ -152,6 +153,13 @@ class ExposureStore:
 
     def corrections(self) -> list[str]:
         return [row[0] for row in self._db.execute("SELECT fit FROM corrections")]
+
+    def save_malformed(self, rows: Iterable[tuple[str, int, str, float | None]]) -> None:
+        """(device, count, last reason, last received) of refused messages."""
+        self._db.executemany("INSERT OR REPLACE INTO malformed VALUES (?, ?, ?, ?)", list(rows))
+
+    def malformed(self) -> dict[str, tuple[int, str, float | None]]:
+        return {d: (c, r, t) for d, c, r, t in self._db.execute("SELECT * FROM malformed")}
 
     # events --------------------------------------------------------------------------------------------
     def add_events(self, events: Iterable[Event]) -> None:
