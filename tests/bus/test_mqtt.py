@@ -215,30 +215,30 @@ def test_the_watchdog_sees_a_dead_network_thread(broker):
 
 def test_a_poison_message_queued_for_a_stopped_monitor_does_not_stop_its_restart(broker, tmp_path):
     fs, t0 = 5000.0, time.time()
-    good = list(batches("w2", session_signal([("grinder", 2)], fs), fs, t0))
+    good = list(batches("w4", session_signal([("grinder", 2)], fs), fs, t0))
     config = MonitorConfig(site="s", commit_delay_s=0.05)
     first = HavMonitor(tmp_path, "secret", [], config)
-    bus = client(broker, "monitor-auto", client_id="monitor-auto", session_expiry_s=600, manual_ack=True)
+    bus = client(broker, "monitor-poison", client_id="monitor-poison", session_expiry_s=600, manual_ack=True)
     first.attach(bus)
     bus.connect()
     bus.close()  # the monitor stops; the broker keeps its session and queues for it
     first.close()
-    w2 = connect(broker, "w2")
-    header = json.dumps({"device": "w2", "seq": 0, "t_ms": t0 * 1000, "fs": fs, "n": 4, "dtype": "int16",
+    w4 = connect(broker, "w4")
+    header = json.dumps({"device": "w4", "seq": 0, "t_ms": t0 * 1000, "fs": fs, "n": 4, "dtype": "int16",
                          "scale": 0.06, "full_scale": {}}).encode()  # a logged-in device's poison (issue 10)
     poison = b"HAV1" + len(header).to_bytes(2, "little") + header + bytes(24)
-    w2.publish(accel_topic("s", "w2"), poison, qos=1, wait=True)
+    w4.publish(accel_topic("s", "w4"), poison, qos=1, wait=True)
     for item in good:
-        w2.publish(accel_topic("s", "w2"), encode_accel(item), qos=1, wait=True)
+        w4.publish(accel_topic("s", "w4"), encode_accel(item), qos=1, wait=True)
     for attempt in range(2):  # the restart works, and the poison is not delivered a second time
         monitor = HavMonitor(tmp_path, "secret", [], config)
-        bus = client(broker, "monitor-auto", client_id="monitor-auto", session_expiry_s=600, manual_ack=True)
+        bus = client(broker, "monitor-poison", client_id="monitor-poison", session_expiry_s=600, manual_ack=True)
         monitor.attach(bus)
         bus.connect()  # SUBACK received: the poison delivered first did not stop the network thread
         if attempt == 0:
-            wait_for(lambda: (monitor.stream_status("w2") or {}).get("next_seq") == len(good), "the good batches")
+            wait_for(lambda: (monitor.stream_status("w4") or {}).get("next_seq") == len(good), "the good batches")
         time.sleep(0.5)
-        assert monitor.malformed_messages()["w2"].count == 1 and bus.alive
+        assert monitor.malformed_messages()["w4"].count == 1 and bus.alive
         bus.close()
         monitor.close()
-    w2.close()
+    w4.close()
