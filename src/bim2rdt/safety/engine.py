@@ -88,7 +88,7 @@ class ExposureEngine:
             result = stream.buffer.push(batch, now)
             outcome.events += self._note_push(stream, batch, result)
             if result.duplicates == result.late == 0:
-                outcome.accepted.append(batch)
+                outcome.accepted.append(result.renumbered or batch)
             outcome.streams[stream.device] = stream
             ordered += [(stream, piece, new_segment) for piece, new_segment in result.pieces]
         outcome.events += self._process(ordered)
@@ -141,6 +141,8 @@ class ExposureEngine:
             if getattr(result, name):
                 stream.count(name, getattr(result, name))
                 self.count(name, getattr(result, name))
+        if result.renumberings:
+            stream.count("renumbered", result.renumberings)
         if result.duplicates == result.late == 0:
             stream.clock.observe(batch.received_time, batch.device_time + batch.duration_s)
         return self._note_gaps(stream, result)
