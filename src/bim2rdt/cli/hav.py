@@ -106,28 +106,31 @@ def _leave(monitor, bus) -> None:
 
 @hav_app.command("analyze")
 def hav_analyze(
-    file: Path = typer.Argument(..., help="CSV with a time column t (s) and ax, ay, az (m/s²)."),
+    file: Path = typer.Argument(..., help="CSV with a time column t (s) and ax, ay, az."),
     out: Path = typer.Option(Path("out/hav"), "--out", help="Folder for the plot (PNG)."),
     tool: str = typer.Option("unknown", "--tool", help="Tool label for the report."),
     position: str = typer.Option("handle", "--position", help="Where the sensor sat (handle = ISO 5349-1)."),
+    units: str = typer.Option("auto", "--units", help="auto (checked by gravity), m/s2 or g."),
     as_json: bool = typer.Option(False, "--json", help="Print JSON instead of tables."),
 ) -> None:
-    """Exposure of a recorded file: activities, A(8), HSE points, time to EAV/ELV, and a plot of the day."""
+    """Exposure of a recorded file: activities, A(8), HSE points, time to EAV/ELV, and a plot of the day. The
+    monitor's settings are the live monitor's (BIM2RDT_HAV__*)."""
     from bim2rdt.config import get_settings
     from bim2rdt.safety.analysis import analyze_recording, plot_day
     from bim2rdt.safety.recording import read_accel_csv
 
     config = get_settings().hav.monitor_config()  # the live monitor's trigger and artefact limits
-    recording = read_accel_csv(file)
+    recording = read_accel_csv(file, units)
     with console.status(f"weighing {recording.xyz.shape[0] / recording.fs / 60:.1f} min at {recording.fs:g} Hz"):
         report = analyze_recording(recording, tool, position, config=config)
     plot = plot_day(report, out / f"{file.stem}_a8.png", title=f"Daily vibration exposure: {file.name}")
-    summary = {"file": str(file), "fs": recording.fs, "a8": report.a8, "points": report.points,
-               "trigger_s": report.trigger_s, "seconds_to_eav": report.seconds_to_eav,
+    summary = {"file": str(file), "fs": recording.fs, "units": recording.units, "a8": report.a8,
+               "points": report.points, "trigger_s": report.trigger_s, "seconds_to_eav": report.seconds_to_eav,
                "seconds_to_elv": report.seconds_to_elv, "band_hz": [report.band.low_hz, report.band.high_hz],
                "band_limited": not report.band.complete, "estimate": position != "handle",
                "rejected_s": report.rejected_s, "rejected_kinds": report.rejected_kinds,
-               "activities": report.activities, "plot": str(plot)}
+               "untriggered_s": report.untriggered_s, "untriggered_a8": report.untriggered_a8,
+               "notes": report.notes, "activities": report.activities, "plot": str(plot)}
     if as_json:
         print_json(summary)
         return
@@ -147,6 +150,8 @@ def _print_day(report, name: str, fs: float, plot: Path) -> None:
     if not report.band.complete:
         console.print(f"[yellow]band-limited: {fs:g} Hz covers {report.band.low_hz:.1f}-"
                       f"{report.band.high_hz:.0f} Hz of the 8-1000 Hz range[/yellow]")
+    for note in report.notes:
+        console.print(f"[yellow]note: {note}[/yellow]")
 
 
 @hav_app.command("broker")

@@ -195,7 +195,11 @@ class ExposureEngine:
             return [self.event(stream, (ARTEFACT, end - seconds, {"seconds": seconds,
                                                                   "kinds": describe_flags(flags)}))]
         day_of = self._day_lookup(subject)
+        idle = tracker.state.id is None
         notices = tracker.frame(end, seconds, energy, day_of)
+        if idle and tracker.state.id is None:  # vibration under the trigger: not exposure, but not nothing either
+            stream.count("untriggered_s", seconds)
+            stream.count("untriggered_energy", energy)
         if self.config.keep_timeline and tracker.state.id is not None:
             self.timeline.append((end, subject, day_of(tracker.state.day).a8))
         return [self.event(stream, notice) for notice in notices]

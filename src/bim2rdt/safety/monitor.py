@@ -40,11 +40,14 @@ __all__ = ["ISO_POSITIONS", "HavMonitor", "MalformedMessages", "MonitorConfig", 
 class HavMonitor:
     """Streaming ISO 5349-1 exposure for many wearables; thread-safe (one lock around each call)."""
 
-    def __init__(self, data_dir: Path, site_secret: str, sinks: Sequence[EventSink] = (),
+    def __init__(self, data_dir: Path | None, site_secret: str, sinks: Sequence[EventSink] = (),
                  config: MonitorConfig = MonitorConfig(), clock: Callable[[], float] = time.time):
+        """State under ``data_dir`` (``hav.sqlite``, ``private/identity.sqlite``); None keeps it in memory, for a
+        throw-away monitor that must write nothing (``hav analyze``)."""
         self.config, self.sinks, self.clock = config, list(sinks), clock
-        self.store = ExposureStore(Path(data_dir) / "hav.sqlite")
-        self.identity = IdentityMap(Path(data_dir) / "private" / "identity.sqlite", role="monitor")
+        folder = Path(data_dir) if data_dir is not None else None
+        self.store = ExposureStore(folder / "hav.sqlite" if folder else None)
+        self.identity = IdentityMap(folder / "private" / "identity.sqlite" if folder else None, role="monitor")
         self._journal = MonitorJournal(self.store, config.raw_retention_s)
         self._sessions = SessionBook(site_secret, self.identity, self._journal.corrections())
         self._engine = ExposureEngine(config, self._sessions, clock)

@@ -47,10 +47,12 @@ CREATE TABLE IF NOT EXISTS malformed (device TEXT PRIMARY KEY, count INTEGER, la
 class ExposureStore:
     """The monitor's SQLite file (WAL, synchronous=NORMAL: a committed ingest survives a process crash)."""
 
-    def __init__(self, path: Path):
-        self.path = Path(path)
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        self._db = sqlite3.connect(self.path, check_same_thread=False, isolation_level=None)
+    def __init__(self, path: Path | None):
+        """``path`` None keeps the store in memory (a throw-away monitor, e.g. analysing a file)."""
+        self.path = Path(path) if path is not None else None
+        if self.path is not None:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+        self._db = sqlite3.connect(self.path or ":memory:", check_same_thread=False, isolation_level=None)
         self._db.execute(f"PRAGMA page_size={PAGE_SIZE}")  # a new file only; an existing one keeps its own
         self._db.execute("PRAGMA journal_mode=WAL")
         self._db.execute("PRAGMA synchronous=NORMAL")
