@@ -10,10 +10,10 @@ import pytest
 from bim2rdt.bus.broker import MOSQUITTO, MosquittoBroker
 
 SITE = "s"
-MONITORS = ("monitor", "monitor-acks", "monitor-auto", "monitor-poison")
+MONITORS = ("monitor", "monitor-acks", "monitor-auto", "monitor-poison", "monitor-fuzz")
 """Monitor users: with client ids bound to usernames, tests that keep a persistent session use their own."""
 USERS = {**{user: f"{user}-pw" for user in MONITORS}, "dashboard": "dash-pw", "w1": "w1-pw", "w2": "w2-pw", "w3": "w3-pw",
-         "w4": "w4-pw"}
+         "w4": "w4-pw", "w5": "w5-pw"}
 
 
 @pytest.fixture(scope="session")
