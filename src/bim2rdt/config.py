@@ -21,6 +21,7 @@ from bim2rdt.mission.config import MissionConfig
 from bim2rdt.registration.config import IcpConfig
 from bim2rdt.safety.config import MonitorConfig
 from bim2rdt.semantics.llm import LlmPriorsConfig
+from bim2rdt.twin.config import TwinConfig
 
 
 def default_samples_dir() -> Path:
@@ -84,6 +85,7 @@ class Settings(BaseSettings):
     mqtt: MqttSettings = MqttSettings()
     registration: IcpConfig = IcpConfig()
     mission: MissionConfig = MissionConfig()
+    twin: TwinConfig = TwinConfig()
 
     @model_validator(mode="after")
     def _one_site(self) -> Settings:

@@ -102,3 +102,33 @@ def test_reaching_the_eav_puts_an_intervention_task_after_its_event_on_the_work_
     eav_event = next(e for e in twin.events if e.global_id in task.after)
     assert "EAV" in eav_event.name and task.psets["BIM2RDT_Task"]["DailyExposureA8"] == pytest.approx(2.5, abs=0.05)
     assert work_zone.global_id in task.related
+
+
+def test_the_day_is_recorded_in_the_twin_and_exported_as_ifc_bcf_json_and_html(demo_out):
+    """Every observation is in the twin's history with the mission's verdict, the monitor's events are in it
+    too, the BCF has one topic per deviating or new object, and report.html is self-contained."""
+    from bcf.v2.bcfxml import BcfXml
+
+    from bim2rdt.twin import DigitalTwin
+
+    out = demo_out[0]
+    rows = json.loads((out / "site_day.json").read_text())["observations"]
+    designed = load_ifc(out / "site.ifc", geometry=False)
+    with DigitalTwin.open(f"sqlite:///{out / 'twin.db'}", designed) as twin:
+        states = twin.state()
+        events = twin.events()
+    for row in rows:
+        if row["global_id"] is not None:
+            assert states[row["global_id"]].status.value == row["status"]
+    assert sum(s.status.value == "new" for s in states.values()) == sum(r["status"] == "new" for r in rows)
+    assert sum(e.kind == "observation" for e in events) == len(rows)
+    assert any(e.kind == "safety" and e.data["kind"] == "hav.eav_reached" for e in events)
+    issues = sum(s.status.value in ("deviating", "missing", "new") for s in states.values())
+    bcf = BcfXml.load(out / "site_issues.bcf")
+    assert len(bcf.topics) == issues > 0
+    assert all(next(iter(t.viewpoints.values())).snapshot.startswith(b"\x89PNG") for t in bcf.topics.values())
+    bcf.close()
+    page = (out / "report.html").read_text()
+    assert page.count("data:image/png;base64,") >= 6 and 'src="http' not in page
+    for name in ("site_twin.ifc", "site_issues.bcf", "twin.json"):
+        assert f'href="{name}"' in page

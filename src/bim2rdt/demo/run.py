@@ -5,7 +5,9 @@
    exposure plot, ``site_day.json`` and ``report.md``;
 2. the paper's four registration scenarios (ICP vs SG-ICP, a few trials) with a before/after plot each, in
    ``registration/``;
-3. the settings that ran (``Settings``: every section, secrets masked), seed and versions in ``config.json``.
+3. the settings that ran (``Settings``: every section, secrets masked), seed and versions in ``config.json``;
+4. ``report.html``: the self-contained report (plan map, deviations with tolerances, ICP vs SG-ICP, A(8) per
+   worker, links to the twin IFC, BCF issues and maps).
 """
 
 from __future__ import annotations
@@ -40,7 +42,7 @@ def run_demo(out_dir: Path, trials: int = DEMO_TRIALS, seed: int = DEMO_SEED, wo
     out_dir = Path(out_dir)
     settings = get_settings()
     day = run_site_day(out_dir, seed=seed, workers=workers, minutes=minutes, mission_config=settings.mission,
-                       icp=settings.registration, tick=tick)
+                       icp=settings.registration, twin_config=settings.twin, tick=tick)
     report = write_site_report(day, out_dir)
     run = run_registration_scenarios(out_dir / "registration", trials, seed, settings.registration, peers=False,
                                      tick=lambda: tick("trial"))
@@ -48,4 +50,15 @@ def run_demo(out_dir: Path, trials: int = DEMO_TRIALS, seed: int = DEMO_SEED, wo
     resolved = {"settings": settings_record(settings), "trials": trials, "seed": seed, "workers": workers,
                 "minutes": minutes, "versions": versions()}
     write_bytes_atomic(out_dir / "config.json", json.dumps(resolved, indent=2).encode("utf-8"))
+    report["html"] = _html(day, run, out_dir)
     return DemoResult(day, report, run)
+
+
+def _html(day: SiteDay, run: RegistrationRun, out_dir: Path) -> Path:
+    """report.html beside report.md (written last, so it links to every file of the run); closes the day's twin."""
+    from bim2rdt.demo.day_html import write_day_html
+
+    try:
+        return write_day_html(day, run, out_dir)
+    finally:
+        day.twin.close()
