@@ -54,12 +54,13 @@ def block_extremes(values: np.ndarray, starts: np.ndarray) -> tuple[np.ndarray, 
     return np.maximum.reduceat(values, starts, axis=1), np.minimum.reduceat(values, starts, axis=1)
 
 
-def block_flags(raw: np.ndarray, starts: np.ndarray, sums: np.ndarray, full_scale: np.ndarray,
-                limits: ArtefactLimits) -> np.ndarray:
+def block_flags(raw: np.ndarray, starts: np.ndarray, sums: np.ndarray, extremes: tuple[np.ndarray, np.ndarray],
+                full_scale: np.ndarray, limits: ArtefactLimits) -> np.ndarray:
     """Saturation and shock flags (m, k) of ``raw`` (3m, n) samples of m streams cut at ``starts``, given their
-    per-block ``sums`` (3m, k); ``full_scale`` (m,) is each stream's sensor range in m/s^2 (inf if unknown)."""
+    per-block ``sums`` and ``extremes`` (3m, k) each; ``full_scale`` (m,) is each stream's sensor range in m/s^2
+    (inf if unknown)."""
     lengths = np.diff(np.append(starts, raw.shape[1]))
-    top, bottom = block_extremes(raw, starts)
+    top, bottom = extremes
     mean, square = sums / lengths, block_sums(raw, starts, square=True) / lengths
     per_stream = (-1, 3, starts.size)
     peak = np.maximum(top, -bottom).reshape(per_stream).max(axis=1)
@@ -76,12 +77,12 @@ def sample_limits(full_scale: np.ndarray, physical_limit: float) -> np.ndarray:
     return np.minimum(1.01 * full_scale, physical_limit)
 
 
-def has_bad_samples(sums: np.ndarray, raw: np.ndarray, starts: np.ndarray, limits: np.ndarray) -> bool:
-    """Whether :func:`replace_bad_samples` has work: a non-finite block sum, or an extreme beyond its stream's
-    limit (``limits`` (m,))."""
+def has_bad_samples(sums: np.ndarray, extremes: tuple[np.ndarray, np.ndarray], limits: np.ndarray) -> bool:
+    """Whether :func:`replace_bad_samples` has work: a non-finite block sum, or an extreme (of per-block
+    ``extremes``, (3m, k) each) beyond its stream's limit (``limits`` (m,))."""
     if not np.isfinite(sums).all():
         return True
-    top, bottom = block_extremes(raw, starts)
+    top, bottom = extremes
     peak = np.maximum(top.max(axis=1), -bottom.min(axis=1)).reshape(-1, 3).max(axis=1)
     return bool((peak > limits).any())
 

@@ -25,8 +25,9 @@ from bim2rdt.bus.payloads import AccelBatch
 
 TIME_JUMP_S = 0.05
 """A device-time jump larger than this between consecutive batches is a pause in sampling (a gap)."""
-RECENT = 64
-"""Batches whose first-sample device times are remembered for duplicate detection (~30 s of 0.5 s batches)."""
+RECENT = 32
+"""Batches whose first-sample device times are remembered for duplicate detection (16 s of 0.5 s batches; older
+redeliveries are caught by their seq, as long as the numbering has not changed since)."""
 
 
 @dataclass
@@ -156,8 +157,9 @@ class StreamBuffer:
     def to_list(self) -> list:
         """[next seq, rate, segment end time, skipped seq ranges, last end, seq offset, recent first-sample times
         (ms)]: compact, saved with every ingest."""
+        last_ms = _ms(self.last_end) if self.last_end is not None else 0
         return [self.next_seq, self.fs, self.end_time, list(self._skipped), self.last_end, self.offset,
-                list(self._recent)]
+                [last_ms - ms for ms in self._recent]]  # ms before the last end: short numbers in the saved state
 
     def load(self, state: list, pending: list[AccelBatch]) -> None:
         """Restore :meth:`to_list`'s state (a 4-item state from before renumbering works too) and the waiting
@@ -165,7 +167,8 @@ class StreamBuffer:
         self.next_seq, self.fs, self.end_time, skipped = state[:4]
         self.last_end, self.offset, recent = state[4:] or [self.end_time, 0, []]
         self._skipped.extend(tuple(pair) for pair in skipped)
-        self._recent.extend(recent)
+        last_ms = _ms(self.last_end) if self.last_end is not None else 0
+        self._recent.extend(last_ms - ago for ago in recent)
         self.pending = {b.seq: b for b in pending if self.next_seq is None or b.seq >= self.next_seq}
 
 

@@ -21,8 +21,8 @@ import scipy.signal
 
 from bim2rdt.bus.payloads import AccelBatch
 from bim2rdt.safety.blocks import (IMPOSSIBLE, NAN, REJECTED_BEFORE_SETTLING, SETTLING, ArtefactLimits,
-                                   block_flags, has_bad_samples, replace_bad_samples, sample_limits,
-                                   block_starts, block_sums)
+                                   block_extremes, block_flags, block_starts, block_sums, has_bad_samples,
+                                   replace_bad_samples, sample_limits)
 from bim2rdt.safety.filters import design_weighting
 from bim2rdt.safety.mounting import MountingCorrection
 
@@ -138,9 +138,10 @@ def _weigh_group(pieces: list[Piece], fs: float, layout: _Layout, correction: Mo
     sums = block_sums(raw, starts)
     full_scale = np.array([p.full_scale for p in pieces])
     possible = sample_limits(full_scale, limits.physical_limit)
-    bad = replace_bad_samples(raw, possible) if has_bad_samples(sums, raw, starts, possible) else None
+    extremes = block_extremes(raw, starts)
+    bad = replace_bad_samples(raw, possible) if has_bad_samples(sums, extremes, possible) else None
     if bad is not None:
-        sums = block_sums(raw, starts)
+        sums, extremes = block_sums(raw, starts), block_extremes(raw, starts)
     for piece, first in zip(pieces, raw[:, 0].reshape(-1, 3).astype(np.float64)):
         if piece.new_segment or piece.state.zi is None:
             _settle(piece, first, correction)
@@ -151,7 +152,7 @@ def _weigh_group(pieces: list[Piece], fs: float, layout: _Layout, correction: Mo
     zi = np.concatenate([p.state.zi for p in pieces], axis=1)
     weighted, zf = scipy.signal.sosfilt(design_weighting(fs).sos, signal, axis=-1, zi=zi)
     energy = block_sums(weighted, starts, square=True).reshape(len(pieces), 3, -1).sum(axis=1) / fs
-    flags = block_flags(raw, starts, sums, full_scale, limits)
+    flags = block_flags(raw, starts, sums, extremes, full_scale, limits)
     if bad is not None:
         flags |= np.where(np.logical_or.reduceat(bad[0], starts, axis=1), NAN, 0)
         flags |= np.where(np.logical_or.reduceat(bad[1], starts, axis=1), IMPOSSIBLE, 0)
