@@ -49,7 +49,8 @@ class HavSettings(MonitorConfig):
     """Hand-arm vibration monitoring: the monitor's configuration (defaults in :class:`MonitorConfig`; ``site``
     always follows ``mqtt.site``) and the key of the worker pseudonyms."""
 
-    site_secret: str = Field("change-me", description="Key for worker pseudonyms (keyed hash).")
+    site_secret: str = Field("change-me", min_length=1, description="Key for worker pseudonyms (keyed hash); the "
+                             "shipped default is refused outside --dev.")
 
     def monitor_config(self, **overrides) -> MonitorConfig:
         """The monitor's part with ``overrides``, without the secret (the monitor takes it as its own argument)."""
@@ -59,15 +60,19 @@ class HavSettings(MonitorConfig):
 class MqttSettings(BaseModel):
     """The site event bus."""
 
-    host: str | None = Field(None, description="Broker host; None means the in-process bus.")
-    port: int = Field(1883, description="Broker port.")
-    site: str = Field("demo", description="Site id used in topic names site/{site}/...")
-    username: str = Field("monitor", description="Broker user of the HAV monitor (the shipped ACL's reader).")
-    session_expiry_s: int = Field(3600, description="How long the broker queues QoS 1 messages for a stopped "
-                                  "monitor (MQTT 5 session expiry), seconds.")
-    password: str | None = Field(None, description="Monitor's broker password; None derives it from device_secret.")
-    device_secret: str = Field("change-me-devices", description="Dev provisioning: device passwords are keyed "
-                               "hashes of their ids with this secret (bim2rdt hav broker, sim wearables).")
+    host: str | None = Field(None, min_length=1, description="Broker host; None means the in-process bus.")
+    port: int = Field(1883, ge=1, le=65535, description="Broker port.")
+    site: str = Field("demo", pattern=r"^[A-Za-z0-9_.-]{1,64}$", description="Site id used in topic names "
+                      "site/{site}/... (one topic level: letters, digits, _ . -).")
+    username: str = Field("monitor", pattern=r"^[A-Za-z0-9_.-]{1,64}$", description="Broker user of the HAV "
+                          "monitor (its own credential; the ACL's reader of the site).")
+    session_expiry_s: int = Field(3600, ge=0, description="How long the broker queues QoS 1 messages for a "
+                                  "stopped monitor (MQTT 5 session expiry), seconds.")
+    password: str | None = Field(None, min_length=1, description="The monitor's own broker password; required "
+                                 "outside --dev (with --dev, derived from device_secret).")
+    device_secret: str = Field("change-me-devices", min_length=1, description="Dev provisioning: device passwords "
+                               "are keyed hashes of their ids with this secret (hav broker, sim wearables); the "
+                               "shipped default is refused outside --dev.")
 
 
 class Settings(BaseSettings):
