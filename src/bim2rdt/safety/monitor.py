@@ -30,7 +30,7 @@ from bim2rdt.safety.mounting import MountingCorrection
 from bim2rdt.safety.persistence import MonitorJournal
 from bim2rdt.safety.privacy import IdentityMap
 from bim2rdt.safety.sessions import ISO_POSITIONS, Session, SessionBook
-from bim2rdt.safety.sinks import EventSink
+from bim2rdt.safety.sinks import EventSink, emit_all
 from bim2rdt.safety.store import ExposureStore
 from bim2rdt.safety.subscriber import BusSubscriber
 from bim2rdt.safety.weighting import require_weighable_rate
@@ -247,10 +247,9 @@ class HavMonitor:
 
     # --- internals ---------------------------------------------------------------------------------------
     def _commit(self, outcome: Outcome, now: float | None = None, sessions: dict[str, Session] | None = None) -> None:
-        """Persist what a call changed in one transaction, then hand its events to the sinks."""
+        """Persist what a call changed in one transaction, then hand its events to the sinks (as one group to a
+        sink that takes groups: see :func:`~bim2rdt.safety.sinks.emit_all`)."""
         now = self.clock() if now is None else now
         self._journal.commit(self._engine, outcome.accepted, outcome.streams.values(), outcome.events, now, sessions,
                              self._dead.take_dirty())
-        for event in outcome.events:
-            for sink in self.sinks:
-                sink.emit(event)
+        emit_all(self.sinks, outcome.events)
