@@ -29,6 +29,26 @@ def slid(T: np.ndarray, model_pts: np.ndarray, points_world: np.ndarray) -> np.n
     return out
 
 
+def along_long_axis(T: np.ndarray, model_pts: np.ndarray, points_world: np.ndarray,
+                    slender: float = 3.0) -> list[np.ndarray]:
+    """``T`` itself and, for a slender object (a beam, a pipe: plan length over ``slender`` x its width), ``T``
+    shifted either way along its long axis so the seen part sits at one end: a partial view of a beam pins
+    where it lies across its length, not along it, and the rest of it may be behind whatever hides it."""
+    extents = np.ptp(model_pts[:, :2], axis=0)
+    if extents.max() < slender * max(extents.min(), 1e-6):
+        return [T]
+    axis = T[:3, int(np.argmax(extents))]
+    seen = np.ptp(points_world @ axis) if len(points_world) else 0.0
+    shift = max(0.0, (extents.max() - seen) / 2)
+    return [T] + [_shifted(T, sign * shift * axis) for sign in (1.0, -1.0) if shift > 0.05]
+
+
+def _shifted(T: np.ndarray, offset: np.ndarray) -> np.ndarray:
+    out = T.copy()
+    out[:3, 3] += offset
+    return out
+
+
 def _box_centre(points_world: np.ndarray, axes: np.ndarray) -> np.ndarray:
     low, high = np.percentile(points_world[:, :2] @ axes, [5.0, 95.0], axis=0)
     return (low + high) / 2
@@ -53,7 +73,8 @@ def best_fit(model_pts: np.ndarray, model_normals: np.ndarray, points_world: np.
              searched: bool, tie_ratio: float,
              plausible: Callable[[RegistrationResult], bool] = lambda fit: True) -> RegistrationResult:
     """The kept registration over all starts (see the module docs). ``searched``: the detector's pose already
-    came from a yaw search, so every start is refined locally (one restart) instead of searched again.
+    came from a search (``other_starts``), so the BIM pose and it are refined locally (one restart each) and no
+    slid guesses are needed.
     ``plausible`` rules fits out (a model whose far side faces the camera); if it rules out all, all count."""
     bias = prior.upright_bias if prior else DEFAULT_UPRIGHT_BIAS
     yaw_only = prior.yaw_only if prior else False
@@ -63,7 +84,9 @@ def best_fit(model_pts: np.ndarray, model_normals: np.ndarray, points_world: np.
         return register(model_pts, model_normals, points_world, init=T, up=UP, upright_bias=bias, yaw_only=yaw_only,
                         config=cfg, support_height=support_height)
 
-    starts = ([bim_pose, slid(bim_pose, model_pts, points_world)] if bim_pose is not None else []) + other_starts
+    guesses = [] if bim_pose is None else [bim_pose] if searched else \
+        [bim_pose, *along_long_axis(slid(bim_pose, model_pts, points_world), model_pts, points_world)]
+    starts = guesses + other_starts
     fits = [fit_from(T, local if searched else icp) for T in starts]
     kept = [f for f in fits if plausible(f)] or fits
     best = min(kept, key=lambda f: f.score)

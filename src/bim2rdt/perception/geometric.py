@@ -29,6 +29,7 @@ from bim2rdt.perception.library import library_for
 from bim2rdt.perception.naming import Naming, NamingConfig, name_cluster
 from bim2rdt.perception.observation import UNKNOWN_FAMILY
 from bim2rdt.perception.slab import SLAB_CLEARANCE
+from bim2rdt.perception.visibility import DepthView
 from bim2rdt.semantics import KnowledgeBasePriors, UprightPrior
 
 
@@ -71,7 +72,8 @@ class GeometricDetector:
 
     def detect(self, frame: Frame) -> list[Detection]:
         clock = _Clock()
-        points, valid = self._points(frame)
+        depth = self.config.noise.apply(frame.depth)
+        points, valid = self._points(frame, depth)
         clock.lap("back-project")
         slab = self.structure.slab_height(frame.T_world_camera[:3, 3])
         candidate = valid & ~self._explained(frame, points, valid, slab)
@@ -79,15 +81,16 @@ class GeometricDetector:
         clusters = [c for c in grid_clusters(candidate, points, self._link(frame, points), self.config.merge_gap)
                     if self._large_enough(c, slab)]
         clock.lap("cluster")
-        detections = [self._detection(frame, cluster, slab, k) for k, cluster in enumerate(clusters)]
+        view = DepthView(depth, frame.intrinsics, frame.T_world_camera)
+        detections = [self._detection(frame, view, cluster, slab, k) for k, cluster in enumerate(clusters)]
         clock.lap("name")
         self.timings = clock.laps
         return detections
 
-    def _points(self, frame: Frame) -> tuple[np.ndarray, np.ndarray]:
+    def _points(self, frame: Frame, depth: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """World points (h, w, 3) of the stride grid and whether each has a usable depth (h, w)."""
         s = self.config.stride
-        depth = self.config.noise.apply(frame.depth)[::s, ::s].astype(np.float64)
+        depth = depth[::s, ::s].astype(np.float64)
         rays = _grid_rays(frame.intrinsics, s)
         T = frame.T_world_camera
         points = (rays * depth[..., None]) @ T[:3, :3].T + T[:3, 3]
@@ -113,9 +116,8 @@ class GeometricDetector:
         return len(cluster) >= self.config.min_points and \
             float(np.percentile(cluster.points_world[:, 2], 99.0)) - slab >= self.config.min_height
 
-    def _detection(self, frame: Frame, cluster: Cluster, slab: float, seed: int) -> Detection:
-        naming = name_cluster(cluster.points_world, frame.T_world_camera[:3, 3], slab, self.library, self.priors,
-                              self.config.naming, seed=seed)
+    def _detection(self, frame: Frame, view: DepthView, cluster: Cluster, slab: float, seed: int) -> Detection:
+        naming = name_cluster(cluster.points_world, view, slab, self.library, self.priors, self.config.naming, seed=seed)
         mask = self._mask(frame, cluster)
         vs, us = np.nonzero(mask)
         bbox = (int(us.min()), int(vs.min()), int(us.max()) + 1, int(vs.max()) + 1)

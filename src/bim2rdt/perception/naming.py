@@ -13,9 +13,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from bim2rdt.perception.fitting import along_long_axis, slid
 from bim2rdt.perception.library import FamilyModel, ModelLibrary
 from bim2rdt.perception.observation import UNKNOWN_FAMILY
-from bim2rdt.perception.visibility import facing_fraction
+from bim2rdt.perception.visibility import DepthView, see_through_fraction
 from bim2rdt.registration import IcpConfig, RegistrationResult, register
 from bim2rdt.semantics import DEFAULT_UPRIGHT_BIAS, UprightPrior
 
@@ -30,18 +31,23 @@ class NamingConfig:
     """BIM elements within this plan distance of a cluster are its first candidates."""
     size_margin: float = 0.12
     """A cluster may exceed a family's height or plan diagonal by this much (noise, flying pixels, a lean)."""
-    min_size_fraction: float = 0.3
+    min_size_fraction: float = 0.15
     """... and must span at least this fraction of the family's largest dimension."""
     min_fitness: float = 0.8
     """Fraction of the cluster's points within ``IcpConfig.score_distance`` of the registered mesh."""
-    min_facing: float = 0.6
-    """... and the fraction of those on model surface that faces the camera (no drum seen from behind)."""
+    max_see_through: float = 0.2
+    """... and at most this fraction of its visible surface may lie where the camera saw through
+    (:mod:`bim2rdt.perception.visibility`: no drum seen from behind, no tripod made of a forearm)."""
     max_rmse: float = 0.015
-    points: int = 400
+    sure_fitness: float = 0.97
+    """A family of the group being tried that fits this well is taken without trying the rest."""
+    points: int = 300
     """Cluster points used to name it (a seeded subsample): naming needs the shape, not every pixel."""
     samples: int = 3000
     """Model surface samples for naming."""
-    icp: IcpConfig = IcpConfig(restarts=8, max_iterations=20)
+    turn_deg: float = 30.0
+    """The fast path also starts from the BIM pose turned this much either way (objects moved are often turned)."""
+    icp: IcpConfig = IcpConfig(restarts=12, max_iterations=20)
 
 
 @dataclass(frozen=True)
@@ -79,10 +85,10 @@ def fits_size(height: float, length: float, family: FamilyModel, config: NamingC
             and max(height, length) >= config.min_size_fraction * largest)
 
 
-def name_cluster(points_world: np.ndarray, camera: np.ndarray, slab_height: float, library: ModelLibrary,
+def name_cluster(points_world: np.ndarray, view: DepthView, slab_height: float, library: ModelLibrary,
                  priors: dict[str, UprightPrior], config: NamingConfig, seed: int = 0) -> Naming:
-    """Name a cluster of world points (N, 3) seen from ``camera`` (3,): the best-fitting family among the near
-    ones, else among all, else unknown (with the best failed fit, for its score)."""
+    """Name a cluster of world points (N, 3) seen in ``view``: the best-fitting family among the near ones, else
+    among all, else unknown (with the best failed fit, for its score)."""
     rng = np.random.default_rng(seed)
     scene = points_world[rng.permutation(len(points_world))[: config.points]]
     height, length = cluster_size(points_world, slab_height)
@@ -97,8 +103,12 @@ def name_cluster(points_world: np.ndarray, camera: np.ndarray, slab_height: floa
             if not fits_size(height, length, model, config):
                 continue
             tried.append(family)
-            fit = _facing_fit(model, scene, camera, slab_height, priors.get(family), config)
+            homes = [el.placement for el in near if el.family == family][:1]
+            fit = _from_bim(model, scene, view, homes, slab_height, priors.get(family), config) or \
+                _consistent_fit(model, scene, view, slab_height, priors.get(family), config)
             (fits if fit is not None and _accepted(fit, config) else failed).append((family, fit))
+            if fit is not None and fit.fitness >= config.sure_fitness and fit.rmse <= config.max_rmse:
+                break
         if fits:
             family, fit = max(fits, key=lambda f: (f[1].fitness, -f[1].rmse))
             return Naming(family, fit, tuple(tried))
@@ -111,32 +121,69 @@ def _accepted(fit: RegistrationResult, config: NamingConfig) -> bool:
     return fit.fitness >= config.min_fitness and fit.rmse <= config.max_rmse
 
 
-def _facing_fit(model: FamilyModel, scene: np.ndarray, camera: np.ndarray, slab_height: float,
-                prior: UprightPrior | None, config: NamingConfig) -> RegistrationResult | None:
-    """Register from a start set back behind the seen surface; if the fit shows the camera the model's far
-    side (a mirror solution), once more from farther back. None when neither faces the camera."""
+def _from_bim(model: FamilyModel, scene: np.ndarray, view: DepthView, homes: list[np.ndarray], slab_height: float,
+              prior: UprightPrior | None, config: NamingConfig) -> RegistrationResult | None:
+    """The fast path: refine locally from where the BIM has the nearest element of the family, as placed, slid
+    onto the cluster, and slid and turned by +-``config.turn_deg`` (most objects have not moved, or were moved
+    and turned a little); None unless one of those fits."""
     points, normals = model.samples(config.samples)
-    for setback in (0.5 * float(np.min(model.extents[:2])), 0.5 * float(np.max(model.extents[:2])) + 0.1):
-        fit = _register(model, scene, _start(model, scene, camera, slab_height, setback), prior, slab_height, config)
-        if facing_fraction(fit.pose, points, normals, scene, camera, tree=model.tree(config.samples)) \
-                >= config.min_facing:
-            return fit
+    local = config.icp.model_copy(update={"restarts": 1, "yaw_jitter_deg": 0.0})
+    for home in homes:
+        moved = slid(home, points, scene)
+        turned = [slid(_turned(home, sign * config.turn_deg, points), points, scene) for sign in (1.0, -1.0)]
+        for start in (home, *along_long_axis(moved, points, scene), *turned):
+            fit = _register(model, scene, start, prior, slab_height, config, local)
+            if _accepted(fit, config) and see_through_fraction(fit.pose, points, normals, view) <= \
+                    config.max_see_through:
+                return fit
     return None
 
 
+def _turned(T: np.ndarray, degrees: float, model_pts: np.ndarray) -> np.ndarray:
+    """``T`` turned by ``degrees`` about the world vertical through the model's centre."""
+    c, s = np.cos(np.deg2rad(degrees)), np.sin(np.deg2rad(degrees))
+    turn = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    centre = T[:3, :3] @ model_pts.mean(axis=0) + T[:3, 3]
+    out = T.copy()
+    out[:3, :3] = turn @ T[:3, :3]
+    out[:3, 3] = centre + turn @ (T[:3, 3] - centre)
+    return out
+
+
+def _consistent_fit(model: FamilyModel, scene: np.ndarray, view: DepthView, slab_height: float,
+                    prior: UprightPrior | None, config: NamingConfig) -> RegistrationResult | None:
+    """Register from a start behind the seen surface; if the fit stands where the camera saw through (a mirror
+    solution) or fits poorly, once more from deeper behind it. The first consistent acceptable fit, else the
+    best consistent one, else None."""
+    points, normals = model.samples(config.samples)
+    camera = view.T_world_camera[:3, 3]
+    kept = None
+    for depth in sorted({float(np.min(model.extents[:2])), float(np.max(model.extents[:2]))}):
+        fit = _register(model, scene, _start(model, scene, camera, slab_height, depth), prior, slab_height, config)
+        if see_through_fraction(fit.pose, points, normals, view) > config.max_see_through:
+            continue
+        if _accepted(fit, config):
+            return fit
+        kept = fit if kept is None or fit.fitness > kept.fitness else kept
+    return kept
+
+
 def _start(model: FamilyModel, scene: np.ndarray, camera: np.ndarray, slab_height: float,
-           setback: float) -> np.ndarray:
-    """Where registration starts: upright on the cluster, its centre ``setback`` m behind the seen surface (a
-    camera sees the front), along the surface's plan normal turned away from the camera; the yaw restarts turn
-    it about its centre. Naming needs the family, not the BIM's yaw: perception registers the named object
-    again from the BIM's pose."""
-    centre = np.median(scene, axis=0)
-    behind = _plan_normal(scene)
-    away = centre[:2] - camera[:2]
-    behind = behind if behind @ away >= 0 else -behind
+           depth: float) -> np.ndarray:
+    """Where registration starts: upright, its plan centre on the middle of the points along the seen surface
+    and half of ``depth`` (the object's plan depth) behind the surface's front (a camera sees the near side; a
+    flat object seen from above shows all of itself and is already centred); the yaw restarts turn it about
+    its centre. Naming needs the family, not the BIM's yaw: perception registers the named object again from
+    the BIM's pose."""
+    normal = _plan_normal(scene)
+    normal = normal if normal @ (np.median(scene[:, :2], axis=0) - camera[:2]) >= 0 else -normal
+    tangent = np.array([-normal[1], normal[0]])
+    along_t = np.percentile(scene[:, :2] @ tangent, [5.0, 95.0]).mean()
+    front, back = np.percentile(scene[:, :2] @ normal, [5.0, 95.0])
+    along_n = max(front + depth / 2, (front + back) / 2)
     body_centre = model.mesh.bounds.mean(axis=0)
     T = np.eye(4)
-    T[:2, 3] = centre[:2] + behind * setback - body_centre[:2]
+    T[:2, 3] = along_t * tangent + along_n * normal - body_centre[:2]
     T[2, 3] = slab_height
     return T
 
@@ -149,9 +196,9 @@ def _plan_normal(points: np.ndarray) -> np.ndarray:
 
 
 def _register(model: FamilyModel, scene: np.ndarray, start: np.ndarray, prior: UprightPrior | None,
-              slab_height: float, config: NamingConfig) -> RegistrationResult:
+              slab_height: float, config: NamingConfig, icp: IcpConfig | None = None) -> RegistrationResult:
     points, normals = model.samples(config.samples)
     bias = prior.upright_bias if prior else DEFAULT_UPRIGHT_BIAS
     yaw_only = prior.yaw_only if prior else False
     return register(points, normals, scene, init=start, up=UP, upright_bias=bias, yaw_only=yaw_only,
-                    config=config.icp, support_height=slab_height)
+                    config=icp or config.icp, support_height=slab_height)

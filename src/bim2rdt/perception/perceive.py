@@ -29,7 +29,7 @@ from bim2rdt.perception.frame import Frame
 from bim2rdt.perception.library import ModelLibrary, library_for
 from bim2rdt.perception.observation import UNKNOWN_FAMILY, Observation
 from bim2rdt.perception.points import detection_points
-from bim2rdt.perception.visibility import facing_fraction
+from bim2rdt.perception.visibility import DepthView, see_through_fraction
 from bim2rdt.perception.slab import SLAB_CLEARANCE
 from bim2rdt.perception.yoloe import yoloe_prompts
 from bim2rdt.registration import IcpConfig
@@ -60,8 +60,8 @@ class PerceiveConfig:
     slab_contact: float = 0.05
     """An object whose BIM pose has its lowest point this close to the slab rests on it during registration."""
     model_samples: int = 10000
-    min_facing: float = 0.6
-    """A fit is plausible when at least this fraction of its points lie on model surface facing their camera
+    max_see_through: float = 0.1
+    """A fit is plausible when at most this fraction of its visible surface stands where a camera saw through
     (:mod:`bim2rdt.perception.visibility`: no drum seen from behind)."""
     tie_ratio: float = 1.15
     icp: IcpConfig = field(default_factory=IcpConfig)
@@ -75,7 +75,7 @@ class _Seen:
     detection: Detection
     frame: int
     points: np.ndarray
-    camera: np.ndarray  # (3,) where the camera was, world
+    view: DepthView  # the frame's filtered depth, for free-space checks
 
 
 def perceive_frame(frame: Frame, model: BimModel, priors: dict[str, UprightPrior], detector: Detector | None = None,
@@ -119,7 +119,7 @@ def _seen_in(frame: Frame, index: int, detections: list[Detection], structure: B
         if reason is not None:
             log.warning("perception: frame %d: dropped a detection: %s", index, reason)
             continue
-        out.append(_Seen(detection, index, points, frame.T_world_camera[:3, 3].copy()))
+        out.append(_Seen(detection, index, points, DepthView(depth, frame.intrinsics, frame.T_world_camera)))
     return out
 
 
@@ -174,14 +174,14 @@ def _observe(group: list[_Seen], library: ModelLibrary, priors: dict[str, Uprigh
     others = detector_poses if detector_poses or bim_pose is not None else [upright_on(points, model_pts, slab)]
     reference = bim_pose if bim_pose is not None else (detector_poses[0] if detector_poses else others[0])
     support = slab if rests_on_slab(reference, model_pts, slab, config.slab_contact) else None
-    cameras = np.vstack([np.broadcast_to(s.camera, s.points.shape) for s in group])
-    tree = library.families[family].tree(config.model_samples)
+    views = {s.frame: s.view for s in group}
 
-    def faces_its_cameras(fit) -> bool:
-        return facing_fraction(fit.pose, model_pts, model_normals, points, cameras, tree=tree) >= config.min_facing
+    def consistent(fit) -> bool:
+        return all(see_through_fraction(fit.pose, model_pts, model_normals, view) <= config.max_see_through
+                   for view in views.values())
 
     fit = best_fit(model_pts, model_normals, points, bim_pose, others, priors.get(family), config.icp, support,
-                   searched=bool(detector_poses), tie_ratio=config.tie_ratio, plausible=faces_its_cameras)
+                   searched=bool(detector_poses), tie_ratio=config.tie_ratio, plausible=consistent)
     return Observation(family, element.global_id if element is not None else None, fit.pose, float(fit.rmse),
                        float(fit.fitness), fit=fit, **base)
 
