@@ -19,7 +19,6 @@ class Detection:
     family: str
     points_world: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     station: int | None = None
-    truth_index: int | None = None  # simulation only: which true object produced it, for scoring
     label: str = ""
     bbox: tuple[int, int, int, int] | None = None
     mask: np.ndarray | None = field(default=None, repr=False)

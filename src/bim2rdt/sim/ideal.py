@@ -33,5 +33,5 @@ class IdealDetector:
         labels = self._rendered.labels
         seen, pixels = np.unique(labels[labels >= 0], return_counts=True)
         return [Detection(self.families[index], label=self.families[index], bbox=object_roi(labels, int(index)),
-                          mask=labels == index, score=1.0, detector=self.name, truth_index=int(index))
+                          mask=labels == index, score=1.0, detector=self.name)
                 for index, count in zip(seen, pixels) if count >= self.min_pixels]
