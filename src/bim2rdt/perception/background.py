@@ -67,15 +67,16 @@ def structure_for(model: BimModel) -> BimStructure:
 
 
 def explained(structure: BimStructure, origin: np.ndarray, directions: np.ndarray, measured: np.ndarray,
-              tolerance: np.ndarray, slab_height: float, slab_clearance: float) -> np.ndarray:
-    """(N,) bool: rays whose measured point (ray parameter ``measured``) the BIM explains: on a permanent
-    surface within ``tolerance`` (N,) m of it, behind it, or on the slab (below ``slab_height`` +
-    ``slab_clearance``)."""
+              tolerance: float, sigma: np.ndarray, slab_height: float, slab_clearance: float) -> np.ndarray:
+    """(N,) bool: rays whose measured point (ray parameter ``measured``, the camera z for pixel rays) the BIM
+    explains: on a permanent surface (within ``tolerance`` m plus 3 x the depth noise ``sigma`` (N,) seen
+    along the surface normal, so a floor at grazing incidence is not given the tolerance of a wall ahead),
+    behind one, or on the slab (below ``slab_height`` + ``slab_clearance``)."""
     t, normals = structure.cast(origin, directions)
     points = origin + directions * measured[:, None]
+    along_normal = np.abs(np.einsum("ni,ni->n", directions, normals))
     with np.errstate(invalid="ignore"):
-        off_surface = (measured - t) * np.abs(np.einsum("ni,ni->n", directions, normals))
-        on_or_behind = off_surface > -tolerance
+        on_or_behind = (measured - t) * along_normal > -(tolerance + 3.0 * sigma * along_normal)
     return np.where(np.isfinite(t), on_or_behind, False) | (points[:, 2] < slab_height + slab_clearance)
 
 

@@ -49,6 +49,28 @@ class EdgeFilter:
         return out
 
 
+def depth_at(depth: np.ndarray, uv: np.ndarray, radius: int = 1) -> np.ndarray:
+    """Depth (N,) at pixels ``uv`` (N, 2) of a filtered depth image: the pixel's own, or, where it has none (a
+    flying pixel removed, a dropout), the nearest surface within ``radius`` pixels. Shi-Tomasi puts corners on
+    silhouettes, exactly where the mixed pixels were; the near side is the object whose outline made the corner,
+    a pixel away at most. NaN where nothing within reach returned."""
+    height, width = depth.shape
+    u = np.clip(np.round(uv[:, 0]).astype(int), 0, width - 1)
+    v = np.clip(np.round(uv[:, 1]).astype(int), 0, height - 1)
+    own = depth[v, u].astype(float)
+    missing = ~(np.isfinite(own) & (own > 0))
+    if not missing.any():
+        return own
+    valid = np.where(np.isfinite(depth) & (depth > 0), depth, np.inf)
+    padded = np.pad(valid, radius, constant_values=np.inf)
+    best = np.full(int(missing.sum()), np.inf)
+    for dv in range(-radius, radius + 1):
+        for du in range(-radius, radius + 1):
+            best = np.minimum(best, padded[v[missing] + radius + dv, u[missing] + radius + du])
+    own[missing] = np.where(np.isfinite(best), best, np.nan)
+    return own
+
+
 def _bent_at_a_step(inverse: np.ndarray, tolerance: np.ndarray, jump: np.ndarray, axis: int) -> np.ndarray:
     """Along ``axis``: a neighbour differs by more than ``jump`` and neither one-sided run of three is straight."""
     w = np.moveaxis(inverse, axis, 0)

@@ -39,8 +39,9 @@ class GeometricConfig:
 
     stride: int = 2
     """Work on every n-th pixel in each direction (2: a VGA frame is 320 x 240 points)."""
-    surface_tolerance: float = 0.03
-    """A point this close to a BIM surface (plus 3 sigma of depth noise) is the BIM's."""
+    surface_tolerance: float = 0.02
+    """A point this close to a BIM surface (plus 3 sigma of depth noise along its normal) is the BIM's: what
+    as-built walls stray from the model by (a slab's points are judged by ``slab_clearance`` too)."""
     slab_clearance: float = SLAB_CLEARANCE
     link_pixels: float = 3.0
     """Neighbouring grid points link when closer than this many grid spacings (at their depth) ..."""
@@ -58,7 +59,7 @@ class GeometricConfig:
 
 class GeometricDetector:
     """Scan-vs-BIM detection (see the module docs). ``priors`` default to the offline knowledge base's for the
-    model's families; ``timings`` holds the seconds each stage took on the last frame."""
+    model's families; ``timings`` holds the CPU seconds each stage took on the last frame."""
 
     name = "geometric"
 
@@ -102,9 +103,10 @@ class GeometricDetector:
         directions = _grid_rays(frame.intrinsics, s)[valid] @ frame.T_world_camera[:3, :3].T
         depth = (points[valid] - origin) @ frame.T_world_camera[:3, 2]
         noise = self.config.noise
-        tolerance = self.config.surface_tolerance + 3 * (noise.noise + noise.noise_per_metre * depth)
+        sigma = noise.noise + noise.noise_per_metre * depth
         out = np.zeros(valid.shape, dtype=bool)
-        out[valid] = explained(self.structure, origin, directions, depth, tolerance, slab, self.config.slab_clearance)
+        out[valid] = explained(self.structure, origin, directions, depth, self.config.surface_tolerance, sigma, slab,
+                               self.config.slab_clearance)
         return out
 
     def _link(self, frame: Frame, points: np.ndarray) -> np.ndarray:
@@ -150,13 +152,13 @@ def _label(naming: Naming, priors: dict[str, UprightPrior]) -> str:
 
 
 class _Clock:
-    """Seconds per named stage."""
+    """CPU seconds of this process per named stage: what a stage costs on one core, whoever else shares it."""
 
     def __init__(self) -> None:
         self.laps: dict[str, float] = {}
-        self._last = time.perf_counter()
+        self._last = time.process_time()
 
     def lap(self, stage: str) -> None:
-        now = time.perf_counter()
+        now = time.process_time()
         self.laps[stage] = self.laps.get(stage, 0.0) + now - self._last
         self._last = now

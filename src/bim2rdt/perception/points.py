@@ -14,7 +14,7 @@ import numpy as np
 from bim2rdt.perception.background import BimStructure, explained
 from bim2rdt.perception.corners import shi_tomasi
 from bim2rdt.perception.detection import Detection
-from bim2rdt.perception.edges import EdgeFilter
+from bim2rdt.perception.edges import EdgeFilter, depth_at
 from bim2rdt.perception.frame import Frame
 
 
@@ -40,8 +40,8 @@ def detection_points(frame: Frame, depth: np.ndarray, detection: Detection, stru
                      mask_margin: int = 3, mask_points: int = 0) -> tuple[np.ndarray, str | None]:
     """World points (N, 3) of a detection's corners with valid ``depth`` (the frame's, flying pixels removed),
     plus up to ``mask_points`` pixels spread evenly over its mask, less those the BIM's building explains
-    (within 3 sigma of depth noise of its surfaces, at least ``slab_clearance``: tight, so a cone's 3 cm base
-    plate, which gives its yaw, is not taken for slab); (empty, reason) when there are none."""
+    (within ``slab_clearance`` plus 3 sigma of depth noise of its surfaces: tight, so a cone's 3 cm base plate,
+    which gives its yaw, is not taken for slab); (empty, reason) when there are none."""
     roi, reason = checked_roi(detection, frame)
     if roi is None:
         return np.zeros((0, 3)), reason
@@ -52,8 +52,7 @@ def detection_points(frame: Frame, depth: np.ndarray, detection: Detection, stru
     uv = shi_tomasi(frame.gray, roi, max_corners=max_corners, within=within)
     if mask_points > 0 and detection.mask is not None:
         uv = np.vstack([uv, _spread(np.asarray(detection.mask, dtype=bool) & np.isfinite(depth), roi, mask_points)])
-    pixels = np.round(uv).astype(int)
-    z = depth[np.clip(pixels[:, 1], 0, depth.shape[0] - 1), np.clip(pixels[:, 0], 0, depth.shape[1] - 1)]
+    z = depth_at(depth, uv)
     ok = np.isfinite(z) & (z > 0)
     if not ok.any():
         return np.zeros((0, 3)), f"{detection.family}: no corner in ROI {roi} has a valid depth"
@@ -61,8 +60,8 @@ def detection_points(frame: Frame, depth: np.ndarray, detection: Detection, stru
     rays = frame.intrinsics.backproject(uv[ok], np.ones(int(ok.sum())))
     directions = rays @ T[:3, :3].T
     z_ok = z[ok].astype(float)
-    tolerance = np.maximum(slab_clearance, 3.0 * (noise.noise + noise.noise_per_metre * z_ok))
-    keep = ~explained(structure, T[:3, 3], directions, z_ok, tolerance, slab_height, slab_clearance)
+    sigma = noise.noise + noise.noise_per_metre * z_ok
+    keep = ~explained(structure, T[:3, 3], directions, z_ok, slab_clearance, sigma, slab_height, slab_clearance)
     points = T[:3, 3] + directions[keep] * z[ok][keep, None]
     if len(points) == 0:
         return points, f"{detection.family}: every corner in ROI {roi} lies on the BIM's building"

@@ -12,7 +12,9 @@ ultralytics makes no network call of its own either.
 
 from __future__ import annotations
 
+import contextlib
 import os
+import sys
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 
@@ -74,6 +76,15 @@ class YoloeDetector:
         return Detection(family, label=prompt, bbox=bbox, mask=mask, score=float(score), detector=self.name)
 
 
+def import_yoloe():
+    """ultralytics' YOLOE class, imported offline (``YOLO_OFFLINE``), its first-run notes sent to stderr so a
+    command's JSON on stdout stays clean. ImportError when the extra is not installed."""
+    os.environ.setdefault("YOLO_OFFLINE", "1")
+    with contextlib.redirect_stdout(sys.stderr):
+        from ultralytics import YOLOE
+    return YOLOE
+
+
 def _load(weights: Path, embeddings: Path):
     """YOLOE from local files only, with the prompt embeddings loaded; PerceptionError names what is missing."""
     if weights.suffix == ".pt" and not weights.is_file():
@@ -82,14 +93,14 @@ def _load(weights: Path, embeddings: Path):
         raise PerceptionError(f"yoloe: weights must be a .pt file or a bundled .yaml architecture, got {weights}")
     if embeddings.suffix != ".npz" or not embeddings.is_file():
         raise PerceptionError(f"yoloe: no prompt embeddings file (.npz) at {embeddings}")
-    os.environ.setdefault("YOLO_OFFLINE", "1")
     try:
-        from ultralytics import YOLOE
+        YOLOE = import_yoloe()
     except ImportError:
         raise PerceptionError("yoloe: ultralytics is not installed; pip install 'bim2rdt[yoloe]'") from None
     try:
-        yolo = YOLOE(str(weights))
-        yolo.load_prompt_embeddings(embeddings)
+        with contextlib.redirect_stdout(sys.stderr):
+            yolo = YOLOE(str(weights))
+            yolo.load_prompt_embeddings(embeddings)
     except (ValueError, FileNotFoundError, RuntimeError) as error:
         raise PerceptionError(f"yoloe: cannot load {weights.name} with {embeddings.name}: "
                               f"{' '.join(str(error).split())[:200]}") from None

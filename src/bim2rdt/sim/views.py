@@ -12,7 +12,7 @@ import numpy as np
 
 from bim2rdt.perception.camera import Intrinsics
 from bim2rdt.perception.corners import shi_tomasi
-from bim2rdt.perception.edges import EdgeFilter
+from bim2rdt.perception.edges import EdgeFilter, depth_at
 from bim2rdt.sim.render import RgbdFrame
 
 
@@ -31,14 +31,17 @@ def object_scene_points(frame: RgbdFrame, intrinsics: Intrinsics, index: int, rn
                         max_corners: int = 600, clutter_fraction: float = 0.05,
                         edge_filter: EdgeFilter | None = None) -> np.ndarray:
     """World points (N, 3) for object ``index``: ROI corners with valid depth plus spurious returns; with
-    ``edge_filter``, corners on flying pixels have no depth. Empty (0, 3) when the object is not visible."""
+    ``edge_filter``, a corner on a flying pixel takes the nearest surface's depth beside it
+    (:func:`~bim2rdt.perception.edges.depth_at`). Empty (0, 3) when the object is not visible."""
     roi = object_roi(frame.labels, index)
     if roi is None:
         return np.zeros((0, 3))
     uv = shi_tomasi(frame.gray, roi, max_corners=max_corners)
     pixels = np.round(uv).astype(int)
-    depth_image = frame.depth if edge_filter is None else edge_filter.apply(frame.depth)
-    depth = depth_image[pixels[:, 1], pixels[:, 0]]
+    if edge_filter is None:
+        depth = frame.depth[pixels[:, 1], pixels[:, 0]]
+    else:
+        depth = depth_at(edge_filter.apply(frame.depth), uv)
     seen = np.isfinite(depth)
     points_cam = intrinsics.backproject(uv[seen], depth[seen])
     points_cam = np.vstack([points_cam, _spurious(roi, depth[seen], intrinsics, rng, clutter_fraction)])

@@ -17,7 +17,8 @@ import numpy as np
 from bim2rdt.perception import UNKNOWN_FAMILY, Detection, Observation
 from bim2rdt.sim.reality import TrueObject
 from bim2rdt.sim.scene import WORKER
-from bim2rdt.sim.truth import closest_equivalent, pose_error
+from bim2rdt.registration.symmetry import closest_equivalent
+from bim2rdt.sim.truth import pose_error, true_symmetry
 
 MIN_VISIBLE = 0.3
 """Objects at least this visible (fraction of their unoccluded, uncropped image area) must be detected."""
@@ -87,7 +88,7 @@ def _true_positive(tally: Tally, obs: Observation, true: TrueObject) -> None:
 
 def yaw_error_deg(family: str, T_est: np.ndarray, T_true: np.ndarray) -> float:
     """|yaw| difference (deg) about world z of the estimate's symmetric equivalent closest to the truth."""
-    closest = closest_equivalent(family, T_est, T_true)
+    closest = closest_equivalent(T_est, T_true, true_symmetry(family))
     yaw = np.arctan2(closest[1, 0], closest[0, 0]) - np.arctan2(T_true[1, 0], T_true[0, 0])
     return float(abs((np.rad2deg(yaw) + 180.0) % 360.0 - 180.0))
 
