@@ -30,6 +30,7 @@ def test_demo_writes_the_twin_report_plots_and_resolved_config(demo_out):
     assert len(list((out / "registration").glob("*.png"))) == 4
     config = json.loads((out / "config.json").read_text())
     assert config["seed"] == 0 and config["workers"] == 1 and "numpy" in config["versions"]
+    assert config["detector"] == "geometric"  # the default reads frames without weights
     assert "Robot mission" in stdout and "Hand-arm vibration events" in stdout
 
 

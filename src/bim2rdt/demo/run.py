@@ -31,19 +31,22 @@ class DemoResult:
 
 
 def run_demo(out_dir: Path, trials: int = DEMO_TRIALS, seed: int = DEMO_SEED, workers: int = 2,
-             minutes: float = 60.0, tick: Callable[[str], None] = lambda stage: None) -> DemoResult:
+             minutes: float = 60.0, tick: Callable[[str], None] = lambda stage: None, detector: str = "geometric",
+             yoloe: tuple[Path, Path] | None = None) -> DemoResult:
     """Run the site day and the registration scenarios into ``out_dir`` (created)."""
     from bim2rdt.config import get_settings
     from bim2rdt.demo.site_report import write_site_report
 
     out_dir = Path(out_dir)
-    day = run_site_day(out_dir, seed=seed, workers=workers, minutes=minutes, tick=tick)
+    day = run_site_day(out_dir, seed=seed, workers=workers, minutes=minutes, tick=tick, detector=detector,
+                       yoloe=yoloe)
     report = write_site_report(day, out_dir)
     config = get_settings().registration
     run = run_registration_scenarios(out_dir / "registration", trials, seed, config, peers=False,
                                      tick=lambda: tick("trial"))
     save_run(run, out_dir / "registration")
     resolved = {"registration": config.model_dump(), "trials": trials, "seed": seed, "workers": workers,
-                "minutes": minutes, "versions": versions()}
+                "minutes": minutes, "detector": detector,
+                "yoloe": [str(p) for p in yoloe] if yoloe else None, "versions": versions()}
     write_bytes_atomic(out_dir / "config.json", json.dumps(resolved, indent=2).encode("utf-8"))
     return DemoResult(day, report, run)

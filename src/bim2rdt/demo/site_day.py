@@ -23,7 +23,8 @@ from bim2rdt.bim import BimModel, TwinWriter, load_ifc
 from bim2rdt.mission import MissionConfig, MissionResult, Observation, Target, plan_stations, run_mission
 from bim2rdt.semantics import KnowledgeBasePriors, UprightPrior
 from bim2rdt.sim.meshes import mesh_for_family
-from bim2rdt.sim.reality import Reality, SimulatedPerception, body_mesh, simulate_reality
+from bim2rdt.demo.perceivers import DemoPerception
+from bim2rdt.sim.reality import Reality, body_mesh, simulate_reality
 from bim2rdt.sim.site import ZONES, build_site_ifc
 
 ROBOT_START_XY = (1.0, 1.0)
@@ -53,18 +54,21 @@ def objects_of_interest(model: BimModel) -> list[Target]:
 
 def run_site_day(out_dir: Path, seed: int = 0, workers: int = 2, minutes: float = 60.0, fs: float = 5000.0,
                  mission_config: MissionConfig = MissionConfig(),
-                 tick: Callable[[str], None] = lambda stage: None) -> SiteDay:
+                 tick: Callable[[str], None] = lambda stage: None, detector: str = "geometric",
+                 yoloe: tuple[Path, Path] | None = None) -> SiteDay:
     """Run the day into ``out_dir``: ``site.ifc`` (as designed), ``site_twin.ifc`` (as built, with safety
-    records) and the monitor's state under ``state/`` (started afresh: the demo simulates a new day)."""
+    records) and the monitor's state under ``state/`` (started afresh: the demo simulates a new day). The robot's
+    camera sees the building and reads its frames with ``detector`` (:mod:`bim2rdt.demo.perceivers`)."""
     out_dir.mkdir(parents=True, exist_ok=True)
     model = load_ifc(build_site_ifc(out_dir / "site.ifc"))
     tick("bim")
     targets = objects_of_interest(model)
-    reality = simulate_reality(model, [t.global_id for t in targets], seed=seed)
+    reality = simulate_reality(model, [t.global_id for t in targets], seed=seed, building=True)
     priors = KnowledgeBasePriors().priors(sorted({t.family for t in reality.truth}))
     stations = plan_stations(targets, ROBOT_START_XY, mission_config)
-    mission = run_mission(targets, stations, SimulatedPerception(reality, seed=seed), priors, mesh_for_family,
-                          mission_config, tick=lambda: tick("station"))
+    perceive = DemoPerception(detector, model, reality, priors, seed, yoloe)
+    mission = run_mission(targets, stations, perceive, priors, mesh_for_family, mission_config,
+                          tick=lambda: tick("station"))
     writer = TwinWriter(model)
     apply_observations(writer, mission.observations)
     tick("twin")

@@ -11,9 +11,9 @@ from bim2rdt.perception.errors import PerceptionError
 from bim2rdt.perception.frame import Frame
 from bim2rdt.perception.geometric import GeometricConfig, GeometricDetector
 from bim2rdt.perception.observation import UNKNOWN_FAMILY, Observation
-from bim2rdt.perception.perceive import PerceiveConfig, perceive_frame, perceive_frames
+from bim2rdt.perception.perceive import PerceiveConfig, locate_detections, perceive_frame, perceive_frames
 from bim2rdt.perception.yoloe import YoloeDetector
 
 __all__ = ["UNKNOWN_FAMILY", "CameraError", "Detection", "Detector", "EdgeFilter", "Frame", "GeometricConfig",
            "GeometricDetector", "Intrinsics", "Observation", "PerceiveConfig", "PerceptionError", "YoloeDetector",
-           "look_at", "perceive_frame", "perceive_frames"]
+           "locate_detections", "look_at", "perceive_frame", "perceive_frames"]

@@ -39,6 +39,13 @@ class NamingConfig:
     """... and at most this fraction of its visible surface may lie where the camera saw through
     (:mod:`bim2rdt.perception.visibility`: no drum seen from behind, no tripod made of a forearm)."""
     max_rmse: float = 0.015
+    elsewhere_min_points: int = 150
+    """A cluster named after a family the BIM has nowhere near it (an object the BIM lacks, or one moved far)
+    must be this well seen (grid points) ...
+    """
+    elsewhere_min_span: float = 0.5
+    """... and span at least this fraction of the family's largest dimension: a sliver of a beam between a
+    worker's legs fits a cone as well as anything, and only the BIM's own objects nearby may explain slivers."""
     sure_fitness: float = 0.97
     """A family of the group being tried that fits this well is taken without trying the rest."""
     points: int = 300
@@ -96,11 +103,13 @@ def name_cluster(points_world: np.ndarray, view: DepthView, slab_height: float, 
     near = library.near(centre, config.near_radius)
     near_families = list(dict.fromkeys(el.family for el in near))
     tried, failed = [], []
-    for group in (near_families, [f for f in library.families if f not in near_families]):
+    elsewhere = [f for f in library.families if f not in near_families]
+    for group in (near_families, elsewhere):
         fits = []
         for family in group:
             model = library.families[family]
-            if not fits_size(height, length, model, config):
+            if not fits_size(height, length, model, config) or \
+                    (group is elsewhere and not _well_seen(len(points_world), height, length, model, config)):
                 continue
             tried.append(family)
             homes = [el.placement for el in near if el.family == family][:1]
@@ -115,6 +124,11 @@ def name_cluster(points_world: np.ndarray, view: DepthView, slab_height: float, 
     failed = [(family, fit) for family, fit in failed if fit is not None]
     best_failed = max(failed, key=lambda f: f[1].fitness)[1] if failed else None
     return Naming(UNKNOWN_FAMILY, best_failed, tuple(tried))
+
+
+def _well_seen(count: int, height: float, length: float, model: FamilyModel, config: NamingConfig) -> bool:
+    largest = max(model.height, model.footprint)
+    return count >= config.elsewhere_min_points and max(height, length) >= config.elsewhere_min_span * largest
 
 
 def _accepted(fit: RegistrationResult, config: NamingConfig) -> bool:

@@ -105,6 +105,19 @@ def perceive_frames(frames: Sequence[Frame], model: BimModel, priors: dict[str, 
             for group in sorted(groups, key=lambda g: -sum(len(s.points) for s in g))]
 
 
+def locate_detections(frame: Frame, model: BimModel, detector: Detector | None = None, station: int | None = None,
+                      config: PerceiveConfig = PerceiveConfig()) -> list[Detection]:
+    """The detector's detections in ``frame`` with their world points (``points_world``: corners and mask
+    pixels with depth, flying pixels and the BIM's building removed) and ``station``; families resolved to the
+    model's, unusable detections dropped with a logged reason. What a mission that registers objects itself
+    needs from perception."""
+    detector = detector if detector is not None else _default_detector(model)
+    library = library_for(model)
+    detections = [_resolved(d, library) for d in detector.detect(frame)]
+    return [replace(s.detection, points_world=s.points, station=station)
+            for s in _seen_in(frame, 0, detections, structure_for(model), config)]
+
+
 def _seen_in(frame: Frame, index: int, detections: list[Detection], structure: BimStructure,
              config: PerceiveConfig) -> list[_Seen]:
     depth = config.edge_filter.apply(frame.depth)
