@@ -25,6 +25,7 @@ bench: $(STAMP)
 	$(VENV)/bin/bim2rdt bench registration
 	$(VENV)/bin/bim2rdt bench ifc
 	$(VENV)/bin/bim2rdt bench hav
+	$(VENV)/bin/bim2rdt bench perception
 
 clean:
 	rm -rf $(VENV) out .pytest_cache
