@@ -12,7 +12,8 @@ import numpy as np
 
 from bim2rdt.bim import BimModel, load_ifc
 from bim2rdt.demo.site_day import ROBOT_START_XY, objects_of_interest
-from bim2rdt.mission import MissionConfig, plan_stations
+from bim2rdt.mission import MissionConfig
+from bim2rdt.mission.route import plan_route
 from bim2rdt.perception import Frame, Intrinsics
 from bim2rdt.sim.reality import Reality, simulate_reality
 from bim2rdt.sim.render import RgbdFrame, cast_rays, render_rgbd
@@ -46,7 +47,7 @@ def bench_frames(model: BimModel, seeds: list[int], worker_fraction: float, intr
     """Frames of every seed's reality from the mission's stations; a worker stands in view in about
     ``worker_fraction`` of them (seeded)."""
     targets = objects_of_interest(model)
-    stations = plan_stations(targets, ROBOT_START_XY, MissionConfig())
+    stations = mission_stations(model, targets)
     for seed in seeds:
         reality = simulate_reality(model, [t.global_id for t in targets], seed=seed, building=True)
         rng = np.random.default_rng([seed, 11])
@@ -59,6 +60,16 @@ def bench_frames(model: BimModel, seeds: list[int], worker_fraction: float, intr
             rendered = render_rgbd(scene, intrinsics, T, rng, tof=tof)
             yield BenchFrame(seed, station, rendered, rendered.as_frame(intrinsics), reality,
                              visible_fractions(reality.scene.objects, rendered, intrinsics), worker is not None)
+
+
+def mission_stations(model: BimModel, targets) -> list[np.ndarray]:
+    """The camera poses the demo's mission plans (reachable stations with a line of sight to each object, on the
+    BIM's ground floor with its off-limits zones), dock first."""
+    from bim2rdt.planning import OccupancyGrid
+
+    grid = OccupancyGrid.from_bim(model).with_zones(model.zones)
+    config = MissionConfig().model_copy(update={"slab_height": grid.floor_z})
+    return plan_route(targets, ROBOT_START_XY, grid, config).stations
 
 
 def visible_fractions(objects: list[PlacedObject], rendered: RgbdFrame, intrinsics: Intrinsics,
