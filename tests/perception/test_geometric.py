@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
+
+from bim2rdt.bim import load_ifc
 
 from bim2rdt.perception import UNKNOWN_FAMILY, GeometricDetector, look_at
 from bim2rdt.perception.background import BimStructure
@@ -60,10 +63,9 @@ def test_an_object_the_bim_lacks_is_named_from_all_the_families(site, priors):
     assert detection.family == DRUM
 
 
-def test_the_slab_height_comes_from_the_bim_not_a_constant(site):
-    structure = BimStructure(site)
-    assert structure.slab_height(np.array([5.0, 5.0, 1.1])) == 0.0  # the embedded site's slab top
-    structure.slabs = [(0.0, 0.0, 20.0, 14.0, 0.0), (0.0, 0.0, 20.0, 14.0, 3.2)]  # an upper floor
-    assert structure.slab_height(np.array([5.0, 5.0, 4.3])) == 3.2
-    assert structure.slab_height(np.array([5.0, 5.0, 1.1])) == 0.0
-    assert structure.slab_height(np.array([30.0, 5.0, 1.1])) == 0.0  # off every slab: the storey's elevation
+def test_the_slab_height_comes_from_the_bim_not_a_constant(site, samples):
+    assert BimStructure(site).slab_height(np.array([5.0, 5.0, 1.1])) == 0.0  # the embedded site's slab top
+    house = BimStructure(load_ifc(samples / "AC20-FZK-Haus.ifc"))  # ArchiCAD: ground floor 0.0, upper floor 2.7 m
+    assert house.slab_height(np.array([5.0, 5.0, 1.1])) == pytest.approx(0.0)
+    assert house.slab_height(np.array([5.0, 5.0, 4.0])) == pytest.approx(2.7)  # a robot upstairs
+    assert house.slab_height(np.array([30.0, 5.0, 1.1])) == pytest.approx(0.0)  # off every slab: the storey's
