@@ -17,6 +17,7 @@ from functools import lru_cache
 
 import cv2
 import numpy as np
+from scipy.spatial import cKDTree
 
 from bim2rdt.bim import BimModel
 from bim2rdt.perception.camera import Intrinsics
@@ -53,6 +54,8 @@ class GeometricConfig:
     """Clusters of fewer grid points are noise (40 points at stride 2 is ~160 pixels)."""
     min_height: float = 0.05
     """Clusters whose top is less than this above the slab are dirt, cables, the slab's own noise."""
+    max_splits: int = 2
+    """How often a cluster holding touching objects may be split (each split names one of them)."""
     noise: EdgeFilter = field(default_factory=EdgeFilter)
     naming: NamingConfig = field(default_factory=NamingConfig)
 
@@ -83,7 +86,9 @@ class GeometricDetector:
                     if self._large_enough(c, slab)]
         clock.lap("cluster")
         view = DepthView(depth, frame.intrinsics, frame.T_world_camera)
-        detections = [self._detection(frame, view, cluster, slab, k) for k, cluster in enumerate(clusters)]
+        detections = []
+        for k, cluster in enumerate(clusters):
+            detections += self._detections(frame, view, cluster, slab, k, splits=self.config.max_splits)
         clock.lap("name")
         self.timings = clock.laps
         return detections
@@ -118,8 +123,37 @@ class GeometricDetector:
         return len(cluster) >= self.config.min_points and \
             float(np.percentile(cluster.points_world[:, 2], 99.0)) - slab >= self.config.min_height
 
-    def _detection(self, frame: Frame, view: DepthView, cluster: Cluster, slab: float, seed: int) -> Detection:
-        naming = name_cluster(cluster.points_world, view, slab, self.library, self.priors, self.config.naming, seed=seed)
+    def _detections(self, frame: Frame, view: DepthView, cluster: Cluster, slab: float, seed: int,
+                    splits: int) -> list[Detection]:
+        """The cluster named; when the named object leaves a cluster's worth of its points unexplained (two
+        objects touching), its part is one detection and the rest is clustered and named again (at most
+        ``splits`` times)."""
+        naming = name_cluster(cluster.points_world, view, slab, self.library, self.priors, self.config.naming,
+                              seed=seed)
+        if naming.family == UNKNOWN_FAMILY or splits <= 0:
+            return [self._detection(frame, cluster, naming)]
+        model = self.library.families[naming.family]
+        inside = _near_model(cluster.points_world, naming.fit.pose, model.tree(self.config.naming.samples),
+                             self.config.naming.icp.score_distance)
+        if inside.sum() < self.config.min_points or (~inside).sum() < self.config.min_points:
+            return [self._detection(frame, cluster, naming)]
+        out = [self._detection(frame, _subset(cluster, inside), naming)]
+        for rest in self._regroup(frame, _subset(cluster, ~inside), slab):
+            out += self._detections(frame, view, rest, slab, seed + 1, splits - 1)
+        return out
+
+    def _regroup(self, frame: Frame, rest: Cluster, slab: float) -> list[Cluster]:
+        """The leftover points of a split cluster, clustered again (they may be several pieces)."""
+        s = self.config.stride
+        h, w = -(-frame.intrinsics.height // s), -(-frame.intrinsics.width // s)
+        candidate = np.zeros((h, w), dtype=bool)
+        candidate[rest.rows, rest.cols] = True
+        points = np.zeros((h, w, 3))
+        points[rest.rows, rest.cols] = rest.points_world
+        link = self._link(frame, points)
+        return [c for c in grid_clusters(candidate, points, link, self.config.merge_gap) if self._large_enough(c, slab)]
+
+    def _detection(self, frame: Frame, cluster: Cluster, naming: Naming) -> Detection:
         mask = self._mask(frame, cluster)
         vs, us = np.nonzero(mask)
         bbox = (int(us.min()), int(vs.min()), int(us.max()) + 1, int(vs.max()) + 1)
@@ -134,6 +168,18 @@ class GeometricDetector:
         small[cluster.rows, cluster.cols] = 1
         full = np.kron(small, np.ones((s, s), dtype=np.uint8))[: frame.intrinsics.height, : frame.intrinsics.width]
         return cv2.dilate(full, np.ones((3, 3), np.uint8)).astype(bool)
+
+
+def _near_model(points_world: np.ndarray, T_world_model: np.ndarray, samples: cKDTree, distance: float) -> np.ndarray:
+    """(N,) bool: points within ``distance`` m of the model's surface samples (a k-d tree, body frame) posed at
+    ``T_world_model``."""
+    body = (points_world - T_world_model[:3, 3]) @ T_world_model[:3, :3]
+    gaps, _ = samples.query(body, distance_upper_bound=distance)
+    return np.isfinite(gaps)
+
+
+def _subset(cluster: Cluster, keep: np.ndarray) -> Cluster:
+    return Cluster(cluster.rows[keep], cluster.cols[keep], cluster.points_world[keep])
 
 
 @lru_cache(maxsize=8)

@@ -46,6 +46,8 @@ class NamingConfig:
     elsewhere_min_span: float = 0.5
     """... and span at least this fraction of the family's largest dimension: a sliver of a beam between a
     worker's legs fits a cone as well as anything, and only the BIM's own objects nearby may explain slivers."""
+    min_part_fitness: float = 0.5
+    """A fit this good (and within ``max_rmse``, and consistent) names the part of a cluster it explains."""
     sure_fitness: float = 0.97
     """A family of the group being tried that fits this well is taken without trying the rest."""
     points: int = 300
@@ -64,6 +66,8 @@ class Naming:
     family: str
     fit: RegistrationResult | None
     tried: tuple[str, ...] = ()
+    partial: bool = False
+    """The fit explains only part of the cluster (it holds this object and something touching it)."""
 
     @property
     def score(self) -> float:
@@ -105,7 +109,7 @@ def name_cluster(points_world: np.ndarray, view: DepthView, slab_height: float, 
     tried, failed = [], []
     elsewhere = [f for f in library.families if f not in near_families]
     for group in (near_families, elsewhere):
-        fits = []
+        fits, parts = [], []
         for family in group:
             model = library.families[family]
             if not fits_size(height, length, model, config) or \
@@ -115,12 +119,14 @@ def name_cluster(points_world: np.ndarray, view: DepthView, slab_height: float, 
             homes = [el.placement for el in near if el.family == family][:1]
             fit = _from_bim(model, scene, view, homes, slab_height, priors.get(family), config) or \
                 _consistent_fit(model, scene, view, slab_height, priors.get(family), config)
-            (fits if fit is not None and _accepted(fit, config) else failed).append((family, fit))
+            bucket = fits if fit is not None and _accepted(fit, config) else \
+                parts if fit is not None and _accepted_part(fit, config) else failed
+            bucket.append((family, fit))
             if fit is not None and fit.fitness >= config.sure_fitness and fit.rmse <= config.max_rmse:
                 break
-        if fits:
-            family, fit = max(fits, key=lambda f: (f[1].fitness, -f[1].rmse))
-            return Naming(family, fit, tuple(tried))
+        if fits or parts:
+            family, fit = max(fits or parts, key=lambda f: (f[1].fitness, -f[1].rmse))
+            return Naming(family, fit, tuple(tried), partial=not fits)
     failed = [(family, fit) for family, fit in failed if fit is not None]
     best_failed = max(failed, key=lambda f: f[1].fitness)[1] if failed else None
     return Naming(UNKNOWN_FAMILY, best_failed, tuple(tried))
@@ -129,6 +135,12 @@ def name_cluster(points_world: np.ndarray, view: DepthView, slab_height: float, 
 def _well_seen(count: int, height: float, length: float, model: FamilyModel, config: NamingConfig) -> bool:
     largest = max(model.height, model.footprint)
     return count >= config.elsewhere_min_points and max(height, length) >= config.elsewhere_min_span * largest
+
+
+def _accepted_part(fit: RegistrationResult, config: NamingConfig) -> bool:
+    """A fit that explains a good part of the cluster closely: the cluster holds this object and something
+    touching it (a drum left against a cone); the caller splits the rest off and names it on its own."""
+    return fit.fitness >= config.min_part_fitness and fit.rmse <= config.max_rmse
 
 
 def _accepted(fit: RegistrationResult, config: NamingConfig) -> bool:
