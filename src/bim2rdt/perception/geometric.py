@@ -56,6 +56,9 @@ class GeometricConfig:
     """Clusters whose top is less than this above the slab are dirt, cables, the slab's own noise."""
     max_splits: int = 2
     """How often a cluster holding touching objects may be split (each split names one of them)."""
+    part_of: float = 0.15
+    """A leftover piece mostly this close to the named object is its own (rim, noise), not another object; one
+    no family explains is its own within twice that."""
     noise: EdgeFilter = field(default_factory=EdgeFilter)
     naming: NamingConfig = field(default_factory=NamingConfig)
 
@@ -137,10 +140,21 @@ class GeometricDetector:
                              self.config.naming.icp.score_distance)
         if inside.sum() < self.config.min_points or (~inside).sum() < self.config.min_points:
             return [self._detection(frame, cluster, naming)]
-        out = [self._detection(frame, _subset(cluster, inside), naming)]
+        tree, own, others = model.tree(self.config.naming.samples), inside.copy(), []
         for rest in self._regroup(frame, _subset(cluster, ~inside), slab):
-            out += self._detections(frame, view, rest, slab, seed + 1, splits - 1)
-        return out
+            if _near_model(rest.points_world, naming.fit.pose, tree, self.config.part_of).mean() >= 0.5:
+                own |= _members(cluster, rest)  # the object's own fringe (a flying-pixel rim, a corner off the mesh)
+            else:
+                others.append(rest)
+        out = []
+        for rest in others:
+            found = self._detections(frame, view, rest, slab, seed + 1, splits - 1)
+            if len(found) == 1 and found[0].family == UNKNOWN_FAMILY and \
+                    _near_model(rest.points_world, naming.fit.pose, tree, 2 * self.config.part_of).mean() >= 0.5:
+                own |= _members(cluster, rest)  # nothing else explains it, and it hugs the object: the object's
+            else:
+                out += found
+        return [self._detection(frame, _subset(cluster, own), naming)] + out
 
     def _regroup(self, frame: Frame, rest: Cluster, slab: float) -> list[Cluster]:
         """The leftover points of a split cluster, clustered again (they may be several pieces)."""
@@ -176,6 +190,12 @@ def _near_model(points_world: np.ndarray, T_world_model: np.ndarray, samples: cK
     body = (points_world - T_world_model[:3, 3]) @ T_world_model[:3, :3]
     gaps, _ = samples.query(body, distance_upper_bound=distance)
     return np.isfinite(gaps)
+
+
+def _members(cluster: Cluster, part: Cluster) -> np.ndarray:
+    """(N,) bool: which of ``cluster``'s grid points are in ``part`` (a subset of it)."""
+    width = int(max(cluster.cols.max(), part.cols.max())) + 1
+    return np.isin(cluster.rows * width + cluster.cols, part.rows * width + part.cols)
 
 
 def _subset(cluster: Cluster, keep: np.ndarray) -> Cluster:
