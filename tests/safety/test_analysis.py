@@ -61,5 +61,5 @@ def test_a_folder_or_a_binary_file_is_refused_in_one_line(tmp_path, make, messag
 def test_a_plot_that_cannot_be_written_is_a_hav_error(tmp_path):
     (tmp_path / "taken").write_text("a file where the plot folder should be")
     report = analyze_recording(Recording(T0, FS, session_signal([("grinder", 3)], FS)))
-    with pytest.raises(HavError, match="the plot: cannot write .*day.png: Not a directory"):
+    with pytest.raises(HavError, match="cannot write the plot"):
         plot_day(report, tmp_path / "taken" / "day.png")

@@ -101,6 +101,6 @@ def test_a_full_disk_while_writing_the_plot_leaves_no_png(tmp_path, grinding):
     out.mkdir()
     result = run_cli("hav", "analyze", str(path), "--out", str(out), preexec_fn=_file_size_limit(8192),
                      env={**os.environ, "PYTHONDONTWRITEBYTECODE": "1"})
-    assert result.returncode == 1 and "the plot: cannot write" in result.stderr, result.stderr
+    assert result.returncode == 1 and "cannot write the plot" in result.stderr, result.stderr
     assert len(result.stderr.strip().splitlines()) == 1
     assert list(out.iterdir()) == []  # neither a truncated PNG nor a temporary file

@@ -130,5 +130,5 @@ def plot_day(report: DayReport, path: Path, title: str = "Daily vibration exposu
     plt.close(fig)
     try:  # atomically: a full disk leaves the old plot (or none), never a truncated or empty PNG
         return write_bytes_atomic(Path(path), image.getvalue())
-    except WriteError as error:  # write_bytes_atomic's one-line reason ("cannot write PATH: why")
-        raise HavError(f"the plot: {error}") from None
+    except WriteError as error:  # its message names the path and the system's reason
+        raise HavError(str(error).replace("cannot write ", "cannot write the plot ", 1)) from None
