@@ -168,7 +168,8 @@ def hav_broker(
     from bim2rdt.bus.broker import MosquittoBroker
     from bim2rdt.config import get_settings
 
-    signal.signal(signal.SIGTERM, _interrupt)  # a terminated command stops its mosquitto instead of orphaning it
+    for signum in (signal.SIGTERM, signal.SIGHUP):  # terminated, or its terminal closed: stop mosquitto, no orphan
+        signal.signal(signum, _interrupt)
     settings = get_settings()
     require_own_secrets(settings, dev, "devices", "monitor")
     names = [settings.mqtt.username, "dashboard"] + [f"w{i + 1}" for i in range(devices)]
