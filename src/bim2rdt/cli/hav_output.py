@@ -91,9 +91,10 @@ def print_malformed(monitor) -> None:
 def open_monitor(settings, sinks=(), data_dir: Path | None = None, **overrides):
     """The HAV monitor as configured: state under ``data_dir`` (default ``settings.data_dir/hav``), the
     ``settings.hav`` section (site = ``settings.mqtt.site``) with ``overrides``."""
+    from bim2rdt.config import usable_folder
     from bim2rdt.safety import HavMonitor
 
-    folder = data_dir if data_dir is not None else settings.data_dir / "hav"
+    folder = data_dir if data_dir is not None else usable_folder(settings.data_dir / "hav", "BIM2RDT_DATA_DIR")
     return HavMonitor(folder, settings.hav.site_secret, list(sinks), settings.hav.monitor_config(**overrides))
 
 
