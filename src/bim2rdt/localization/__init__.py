@@ -1,0 +1,12 @@
+"""BIM-anchored localization: the robot's camera pose from the permanent structure it sees (walls, columns,
+slabs, stairs, door frames), fused with odometry over a tour.
+
+``localize(frame, model, prior_T_world_camera, up)`` fixes one frame; ``PoseFilter`` fuses odometry between
+stations with those fixes (an EKF over x, y, z and yaw); ``check_shots`` measures each fix against BIM landmarks
+an engineer can tape."""
+
+from bim2rdt.localization.config import LocalizationConfig
+from bim2rdt.localization.errors import LocalizationError
+from bim2rdt.localization.fix import Localization, localize
+
+__all__ = ["Localization", "LocalizationConfig", "LocalizationError", "localize"]
