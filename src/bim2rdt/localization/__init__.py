@@ -7,6 +7,8 @@ an engineer can tape."""
 
 from bim2rdt.localization.config import LocalizationConfig
 from bim2rdt.localization.errors import LocalizationError
+from bim2rdt.localization.filter import OdometryNoise, PoseFilter, StationFix, fuse_frame
 from bim2rdt.localization.fix import Localization, localize
 
-__all__ = ["Localization", "LocalizationConfig", "LocalizationError", "localize"]
+__all__ = ["Localization", "LocalizationConfig", "LocalizationError", "OdometryNoise", "PoseFilter", "StationFix",
+           "fuse_frame", "localize"]

@@ -56,9 +56,18 @@ class LocalizationConfig(BaseModel):
                     "the frame does not see the map (facing an open slab edge, a tarp, the sky).")
     min_inliers: int = Field(100, ge=6, description="Fewer inliers than this after the fix, and the fix is rejected.")
     min_inlier_fraction: float = Field(
-        0.2, ge=0.0, le=1.0,
+        0.5, ge=0.0, le=1.0,
         description="Fewer of the points near the map than this fraction on it after the fix, and the fix is "
-                    "rejected: ICP stopped in a wrong minimum (the prior was beyond the basin).")
+                    "rejected: ICP stopped in a wrong minimum (the prior was beyond the basin). Right fixes on the "
+                    "tour, people and moved site objects in view, put 92-100 % there.")
+    behind_tolerance: float = Field(
+        0.1, gt=0.0, description="A depth point farther than this beyond the first permanent surface on its ray "
+                                 "(from the fixed pose) lies behind the map, m.")
+    max_behind_fraction: float = Field(
+        0.15, ge=0.0, le=1.0,
+        description="More depth points than this fraction behind the map, and the fix is rejected: a camera cannot "
+                    "see through walls, so ICP stopped in a wrong place. Raise it on a site where many walls of "
+                    "the model are not built yet.")
     degenerate_ratio: float = Field(
         0.01, gt=0.0, lt=1.0,
         description="A direction whose information is below this fraction of the best-constrained one cannot be "

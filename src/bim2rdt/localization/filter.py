@@ -10,7 +10,9 @@ Update: a fix (:class:`~bim2rdt.localization.Localization`) enters in informatio
 P+ = (P^-1 + A)^-1, x+ = x + P+ A (z - x), with A the fix's information over (x, y, z, yaw). A is zero along
 the directions the view cannot constrain, so a degenerate fix (one long wall) corrects only what it sees and the
 position along the wall keeps the odometry's estimate and uncertainty. A rejected fix
-(:class:`~bim2rdt.localization.LocalizationError`) is simply not applied: the filter keeps the odometry.
+(:class:`~bim2rdt.localization.LocalizationError`) is simply not applied: the filter keeps the odometry. Nor is a
+fix that lies beyond a chi-square gate of the prediction over the directions it constrains (an alias: a view
+that lines up with the wrong walls when the prior is far off).
 """
 
 from __future__ import annotations
@@ -18,9 +20,14 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.stats import chi2
 
-from bim2rdt.localization.fix import Localization
-from bim2rdt.localization.planar import compose, to_planar, wrap
+from bim2rdt.bim import BimModel
+from bim2rdt.localization.config import LocalizationConfig
+from bim2rdt.localization.errors import LocalizationError
+from bim2rdt.localization.fix import Localization, localize
+from bim2rdt.localization.planar import compose, from_planar, to_planar, wrap
+from bim2rdt.perception.frame import Frame
 
 FIX_AXES = [0, 1, 2, 5]
 """Rows of a fix's (dx, dy, dz, dtheta_x, dtheta_y, dtheta_z) information that are the filter's (x, y, z, yaw)."""
@@ -48,10 +55,12 @@ class PoseFilter:
     """EKF over the camera's planar state (x, y, z, yaw): :meth:`predict` with odometry, :meth:`update` with a
     BIM fix. ``state`` (4,) and ``covariance`` (4, 4) are the current estimate."""
 
-    def __init__(self, state: np.ndarray, covariance: np.ndarray, noise: OdometryNoise = OdometryNoise()):
+    def __init__(self, state: np.ndarray, covariance: np.ndarray, noise: OdometryNoise = OdometryNoise(),
+                 gate_probability: float = 0.9999):
         self.state = np.asarray(state, dtype=float).copy()
         self.covariance = np.asarray(covariance, dtype=float).copy()
         self.noise = noise
+        self.gate_probability = gate_probability
 
     def predict(self, increment: np.ndarray, distance: float | None = None, turned: float | None = None) -> None:
         """Move by an odometry ``increment`` (forward, left, up m, turn rad) in the heading frame; ``distance``
@@ -68,16 +77,66 @@ class PoseFilter:
         self.state = compose(self.state, increment)
         self.covariance = F @ self.covariance @ F.T + G @ self.noise.covariance(distance, turned) @ G.T
 
+    def surprise(self, fix: Localization) -> tuple[float, float]:
+        """(squared Mahalanobis distance of the fix from the prediction over the directions it constrains, the
+        chi-square bound at ``gate_probability`` for that many directions). A fix beyond the bound disagrees
+        with the odometry more than the odometry's drift allows: an alias, not a correction."""
+        information = fix.information[np.ix_(FIX_AXES, FIX_AXES)]
+        values, vectors = np.linalg.eigh(information)
+        seen = vectors[:, values > 1e-9 * max(values.max(), 1e-300)]
+        if seen.shape[1] == 0:
+            return 0.0, np.inf
+        innovation = self._innovation(fix)
+        spread = seen.T @ (self.covariance + np.linalg.pinv(information)) @ seen
+        distance2 = float(innovation @ seen @ np.linalg.solve(spread, seen.T @ innovation))
+        return distance2, float(chi2.ppf(self.gate_probability, seen.shape[1]))
+
+    def _innovation(self, fix: Localization) -> np.ndarray:
+        measured, _ = to_planar(fix.pose)
+        innovation = measured - self.state
+        innovation[3] = wrap(innovation[3])
+        return innovation
+
     def update(self, fix: Localization) -> np.ndarray:
         """Fuse a BIM fix; returns the correction applied to the state (4,). Directions the fix cannot
         constrain carry no information and are left as they were."""
-        measured, _ = to_planar(fix.pose)
         information = fix.information[np.ix_(FIX_AXES, FIX_AXES)]
-        innovation = measured - self.state
-        innovation[3] = wrap(innovation[3])
+        innovation = self._innovation(fix)
         posterior = np.linalg.inv(np.linalg.inv(self.covariance) + information)
         correction = posterior @ information @ innovation
         self.state = self.state + correction
         self.state[3] = wrap(self.state[3])
         self.covariance = 0.5 * (posterior + posterior.T)
         return correction
+
+
+@dataclass(frozen=True)
+class StationFix:
+    """What one station's frame did to the filter: the ``prior`` (4, 4) it was localized from, the ``fix`` (None
+    when localization refused the frame), the ``reason`` a fix was refused or not fused (None when it was), and
+    the ``correction`` (4,) applied to the state (zeros when none was)."""
+
+    prior: np.ndarray
+    fix: Localization | None
+    reason: str | None
+    correction: np.ndarray
+
+    @property
+    def applied(self) -> bool:
+        return self.reason is None
+
+
+def fuse_frame(pose_filter: PoseFilter, frame: Frame, model: BimModel, R_level_camera: np.ndarray,
+               up=(0.0, 0.0, 1.0), config: LocalizationConfig | None = None) -> StationFix:
+    """Localize ``frame`` from the filter's current estimate (with the IMU's tilt ``R_level_camera``) and fuse
+    the fix; a frame that cannot be localized leaves the filter on its odometry, and says why."""
+    prior = from_planar(pose_filter.state, R_level_camera)
+    try:
+        fix = localize(frame, model, prior, up=up, config=config)
+    except LocalizationError as error:
+        return StationFix(prior, None, str(error), np.zeros(4))
+    distance2, bound = pose_filter.surprise(fix)
+    if distance2 > bound:
+        return StationFix(prior, fix, f"the fix is {np.sqrt(distance2):.1f} sigma from the odometry's prediction "
+                                      f"(gate {np.sqrt(bound):.1f}): rejected as an alias", np.zeros(4))
+    return StationFix(prior, fix, None, pose_filter.update(fix))

@@ -75,8 +75,9 @@ def localize(frame: Frame, model: BimModel, prior_T_world_camera, up=(0.0, 0.0, 
         raise LocalizationError(f"the fix moved the camera {moved:.2f} m and turned it {turned:.1f} deg from the "
                                 f"prior, beyond the basin ({cfg.max_correction} m, {cfg.max_correction_deg} deg): "
                                 "rejected")
-    return _judge(points_cam, surfaces.visible(pose, frame.intrinsics, cfg.model_stride, cfg.view_margin,
-                                               cfg.max_range * 1.2), pose, prior, up_world, near, moved, turned, cfg)
+    return _judge(points_cam, surfaces, surfaces.visible(pose, frame.intrinsics, cfg.model_stride, cfg.view_margin,
+                                                         cfg.max_range * 1.2), pose, prior, up_world, near, moved,
+                  turned, cfg)
 
 
 def _fit(points_cam: np.ndarray, surfaces: PermanentMap, frame: Frame, view: np.ndarray, start: np.ndarray,
@@ -124,7 +125,7 @@ def _polish_icp(cfg: LocalizationConfig) -> IcpConfig:
                                                "max_pair_distance": max(4 * cfg.huber_delta, cfg.inlier_distance)})
 
 
-def _judge(points_cam: np.ndarray, visible: SurfaceSamples, pose: np.ndarray, prior: np.ndarray,
+def _judge(points_cam: np.ndarray, surfaces: PermanentMap, visible: SurfaceSamples, pose: np.ndarray, prior: np.ndarray,
            up_world: np.ndarray, near: int, moved: float, turned: float, cfg: LocalizationConfig) -> Localization:
     """Inliers, residual and observability at the final pose; reject a fix that explains too few points."""
     placed = points_cam @ pose[:3, :3].T + pose[:3, 3]
@@ -135,14 +136,34 @@ def _judge(points_cam: np.ndarray, visible: SurfaceSamples, pose: np.ndarray, pr
     inlier[np.flatnonzero(found)[along < cfg.inlier_distance]] = True
     count = int(inlier.sum())
     if count < cfg.min_inliers or count < cfg.min_inlier_fraction * near:
-        raise LocalizationError(f"only {count} of the {near} depth points near the map lie on it after the fix "
-                                f"(need {cfg.min_inliers} and {cfg.min_inlier_fraction:.0%}); the fix moved "
-                                f"{moved:.2f} m and {turned:.1f} deg: the prior is probably beyond the basin")
+        raise LocalizationError(f"the fix moved the camera {moved:.2f} m and turned it {turned:.1f} deg from the "
+                                f"prior, but only {count} of the {near} depth points near the map lie on it (need "
+                                f"{cfg.min_inliers} and {cfg.min_inlier_fraction:.0%}): the prior is probably beyond "
+                                "the basin; rejected")
+    behind = behind_the_map(points_cam, pose, surfaces, cfg.behind_tolerance)
+    if behind > cfg.max_behind_fraction:
+        raise LocalizationError(f"the fix moved the camera {moved:.2f} m and turned it {turned:.1f} deg from the "
+                                f"prior, but from there {behind:.0%} of the depth points would lie behind walls, "
+                                f"columns or slabs (at most {cfg.max_behind_fraction:.0%}): the prior is probably "
+                                "beyond the basin; rejected")
     residual = float(np.sqrt(np.mean(along[along < cfg.inlier_distance] ** 2)))
     seen = _observability(placed[inlier], visible.normals[index[inlier]], pose[:3, 3], up_world, residual, cfg)
     return Localization(pose=pose, covariance=seen.covariance, inliers=count, degenerate=seen.degenerate_translations,
                         residual=residual, degenerate_yaw=bool(seen.degenerate_rotations), information=seen.information,
                         points=len(placed), near=near, moved=moved, turned_deg=turned, prior=prior)
+
+
+def behind_the_map(points_cam: np.ndarray, pose: np.ndarray, surfaces: PermanentMap, tolerance: float) -> float:
+    """Fraction of depth points that lie more than ``tolerance`` m beyond the first permanent surface along
+    their pixel's ray from ``pose``: the camera cannot see through a wall, so from the right pose almost none
+    do (openings the BIM lacks and walls not built yet aside), and from a wrong one many do."""
+    directions = points_cam / points_cam[:, 2:3] @ pose[:3, :3].T
+    face = surfaces.mesh.ray.intersects_first(np.broadcast_to(pose[:3, 3], directions.shape), directions)
+    hit = face >= 0
+    normals = surfaces.mesh.face_normals[face[hit]]
+    corner = surfaces.mesh.vertices[surfaces.mesh.faces[face[hit], 0]]
+    depth = np.einsum("ni,ni->n", normals, corner - pose[:3, 3]) / np.einsum("ni,ni->n", normals, directions[hit])
+    return float(np.sum(points_cam[hit, 2] > depth + tolerance)) / max(len(points_cam), 1)
 
 
 def _observability(points: np.ndarray, normals: np.ndarray, centre: np.ndarray, up_world: np.ndarray,

@@ -86,6 +86,15 @@ class PermanentMap:
         return SurfaceSamples(points, normals[keep], self.face_owner[face[keep]])
 
 
+    def samples(self, spacing: float, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+        """Every permanent surface sampled area-uniformly about ``spacing`` m apart, both faces of every wall:
+        (points (N, 3), outward unit normals (N, 3)), world metres. What a plain registration against the BIM
+        would use as its map; :meth:`visible` is what this localizer uses."""
+        count = max(1, int(self.mesh.area / spacing**2))
+        points, face = trimesh.sample.sample_surface(self.mesh, count, seed=seed)
+        return np.asarray(points, dtype=np.float64), np.asarray(self.mesh.face_normals[face], dtype=np.float64)
+
+
 def widened_rays(intrinsics: Intrinsics, stride: int, margin: float) -> np.ndarray:
     """Camera-frame ray directions (z = 1), (K, 3), on a ``stride``-pixel grid over the image widened by
     ``margin`` x its size on each side."""

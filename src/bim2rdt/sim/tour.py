@@ -78,13 +78,15 @@ def person() -> trimesh.Trimesh:
                                 transform=trimesh.transformations.translation_matrix((0.0, 0.0, 0.875)))
 
 
-def tour_scene(model: BimModel, seed: int = 0, people: tuple[tuple[float, float], ...] = PEOPLE_XY) -> TourScene:
-    """The embedded site as built: permanent elements as designed, site objects as moved by ``seed``, people."""
+def tour_scene(model: BimModel, seed: int = 0, people: tuple[tuple[float, float], ...] = PEOPLE_XY,
+               site_objects: bool = True) -> TourScene:
+    """The embedded site as built: permanent elements as designed, site objects as moved by ``seed`` (none
+    without ``site_objects``), people standing at ``people`` (x, y)."""
     permanent = [PlacedObject(el.ifc_class, body_mesh(model, el.global_id), el.placement, albedo=0.6)
                  for el in permanent_elements(model)]
     proxies = [el.global_id for el in model.elements
                if el.ifc_class == "IfcBuildingElementProxy" and model.has_mesh(el.global_id)]
-    site_objects = simulate_reality(model, proxies, seed=seed).scene.objects
+    site_objects = simulate_reality(model, proxies, seed=seed).scene.objects if site_objects else []
     crowd = [PlacedObject("person", person(), ground_pose(x, y, 0.3 * k), albedo=0.3)
              for k, (x, y) in enumerate(people)]
     return TourScene(SiteScene(permanent + site_objects + crowd, ground_size=60.0), len(permanent),
