@@ -157,13 +157,8 @@ def behind_the_map(points_cam: np.ndarray, pose: np.ndarray, surfaces: Permanent
     """Fraction of depth points that lie more than ``tolerance`` m beyond the first permanent surface along
     their pixel's ray from ``pose``: the camera cannot see through a wall, so from the right pose almost none
     do (openings the BIM lacks and walls not built yet aside), and from a wrong one many do."""
-    directions = points_cam / points_cam[:, 2:3] @ pose[:3, :3].T
-    face = surfaces.mesh.ray.intersects_first(np.broadcast_to(pose[:3, 3], directions.shape), directions)
-    hit = face >= 0
-    normals = surfaces.mesh.face_normals[face[hit]]
-    corner = surfaces.mesh.vertices[surfaces.mesh.faces[face[hit], 0]]
-    depth = np.einsum("ni,ni->n", normals, corner - pose[:3, 3]) / np.einsum("ni,ni->n", normals, directions[hit])
-    return float(np.sum(points_cam[hit, 2] > depth + tolerance)) / max(len(points_cam), 1)
+    depth = surfaces.first_hit(pose[:3, 3], points_cam / points_cam[:, 2:3] @ pose[:3, :3].T)  # rays with z = 1
+    return float(np.sum(points_cam[:, 2] > depth + tolerance)) / max(len(points_cam), 1)
 
 
 def _observability(points: np.ndarray, normals: np.ndarray, centre: np.ndarray, up_world: np.ndarray,

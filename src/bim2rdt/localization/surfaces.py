@@ -86,6 +86,16 @@ class PermanentMap:
         return SurfaceSamples(points, normals[keep], self.face_owner[face[keep]])
 
 
+    def first_hit(self, origin: np.ndarray, directions: np.ndarray) -> np.ndarray:
+        """Ray parameter t (K,) of the first permanent surface along origin + t * directions (inf: none)."""
+        face = self.mesh.ray.intersects_first(np.broadcast_to(origin, directions.shape), directions)
+        t = np.full(len(directions), np.inf)
+        hit = face >= 0
+        normals = self.mesh.face_normals[face[hit]]
+        corner = self.mesh.vertices[self.mesh.faces[face[hit], 0]]
+        t[hit] = np.einsum("ni,ni->n", normals, corner - origin) / np.einsum("ni,ni->n", normals, directions[hit])
+        return t
+
     def samples(self, spacing: float, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
         """Every permanent surface sampled area-uniformly about ``spacing`` m apart, both faces of every wall:
         (points (N, 3), outward unit normals (N, 3)), world metres. What a plain registration against the BIM
