@@ -25,7 +25,7 @@ def _stack(*planes):
 
 def _of(points, normals, centre=np.zeros(3), basis=YAW_ONLY):
     info = pair_information(points, normals, centre) / 0.01**2
-    return observability(info, lever_arm(points, centre), 0.01, basis, 100.0)
+    return observability(info, lever_arm(points, centre), 0.1, basis, 100.0)
 
 
 def test_the_information_of_one_pair_is_its_jacobian_squared():
@@ -71,13 +71,25 @@ def test_the_covariance_is_the_inverse_information_where_everything_is_constrain
     assert seen.covariance == pytest.approx(np.linalg.inv(info), rel=1e-6)
 
 
-def test_a_few_points_coupling_a_free_shift_to_yaw_do_not_spread_it_into_yaw():
-    """A wall leaves x free; three points on a column side give a weak x-yaw coupling. x stays free, yaw is not
-    reported free, and the yaw variance is not inflated by x's."""
+def test_a_weak_coupling_of_a_free_shift_to_yaw_does_not_spread_it_into_yaw():
+    """A wall leaves x free; three poor points on a column side (1 m noise) couple x weakly to yaw. x stays free
+    (as a pure shift), yaw is not reported free, and its variance is not inflated by x's."""
     wall = _plane((-3, 3, 0), (6, 0, 0), (0, 0, 3), (0, -1, 0))
     floor = _plane((-3, 0.5, 0), (6, 0, 0), (0, 2.5, 0), (0, 0, 1))
     side = _plane((1.0, 2.0, 0), (0, 0.3, 0), (0, 0, 0.5), (-1, 0, 0), n=3)
-    seen = _of(*_stack(wall, floor, side))
-    assert len(seen.degenerate_translations) == 1 and seen.degenerate_rotations == []
+    points, normals = _stack(wall, floor)
+    info = pair_information(points, normals, np.zeros(3)) / 0.01**2 + pair_information(*side, np.zeros(3)) / 1.0**2
+    seen = observability(info, lever_arm(points, np.zeros(3)), 0.1, YAW_ONLY, 100.0)
+    assert len(seen.degenerate_translations) == 1 and abs(seen.degenerate_translations[0][0]) == pytest.approx(1.0)
+    assert seen.degenerate_rotations == []
     assert np.sqrt(seen.covariance[5, 5]) < 1e-3
 
+
+def test_a_direction_pinned_looser_than_max_sigma_is_free_and_tighter_is_constrained():
+    wall, floor = _plane((-3, 3, 0), (6, 0, 0), (0, 0, 3), (0, -1, 0)), _plane((-3, 0.5, 0), (6, 0, 0), (0, 2.5, 0), (0, 0, 1))
+    side = _plane((1.0, 2.0, 0), (0, 0.3, 0), (0, 0, 0.5), (-1, 0, 0), n=1)
+    points, normals = _stack(wall, floor)
+    base = pair_information(points, normals, np.zeros(3)) / 0.01**2
+    for sigma, free in ((0.2, 1), (0.05, 0)):  # one point on the side pins x to about its own sigma
+        info = base + pair_information(*side, np.zeros(3)) / sigma**2
+        assert len(observability(info, lever_arm(points, np.zeros(3)), 0.1, YAW_ONLY).degenerate_translations) == free

@@ -68,11 +68,11 @@ class LocalizationConfig(BaseModel):
         description="More depth points than this fraction behind the map, and the fix is rejected: a camera cannot "
                     "see through walls, so ICP stopped in a wrong place. Raise it on a site where many walls of "
                     "the model are not built yet.")
-    degenerate_ratio: float = Field(
-        0.01, gt=0.0, lt=1.0,
-        description="A direction whose information is below this fraction of the best-constrained one cannot be "
-                    "fixed by the view (a single long wall leaves the position along it free). LOAM-style "
-                    "eigenvalue test, on information normalised per point.")
+    degenerate_sigma: float = Field(
+        0.1, gt=0.0,
+        description="A direction the view pins no better than this (1 sigma, m; turns in metres at the points' "
+                    "lever arm) cannot be fixed by it: a single long wall leaves the position along it free "
+                    "(exactly no information), a column and a wall 6 m off pin their weakest direction to ~3 cm.")
     surface_sigma: float = Field(
         0.01, gt=0.0,
         description="Standard deviation of a surface's as-built position against the BIM (construction tolerance), "
@@ -85,3 +85,7 @@ class LocalizationConfig(BaseModel):
         0.2, gt=0.0, description="Roll and pitch come from the IMU; their standard deviation in the covariance, deg.")
     unconstrained_sigma: float = Field(
         100.0, gt=0.0, description="Standard deviation reported along a direction the view cannot fix, m (or rad).")
+    look_around_deg: tuple[float, ...] = Field(
+        (70.0, -70.0),
+        description="Turns (deg, from the station's heading, tried in order) for another look when a station's fix "
+                    "leaves a direction free or is refused; empty = never look around.")

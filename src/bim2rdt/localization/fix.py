@@ -20,7 +20,7 @@ from scipy.spatial import cKDTree
 
 from bim2rdt.bim import BimModel
 from bim2rdt.localization.config import LocalizationConfig
-from bim2rdt.localization.depth import depth_points
+from bim2rdt.localization.depth import depth_grid, grid_normals
 from bim2rdt.localization.errors import LocalizationError
 from bim2rdt.localization.observability import lever_arm, observability, pair_information
 from bim2rdt.localization.surfaces import PermanentMap, SurfaceSamples, permanent_map
@@ -62,7 +62,9 @@ def localize(frame: Frame, model: BimModel, prior_T_world_camera, up=(0.0, 0.0, 
     cfg = config or LocalizationConfig()
     prior, up_world = _rigid_prior(prior_T_world_camera), _unit_up(up)
     surfaces = permanent_map(model)
-    points_cam = depth_points(frame, cfg.pixel_stride, cfg.min_range, cfg.max_range)
+    grid = depth_grid(frame, cfg.pixel_stride, cfg.min_range, cfg.max_range)
+    valid = np.isfinite(grid[..., 2])
+    points_cam, normals_cam = grid[valid], grid_normals(grid)[valid]
     if len(points_cam) < cfg.min_points:
         raise LocalizationError(f"the frame has {len(points_cam)} depth returns in {cfg.min_range}-{cfg.max_range} m "
                                 f"on its {cfg.pixel_stride}-pixel grid, need {cfg.min_points}")
@@ -75,9 +77,8 @@ def localize(frame: Frame, model: BimModel, prior_T_world_camera, up=(0.0, 0.0, 
         raise LocalizationError(f"the fix moved the camera {moved:.2f} m and turned it {turned:.1f} deg from the "
                                 f"prior, beyond the basin ({cfg.max_correction} m, {cfg.max_correction_deg} deg): "
                                 "rejected")
-    return _judge(points_cam, surfaces, surfaces.visible(pose, frame.intrinsics, cfg.model_stride, cfg.view_margin,
-                                                         cfg.max_range * 1.2), pose, prior, up_world, near, moved,
-                  turned, cfg)
+    visible = surfaces.visible(pose, frame.intrinsics, cfg.model_stride, cfg.view_margin, cfg.max_range * 1.2)
+    return _judge(points_cam, normals_cam, surfaces, visible, pose, prior, up_world, near, moved, turned, cfg)
 
 
 def _fit(points_cam: np.ndarray, surfaces: PermanentMap, frame: Frame, view: np.ndarray, start: np.ndarray,
@@ -125,15 +126,13 @@ def _polish_icp(cfg: LocalizationConfig) -> IcpConfig:
                                                "max_pair_distance": max(4 * cfg.huber_delta, cfg.inlier_distance)})
 
 
-def _judge(points_cam: np.ndarray, surfaces: PermanentMap, visible: SurfaceSamples, pose: np.ndarray, prior: np.ndarray,
-           up_world: np.ndarray, near: int, moved: float, turned: float, cfg: LocalizationConfig) -> Localization:
-    """Inliers, residual and observability at the final pose; reject a fix that explains too few points."""
+def _judge(points_cam: np.ndarray, normals_cam: np.ndarray, surfaces: PermanentMap, visible: SurfaceSamples,
+           pose: np.ndarray, prior: np.ndarray, up_world: np.ndarray, near: int, moved: float, turned: float,
+           cfg: LocalizationConfig) -> Localization:
+    """Inliers, residual and observability at the final pose; reject a fix that explains too few points or puts
+    them behind walls."""
     placed = points_cam @ pose[:3, :3].T + pose[:3, 3]
-    distance, index = cKDTree(visible.points).query(placed, distance_upper_bound=cfg.inlier_distance * 3)
-    found = np.isfinite(distance)
-    along = np.abs(np.einsum("ni,ni->n", visible.normals[index[found]], placed[found] - visible.points[index[found]]))
-    inlier = np.zeros(len(placed), bool)
-    inlier[np.flatnonzero(found)[along < cfg.inlier_distance]] = True
+    inlier, along, model_normals, agree = _pairs(placed, normals_cam @ pose[:3, :3].T, visible, cfg)
     count = int(inlier.sum())
     if count < cfg.min_inliers or count < cfg.min_inlier_fraction * near:
         raise LocalizationError(f"the fix moved the camera {moved:.2f} m and turned it {turned:.1f} deg from the "
@@ -146,11 +145,28 @@ def _judge(points_cam: np.ndarray, surfaces: PermanentMap, visible: SurfaceSampl
                                 f"prior, but from there {behind:.0%} of the depth points would lie behind walls, "
                                 f"columns or slabs (at most {cfg.max_behind_fraction:.0%}): the prior is probably "
                                 "beyond the basin; rejected")
-    residual = float(np.sqrt(np.mean(along[along < cfg.inlier_distance] ** 2)))
-    seen = _observability(placed[inlier], visible.normals[index[inlier]], pose[:3, 3], up_world, residual, cfg)
+    residual = float(np.sqrt(np.mean(along[inlier] ** 2)))
+    used = inlier & agree
+    seen = _observability(placed[used], model_normals[used], pose[:3, 3], up_world, residual, cfg)
     return Localization(pose=pose, covariance=seen.covariance, inliers=count, degenerate=seen.degenerate_translations,
                         residual=residual, degenerate_yaw=bool(seen.degenerate_rotations), information=seen.information,
                         points=len(placed), near=near, moved=moved, turned_deg=turned, prior=prior)
+
+
+def _pairs(placed: np.ndarray, normals_world: np.ndarray, visible: SurfaceSamples, cfg: LocalizationConfig):
+    """Each placed point's nearest visible BIM sample: (inlier: within ``inlier_distance`` of its surface, distance
+    to the surface, the surface's normal, agree: the point's own normal (NaN at depth edges) faces the same way
+    within ``normal_gate_deg``). Only agreeing inliers inform the covariance: a point on a wall face just past a
+    door's edge lies on the plane of the reveal next to it, and pairing it there would claim a constraint that
+    is not in the view."""
+    distance, index = cKDTree(visible.points).query(placed, distance_upper_bound=cfg.inlier_distance * 3)
+    found = np.isfinite(distance)
+    index = np.where(found, index, 0)
+    model_normals = visible.normals[index]
+    along = np.where(found, np.abs(np.einsum("ni,ni->n", model_normals, placed - visible.points[index])), np.inf)
+    cos = np.abs(np.einsum("ni,ni->n", np.nan_to_num(normals_world), model_normals))
+    agree = np.all(np.isfinite(normals_world), axis=1) & (cos >= np.cos(np.deg2rad(cfg.normal_gate_deg)))
+    return along < cfg.inlier_distance, along, model_normals, agree
 
 
 def behind_the_map(points_cam: np.ndarray, pose: np.ndarray, surfaces: PermanentMap, tolerance: float) -> float:
@@ -171,7 +187,7 @@ def _observability(points: np.ndarray, normals: np.ndarray, centre: np.ndarray, 
                                                                  / len(points) / sigma2)
     basis = np.zeros((6, 4))
     basis[:3, :3], basis[3:, 3] = np.eye(3), up_world
-    seen = observability(information, lever_arm(points, centre), cfg.degenerate_ratio, basis,
+    seen = observability(information, lever_arm(points, centre), cfg.degenerate_sigma, basis,
                          cfg.unconstrained_sigma)
     tilt = np.deg2rad(cfg.imu_tilt_sigma_deg) ** 2 * (np.eye(3) - np.outer(up_world, up_world))
     seen.covariance[3:, 3:] += tilt

@@ -8,10 +8,13 @@ p + dtheta x (p - c) + dt, a turn about the centre c (the camera centre, an obje
 pair (p on the body, q on the surface with unit normal n) has the residual n . (p - q), whose Jacobian is
 J = [n, (p - c) x n]; the information of the pairs is sum w J J^T (1/m^2 when w is 1/sigma^2).
 
-A direction is degenerate when its information is below ``ratio`` x the strongest one's, after rotations are
-measured in metres at the pairs' lever arm (the eigenvalue test of Zhang, Kaess & Singh 2016, "On degeneracy of
-optimization-based state estimation problems"). The covariance is the inverse along what the view constrains
-and ``unconstrained_sigma`` squared along what it does not, so it is large exactly where the view is blind.
+A direction is degenerate when the pairs pin it no better than ``max_sigma`` (1 sigma, m), rotations measured in
+metres at the pairs' lever arm: the eigenvalue test of Zhang, Kaess & Singh 2016 ("On degeneracy of
+optimization-based state estimation problems") with an absolute threshold. A threshold relative to the strongest
+direction flags too much: the slab always constrains height by far the most, and a view of a column and a
+distant wall that pins its weakest direction to 3 cm came out 'degenerate' at 1 % of it. The covariance is the
+inverse along what the view constrains and ``unconstrained_sigma`` squared along what it does not, so it is
+large exactly where the view is blind.
 """
 
 from __future__ import annotations
@@ -49,11 +52,13 @@ def lever_arm(points: np.ndarray, centre: np.ndarray) -> float:
     return float(np.sqrt(np.mean(np.sum((points - centre) ** 2, axis=1)))) if len(points) else 1.0
 
 
-def observability(information: np.ndarray, length: float, ratio: float = 0.01, basis: np.ndarray | None = None,
+def observability(information: np.ndarray, length: float, max_sigma: float = 0.1, basis: np.ndarray | None = None,
                   unconstrained_sigma: float = 100.0) -> Observability:
     """Split ``information`` (6, 6, of xi) into what it constrains and what it leaves free.
 
-    ``length`` (m) is the lever arm that makes a turn comparable with a shift; ``basis`` (6, m) spans the
+    ``information`` is an inverse covariance (1/m^2, 1/rad^2). ``length`` (m) is the lever arm that makes a turn
+    comparable with a shift; ``max_sigma`` (m) the loosest a direction may be pinned and still count as
+    constrained; ``basis`` (6, m) spans the
     motions being estimated (None = all six; a yaw-only fix is x, y, z and the turn about up): motions outside it
     are held by something else (an IMU) and get no variance here. Free directions are pure shifts or pure turns
     (a weak mode that mixes both is assigned to the larger part); what remains is constrained, with the
@@ -63,7 +68,7 @@ def observability(information: np.ndarray, length: float, ratio: float = 0.01, b
     scale = np.r_[np.ones(3), np.full(3, max(length, 1e-6))]  # y = scale * xi: turns in metres at the lever arm
     B = _orthonormal(scale[:, None] * (np.eye(6) if basis is None else np.asarray(basis, dtype=float)))
     A = B.T @ (information / np.outer(scale, scale)) @ B
-    floor = ratio * max(float(np.linalg.eigvalsh(A).max()), 0.0)
+    floor = 1.0 / max_sigma**2
     free = np.zeros((len(A), 0))
     for _ in range(len(A)):  # each round frees at least one more direction
         kept, A_kept = _marginal(A, free)

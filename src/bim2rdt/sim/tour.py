@@ -35,7 +35,7 @@ TOUR_STATIONS: tuple[tuple[float, float, float, float], ...] = (
     (17.5, 1.2, 19.7, 6.0),   # the east wall and the interior wall of the south-east bay
     (18.0, 4.5, 12.0, 5.5),   # a column and the interior walls' ends
     (13.0, 4.0, 8.0, 9.0),    # columns and the interior wall's east face
-    (9.0, 7.5, 11.85, 9.0),   # the interior wall, its door and a column
+    (9.0, 7.5, 11.0, 10.0),   # a column, the interior wall with its door, the north wall
     (4.0, 9.5, 0.3, 13.7),    # the north-west corner
     (5.0, 12.5, 5.0, 14.0),   # the north wall square on: degenerate along it
     (2.0, 8.0, 6.0, 10.0),    # a column and the north wall
