@@ -14,6 +14,7 @@ from pydantic_settings import BaseSettings, SettingsConfigDict
 
 from bim2rdt.errors import Bim2RdtError
 from bim2rdt.registration.config import IcpConfig
+from bim2rdt.semantics.llm import LlmPriorsConfig
 
 
 def _default_cache_dir() -> Path:
@@ -24,20 +25,6 @@ class BimSettings(BaseModel):
     """IFC reading and writing."""
 
     tessellation_cache: bool = Field(True, description="Cache tessellated meshes on disk, keyed by file hash.")
-
-
-class LlmSettings(BaseModel):
-    """The OpenAI-compatible endpoint that assigns upright priors (extra `llm`)."""
-
-    base_url: str | None = Field(None, description="OpenAI-compatible endpoint; None means the SDK default.")
-    model: str = Field("gpt-4o-mini", description="Model name; the paper used gpt-4o-mini.")
-    api_key: str | None = Field(None, description="API key; falls back to OPENAI_API_KEY.")
-    timeout_s: float = Field(30.0, gt=0, description="Per-request timeout, seconds.")
-    max_retries: int = Field(3, ge=0, description="Retries with backoff on 429/5xx/timeouts.")
-    backoff_s: float = Field(0.5, ge=0, description="First retry delay, seconds; doubles per retry.")
-    backoff_max_s: float = Field(8.0, ge=0, description="Longest retry delay (also caps a server's Retry-After), s.")
-    batch_size: int = Field(40, ge=1, description="Families per request.")
-    cache: bool = Field(True, description="Cache answers per (model, family) under cache_dir/llm_priors.")
 
 
 class HavSettings(BaseModel):
@@ -77,7 +64,7 @@ class Settings(BaseSettings):
     cache_dir: Path = Field(default_factory=_default_cache_dir, description="On-disk caches (meshes, LLM answers).")
     data_dir: Path = Field(Path("var"), description="Persistent state (SQLite exposure store, twin history).")
     bim: BimSettings = BimSettings()
-    llm: LlmSettings = LlmSettings()
+    llm: LlmPriorsConfig = LlmPriorsConfig()
     hav: HavSettings = HavSettings()
     mqtt: MqttSettings = MqttSettings()
     registration: IcpConfig = IcpConfig()

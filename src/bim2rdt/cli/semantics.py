@@ -33,7 +33,8 @@ def priors_command(
     from bim2rdt.semantics import get_prior_provider
 
     hints = _family_hints(ifc_file, families)
-    provider = get_prior_provider(get_settings(), llm=llm)
+    settings = get_settings()
+    provider = get_prior_provider(settings.llm if llm else None, settings.cache_dir)
     with _status.status(f"asking for {len(hints)} families' priors", spinner="dots"):
         priors = provider.priors(hints, ifc_classes={f: c for f, c in hints.items() if c})
     if as_json:

@@ -17,7 +17,8 @@ from bim2rdt.atomic import write_bytes_atomic  # noqa: E402
 from bim2rdt.safety import EAV, ELV  # noqa: E402
 from bim2rdt.demo.site_day import SiteDay, objects_of_interest  # noqa: E402
 from bim2rdt.sim.meshes import mesh_for_family  # noqa: E402
-from bim2rdt.sim.truth import pose_error  # noqa: E402
+from bim2rdt.sim.reality import TrueObject  # noqa: E402
+from bim2rdt.sim.truth import match_truth, pose_error  # noqa: E402
 
 STATUS_COLOURS = {"as-planned": "tab:green", "moved": "tab:orange", "new": "tab:red", "unverified": "tab:grey"}
 OBSERVATION_COLUMNS = ("object", "verdict", "truth", "bias", "shift m", "yaw °", "tilt °", "fitness", "err cm",
@@ -25,17 +26,24 @@ OBSERVATION_COLUMNS = ("object", "verdict", "truth", "bias", "shift m", "yaw °"
 """Headers of :func:`observation_cells`, shared by the terminal table and report.md."""
 
 
+def true_objects(day: SiteDay) -> list[TrueObject | None]:
+    """The simulated truth behind each observation, found by geometry after the mission (None: a phantom)."""
+    matches = match_truth([(obs.family, obs.pose) for obs in day.mission.observations],
+                          [(t.family, t.T_world_model) for t in day.reality.truth])
+    return [None if index is None else day.reality.truth[index] for index in matches]
+
+
 def observation_rows(day: SiteDay) -> list[dict]:
     """One row per registered object: verdict, deltas against the BIM, fit, and the error against the truth."""
     rows = []
-    for obs in day.mission.observations:
-        truth = day.reality.truth[obs.truth_index] if obs.truth_index is not None else None
-        error = pose_error(obs.family, obs.pose, truth.T_world_model) if truth else None
+    for obs, truth in zip(day.mission.observations, true_objects(day)):
+        error = (pose_error(obs.family, obs.pose, truth.T_world_model, day.priors[obs.family].symmetry)
+                 if truth else None)
         rows.append({
             "family": obs.family, "label": day.priors[obs.family].label, "global_id": obs.global_id,
             "status": obs.status, "truth": truth.change if truth else None, "upright_bias": obs.upright_bias,
             "shift_m": obs.shift, "yaw_deg": obs.yaw_deg, "tilt_deg": obs.tilt_deg, "points": obs.points,
-            "fitness": obs.fit.fitness, "rmse_m": obs.fit.rmse,
+            "fitness": obs.fit.fitness, "rmse_m": obs.fit.rmse, "frames": list(obs.frames),
             "error_rotation_deg": error.rotation_deg if error else None,
             "error_translation_m": error.translation if error else None,
             "error_tilt_deg": error.tilt_deg if error else None})
@@ -75,8 +83,8 @@ def plot_plan(day: SiteDay, path: Path) -> Path:
             vertices, _ = day.model.mesh(el.global_id)
             ax.fill(*_hull(vertices[:, :2]).T, color="0.8", zorder=0)
     targets = {t.global_id: t for t in objects_of_interest(day.model)}
-    for obs in day.mission.observations:
-        _draw_observation(ax, obs, targets.get(obs.global_id), day)
+    for obs, truth in zip(day.mission.observations, true_objects(day)):
+        _draw_observation(ax, obs, targets.get(obs.global_id), truth)
     stations = np.array([T[:3, 3] for T in day.mission.stations])
     ax.plot(stations[:, 0], stations[:, 1], "-o", color="tab:blue", ms=4, lw=1, label="robot stations")
     for status, colour in STATUS_COLOURS.items():
@@ -89,7 +97,7 @@ def plot_plan(day: SiteDay, path: Path) -> Path:
     return path
 
 
-def _draw_observation(ax, obs, target, day: SiteDay) -> None:
+def _draw_observation(ax, obs, target, truth: TrueObject | None) -> None:
     """One object on the plan: its BIM footprint (dashed, if planned), the measured one filled with the verdict's
     colour, and its true centre (x)."""
     if target is not None:
@@ -97,9 +105,8 @@ def _draw_observation(ax, obs, target, day: SiteDay) -> None:
         ax.plot(*np.vstack([bim, bim[:1]]).T, "--", color="0.3", lw=0.8)
     body = target.mesh_body.vertices if target is not None else mesh_for_family(obs.family).vertices
     ax.fill(*_footprint(body, obs.pose).T, color=STATUS_COLOURS[obs.status], alpha=0.7)
-    if obs.truth_index is not None:
-        truth = day.reality.truth[obs.truth_index].T_world_model
-        ax.plot(truth[0, 3], truth[1, 3], "kx", ms=6)
+    if truth is not None:
+        ax.plot(truth.T_world_model[0, 3], truth.T_world_model[1, 3], "kx", ms=6)
 
 
 def plot_exposure(day: SiteDay, path: Path) -> Path:

@@ -24,4 +24,8 @@ class MissionConfig(BaseModel):
     min_fitness: float = Field(0.5, ge=0.0, le=1.0, description="Below this inlier fraction (of the points above the slab) the fit is unverified.")
     tie_ratio: float = Field(1.15, ge=1.0, description="A fit from the BIM pose within this factor of the best "
                                                         "score wins (the BIM is the prior).")
+    merge_distance: float = Field(0.05, gt=0.0, description="A point this close to a registered object's surface "
+                                                           "is explained by it (merging views, no truth needed).")
+    merge_fraction: float = Field(0.5, gt=0.0, le=1.0, description="A detection whose points above the slab are "
+                                  "at least this much explained by registered objects is another view of them.")
     model_samples: int = Field(10000, ge=6, description="Surface samples per model (see IcpConfig.sample_count).")

@@ -35,7 +35,7 @@ class Observation:
     yaw_deg: float
     tilt_deg: float
     upright_bias: float
-    truth_index: int | None = None
+    frames: tuple[int, ...] = ()  # every station it was seen from (its views merged into this observation)
 
 
 @dataclass

@@ -6,6 +6,7 @@ The steps, per the paper's loop (Fig. 1):
    nearest-neighbour tour from the start;
 2. capture: a frame per station (``capture(T_world_camera)``: the RGB-D simulator here, a robot driver on site);
 3. perceive: detections (an ROI and a family label each) -> Shi-Tomasi corners in the ROI -> depth -> world points;
+   a detection whose points lie on objects already registered is another view of them, not a new object;
 4. associate: a detection belongs to the nearest unclaimed BIM element of its family within ``association_radius``;
    none means an object the BIM does not have;
 5. register: SG-ICP from the BIM pose moved onto the detection (BIM yaw, the detection's centroid), with the
@@ -26,10 +27,11 @@ from bim2rdt.mission.fitting import best_fit, initial_poses, rests_on_slab
 from bim2rdt.mission.ground import SLAB_HEIGHT, off_slab
 from bim2rdt.mission.records import MissionResult, Observation, Target
 from bim2rdt.mission.verdict import pose_delta, verdict
+from bim2rdt.mission.merging import RegisteredObject, repeated_view, surface_tree
 from bim2rdt.perception.detection import Detection
 from bim2rdt.registration import IcpConfig, sample_model
+from bim2rdt.registration.symmetry import closest_equivalent
 from bim2rdt.semantics import UprightPrior
-from bim2rdt.sim.truth import closest_equivalent
 
 
 def run_mission(targets: Sequence[Target], stations: Sequence[np.ndarray],
@@ -38,27 +40,43 @@ def run_mission(targets: Sequence[Target], stations: Sequence[np.ndarray],
                 config: MissionConfig = MissionConfig(), icp: IcpConfig = IcpConfig(),
                 tick: Callable[[], None] = lambda: None) -> MissionResult:
     """Visit ``stations``; ``perceive(station_index, T_world_camera)`` returns that frame's detections. Each
-    object is registered once, from the detection with the most points; returns every verdict."""
+    object is registered once, from its detection with the most points; a detection its registered neighbours
+    already explain is another view of them (:mod:`bim2rdt.mission.merging`). Returns every verdict."""
     result = MissionResult(list(stations))
-    best: dict[object, Detection] = {}
-    for index, T_world_camera in enumerate(stations):
-        for detection in perceive(index, T_world_camera):
-            if len(detection.points_world) >= config.min_points:
-                key = detection.truth_index if detection.truth_index is not None else (index, id(detection))
-                if key not in best or len(detection.points_world) > len(best[key].points_world):
-                    best[key] = detection
-        tick()
+    detections = _capture(stations, perceive, config, tick)
     claimed: set[str] = set()
-    for detection in sorted(best.values(), key=lambda d: -len(d.points_world)):
+    registered: list[RegisteredObject] = []
+    for detection in sorted(detections, key=lambda d: -len(d.points_world)):
+        seen_before = repeated_view(detection, registered, config)
+        if seen_before is not None:
+            if seen_before.family == detection.family:
+                seen_before.stations.add(detection.station)
+            continue
         target = associate(detection, targets, claimed, config)
         mesh = target.mesh_body if target else new_object_mesh(detection.family)
-        result.observations.append(_observe(detection, target, mesh, priors, config, icp))
+        observation, model_pts = _observe(detection, target, mesh, priors, config, icp)
+        registered.append(RegisteredObject(detection.family, surface_tree(model_pts, observation.pose),
+                                           len(result.observations), {detection.station}))
+        result.observations.append(observation)
+    for obj in registered:
+        result.observations[obj.observation].frames = tuple(sorted(obj.stations))
     result.not_seen = [t.global_id for t in targets if t.global_id not in claimed]
     return result
 
 
+def _capture(stations: Sequence[np.ndarray], perceive: Callable[[int, np.ndarray], list[Detection]],
+             config: MissionConfig, tick: Callable[[], None]) -> list[Detection]:
+    """Every station's detections with at least ``min_points`` points (fewer: the object is not seen there)."""
+    found = []
+    for index, T_world_camera in enumerate(stations):
+        found += [d for d in perceive(index, T_world_camera) if len(d.points_world) >= config.min_points]
+        tick()
+    return found
+
+
 def _observe(detection: Detection, target: Target | None, mesh: trimesh.Trimesh, priors: dict[str, UprightPrior],
-             config: MissionConfig, icp: IcpConfig) -> Observation:
+             config: MissionConfig, icp: IcpConfig) -> tuple[Observation, np.ndarray]:
+    """Register one object and judge it; also returns the model's surface samples (body frame)."""
     prior = priors[detection.family]
     model_pts, model_normals = sample_model(mesh, config.model_samples, seed=icp.seed)
     object_pts = off_slab(detection.points_world, config)
@@ -66,7 +84,8 @@ def _observe(detection: Detection, target: Target | None, mesh: trimesh.Trimesh,
                    prior, config, icp, local_first=target is not None,
                    support_height=SLAB_HEIGHT if rests_on_slab(target, model_pts, config) else None)
     reference = target.placement if target else fit.pose
-    shift, yaw, tilt = pose_delta(reference, closest_equivalent(detection.family, fit.pose, reference))
-    return Observation(detection.family, target.global_id if target else None,
-                       verdict(target, fit, shift, yaw, tilt, config), fit.pose, fit, len(object_pts),
-                       detection.station, shift, yaw, tilt, prior.upright_bias, detection.truth_index)
+    shift, yaw, tilt = pose_delta(reference, closest_equivalent(fit.pose, reference, prior.symmetry))
+    observation = Observation(detection.family, target.global_id if target else None,
+                              verdict(target, fit, shift, yaw, tilt, config), fit.pose, fit, len(object_pts),
+                              detection.station, shift, yaw, tilt, prior.upright_bias)
+    return observation, model_pts

@@ -19,7 +19,8 @@ import numpy as np
 
 from bim2rdt.registration import hausdorff
 from bim2rdt.sim.scenarios import Scenario
-from bim2rdt.sim.truth import FAILURE_MODES, closest_equivalent, pose_error
+from bim2rdt.registration.symmetry import closest_equivalent
+from bim2rdt.sim.truth import FAILURE_MODES, pose_error, true_symmetry
 
 Method = Callable[..., np.ndarray]
 Prior = tuple[float, bool]  # (upright_bias, yaw_only)
@@ -76,7 +77,7 @@ def _register_one(method: Method, scenario: Scenario, obj, priors: dict[str, Pri
     start = time.perf_counter()
     pose = method(model_pts, model_normals, obj.scene_pts_world, obj.T_init, bias, yaw_only)
     elapsed = time.perf_counter() - start
-    shown = closest_equivalent(obj.family, pose, obj.T_world_model)
+    shown = closest_equivalent(pose, obj.T_world_model, true_symmetry(obj.family))
     stats = hausdorff(_posed(model_pts, shown), _posed(model_pts, obj.T_world_model))
     error = pose_error(obj.family, pose, obj.T_world_model)
     rows.append((stats.rmse, stats.mean, stats.max, error.success(), error.tilt_deg, elapsed,
