@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 from typing import Protocol
 
 from bim2rdt.bim.model import BimModel
-from bim2rdt.bim.permanent import is_permanent, permanent_elements
+from bim2rdt.bim.map_classes import in_map, map_elements
 
 PASS, WARN, UNAVAILABLE = "pass", "warn", "unavailable"
 EXAMPLES = 10
@@ -117,13 +117,13 @@ def _localization_map(model: BimModel) -> ReadinessCheck:
     without any gives it no map, and it would run on drifting odometry alone."""
     name = "permanent elements to localize on"
     if model.meshes is None:
-        mapped = [el for el in model.elements if is_permanent(el)]
+        mapped = [el for el in model.elements if in_map(el)]
         if not mapped:
             return ReadinessCheck(name, WARN, "no walls, columns, slabs, stairs or doors: the robot has no map to "
                                   "localize on (odometry only)")
         return ReadinessCheck(name, UNAVAILABLE, f"{len(mapped)} permanent elements, bodies not checked "
                               "(--no-geometry)")
-    mapped = permanent_elements(model)
+    mapped = map_elements(model)
     if not mapped:
         return ReadinessCheck(name, WARN, "no walls, columns, slabs, stairs or doors with a body: the robot has no "
                               "map to localize on (odometry only)")

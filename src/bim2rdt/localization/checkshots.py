@@ -18,7 +18,7 @@ import numpy as np
 import trimesh
 
 from bim2rdt.bim import BimModel
-from bim2rdt.bim.permanent import permanent_elements
+from bim2rdt.bim.map_classes import map_elements
 from bim2rdt.localization.depth import depth_grid, grid_normals
 from bim2rdt.localization.surfaces import PermanentMap, permanent_map
 from bim2rdt.perception.frame import Frame
@@ -88,7 +88,7 @@ def landmarks(model: BimModel, min_height: float = 1.0) -> list[Landmark]:
     """The model's landmarks at least ``min_height`` m tall whose faces meet at 30 degrees or more: every convex
     vertical edge of a permanent element, and every inside corner between two of their vertical faces."""
     faces = []
-    for element in permanent_elements(model):
+    for element in map_elements(model):
         vertices, triangles = model.mesh(element.global_id)
         faces += _vertical_faces(trimesh.Trimesh(vertices, triangles), element, min_height)
     found = {}

@@ -17,7 +17,7 @@ import numpy as np
 import trimesh
 
 from bim2rdt.bim import BimModel
-from bim2rdt.bim.permanent import permanent_elements
+from bim2rdt.bim.map_classes import map_elements
 from bim2rdt.localization.errors import LocalizationError
 from bim2rdt.perception.camera import Intrinsics
 
@@ -51,7 +51,7 @@ class PermanentMap:
         if model.meshes is None:
             raise LocalizationError(f"{model.path.name}: loaded without geometry; localizing needs its meshes "
                                     "(load_ifc(path, geometry=True))")
-        elements = permanent_elements(model)
+        elements = map_elements(model)
         if not elements:
             raise LocalizationError(f"{model.path.name}: no walls, columns, slabs, stairs or doors with a body, so "
                                     "there is no map to localize on (see bim2rdt info --readiness)")

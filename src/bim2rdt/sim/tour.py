@@ -1,8 +1,9 @@
 """A localization tour of the embedded site: stations, the scene the camera sees there, and frames.
 
-The scene is the site as built: the BIM's permanent elements (walls, columns, slab, door) where the model puts
-them, the site objects where :func:`~bim2rdt.sim.reality.simulate_reality` moved them, and people standing in
-the views (clutter the map does not have). Frames are ray cast by :func:`~bim2rdt.sim.render.render_rgbd`.
+The scene is the site as built, by the simulator's building renderer: the BIM's permanent elements (walls,
+columns, slab, door) where the model puts them, the site objects where
+:func:`~bim2rdt.sim.reality.simulate_reality` moved them, and people standing in the views (clutter the map
+does not have). Frames are ray cast by :func:`~bim2rdt.sim.render.render_rgbd`.
 
 The default tour loops through the west hall and the south-east bay until it has walked 100 m (23 stations).
 Most views see two walls or a wall and columns within 6 m; two of every ten face a single wall square on, so the position along it is
@@ -17,10 +18,9 @@ import numpy as np
 import trimesh
 
 from bim2rdt.bim import BimModel
-from bim2rdt.bim.permanent import permanent_elements
 from bim2rdt.perception.camera import Intrinsics, look_at
 from bim2rdt.perception.frame import Frame
-from bim2rdt.sim.reality import body_mesh, simulate_reality
+from bim2rdt.sim.reality import simulate_reality
 from bim2rdt.sim.render import render_rgbd
 from bim2rdt.sim.scene import PlacedObject, SiteScene, ground_pose
 
@@ -80,22 +80,21 @@ def person() -> trimesh.Trimesh:
 
 def tour_scene(model: BimModel, seed: int = 0, people: tuple[tuple[float, float], ...] = PEOPLE_XY,
                site_objects: bool = True) -> TourScene:
-    """The embedded site as built: permanent elements as designed, site objects as moved by ``seed`` (none
-    without ``site_objects``), people standing at ``people`` (x, y)."""
-    permanent = [PlacedObject(el.ifc_class, body_mesh(model, el.global_id), el.placement, albedo=0.6)
-                 for el in permanent_elements(model)]
+    """The embedded site as built (:func:`~bim2rdt.sim.reality.simulate_reality` with the building): the IFC's
+    permanent elements as designed, site objects as moved by ``seed`` (none without ``site_objects``), people
+    standing at ``people`` (x, y) as workers, and open ground around the building (what the camera sees
+    through a doorway or from outside)."""
     proxies = [el.global_id for el in model.elements
                if el.ifc_class == "IfcBuildingElementProxy" and model.has_mesh(el.global_id)]
-    site_objects = simulate_reality(model, proxies, seed=seed).scene.objects if site_objects else []
-    crowd = [PlacedObject("person", person(), ground_pose(x, y, 0.3 * k), albedo=0.3)
+    built = simulate_reality(model, proxies if site_objects else [], seed=seed, building=True,
+                             unplanned_at=(5.0, 4.0) if site_objects else None).scene
+    crowd = [PlacedObject("person", person(), ground_pose(x, y, 0.3 * k), albedo=0.3, colour=(0.9, 0.5, 0.1))
              for k, (x, y) in enumerate(people)]
-    return TourScene(SiteScene(permanent + site_objects + crowd, ground_size=60.0), len(permanent),
-                     len(site_objects), len(crowd))
+    scene = SiteScene(built.objects, ground_size=60.0, building=built.building, workers=crowd)
+    return TourScene(scene, len(built.building), len(built.objects), len(crowd))
 
 
 def render_frame(scene: SiteScene, T_world_camera: np.ndarray, rng: np.random.Generator,
                  intrinsics: Intrinsics = Intrinsics()) -> Frame:
-    """A noisy RGB-D frame of the scene from the true camera pose (grey rendered into all three channels)."""
-    rendered = render_rgbd(scene, intrinsics, T_world_camera, rng)
-    rgb = np.repeat(rendered.gray[..., None], 3, axis=2)
-    return Frame(rgb, rendered.depth.astype(np.float32), intrinsics, T_world_camera)
+    """A noisy RGB-D frame of the scene from the true camera pose."""
+    return render_rgbd(scene, intrinsics, T_world_camera, rng).as_frame(intrinsics)

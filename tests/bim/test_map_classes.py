@@ -7,7 +7,7 @@ import ifcopenshell.api.root
 import pytest
 
 from bim2rdt.bim import load_ifc
-from bim2rdt.bim.permanent import permanent_elements
+from bim2rdt.bim.map_classes import map_elements
 from bim2rdt.bim.readiness import PASS, WARN, check_readiness
 from bim2rdt.localization import LocalizationError
 from bim2rdt.localization.surfaces import PermanentMap
@@ -18,9 +18,9 @@ def _check(model):
 
 
 def test_the_embedded_sites_walls_columns_slab_and_door_are_its_map(site_model):
-    classes = sorted({el.ifc_class for el in permanent_elements(site_model)})
+    classes = sorted({el.ifc_class for el in map_elements(site_model)})
     assert classes == ["IfcColumn", "IfcDoor", "IfcSlab", "IfcWall"]
-    assert len(permanent_elements(site_model)) == 6 + 6 + 1 + 1
+    assert len(map_elements(site_model)) == 6 + 6 + 1 + 1
     check = _check(site_model)
     assert check.status == PASS and check.summary.startswith("14 permanent elements")
 
