@@ -12,7 +12,7 @@ left to the odometry (degenerate fixes the filter must handle).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import trimesh
@@ -22,7 +22,8 @@ from bim2rdt.perception.camera import Intrinsics, look_at
 from bim2rdt.perception.frame import Frame
 from bim2rdt.sim.reality import simulate_reality
 from bim2rdt.sim.render import render_rgbd
-from bim2rdt.sim.scene import PlacedObject, SiteScene, ground_pose
+from bim2rdt.localization.planar import rz
+from bim2rdt.sim.scene import BuildingPart, PlacedObject, SiteScene, ground_pose
 
 CAMERA_HEIGHT = 1.1
 LOOK_HEIGHT = 0.8
@@ -79,19 +80,37 @@ def person() -> trimesh.Trimesh:
 
 
 def tour_scene(model: BimModel, seed: int = 0, people: tuple[tuple[float, float], ...] = PEOPLE_XY,
-               site_objects: bool = True) -> TourScene:
+               site_objects: bool = True, tolerance: float = 0.0) -> TourScene:
     """The embedded site as built (:func:`~bim2rdt.sim.reality.simulate_reality` with the building): the IFC's
-    permanent elements as designed, site objects as moved by ``seed`` (none without ``site_objects``), people
-    standing at ``people`` (x, y) as workers, and open ground around the building (what the camera sees
-    through a doorway or from outside)."""
+    permanent elements where the BIM puts them give or take ``tolerance`` (1 sigma, m, per element and axis,
+    and a tenth of a degree per centimetre in yaw: a building is set out to construction tolerance, not to the
+    model), site objects as moved by ``seed`` (none without ``site_objects``), people standing at ``people``
+    (x, y) as workers, and open ground around the building (what the camera sees through a doorway or from
+    outside)."""
     proxies = [el.global_id for el in model.elements
                if el.ifc_class == "IfcBuildingElementProxy" and model.has_mesh(el.global_id)]
     built = simulate_reality(model, proxies if site_objects else [], seed=seed, building=True,
                              unplanned_at=(5.0, 4.0) if site_objects else None).scene
     crowd = [PlacedObject("person", person(), ground_pose(x, y, 0.3 * k), albedo=0.3, colour=(0.9, 0.5, 0.1))
              for k, (x, y) in enumerate(people)]
-    scene = SiteScene(built.objects, ground_size=60.0, building=built.building, workers=crowd)
+    building = [as_built(part, tolerance, rng) for part, rng in
+                zip(built.building, np.random.default_rng(seed + 1).spawn(len(built.building)))]
+    scene = SiteScene(built.objects, ground_size=60.0, building=building, workers=crowd)
     return TourScene(scene, len(built.building), len(built.objects), len(crowd))
+
+
+def as_built(part: BuildingPart, tolerance: float, rng: np.random.Generator) -> BuildingPart:
+    """The part set out off its design by a seeded shift (``tolerance`` m, 1 sigma per axis) and a turn about
+    its centroid's vertical (0.1 deg per cm of ``tolerance``, 1 sigma)."""
+    if tolerance <= 0.0:
+        return part
+    shift = rng.normal(0.0, tolerance, 3)
+    turn = np.deg2rad(rng.normal(0.0, 10.0 * tolerance))
+    centre = part.mesh.centroid
+    T = np.eye(4)
+    T[:3, :3] = rz(turn)
+    T[:3, 3] = centre - rz(turn) @ centre + shift
+    return replace(part, mesh=part.mesh.copy().apply_transform(T))
 
 
 def render_frame(scene: SiteScene, T_world_camera: np.ndarray, rng: np.random.Generator,

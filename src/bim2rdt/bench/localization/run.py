@@ -25,16 +25,21 @@ from bim2rdt.sim.robot import SimulatedRobot
 from bim2rdt.sim.site import build_site_ifc
 from bim2rdt.sim.tour import tour_poses, tour_scene
 
+AS_BUILT_TOLERANCE = 0.01
+"""Walls, columns and slab stand this far off the BIM (1 sigma per axis, m): DIN 18202-class setting-out."""
 DOCK_SIGMA = (0.01, np.deg2rad(0.1))
 """The robot starts at its surveyed dock: 1 cm and 0.1 degree (1 sigma)."""
 
 
 @dataclass(frozen=True)
 class PoseError:
-    """Camera position error (m) and yaw error (deg, signed) against the truth."""
+    """Camera position error (m; its horizontal part and height apart too) and yaw error (deg, signed) against
+    the truth."""
 
     position: float
     yaw_deg: float
+    horizontal: float = 0.0
+    height: float = 0.0
 
 
 @dataclass
@@ -70,12 +75,15 @@ class LocalizationRun:
     stations: list[Station]
     config: LocalizationConfig
     peers: list[str]
+    tolerance: float = 0.0
 
 
 def pose_error(T_est: np.ndarray, T_true: np.ndarray) -> PoseError:
     a, _ = to_planar(T_est)
     b, _ = to_planar(T_true)
-    return PoseError(float(np.linalg.norm(T_est[:3, 3] - T_true[:3, 3])), float(np.rad2deg(wrap(a[3] - b[3]))))
+    error = T_est[:3, 3] - T_true[:3, 3]
+    return PoseError(float(np.linalg.norm(error)), float(np.rad2deg(wrap(a[3] - b[3]))),
+                     float(np.linalg.norm(error[:2])), float(error[2]))
 
 
 def _across(fix, T_true: np.ndarray) -> float:
@@ -87,12 +95,14 @@ def _across(fix, T_true: np.ndarray) -> float:
 
 
 def run_tour(out_dir: Path, seed: int = 0, distance: float = 100.0, config: LocalizationConfig | None = None,
-             peers: list | None = None, tick: Callable[[], None] = lambda: None) -> LocalizationRun:
-    """Build the embedded site into ``out_dir``, walk ``distance`` m of the tour and score every station."""
+             peers: list | None = None, tick: Callable[[], None] = lambda: None,
+             tolerance: float = AS_BUILT_TOLERANCE) -> LocalizationRun:
+    """Build the embedded site into ``out_dir``, walk ``distance`` m of the tour and score every station. The
+    building stands off its BIM by ``tolerance`` (see :func:`~bim2rdt.sim.tour.tour_scene`)."""
     cfg = config or LocalizationConfig()
     model = load_ifc(build_site_ifc(Path(out_dir) / "site.ifc"), cache_dir=Path(out_dir) / "cache")
     poses = tour_poses(distance)
-    robot = SimulatedRobot(tour_scene(model, seed=seed).scene, poses[0], seed)
+    robot = SimulatedRobot(tour_scene(model, seed=seed, tolerance=tolerance).scene, poses[0], seed)
     start, _ = to_planar(poses[0])
     dock = np.diag([DOCK_SIGMA[0] ** 2] * 3 + [DOCK_SIGMA[1] ** 2])
     tour = _Tour(model, PoseFilter(start, dock, OdometryNoise()), start.copy(), cfg, peers or [],
@@ -104,7 +114,7 @@ def run_tour(out_dir: Path, seed: int = 0, distance: float = 100.0, config: Loca
             tour.moved(robot.walk_to(target))
         stations.append(tour.station(index, walked, robot))
         tick()
-    return LocalizationRun(seed, stations, cfg, [peer.name for peer in peers or []])
+    return LocalizationRun(seed, stations, cfg, [peer.name for peer in peers or []], tolerance)
 
 
 @dataclass
@@ -173,6 +183,6 @@ def run_record(run: LocalizationRun) -> dict:
     from bim2rdt.bench.localization.summary import summarize, targets
 
     summary = summarize(run)
-    return {"seed": run.seed, "config": run.config.model_dump(), "peers": run.peers,
+    return {"seed": run.seed, "as_built_tolerance": run.tolerance, "config": run.config.model_dump(), "peers": run.peers,
             "summary": summary, "targets": [asdict(t) for t in targets(summary)],
             "stations": [asdict(station) for station in run.stations]}

@@ -42,6 +42,8 @@ def summarize(run: LocalizationRun) -> dict:
         "bim": {"fixes": len(fixes), "refused": len(stations) - len(fixes),
                 "degenerate": sum(1 for s in fixes if s.degenerate),
                 "median_position": _median([s.fix.position for s in fixes]),
+                "median_horizontal": _median([s.fix.horizontal for s in fixes]),
+                "median_abs_height": _median([abs(s.fix.height) for s in fixes]),
                 "median_yaw_deg": _median([abs(s.fix.yaw_deg) for s in fixes]),
                 "median_position_constrained": _median([s.fix_across for s in fixes]),
                 "worst_position_constrained": max((s.fix_across for s in fixes), default=float("nan")),
