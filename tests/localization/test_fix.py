@@ -140,3 +140,12 @@ def test_a_frame_without_depth_is_refused(site_model, bare):
     blind = type(seen)(seen.rgb, np.zeros_like(seen.depth), seen.intrinsics, seen.T_world_camera)
     with pytest.raises(LocalizationError, match="depth returns"):
         localize(blind, site_model, CORNER_VIEW)
+
+
+def test_a_building_set_out_a_centimetre_off_its_bim_still_gives_a_centimetre_fix(site_model):
+    from bim2rdt.sim.tour import tour_scene
+
+    off = tour_scene(site_model, seed=3, tolerance=0.01)
+    fix = localize(frame(off, CORNER_VIEW), site_model, offset(CORNER_VIEW, 0.2, 0.1, -2.0))
+    shift, yaw = errors(fix.pose, CORNER_VIEW)
+    assert np.linalg.norm(shift) < 0.03 and abs(yaw) < 0.3
