@@ -47,3 +47,13 @@ def test_a_pinned_station_does_not_turn(site_model, bare):
     looks = localize_station(_drifted_filter(corner), site_model, robot.capture(), tilt, robot.turn)
     assert len(looks) == 1 and pinned(looks[0])
     assert np.allclose(robot.T_world_camera, corner)
+
+
+def test_turning_back_leaves_the_camera_on_the_stations_view_with_a_pinned_pose(site_model, bare):
+    robot = SimulatedRobot(bare.scene, SOUTH_WALL, seed=1)
+    pose_filter = _drifted_filter(SOUTH_WALL)
+    _, tilt = to_planar(SOUTH_WALL)
+    looks = localize_station(pose_filter, site_model, robot.capture(), tilt, robot.turn, turn_back=True)
+    assert len(looks) >= 3 and looks[-1].applied
+    assert abs(to_planar(robot.T_world_camera)[0][3] - to_planar(SOUTH_WALL)[0][3]) < np.deg2rad(2.0)
+    assert np.linalg.norm(pose_filter.state[:3] - robot.T_world_camera[:3, 3]) < 0.01

@@ -37,18 +37,25 @@ def pinned(station: StationFix) -> bool:
 
 def localize_station(pose_filter: PoseFilter, model: BimModel, frame: Frame, R_level_camera: np.ndarray,
                      turn: Callable[[float], Turned] | None = None, config: LocalizationConfig | None = None,
-                     up=(0.0, 0.0, 1.0)) -> list[StationFix]:
+                     up=(0.0, 0.0, 1.0), turn_back: bool = False) -> list[StationFix]:
     """Fuse the station's frame; while the station is not pinned, turn by the next of ``look_around_deg``
-    (absolute, from the first heading) and fuse that frame too. Returns every look's result, first first; the
-    camera is left at the last look."""
+    (absolute, from the first heading) and fuse that frame too. With ``turn_back`` the camera then turns back to
+    the first heading and fuses the frame there as well (the station's view, now with a pinned pose); otherwise
+    it is left at the last look. Returns every look's result, first first."""
     cfg = config or LocalizationConfig()
     looks = [fuse_frame(pose_filter, frame, model, R_level_camera, up, cfg)]
     heading = 0.0
     for angle in (np.deg2rad(a) for a in cfg.look_around_deg):
         if turn is None or pinned(looks[-1]):
             break
-        turned = turn(angle - heading)
+        looks.append(_look(pose_filter, model, turn(angle - heading), R_level_camera, up, cfg))
         heading = angle
-        pose_filter.predict(turned.increment, turned.distance, turned.turned)
-        looks.append(fuse_frame(pose_filter, turned.frame, model, R_level_camera, up, cfg))
+    if turn_back and heading != 0.0:
+        looks.append(_look(pose_filter, model, turn(-heading), R_level_camera, up, cfg))
     return looks
+
+
+def _look(pose_filter: PoseFilter, model: BimModel, turned: Turned, R_level_camera: np.ndarray, up,
+          cfg: LocalizationConfig) -> StationFix:
+    pose_filter.predict(turned.increment, turned.distance, turned.turned)
+    return fuse_frame(pose_filter, turned.frame, model, R_level_camera, up, cfg)

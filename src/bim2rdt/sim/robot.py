@@ -5,13 +5,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from bim2rdt.localization.planar import from_planar, to_planar
+from bim2rdt.localization.planar import compose, from_planar, to_planar
 from bim2rdt.localization.station import Turned
 from bim2rdt.perception.camera import Intrinsics
 from bim2rdt.perception.frame import Frame
 from bim2rdt.sim.odometry import OdometryReading, SimulatedOdometry
 from bim2rdt.sim.scene import SiteScene
-from bim2rdt.sim.tour import render_frame
+from bim2rdt.sim.render import RgbdFrame, render_rgbd
 
 
 class SimulatedRobot:
@@ -32,13 +32,23 @@ class SimulatedRobot:
         self.T_world_camera = np.asarray(T_world_camera, dtype=float).copy()
         return self.odometry.leg(np.stack([start, goal]))
 
+    def drive(self, increment: np.ndarray, R_level_camera: np.ndarray) -> OdometryReading:
+        """Carry out a commanded move (forward, left, up m, turn rad, in the current heading frame; the camera's
+        tilt set to ``R_level_camera``): the true pose moves by exactly that, the odometry reports it with drift."""
+        state, _ = to_planar(self.T_world_camera)
+        return self.walk_to(from_planar(compose(state, increment), R_level_camera))
+
+    def render(self) -> RgbdFrame:
+        """A noisy frame from the true pose, with the simulator's labels (for an ideal detector)."""
+        return render_rgbd(self.scene, self.intrinsics, self.T_world_camera, self.rng)
+
     def capture(self) -> Frame:
-        return render_frame(self.scene, self.T_world_camera, self.rng, self.intrinsics)
+        """What the robot sends: the frame without labels."""
+        return self.render().as_frame(self.intrinsics)
 
     def turn(self, angle: float) -> Turned:
         """Turn in place by ``angle`` rad about the vertical, capture; the frame and the turn's odometry."""
-        state, tilt = to_planar(self.T_world_camera)
-        turned = state + np.array([0.0, 0.0, 0.0, angle])
-        reading = self.walk_to(from_planar(turned, tilt))
+        _, tilt = to_planar(self.T_world_camera)
+        reading = self.drive(np.array([0.0, 0.0, 0.0, angle]), tilt)
         return Turned(self.capture(), reading.increment, reading.distance, reading.turned)
 
