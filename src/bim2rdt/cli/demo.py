@@ -50,7 +50,17 @@ def _show_site_day(result) -> None:
 
     print_table("Robot mission: BIM objects verified with SG-ICP", OBSERVATION_COLUMNS,
                 [observation_cells(r) for r in observation_rows(result.site_day)])
+    _show_localization(result.site_day)
     events = [e for e in result.site_day.hav_events if not e.kind.endswith("predicted")]
     print_table("Hand-arm vibration events (written to the twin as IfcEvent/IfcTask)",
                 ("event", "worker", "A(8) m/s²"),
                 [(e.kind, e.subject[:8], f"{e.data.get('day_a8', float('nan')):.2f}") for e in events])
+
+
+def _show_localization(day) -> None:
+    from bim2rdt.demo.localization_report import localization_record, localization_tables
+
+    if day.localization is not None:
+        for title, columns, rows in localization_tables(localization_record(day.localization, day.mission,
+                                                                            day.reality.truth)):
+            print_table(title, columns, rows)

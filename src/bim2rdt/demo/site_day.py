@@ -20,10 +20,11 @@ from pathlib import Path
 import numpy as np
 
 from bim2rdt.bim import BimModel, TwinWriter, load_ifc
-from bim2rdt.mission import MissionConfig, MissionResult, Observation, Target, plan_stations, run_mission
+from bim2rdt.demo.localized import MissionLocalization, localized_mission
+from bim2rdt.mission import MissionConfig, MissionResult, Observation, Target, plan_stations
 from bim2rdt.semantics import KnowledgeBasePriors, UprightPrior
 from bim2rdt.sim.meshes import mesh_for_family
-from bim2rdt.sim.reality import Reality, SimulatedPerception, body_mesh, simulate_reality
+from bim2rdt.sim.reality import Reality, body_mesh, simulate_reality
 from bim2rdt.sim.site import ZONES, build_site_ifc
 
 ROBOT_START_XY = (1.0, 1.0)
@@ -43,6 +44,7 @@ class SiteDay:
     hav_events: list
     exposure_timeline: list[tuple[float, str, float]]
     twin_records: list[tuple[str, str]]
+    localization: MissionLocalization | None = None  # the robot's fixes, and the dead-reckoning comparison run
 
 
 def objects_of_interest(model: BimModel) -> list[Target]:
@@ -60,18 +62,18 @@ def run_site_day(out_dir: Path, seed: int = 0, workers: int = 2, minutes: float 
     model = load_ifc(build_site_ifc(out_dir / "site.ifc"))
     tick("bim")
     targets = objects_of_interest(model)
-    reality = simulate_reality(model, [t.global_id for t in targets], seed=seed)
+    reality = simulate_reality(model, [t.global_id for t in targets], seed=seed, building=True)
     priors = KnowledgeBasePriors().priors(sorted({t.family for t in reality.truth}))
     stations = plan_stations(targets, ROBOT_START_XY, mission_config)
-    mission = run_mission(targets, stations, SimulatedPerception(reality, seed=seed), priors, mesh_for_family,
-                          mission_config, tick=lambda: tick("station"))
+    mission, localization = localized_mission(targets, stations, reality, model, priors, mesh_for_family,
+                                              mission_config, ROBOT_START_XY, seed, tick=lambda: tick("station"))
     writer = TwinWriter(model)
     apply_observations(writer, mission.observations)
     tick("twin")
     events, timeline, records = _hav_day(writer, model, out_dir / "state", workers, minutes, fs)
     tick("hav")
     twin_path = writer.save(out_dir / "site_twin.ifc")
-    return SiteDay(model, priors, reality, mission, twin_path, events, timeline, records)
+    return SiteDay(model, priors, reality, mission, twin_path, events, timeline, records, localization)
 
 
 def apply_observations(writer: TwinWriter, observations: list[Observation]) -> dict[str, str]:

@@ -15,6 +15,7 @@ import numpy as np  # noqa: E402
 
 from bim2rdt.atomic import write_bytes_atomic  # noqa: E402
 from bim2rdt.safety import EAV, ELV  # noqa: E402
+from bim2rdt.demo.localization_report import localization_markdown, localization_record, plot_localization  # noqa: E402
 from bim2rdt.demo.site_day import SiteDay, objects_of_interest  # noqa: E402
 from bim2rdt.sim.meshes import mesh_for_family  # noqa: E402
 from bim2rdt.sim.reality import TrueObject  # noqa: E402
@@ -68,10 +69,15 @@ def write_site_report(day: SiteDay, out_dir: Path) -> dict[str, Path]:
     record = {"twin": str(day.twin_path), "observations": rows, "not_seen": day.mission.not_seen,
               "hav_events": [_event_row(e) for e in day.hav_events if not e.kind.endswith("predicted")],
               "twin_records": day.twin_records}
+    localization = ""
+    if day.localization is not None:
+        record["localization"] = localization_record(day.localization, day.mission, day.reality.truth)
+        paths["localization"] = plot_localization(record["localization"], out_dir / "localization.png")
+        localization = localization_markdown(record["localization"])
     paths["json"] = out_dir / "site_day.json"
     write_bytes_atomic(paths["json"], json.dumps(record, indent=2, default=float).encode("utf-8"))
     paths["report"] = out_dir / "report.md"
-    write_bytes_atomic(paths["report"], _markdown(day, rows, record).encode("utf-8"))
+    write_bytes_atomic(paths["report"], (_markdown(day, rows, record) + localization).encode("utf-8"))
     return paths
 
 
