@@ -13,6 +13,7 @@ from pydantic import BaseModel, Field, ValidationError
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
 from bim2rdt.errors import Bim2RdtError
+from bim2rdt.localization.config import LocalizationConfig
 from bim2rdt.registration.config import IcpConfig
 from bim2rdt.semantics.llm import LlmPriorsConfig
 
@@ -68,6 +69,7 @@ class Settings(BaseSettings):
     hav: HavSettings = HavSettings()
     mqtt: MqttSettings = MqttSettings()
     registration: IcpConfig = IcpConfig()
+    localization: LocalizationConfig = LocalizationConfig()
 
 
 class ConfigError(Bim2RdtError):

@@ -36,12 +36,12 @@ def bench_localization(
     from bim2rdt.bench.localization.run import run_record, run_tour
     from bim2rdt.bench.localization.summary import plot_errors
     from bim2rdt.cli.registration import _open3d_available, progress
-    from bim2rdt.localization import LocalizationConfig
+    from bim2rdt.config import get_settings
     from bim2rdt.sim.tour import tour_poses
 
     if one_core and hasattr(os, "sched_setaffinity"):
         os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
-    config = LocalizationConfig()
+    config = get_settings().localization
     methods = [Open3dPointToPlane(config, visible_only=False), Open3dPointToPlane(config, visible_only=True)] \
         if (_open3d_available() if peers is None else peers) else []
     with progress(len(tour_poses(distance)), "localization tour") as tick:
