@@ -116,8 +116,7 @@ def _coarse_icp(cfg: LocalizationConfig) -> IcpConfig:
     restarts), pairs up to the basin, the Huber scale annealed from there to the depth noise."""
     return IcpConfig(restarts=1, yaw_jitter_deg=0.0, max_iterations=cfg.max_iterations,
                      max_pair_distance=cfg.max_correction, huber_delta=cfg.huber_delta,
-                     normal_gate_deg=cfg.normal_gate_deg, score_distance=cfg.inlier_distance, release_iterations=0,
-                     trim_floor_per_delta=2.0)
+                     normal_gate_deg=cfg.normal_gate_deg, score_distance=cfg.inlier_distance, release_iterations=0)
 
 
 def _polish_icp(cfg: LocalizationConfig) -> IcpConfig:

@@ -69,15 +69,13 @@ class PermanentMap:
                 max_range: float) -> SurfaceSamples:
         """The permanent surface seen from ``T_world_camera``: one ray per ``stride``-th pixel of the camera's
         image widened by ``margin`` on each side, first hits within ``max_range`` (m), grazing hits dropped."""
-        rays_cam = widened_rays(intrinsics, stride, margin)
-        directions = rays_cam @ T_world_camera[:3, :3].T
+        directions = widened_rays(intrinsics, stride, margin) @ T_world_camera[:3, :3].T
         origin = T_world_camera[:3, 3]
-        face = self.mesh.ray.intersects_first(np.broadcast_to(origin, directions.shape), directions)
+        depth, face = self._cast(origin, directions)
         hit = face >= 0
-        face, directions = face[hit], directions[hit]
+        face, directions, depth = face[hit], directions[hit], depth[hit]
         normals = self.mesh.face_normals[face]
         towards = np.einsum("ni,ni->n", normals, directions)
-        depth = np.einsum("ni,ni->n", normals, self.mesh.vertices[self.mesh.faces[face, 0]] - origin) / towards
         unit = directions / np.linalg.norm(directions, axis=1, keepdims=True)
         cos_incidence = np.abs(np.einsum("ni,ni->n", normals, unit))
         keep = (depth > 0) & (depth <= max_range) & (cos_incidence >= GRAZING_COS)
@@ -88,13 +86,17 @@ class PermanentMap:
 
     def first_hit(self, origin: np.ndarray, directions: np.ndarray) -> np.ndarray:
         """Ray parameter t (K,) of the first permanent surface along origin + t * directions (inf: none)."""
+        return self._cast(origin, directions)[0]
+
+    def _cast(self, origin: np.ndarray, directions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(t (K,), first face hit (K,), -1 and inf where none) of rays origin + t * directions (embree)."""
         face = self.mesh.ray.intersects_first(np.broadcast_to(origin, directions.shape), directions)
         t = np.full(len(directions), np.inf)
         hit = face >= 0
         normals = self.mesh.face_normals[face[hit]]
         corner = self.mesh.vertices[self.mesh.faces[face[hit], 0]]
         t[hit] = np.einsum("ni,ni->n", normals, corner - origin) / np.einsum("ni,ni->n", normals, directions[hit])
-        return t
+        return t, face
 
     def samples(self, spacing: float, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
         """Every permanent surface sampled area-uniformly about ``spacing`` m apart, both faces of every wall:
