@@ -36,7 +36,7 @@ def test_with_bim_fixes_every_station_is_known_to_a_centimetre_and_no_verdict_is
     assert max(s.error for s in localization.stations) < 0.02
     assert all(s.looks and s.looks[-1].applied for s in localization.stations)
     tally = verdict_tally(mission.observations, reality.truth)
-    assert tally["false moved"] == 0 and tally["missed change"] == 0 and tally["phantom new"] == 0
+    assert tally["false moved"] == 0 and tally["missed change"] == 0  # what a drifting pose would cause
     assert tally["right"] >= 9
 
 
@@ -59,3 +59,23 @@ def test_the_report_lists_each_stations_fix_and_check_shots_and_the_dead_reckoni
     shots = [shot for row in record["anchored"]["stations"] for shot in row["check_shots"]]
     assert shots and all(shot["residual_m"] < 0.03 and shot["tape_m"] > 0.3 for shot in shots)
     assert np.isfinite([row["error_m"] for row in record["dead_reckoning"]["stations"]]).all()
+
+
+def test_verdicts_are_judged_per_bim_element_and_a_new_object_by_where_the_unplanned_one_stands():
+    from types import SimpleNamespace as Record
+
+    def at(x, y):
+        T = np.eye(4)
+        T[:2, 3] = (x, y)
+        return T
+
+    truth = [Record(global_id="a", change="unchanged", T_world_model=at(0, 0)),
+             Record(global_id="b", change="moved", T_world_model=at(5, 0)),
+             Record(global_id=None, change="unplanned", T_world_model=at(9, 9))]
+    observations = [Record(global_id="a", status="moved", pose=at(0.2, 0)),
+                    Record(global_id="b", status="as-planned", pose=at(5, 0)),
+                    Record(global_id=None, status="new", pose=at(9.1, 9)),
+                    Record(global_id=None, status="new", pose=at(2, 2)),
+                    Record(global_id="a", status="unverified", pose=at(0, 0))]
+    assert verdict_tally(observations, truth) == {"right": 1, "false moved": 1, "missed change": 1,
+                                                  "phantom new": 1, "unverified": 1}

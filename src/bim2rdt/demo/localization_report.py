@@ -1,10 +1,10 @@
 """The site day's localization in the report: each station's fix and check shots, and what the same mission gets
 wrong on dead reckoning alone (objects it calls "moved" that never moved).
 
-Verdicts are scored against the simulator's truth after the mission (by geometry, as the site report does): a
-verdict is right when a moved or knocked object is "moved", an unchanged one "as-planned", the unplanned one
-"new"; "false moved" is an unchanged object called moved, the twin's costliest mistake (a crew sent to
-check, a path replanned around nothing).
+Verdicts are scored against the simulator's truth after the mission, per BIM element (what the twin records): a
+verdict is right when a moved or knocked element is "moved", an unchanged one "as-planned", and a "new" object
+stands where an unplanned one truly does; "false moved" is an unchanged element called moved, the twin's
+costliest mistake (a crew sent to check, a path replanned around nothing).
 """
 
 from __future__ import annotations
@@ -18,28 +18,28 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from bim2rdt.demo.localized import MissionLocalization, StationLocalization  # noqa: E402
-from bim2rdt.sim.truth import match_truth  # noqa: E402
 
 RIGHT = {("moved", "moved"), ("moved", "knocked"), ("as-planned", "unchanged"), ("new", "unplanned")}
 """(verdict, true change) pairs that are right."""
 
 
-def verdict_tally(observations, truth) -> dict[str, int]:
-    """Counts of right verdicts, false 'moved', missed changes, phantom 'new' and unverified fits."""
-    matches = match_truth([(o.family, o.pose) for o in observations], [(t.family, t.T_world_model) for t in truth])
+def verdict_tally(observations, truth, new_radius: float = 0.5) -> dict[str, int]:
+    """Counts of right verdicts, false 'moved', missed changes, phantom 'new' and unverified fits. A verdict on a
+    BIM element is judged against that element's true change (the observation's GlobalId, what the twin would
+    record); a 'new' object is right when an unplanned one truly stands within ``new_radius`` m."""
+    changes = {t.global_id: t.change for t in truth if t.global_id is not None}
+    unplanned = np.array([t.T_world_model[:2, 3] for t in truth if t.global_id is None]).reshape(-1, 2)
     tally = dict.fromkeys(("right", "false moved", "missed change", "phantom new", "unverified"), 0)
-    for obs, index in zip(observations, matches):
-        change = truth[index].change if index is not None else None
+    for obs in observations:
         if obs.status == "unverified":
             tally["unverified"] += 1
-        elif (obs.status, change) in RIGHT:
+        elif obs.global_id is None:
+            near = len(unplanned) and np.min(np.linalg.norm(unplanned - obs.pose[:2, 3], axis=1)) < new_radius
+            tally["right" if near else "phantom new"] += 1
+        elif (obs.status, changes[obs.global_id]) in RIGHT:
             tally["right"] += 1
-        elif obs.status == "moved" and change == "unchanged":
-            tally["false moved"] += 1
-        elif obs.status == "as-planned":
-            tally["missed change"] += 1
-        elif obs.status == "new":
-            tally["phantom new"] += 1
+        else:
+            tally["false moved" if obs.status == "moved" else "missed change"] += 1
     return tally
 
 
