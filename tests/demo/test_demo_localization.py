@@ -72,8 +72,8 @@ def test_verdicts_are_judged_per_bim_element_and_a_new_object_by_where_the_unpla
     truth = [Record(global_id="a", change="unchanged", T_world_model=at(0, 0)),
              Record(global_id="b", change="moved", T_world_model=at(5, 0)),
              Record(global_id=None, change="unplanned", T_world_model=at(9, 9))]
-    observations = [Record(global_id="a", status="moved", pose=at(0.2, 0)),
-                    Record(global_id="b", status="as-planned", pose=at(5, 0)),
+    observations = [Record(global_id="a", status="deviating", pose=at(0.2, 0)),
+                    Record(global_id="b", status="as planned", pose=at(5, 0)),
                     Record(global_id=None, status="new", pose=at(9.1, 9)),
                     Record(global_id=None, status="new", pose=at(2, 2)),
                     Record(global_id="a", status="unverified", pose=at(0, 0))]

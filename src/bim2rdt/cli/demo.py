@@ -42,7 +42,9 @@ def demo_command(
     show_run(result.registration, targets=False)
     console.print(f"(registration: {trials} trials per scenario, a quick look; the paper's targets are judged on "
                   "50 trials by `bim2rdt bench registration`)")
-    console.print(f"twin: {result.site_day.twin_path}; report: {result.report['report']}; plots and JSON in {out}")
+    console.print(f"twin: {result.site_day.twin_path} (history {out / 'twin.db'}, issues "
+                  f"{out / 'site_issues.bcf'}); report: {result.report['html']} and {result.report['report']}; "
+                  f"plots and JSON in {out}")
 
 
 def _show_site_day(result) -> None:

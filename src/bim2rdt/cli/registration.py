@@ -30,18 +30,18 @@ def bench_registration(
     as_json: bool = typer.Option(False, "--json", help="Print JSON instead of tables."),
 ) -> None:
     """Run S1-S4 with ICP, SG-ICP (priors from the knowledge base) and Open3D; print the table and targets."""
-    from bim2rdt.config import get_settings
     from bim2rdt.bench.registration.runs import run_registration_scenarios, run_record, save_run
+    from bim2rdt.config import get_settings, settings_record
 
     if one_core and hasattr(os, "sched_setaffinity"):
         os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
     use_peers = _open3d_available() if peers is None else peers
-    config = get_settings().registration
+    settings = get_settings()
     with progress(4 * trials, "registration scenarios") as tick:
-        run = run_registration_scenarios(out, trials, seed, config, use_peers, tick=tick)
-    save_run(run, out)
+        run = run_registration_scenarios(out, trials, seed, settings.registration, use_peers, tick=tick)
+    save_run(run, out, settings_record(settings))
     if as_json:
-        print_json(run_record(run))
+        print_json(run_record(run, settings_record(settings)))
         return
     show_run(run)
     console.print(f"plots and results.json in {out}")

@@ -2,9 +2,9 @@
 wrong on dead reckoning alone (objects it calls "moved" that never moved).
 
 Verdicts are scored against the simulator's truth after the mission, per BIM element (what the twin records): a
-verdict is right when a moved or knocked element is "moved", an unchanged one "as-planned", and a "new" object
-stands where an unplanned one truly does; "false moved" is an unchanged element called moved, the twin's
-costliest mistake (a crew sent to check, a path replanned around nothing).
+verdict is right when a moved or knocked element is "deviating", an unchanged one "as planned", and a "new"
+object stands where an unplanned one truly does; "false moved" is an unchanged element called deviating (moved),
+the twin's costliest mistake (a crew sent to check, a path replanned around nothing).
 """
 
 from __future__ import annotations
@@ -18,9 +18,11 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from bim2rdt.demo.localized import MissionLocalization, StationLocalization  # noqa: E402
+from bim2rdt.twin.status import ElementStatus  # noqa: E402
 
-RIGHT = {("moved", "moved"), ("moved", "knocked"), ("as-planned", "unchanged"), ("new", "unplanned")}
-"""(verdict, true change) pairs that are right."""
+RIGHT = {(ElementStatus.DEVIATING, "moved"), (ElementStatus.DEVIATING, "knocked"),
+         (ElementStatus.AS_PLANNED, "unchanged")}
+"""(verdict, true change) pairs that are right for a BIM element."""
 
 
 def verdict_tally(observations, truth, new_radius: float = 0.5) -> dict[str, int]:
@@ -31,15 +33,16 @@ def verdict_tally(observations, truth, new_radius: float = 0.5) -> dict[str, int
     unplanned = np.array([t.T_world_model[:2, 3] for t in truth if t.global_id is None]).reshape(-1, 2)
     tally = dict.fromkeys(("right", "false moved", "missed change", "phantom new", "unverified"), 0)
     for obs in observations:
-        if obs.status == "unverified":
+        status = ElementStatus(obs.status)
+        if status == ElementStatus.UNVERIFIED:
             tally["unverified"] += 1
         elif obs.global_id is None:
             near = len(unplanned) and np.min(np.linalg.norm(unplanned - obs.pose[:2, 3], axis=1)) < new_radius
             tally["right" if near else "phantom new"] += 1
-        elif (obs.status, changes[obs.global_id]) in RIGHT:
+        elif (status, changes[obs.global_id]) in RIGHT:
             tally["right"] += 1
         else:
-            tally["false moved" if obs.status == "moved" else "missed change"] += 1
+            tally["false moved" if status == ElementStatus.DEVIATING else "missed change"] += 1
     return tally
 
 

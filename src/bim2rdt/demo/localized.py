@@ -24,6 +24,7 @@ from bim2rdt.mission import run_mission
 from bim2rdt.mission.records import MissionResult
 from bim2rdt.perception.camera import Intrinsics, look_at
 from bim2rdt.perception.detection import Detection
+from bim2rdt.registration import IcpConfig
 from bim2rdt.sim.reality import Reality
 from bim2rdt.sim.robot import SimulatedRobot
 from bim2rdt.sim.views import object_scene_points
@@ -119,12 +120,14 @@ def dock_pose(stations: list[np.ndarray], start_xy, camera_height: float) -> np.
 
 
 def localized_mission(targets, stations, reality: Reality, model: BimModel, priors, new_object_mesh,
-                      mission_config, start_xy, seed: int = 0, tick=lambda: None) -> tuple[MissionResult, MissionLocalization]:
+                      mission_config, start_xy, seed: int = 0, icp: IcpConfig | None = None,
+                      tick=lambda: None) -> tuple[MissionResult, MissionLocalization]:
     """Run the mission on odometry + BIM localization (its verdicts go to the twin), then again on dead
     reckoning alone (for comparison only)."""
+    icp = icp or IcpConfig()
     dock = dock_pose(stations, start_xy, mission_config.camera_height)
     anchored = LocalizedRobot(reality, model, dock, seed, anchored=True)
-    mission = run_mission(targets, stations, anchored, priors, new_object_mesh, mission_config, tick=tick)
+    mission = run_mission(targets, stations, anchored, priors, new_object_mesh, mission_config, icp, tick=tick)
     drifting = LocalizedRobot(reality, model, dock, seed, anchored=False)
-    dead = run_mission(targets, stations, drifting, priors, new_object_mesh, mission_config)
+    dead = run_mission(targets, stations, drifting, priors, new_object_mesh, mission_config, icp)
     return mission, MissionLocalization(anchored.stations, dead, drifting.stations)

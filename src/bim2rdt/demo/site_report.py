@@ -20,8 +20,10 @@ from bim2rdt.demo.site_day import SiteDay, objects_of_interest  # noqa: E402
 from bim2rdt.sim.meshes import mesh_for_family  # noqa: E402
 from bim2rdt.sim.reality import TrueObject  # noqa: E402
 from bim2rdt.sim.truth import match_truth, pose_error  # noqa: E402
+from bim2rdt.twin import ElementStatus  # noqa: E402
 
-STATUS_COLOURS = {"as-planned": "tab:green", "moved": "tab:orange", "new": "tab:red", "unverified": "tab:grey"}
+STATUS_COLOURS = {ElementStatus.AS_PLANNED: "tab:green", ElementStatus.DEVIATING: "tab:orange",
+                  ElementStatus.NEW: "tab:red", ElementStatus.UNVERIFIED: "tab:grey"}
 OBSERVATION_COLUMNS = ("object", "verdict", "truth", "bias", "shift m", "yaw °", "tilt °", "fitness", "err cm",
                        "err °")
 """Headers of :func:`observation_cells`, shared by the terminal table and report.md."""
@@ -42,9 +44,9 @@ def observation_rows(day: SiteDay) -> list[dict]:
                  if truth else None)
         rows.append({
             "family": obs.family, "label": day.priors[obs.family].label, "global_id": obs.global_id,
-            "status": obs.status, "truth": truth.change if truth else None, "upright_bias": obs.upright_bias,
+            "status": obs.status.value, "truth": truth.change if truth else None, "upright_bias": obs.upright_bias,
             "shift_m": obs.shift, "yaw_deg": obs.yaw_deg, "tilt_deg": obs.tilt_deg, "points": obs.points,
-            "fitness": obs.fit.fitness, "rmse_m": obs.fit.rmse, "frames": list(obs.frames),
+            "fitness": obs.fitness, "rmse_m": obs.rmse, "frames": list(obs.frames),
             "error_rotation_deg": error.rotation_deg if error else None,
             "error_translation_m": error.translation if error else None,
             "error_tilt_deg": error.tilt_deg if error else None})
@@ -94,7 +96,7 @@ def plot_plan(day: SiteDay, path: Path) -> Path:
     stations = np.array([T[:3, 3] for T in day.mission.stations])
     ax.plot(stations[:, 0], stations[:, 1], "-o", color="tab:blue", ms=4, lw=1, label="robot stations")
     for status, colour in STATUS_COLOURS.items():
-        ax.fill([], [], color=colour, alpha=0.7, label=status)
+        ax.fill([], [], color=colour, alpha=0.7, label=status.value)
     ax.set(aspect="equal", xlabel="x (m)", ylabel="y (m)",
            title="Site plan: BIM (dashed) vs measured by SG-ICP (filled); x = true position")
     ax.legend(loc="upper right", fontsize=8)

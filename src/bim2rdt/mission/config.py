@@ -1,4 +1,6 @@
-"""The mission's knobs (lengths in metres, angles in degrees)."""
+"""The mission's knobs (lengths in metres, angles in degrees): ``Settings.mission`` (``BIM2RDT_MISSION__*``).
+
+How densely models are sampled is the registration's ``IcpConfig.sample_count``, one field for both."""
 
 from __future__ import annotations
 
@@ -28,4 +30,3 @@ class MissionConfig(BaseModel):
                                                            "is explained by it (merging views, no truth needed).")
     merge_fraction: float = Field(0.5, gt=0.0, le=1.0, description="A detection whose points above the slab are "
                                   "at least this much explained by registered objects is another view of them.")
-    model_samples: int = Field(10000, ge=6, description="Surface samples per model (see IcpConfig.sample_count).")

@@ -10,30 +10,38 @@ drag a centroid metres away, but those corners lie on the neighbour's registered
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.spatial import cKDTree
 
 from bim2rdt.mission.config import MissionConfig
 from bim2rdt.mission.ground import off_slab
+from bim2rdt.mission.records import Observation
 from bim2rdt.perception.detection import Detection
 
 
-@dataclass
+@dataclass(frozen=True)
 class RegisteredObject:
-    """An object the mission registered: its family, its model's surface samples at the fitted pose (a k-d
-    tree over (M, 3) world points), the index of its observation and the stations it was seen from."""
+    """An object the mission registered: its observation and its model's surface samples at the fitted pose
+    (a k-d tree over (M, 3) world points)."""
 
-    family: str
+    observation: Observation
     surface_world: cKDTree
-    observation: int
-    stations: set[int] = field(default_factory=set)
 
+    @classmethod
+    def of(cls, observation: Observation, model_pts: np.ndarray) -> RegisteredObject:
+        """From the observation and its model's surface samples (M, 3, body frame)."""
+        T = observation.pose
+        return cls(observation, cKDTree(model_pts @ T[:3, :3].T + T[:3, 3]))
 
-def surface_tree(model_pts: np.ndarray, T_world_model: np.ndarray) -> cKDTree:
-    """A k-d tree of the model's surface samples (M, 3, body frame) posed in the world."""
-    return cKDTree(model_pts @ T_world_model[:3, :3].T + T_world_model[:3, 3])
+    @property
+    def family(self) -> str:
+        return self.observation.family
+
+    def seen_from(self, station: int) -> None:
+        """Record one more station the object was seen from (the observation's ``frames``)."""
+        self.observation.frames = tuple(sorted({*self.observation.frames, station}))
 
 
 def repeated_view(detection: Detection, registered: Sequence[RegisteredObject],

@@ -11,7 +11,8 @@ The steps, per the paper's loop (Fig. 1):
    none means an object the BIM does not have;
 5. register: SG-ICP from the BIM pose moved onto the detection (BIM yaw, the detection's centroid), with the
    family's upright prior;
-6. decide: as planned / moved / new / unverified (fit too poor to trust), with translation, yaw and tilt deltas.
+6. decide: as planned / deviating (moved or turned) / new / unverified (fit too poor to trust), with
+   translation, yaw and tilt deltas modulo the family's symmetry.
 """
 
 from __future__ import annotations
@@ -25,12 +26,11 @@ from bim2rdt.mission.association import associate
 from bim2rdt.mission.config import MissionConfig
 from bim2rdt.mission.fitting import best_fit, initial_poses, rests_on_slab
 from bim2rdt.mission.ground import SLAB_HEIGHT, off_slab
+from bim2rdt.mission.merging import RegisteredObject, repeated_view
 from bim2rdt.mission.records import MissionResult, Observation, Target
-from bim2rdt.mission.verdict import pose_delta, verdict
-from bim2rdt.mission.merging import RegisteredObject, repeated_view, surface_tree
+from bim2rdt.mission.verdict import judge
 from bim2rdt.perception.detection import Detection
 from bim2rdt.registration import IcpConfig, sample_model
-from bim2rdt.registration.symmetry import closest_equivalent
 from bim2rdt.semantics import UprightPrior
 
 
@@ -50,16 +50,13 @@ def run_mission(targets: Sequence[Target], stations: Sequence[np.ndarray],
         seen_before = repeated_view(detection, registered, config)
         if seen_before is not None:
             if seen_before.family == detection.family:
-                seen_before.stations.add(detection.station)
+                seen_before.seen_from(detection.station)
             continue
         target = associate(detection, targets, claimed, config)
         mesh = target.mesh_body if target else new_object_mesh(detection.family)
         observation, model_pts = _observe(detection, target, mesh, priors, config, icp)
-        registered.append(RegisteredObject(detection.family, surface_tree(model_pts, observation.pose),
-                                           len(result.observations), {detection.station}))
+        registered.append(RegisteredObject.of(observation, model_pts))
         result.observations.append(observation)
-    for obj in registered:
-        result.observations[obj.observation].frames = tuple(sorted(obj.stations))
     result.not_seen = [t.global_id for t in targets if t.global_id not in claimed]
     return result
 
@@ -78,14 +75,22 @@ def _observe(detection: Detection, target: Target | None, mesh: trimesh.Trimesh,
              config: MissionConfig, icp: IcpConfig) -> tuple[Observation, np.ndarray]:
     """Register one object and judge it; also returns the model's surface samples (body frame)."""
     prior = priors[detection.family]
-    model_pts, model_normals = sample_model(mesh, config.model_samples, seed=icp.seed)
+    model_pts, model_normals = sample_model(mesh, icp.sample_count, seed=icp.seed)
     object_pts = off_slab(detection.points_world, config)
     fit = best_fit(model_pts, model_normals, object_pts, initial_poses(detection, target, model_pts, config),
                    prior, config, icp, local_first=target is not None,
                    support_height=SLAB_HEIGHT if rests_on_slab(target, model_pts, config) else None)
-    reference = target.placement if target else fit.pose
-    shift, yaw, tilt = pose_delta(reference, closest_equivalent(fit.pose, reference, prior.symmetry))
-    observation = Observation(detection.family, target.global_id if target else None,
-                              verdict(target, fit, shift, yaw, tilt, config), fit.pose, fit, len(object_pts),
-                              detection.station, shift, yaw, tilt, prior.upright_bias)
+    judged = judge(target, fit, prior.symmetry, config)
+    observation = Observation(family=detection.family, global_id=target.global_id if target else None,
+                              pose=fit.pose, rmse=_finite_rmse(fit, icp), fitness=fit.fitness, points=len(object_pts),
+                              station=detection.station, frames=(detection.station,), fit=fit,
+                              status=judged.status, shift=judged.shift, yaw_deg=judged.yaw_deg,
+                              tilt_deg=judged.tilt_deg, upright_bias=prior.upright_bias)
     return observation, model_pts
+
+
+def _finite_rmse(fit, icp: IcpConfig) -> float:
+    """The fit's inlier RMSE, or the inlier radius when no point is within it (the registration says inf): the
+    observation is unverified either way, and a record needs a number (a partial view behind a wall does this)."""
+    return fit.rmse if np.isfinite(fit.rmse) else icp.score_distance
+
