@@ -12,7 +12,7 @@ def run_cli(*args: str) -> subprocess.CompletedProcess:
 
 
 def test_bench_localization_json_scores_every_station_against_dead_reckoning_and_the_peer(tmp_path):
-    result = run_cli("bench", "localization", "--distance", "15", "--json", "--out", str(tmp_path))
+    result = run_cli("bench", "localization", "--distance", "15", "--tolerance", "0", "--json", "--out", str(tmp_path))
     assert result.returncode == 0, result.stderr
     report = json.loads(result.stdout)
     stations = report["stations"]
@@ -20,7 +20,7 @@ def test_bench_localization_json_scores_every_station_against_dead_reckoning_and
     assert report["peers"] == ["Open3D pt-plane", "Open3D pt-plane, visible BIM"]
     assert all(set(s["peers"]) == set(report["peers"]) for s in stations)
     last = stations[-1]
-    assert last["fused"]["position"] < 0.02 < last["dead_reckoning"]["position"]
+    assert last["fused"]["position"] < 0.01 < 0.05 < last["dead_reckoning"]["position"]  # building as modelled
     assert all(s["fix"] is not None and s["fix_seconds"] > 0 for s in stations)
     names = [t["name"] for t in report["targets"]]
     assert "fused worst station <= 5 cm" in names and "<= 0.3 s per frame on one core" in names

@@ -25,8 +25,11 @@ from bim2rdt.mission.records import MissionResult
 from bim2rdt.perception.camera import Intrinsics, look_at
 from bim2rdt.perception.detection import Detection
 from bim2rdt.registration import IcpConfig
+from bim2rdt.sim.building import building_parts
 from bim2rdt.sim.reality import Reality
+from bim2rdt.sim.render import render_rgbd
 from bim2rdt.sim.robot import SimulatedRobot
+from bim2rdt.sim.scene import SiteScene
 from bim2rdt.sim.views import object_scene_points
 
 DOCK_SIGMA = (0.01, np.deg2rad(0.1))
@@ -54,14 +57,19 @@ class StationLocalization:
 
 class LocalizedRobot:
     """The mission's ``perceive`` callable for a simulated robot that localizes on ``model`` (``anchored``) or
-    runs on dead reckoning. ``reality`` must have the building in its scene (walls are the map)."""
+    runs on dead reckoning.
+
+    The robot's depth frames (what it localizes on) show ``reality``'s objects inside the model's building. Its
+    detections come from a render of ``reality``'s own scene from the same true pose: without the building when
+    the reality has none, as the mission's perception had it before localization existed (it still sees objects
+    through walls; the perception work owns making it cope with occlusion)."""
 
     def __init__(self, reality: Reality, model: BimModel, dock: np.ndarray, seed: int = 0, anchored: bool = True,
                  config: LocalizationConfig | None = None, intrinsics: Intrinsics = Intrinsics(),
                  min_pixels: int = 150):
         self.reality, self.model, self.anchored = reality, model, anchored
         self.config, self.intrinsics, self.min_pixels = config or LocalizationConfig(), intrinsics, min_pixels
-        self.robot = SimulatedRobot(reality.scene, dock, seed, intrinsics)
+        self.robot = SimulatedRobot(with_building(reality.scene, model), dock, seed, intrinsics)
         state, _ = to_planar(dock)
         self.filter = PoseFilter(state, np.diag([DOCK_SIGMA[0] ** 2] * 3 + [DOCK_SIGMA[1] ** 2]), OdometryNoise())
         self.stations: list[StationLocalization] = []
@@ -78,10 +86,10 @@ class LocalizedRobot:
                                             self._turn(frames), self.config, turn_back=True)
         record.estimate = from_planar(self.filter.state, tilt)
         record.truth = self.robot.T_world_camera.copy()
-        view = frames[-1]
         if self.anchored:
-            record.check = check_shots(view.as_frame(self.intrinsics), self.model, record.estimate)
+            record.check = check_shots(frames[-1].as_frame(self.intrinsics), self.model, record.estimate)
         self.stations.append(record)
+        view = render_rgbd(self.reality.scene, self.intrinsics, record.truth, self.rng)
         return self._detections(replace(view, T_world_camera=record.estimate), station)
 
     def _turn(self, frames: list):
@@ -131,3 +139,13 @@ def localized_mission(targets, stations, reality: Reality, model: BimModel, prio
     drifting = LocalizedRobot(reality, model, dock, seed, anchored=False)
     dead = run_mission(targets, stations, drifting, priors, new_object_mesh, mission_config, icp)
     return mission, MissionLocalization(anchored.stations, dead, drifting.stations)
+
+
+def with_building(scene: SiteScene, model: BimModel) -> SiteScene:
+    """``scene``'s objects and workers inside the model's building (its walls, slabs, columns and doors), on
+    open ground; ``scene`` itself when it already has the building."""
+    if scene.building:
+        return scene
+    return SiteScene(scene.objects, ground_size=max(scene.ground_size, 60.0), building=building_parts(model),
+                     workers=scene.workers)
+

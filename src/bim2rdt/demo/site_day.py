@@ -74,7 +74,7 @@ def run_site_day(out_dir: Path, seed: int = 0, workers: int = 2, minutes: float 
     model = load_ifc(build_site_ifc(out_dir / "site.ifc"))
     tick("bim")
     targets = objects_of_interest(model)
-    reality = simulate_reality(model, [t.global_id for t in targets], seed=seed, building=True)
+    reality = simulate_reality(model, [t.global_id for t in targets], seed=seed)
     priors = KnowledgeBasePriors().priors(sorted({t.family for t in reality.truth}))
     stations = plan_stations(targets, ROBOT_START_XY, mission_config)
     mission, localization = localized_mission(targets, stations, reality, model, priors, mesh_for_family,
