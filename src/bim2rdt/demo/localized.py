@@ -20,7 +20,8 @@ from bim2rdt.bim import BimModel
 from bim2rdt.localization import LocalizationConfig, OdometryNoise, PoseFilter, StationFix, Turned, localize_station
 from bim2rdt.localization.checkshots import StationCheck, check_shots
 from bim2rdt.localization.planar import between, from_planar, to_planar
-from bim2rdt.mission import run_mission
+from bim2rdt.mission import DirectRoute, run_mission
+from bim2rdt.mission.route import Route
 from bim2rdt.mission.records import MissionResult
 from bim2rdt.perception.camera import Intrinsics, look_at
 from bim2rdt.perception.detection import Detection
@@ -34,6 +35,8 @@ from bim2rdt.sim.views import object_scene_points
 
 DOCK_SIGMA = (0.01, np.deg2rad(0.1))
 """The robot leaves a surveyed dock: 1 cm and 0.1 degree (1 sigma)."""
+TURN_ONLY = 0.3
+"""A look after walking less than this (m) is a turn in place; the robot does not localize again for it."""
 
 
 @dataclass
@@ -66,8 +69,8 @@ class LocalizedRobot:
 
     def __init__(self, reality: Reality, model: BimModel, dock: np.ndarray, seed: int = 0, anchored: bool = True,
                  config: LocalizationConfig | None = None, intrinsics: Intrinsics = Intrinsics(),
-                 min_pixels: int = 150):
-        self.reality, self.model, self.anchored = reality, model, anchored
+                 min_pixels: int = 150, route=None):
+        self.reality, self.model, self.anchored, self.route = reality, model, anchored, route
         self.config, self.intrinsics, self.min_pixels = config or LocalizationConfig(), intrinsics, min_pixels
         self.robot = SimulatedRobot(with_building(reality.scene, model), dock, seed, intrinsics)
         state, _ = to_planar(dock)
@@ -76,11 +79,35 @@ class LocalizedRobot:
         self.rng = np.random.default_rng(seed + 7)
 
     def __call__(self, station: int, T_world_camera: np.ndarray) -> list[Detection]:
+        """Go to ``T_world_camera`` (believed), fix the pose there if the robot walked, return the detections."""
         goal, tilt = to_planar(T_world_camera)
+        walked = self._walk(station, goal, tilt)
+        estimate = from_planar(self.filter.state, tilt)
+        if walked > TURN_ONLY:  # a look before a leg is a turn in place: the last fix still holds
+            estimate = self._localize(station, T_world_camera, tilt)
+        view = render_rgbd(self.reality.scene, self.intrinsics, self.robot.T_world_camera, self.rng)
+        return self._detections(replace(view, T_world_camera=estimate), station)
+
+    def _walk(self, station: int, goal: np.ndarray, tilt: np.ndarray) -> float:
+        """Walk the route's path to this station (believed waypoints, as planned), then to ``goal``; each move
+        commanded from the robot's estimate, its odometry fed to the filter. Returns the metres walked."""
+        path = getattr(self.route, "walked", {}).get(station) if self.route is not None else None
+        waypoints = [] if path is None or len(path) < 2 or np.linalg.norm(path[-1] - goal[:2]) > 0.05 else path[1:-1]
+        walked = 0.0
+        for xy in waypoints:
+            heading = np.arctan2(xy[1] - self.filter.state[1], xy[0] - self.filter.state[0])
+            walked += self._move(np.r_[xy, goal[2], heading], tilt)
+        return walked + self._move(goal, tilt)
+
+    def _move(self, goal: np.ndarray, tilt: np.ndarray) -> float:
         reading = self.robot.drive(between(self.filter.state, goal), tilt)
         self.filter.predict(reading.increment, reading.distance, reading.turned)
+        return reading.distance
+
+    def _localize(self, station: int, planned: np.ndarray, tilt: np.ndarray) -> np.ndarray:
+        """Fix the pose on the BIM (anchored) or keep dead reckoning; record the station. Returns the estimate."""
         frames = [self.robot.render()]
-        record = StationLocalization(station, T_world_camera, np.eye(4), self.robot.T_world_camera.copy())
+        record = StationLocalization(station, planned, np.eye(4), self.robot.T_world_camera.copy())
         if self.anchored:
             record.looks = localize_station(self.filter, self.model, frames[0].as_frame(self.intrinsics), tilt,
                                             self._turn(frames), self.config, turn_back=True)
@@ -89,8 +116,7 @@ class LocalizedRobot:
         if self.anchored:
             record.check = check_shots(frames[-1].as_frame(self.intrinsics), self.model, record.estimate)
         self.stations.append(record)
-        view = render_rgbd(self.reality.scene, self.intrinsics, record.truth, self.rng)
-        return self._detections(replace(view, T_world_camera=record.estimate), station)
+        return record.estimate
 
     def _turn(self, frames: list):
         def turn(angle: float) -> Turned:
@@ -128,16 +154,20 @@ def dock_pose(stations: list[np.ndarray], start_xy, camera_height: float) -> np.
 
 
 def localized_mission(targets, stations, reality: Reality, model: BimModel, priors, new_object_mesh,
-                      mission_config, start_xy, seed: int = 0, icp: IcpConfig | None = None,
-                      tick=lambda: None) -> tuple[MissionResult, MissionLocalization]:
+                      mission_config, start_xy, seed: int = 0, icp: IcpConfig | None = None, tick=lambda: None,
+                      route: Route | None = None,
+                      comparison_route: Route | None = None) -> tuple[MissionResult, MissionLocalization]:
     """Run the mission on odometry + BIM localization (its verdicts go to the twin), then again on dead
-    reckoning alone (for comparison only)."""
+    reckoning alone (for comparison only). ``route`` walks the first run and ``comparison_route`` (a fresh one:
+    a route keeps what it walked) the second; None walks straight to each station."""
     icp = icp or IcpConfig()
     dock = dock_pose(stations, start_xy, mission_config.camera_height)
-    anchored = LocalizedRobot(reality, model, dock, seed, anchored=True)
-    mission = run_mission(targets, stations, anchored, priors, new_object_mesh, mission_config, icp, tick=tick)
-    drifting = LocalizedRobot(reality, model, dock, seed, anchored=False)
-    dead = run_mission(targets, stations, drifting, priors, new_object_mesh, mission_config, icp)
+    anchored = LocalizedRobot(reality, model, dock, seed, anchored=True, route=route)
+    mission = run_mission(targets, stations, anchored, priors, new_object_mesh, mission_config, icp, tick=tick,
+                          route=route or DirectRoute())
+    drifting = LocalizedRobot(reality, model, dock, seed, anchored=False, route=comparison_route)
+    dead = run_mission(targets, stations, drifting, priors, new_object_mesh, mission_config, icp,
+                       route=comparison_route or DirectRoute())
     return mission, MissionLocalization(anchored.stations, dead, drifting.stations)
 
 

@@ -2,12 +2,14 @@
 
 1. BIM: build the default site (IFC4) and read it; its proxies are the objects of interest.
 2. Semantics: family names -> detector labels and upright priors (offline knowledge base).
-3. Robot: the as-built site (objects moved, one knocked over, one unplanned) is seen from planned stations;
-   corners in each detection become points; SG-ICP registers each BIM object; deviations are judged.
+3. Robot: the as-built site (objects moved, one knocked over, one unplanned) is seen from stations that see
+   their objects over the walls, toured by path length and walked on planned paths, replanned around what the
+   robot finds and around workers while their tools run (:mod:`bim2rdt.demo.routes`); corners in each detection
+   become points; SG-ICP registers each BIM object; deviations are judged.
 4. Twin: every observation is recorded into the day's twin (``twin.db``, :mod:`bim2rdt.demo.site_twin`), which
    judges it against its tolerance preset.
-5. Safety: wearables stream hand-arm vibration through the bus into the ISO 5349-1 monitor; its events go into
-   the twin's history.
+5. Safety (run first, so the robot's keep-out zones follow the monitor's events): wearables stream hand-arm
+   vibration through the bus into the ISO 5349-1 monitor; its events go into the twin's history.
 6. The twin is exported: ``site_twin.ifc`` (moved objects at their measured placement, unplanned ones as proxies,
    activity starts and ends and EAV/ELV crossings as IfcEvent/IfcTask on the work zone), the BCF issues and the
    JSON state; the caller writes the report.
@@ -22,8 +24,9 @@ from pathlib import Path
 
 from bim2rdt.bim import BimModel, load_ifc
 from bim2rdt.demo.localized import MissionLocalization, localized_mission
+from bim2rdt.demo.routes import UNPLANNED_DRUM_XY, DayRoute, plan_day_route
 from bim2rdt.demo.site_twin import TwinFiles, export_day_twin, ifc_records, open_day_twin, record_mission
-from bim2rdt.mission import MissionConfig, MissionResult, Target, plan_stations
+from bim2rdt.mission import MissionConfig, MissionResult, Target
 from bim2rdt.registration import IcpConfig
 from bim2rdt.semantics import KnowledgeBasePriors, UprightPrior
 from bim2rdt.sim.meshes import mesh_for_family
@@ -34,8 +37,6 @@ from bim2rdt.twin import DigitalTwin, TwinConfig
 ROBOT_START_XY = (1.0, 1.0)
 """Where the robot's dock is on the default site, metres."""
 WORK_ZONE = ZONES[0][0]
-MISSION_START_S = 1800.0
-"""The robot's mission starts half an hour into the shift (the observations' times in the twin)."""
 
 
 @dataclass
@@ -52,6 +53,7 @@ class SiteDay:
     twin_records: list[tuple[str, str]]
     twin: DigitalTwin | None = None
     twin_files: TwinFiles | None = None
+    route: DayRoute | None = None
     localization: MissionLocalization | None = None  # the robot's fixes, and the dead-reckoning comparison run
 
 
@@ -74,23 +76,29 @@ def run_site_day(out_dir: Path, seed: int = 0, workers: int = 2, minutes: float 
     model = load_ifc(build_site_ifc(out_dir / "site.ifc"))
     tick("bim")
     targets = objects_of_interest(model)
-    reality = simulate_reality(model, [t.global_id for t in targets], seed=seed)
+    reality = simulate_reality(model, [t.global_id for t in targets], seed=seed, unplanned_at=UNPLANNED_DRUM_XY)
     priors = KnowledgeBasePriors().priors(sorted({t.family for t in reality.truth}))
-    stations = plan_stations(targets, ROBOT_START_XY, mission_config)
-    mission, localization = localized_mission(targets, stations, reality, model, priors, mesh_for_family,
-                                              mission_config, ROBOT_START_XY, seed, icp, tick=lambda: tick("station"))
     twin = open_day_twin(out_dir, model, priors, twin_config)
-    record_mission(twin, mission.observations, mission.stations, _shift_start() + MISSION_START_S)
-    tick("twin")
     events, timeline = _hav_day(twin, out_dir / "state", workers, minutes, fs)
     tick("hav")
+    def route_for_today() -> DayRoute:
+        return plan_day_route(model, targets, ROBOT_START_XY, mission_config, events, _shift_start())
+
+    route = route_for_today()
+    mission, localization = localized_mission(targets, route.plan.stations, reality, model, priors, mesh_for_family,
+                                              route.config, ROBOT_START_XY, seed, icp, tick=lambda: tick("station"),
+                                              route=route.route, comparison_route=route_for_today().route)
+    record_mission(twin, mission.observations, mission.stations, times=route.route.arrivals)
+    tick("twin")
     files = export_day_twin(twin, out_dir)
     return SiteDay(model, priors, reality, mission, files.ifc, events, timeline, ifc_records(files.ifc), twin, files,
-                   localization)
+                   route, localization)
 
 
-def _hav_day(twin: DigitalTwin, state_dir: Path, workers: int, minutes: float, fs: float):
-    """Simulated wearables -> in-process bus -> monitor -> events into the twin's history."""
+def _hav_day(twin: DigitalTwin, state_dir: Path, workers: int, minutes: float, fs: float,
+             zone: str | None = WORK_ZONE):
+    """Simulated wearables -> in-process bus -> monitor -> events into the twin's history; the workers work in
+    ``zone`` (a zone name of the model, or None)."""
     from bim2rdt.bus import LocalBus
     from bim2rdt.config import get_settings
     from bim2rdt.safety import HavMonitor, ListSink
@@ -104,7 +112,7 @@ def _hav_day(twin: DigitalTwin, state_dir: Path, workers: int, minutes: float, f
                          settings.hav.monitor_config(keep_timeline=True))
     bus = LocalBus().connect()
     monitor.attach(bus)
-    publish_plans(lambda device: bus, default_plans(workers, minutes, WORK_ZONE), settings.mqtt.site, fs,
+    publish_plans(lambda device: bus, default_plans(workers, minutes, zone), settings.mqtt.site, fs,
                   t0=_shift_start())
     monitor.close()
     return events.events, list(monitor.timeline)

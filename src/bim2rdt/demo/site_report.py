@@ -15,7 +15,10 @@ import numpy as np  # noqa: E402
 
 from bim2rdt.atomic import write_bytes_atomic  # noqa: E402
 from bim2rdt.safety import EAV, ELV  # noqa: E402
-from bim2rdt.demo.localization_report import localization_markdown, localization_record, plot_localization  # noqa: E402
+from bim2rdt.demo.localization_report import (localization_markdown, localization_record,  # noqa: E402
+                                              plot_localization)
+from bim2rdt.demo.plan_map import outline  # noqa: E402
+from bim2rdt.demo.routes import draw_walk, route_markdown, write_route_files  # noqa: E402
 from bim2rdt.demo.site_day import SiteDay, objects_of_interest  # noqa: E402
 from bim2rdt.sim.meshes import mesh_for_family  # noqa: E402
 from bim2rdt.sim.reality import TrueObject  # noqa: E402
@@ -65,12 +68,15 @@ def observation_cells(row: dict) -> tuple[str, ...]:
 
 
 def write_site_report(day: SiteDay, out_dir: Path) -> dict[str, Path]:
-    """Write plan.png, exposure.png, site_day.json and report.md into ``out_dir``; returns their paths."""
+    """Write plan.png, exposure.png, site_day.json and report.md into ``out_dir``, and with a planned route the
+    plan map and the Nav2 map (:func:`bim2rdt.demo.routes.write_route_files`); returns their paths."""
     rows = observation_rows(day)
     paths = {"plan": plot_plan(day, out_dir / "plan.png"), "exposure": plot_exposure(day, out_dir / "exposure.png")}
     record = {"twin": str(day.twin_path), "observations": rows, "not_seen": day.mission.not_seen,
               "hav_events": [_event_row(e) for e in day.hav_events if not e.kind.endswith("predicted")],
-              "twin_records": day.twin_records}
+              "twin_records": day.twin_records, "route": day.route.summary() if day.route else None}
+    if day.route is not None:
+        paths.update(write_route_files(day, out_dir))
     localization = ""
     if day.localization is not None:
         record["localization"] = localization_record(day.localization, day.mission, day.reality.truth)
@@ -89,12 +95,15 @@ def plot_plan(day: SiteDay, path: Path) -> Path:
     for el in day.model.elements:
         if el.ifc_class in ("IfcWall", "IfcWallStandardCase", "IfcColumn") and day.model.has_mesh(el.global_id):
             vertices, _ = day.model.mesh(el.global_id)
-            ax.fill(*_hull(vertices[:, :2]).T, color="0.8", zorder=0)
+            ax.fill(*outline(vertices[:, :2]).T, color="0.8", zorder=0)
     targets = {t.global_id: t for t in objects_of_interest(day.model)}
     for obs, truth in zip(day.mission.observations, true_objects(day)):
         _draw_observation(ax, obs, targets.get(obs.global_id), truth)
-    stations = np.array([T[:3, 3] for T in day.mission.stations])
-    ax.plot(stations[:, 0], stations[:, 1], "-o", color="tab:blue", ms=4, lw=1, label="robot stations")
+    if day.route is not None:
+        draw_walk(ax, day.route, day.mission.stations)
+    else:
+        stations = np.array([T[:3, 3] for T in day.mission.stations])
+        ax.plot(stations[:, 0], stations[:, 1], "-o", color="tab:blue", ms=4, lw=1, label="robot stations")
     for status, colour in STATUS_COLOURS.items():
         ax.fill([], [], color=colour, alpha=0.7, label=status.value)
     ax.set(aspect="equal", xlabel="x (m)", ylabel="y (m)",
@@ -137,11 +146,16 @@ def plot_exposure(day: SiteDay, path: Path) -> Path:
 
 
 def _markdown(day: SiteDay, rows: list[dict], record: dict) -> str:
-    lines = ["# bim2rdt site day", "", f"Twin written to `{day.twin_path.name}` (as-designed model: `site.ifc`).", "",
+    twin = (f"Twin written to `{day.twin_path.name}` (as-designed model: `site.ifc`)." if day.twin_path else
+            f"No IFC twin written: `site.ifc` is {day.model.schema}, which has no IfcEvent or IfcTaskTime; IFC "
+            "write-back needs IFC4 (the twin lives in the history and BCF).")
+    lines = ["# bim2rdt site day", "", twin, "",
              "## Objects verified by the robot", "",
              "| " + " | ".join(("family", *OBSERVATION_COLUMNS)) + " |", "|---" * (len(OBSERVATION_COLUMNS) + 1) + "|"]
     lines += ["| " + " | ".join((r["family"], *observation_cells(r))) + " |" for r in rows]
-    lines += ["", f"Not seen: {', '.join(day.mission.not_seen) or 'none'}.", "", "## Safety events", "",
+    lines += ["", f"Not seen: {', '.join(day.mission.not_seen) or 'none'}.", ""]
+    lines += route_markdown(day.route) if day.route is not None else []
+    lines += ["## Safety events", "",
               "| time (UTC) | event | worker | A(8) m/s² |", "|---|---|---|---|"]
     for e in record["hav_events"]:
         lines.append(f"| {e['time']} | {e['kind']} | {e['subject'][:8]} | {e['a8']} |")
@@ -160,11 +174,5 @@ def _event_row(event) -> dict:
 
 def _footprint(vertices_body: np.ndarray, T: np.ndarray) -> np.ndarray:
     world = np.asarray(vertices_body) @ T[:3, :3].T + T[:3, 3]
-    return _hull(world[:, :2])
+    return outline(world[:, :2])
 
-
-def _hull(points_xy: np.ndarray) -> np.ndarray:
-    from scipy.spatial import ConvexHull
-
-    unique = np.unique(np.round(points_xy, 4), axis=0)
-    return unique[ConvexHull(unique).vertices] if len(unique) >= 3 else unique

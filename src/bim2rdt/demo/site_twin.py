@@ -50,12 +50,14 @@ def open_day_twin(out_dir: Path, model: BimModel, priors: Mapping[str, UprightPr
 
 
 def record_mission(twin: DigitalTwin, observations: Iterable[Observation], stations: list[np.ndarray],
-                   start: float) -> None:
-    """Record each observation at the time its station was reached (``start`` + ``STATION_SECONDS`` per
-    station), with that station's camera as the view it was seen from."""
+                   start: float = 0.0, times: Mapping[int, float] | None = None) -> None:
+    """Record each observation at the time its station was reached (``times[station]`` when the robot's route
+    logged it, else ``start`` + ``STATION_SECONDS`` per station), with that station's camera as the view it was
+    seen from."""
     for obs in observations:
         camera = stations[obs.station] if obs.station is not None else None
-        twin.record(obs, start + STATION_SECONDS * (obs.station or 0), camera=camera)
+        when = times[obs.station] if times else start + STATION_SECONDS * (obs.station or 0)
+        twin.record(obs, when, camera=camera)
 
 
 def export_day_twin(twin: DigitalTwin, out_dir: Path) -> TwinFiles:

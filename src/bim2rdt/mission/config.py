@@ -16,6 +16,8 @@ class MissionConfig(BaseModel):
 
     standoff: float = Field(2.6, gt=0.5, description="Camera distance from each object it is sent to look at.")
     camera_height: float = Field(1.1, gt=0.1, description="Camera height above the slab (quadruped with a mast).")
+    slab_height: float = Field(0.0, description="World height of the floor the objects stand on, m: the storey's "
+                                                "slab top (planning.find_floor), not a constant.")
     min_points: int = Field(30, ge=6, description="Fewer ROI points than this and the object is 'not seen'.")
     slab_contact: float = Field(0.05, ge=0.0, description="A BIM element whose lowest point is this close to the "
                                                           "slab stands on it (registration pulls it onto the slab).")

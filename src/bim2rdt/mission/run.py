@@ -25,9 +25,10 @@ import trimesh
 from bim2rdt.mission.association import associate
 from bim2rdt.mission.config import MissionConfig
 from bim2rdt.mission.fitting import best_fit, initial_poses, rests_on_slab
-from bim2rdt.mission.ground import SLAB_HEIGHT, off_slab
+from bim2rdt.mission.ground import off_slab
 from bim2rdt.mission.merging import RegisteredObject, repeated_view
 from bim2rdt.mission.records import MissionResult, Observation, Target
+from bim2rdt.mission.route import DirectRoute, Locate, Route
 from bim2rdt.mission.verdict import judge
 from bim2rdt.perception.detection import Detection
 from bim2rdt.registration import IcpConfig, sample_model
@@ -38,12 +39,19 @@ def run_mission(targets: Sequence[Target], stations: Sequence[np.ndarray],
                 perceive: Callable[[int, np.ndarray], list[Detection]],
                 priors: dict[str, UprightPrior], new_object_mesh: Callable[[str], trimesh.Trimesh],
                 config: MissionConfig = MissionConfig(), icp: IcpConfig = IcpConfig(),
-                tick: Callable[[], None] = lambda: None) -> MissionResult:
+                tick: Callable[[], None] = lambda: None, route: Route = DirectRoute()) -> MissionResult:
     """Visit ``stations``; ``perceive(station_index, T_world_camera)`` returns that frame's detections. Each
     object is registered once, from its detection with the most points; a detection its registered neighbours
-    already explain is another view of them (:mod:`bim2rdt.mission.merging`). Returns every verdict."""
+    already explain is another view of them (:mod:`bim2rdt.mission.merging`). Returns every verdict.
+    ``route`` gets the robot to each station and hears what it saw (:mod:`bim2rdt.mission.route`)."""
     result = MissionResult(list(stations))
-    detections = _capture(stations, perceive, config, tick)
+
+    def locate(detection: Detection) -> tuple[Observation, trimesh.Trimesh]:
+        target = associate(detection, targets, set(), config)
+        mesh = target.mesh_body if target else new_object_mesh(detection.family)
+        return _observe(detection, target, mesh, priors, config, icp)[0], mesh
+
+    detections = _capture(result, perceive, config, tick, route, locate)
     claimed: set[str] = set()
     registered: list[RegisteredObject] = []
     for detection in sorted(detections, key=lambda d: -len(d.points_world)):
@@ -61,14 +69,24 @@ def run_mission(targets: Sequence[Target], stations: Sequence[np.ndarray],
     return result
 
 
-def _capture(stations: Sequence[np.ndarray], perceive: Callable[[int, np.ndarray], list[Detection]],
-             config: MissionConfig, tick: Callable[[], None]) -> list[Detection]:
-    """Every station's detections with at least ``min_points`` points (fewer: the object is not seen there)."""
+def _capture(result: MissionResult, perceive: Callable[[int, np.ndarray], list[Detection]], config: MissionConfig,
+             tick: Callable[[], None], route: Route, locate: Locate) -> list[Detection]:
+    """Every reached station's detections with at least ``min_points`` points (fewer: the object is not seen
+    there); ``result.stations`` keeps the poses the route actually took."""
     found = []
-    for index, T_world_camera in enumerate(stations):
-        found += [d for d in perceive(index, T_world_camera) if len(d.points_world) >= config.min_points]
+    for index, planned in enumerate(result.stations):
+        T_world_camera = route.reach(index, planned, lambda T: _seen(perceive(index, T), config), locate)
+        if T_world_camera is not None:
+            result.stations[index] = T_world_camera
+            seen = _seen(perceive(index, T_world_camera), config)
+            route.seen(index, seen, locate)
+            found += seen
         tick()
     return found
+
+
+def _seen(detections: list[Detection], config: MissionConfig) -> list[Detection]:
+    return [d for d in detections if len(d.points_world) >= config.min_points]
 
 
 def _observe(detection: Detection, target: Target | None, mesh: trimesh.Trimesh, priors: dict[str, UprightPrior],
@@ -79,7 +97,7 @@ def _observe(detection: Detection, target: Target | None, mesh: trimesh.Trimesh,
     object_pts = off_slab(detection.points_world, config)
     fit = best_fit(model_pts, model_normals, object_pts, initial_poses(detection, target, model_pts, config),
                    prior, config, icp, local_first=target is not None,
-                   support_height=SLAB_HEIGHT if rests_on_slab(target, model_pts, config) else None)
+                   support_height=config.slab_height if rests_on_slab(target, model_pts, config) else None)
     judged = judge(target, fit, prior.symmetry, config)
     observation = Observation(family=detection.family, global_id=target.global_id if target else None,
                               pose=fit.pose, rmse=_finite_rmse(fit, icp), fitness=fit.fitness, points=len(object_pts),
