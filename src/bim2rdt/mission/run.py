@@ -100,15 +100,8 @@ def _observe(detection: Detection, target: Target | None, mesh: trimesh.Trimesh,
                    support_height=config.slab_height if rests_on_slab(target, model_pts, config) else None)
     judged = judge(target, fit, prior.symmetry, config)
     observation = Observation(family=detection.family, global_id=target.global_id if target else None,
-                              pose=fit.pose, rmse=_finite_rmse(fit, icp), fitness=fit.fitness, points=len(object_pts),
+                              pose=fit.pose, rmse=fit.rmse, fitness=fit.fitness, points=len(object_pts),
                               station=detection.station, frames=(detection.station,), fit=fit,
                               status=judged.status, shift=judged.shift, yaw_deg=judged.yaw_deg,
                               tilt_deg=judged.tilt_deg, upright_bias=prior.upright_bias)
     return observation, model_pts
-
-
-def _finite_rmse(fit, icp: IcpConfig) -> float:
-    """The fit's inlier RMSE, or the inlier radius when no point is within it (the registration says inf): the
-    observation is unverified either way, and a record needs a number (a partial view behind a wall does this)."""
-    return fit.rmse if np.isfinite(fit.rmse) else icp.score_distance
-
