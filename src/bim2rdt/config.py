@@ -22,6 +22,7 @@ from bim2rdt.mission.config import MissionConfig
 from bim2rdt.registration.config import IcpConfig
 from bim2rdt.safety.config import MonitorConfig
 from bim2rdt.semantics.llm import LlmPriorsConfig
+from bim2rdt.server.config import ServerConfig
 from bim2rdt.twin.config import TwinConfig
 
 
@@ -83,6 +84,7 @@ class Settings(BaseSettings):
     localization: LocalizationConfig = LocalizationConfig()
     mission: MissionConfig = MissionConfig()
     twin: TwinConfig = TwinConfig()
+    server: ServerConfig = ServerConfig()
 
     @model_validator(mode="after")
     def _one_site(self) -> Settings:
@@ -95,7 +97,7 @@ class Settings(BaseSettings):
         return self
 
 
-SECRET_WORDS = ("secret", "password", "api_key")
+SECRET_WORDS = ("secret", "password", "api_key", "tokens")
 """Settings whose name holds one of these are masked in a run's record (a config.json is shared with results)."""
 
 

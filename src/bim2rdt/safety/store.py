@@ -105,6 +105,15 @@ class ExposureStore:
     def raw_count(self) -> int:
         return self._db.execute("SELECT COUNT(*) FROM raw").fetchone()[0]
 
+    def raw_window(self, device: str, start: float, end: float) -> list[AccelBatch]:
+        """The device's kept batches with samples in device time [start, end), in seq order (the dashboard's
+        raw sensor window; what retention already dropped is not there)."""
+        rows = self._db.execute("SELECT device, seq, device_time, received_time, fs, full_scale, n, samples, scale "
+                                "FROM raw WHERE device = ? AND device_time < ? AND device_time + n / fs > ? "
+                                "ORDER BY seq", (device, end, start)).fetchall()
+        return [AccelBatch(d, s, t, fs, _xyz(blob, n, scale), fsc, rt, scale)
+                for d, s, t, rt, fs, fsc, n, blob, scale in rows]
+
     # JSON state rows -----------------------------------------------------------------------------------
     def save_streams(self, states: Iterable[tuple[str, Any, bytes]]) -> None:
         """(device, JSON-able state, filter-state blob) rows."""
