@@ -73,7 +73,7 @@ def run_site_day(out_dir: Path, seed: int = 0, workers: int = 2, minutes: float 
     ``mission_config`` and registers with ``icp``; the twin judges with ``twin_config``'s presets (the demo passes
     ``Settings.mission``, ``Settings.registration`` and ``Settings.twin``)."""
     out_dir.mkdir(parents=True, exist_ok=True)
-    model = load_ifc(build_site_ifc(out_dir / "site.ifc"))
+    model = load_ifc(build_site_ifc(out_dir / "site.ifc"), cache_dir=_model_cache())
     tick("bim")
     targets = objects_of_interest(model)
     reality = simulate_reality(model, [t.global_id for t in targets], seed=seed, unplanned_at=UNPLANNED_DRUM_XY)
@@ -116,6 +116,13 @@ def _hav_day(twin: DigitalTwin, state_dir: Path, workers: int, minutes: float, f
                   t0=_shift_start())
     monitor.close()
     return events.events, list(monitor.timeline)
+
+
+def _model_cache() -> Path | None:
+    """The settings' model cache folder: the site is rebuilt byte-identical each run, so its meshes are cached."""
+    from bim2rdt.config import get_settings, ifc_cache_dir
+
+    return ifc_cache_dir(get_settings())
 
 
 def _shift_start() -> float:

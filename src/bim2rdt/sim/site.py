@@ -89,11 +89,12 @@ ZONES = (
 )
 
 
-def build_site_ifc(path: str | Path, schema: str = "IFC4") -> Path:
-    """Write the default construction site (IFC4 by default; IFC4X3 also works) atomically; returns the path."""
+def build_site_ifc(path: str | Path, schema: str = "IFC4", *, replace_special: bool = False) -> Path:
+    """Write the default construction site (IFC4 by default; IFC4X3 also works) atomically; returns the path.
+    ``replace_special`` lets it replace a symlink or device node at ``path`` (see ``atomic.write_bytes_atomic``)."""
     builder = _SiteBuilder(schema)
     builder.build()
-    return atomic_write_ifc(builder.ifc, Path(path))
+    return atomic_write_ifc(builder.ifc, Path(path), replace_special=replace_special)
 
 
 def yaw_pose(x: float, y: float, z: float, yaw_deg: float) -> np.ndarray:
