@@ -26,6 +26,7 @@ bench: $(STAMP)
 	$(VENV)/bin/bim2rdt bench ifc
 	$(VENV)/bin/bim2rdt bench hav
 	$(VENV)/bin/bim2rdt bench server
+	$(VENV)/bin/bim2rdt bench perception
 
 # The dashboard's page (web/ -> src/bim2rdt/server/static, committed): needs node 20 and npm from the npm registry.
 web:

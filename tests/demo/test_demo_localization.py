@@ -9,6 +9,7 @@ import pytest
 from bim2rdt.bim import load_ifc
 from bim2rdt.demo.localization_report import localization_markdown, localization_record, verdict_tally
 from bim2rdt.demo.localized import localized_mission
+from bim2rdt.demo.perceivers import DemoPerception
 from bim2rdt.demo.site_day import ROBOT_START_XY, objects_of_interest
 from bim2rdt.mission import MissionConfig, plan_stations
 from bim2rdt.semantics import KnowledgeBasePriors
@@ -22,11 +23,12 @@ def runs(tmp_path_factory):
     folder = tmp_path_factory.mktemp("site")
     model = load_ifc(build_site_ifc(folder / "site.ifc"), cache_dir=folder / "cache")
     targets = objects_of_interest(model)
-    reality = simulate_reality(model, [t.global_id for t in targets], seed=0)
+    reality = simulate_reality(model, [t.global_id for t in targets], seed=0, building=True)
     priors = KnowledgeBasePriors().priors(sorted({t.family for t in reality.truth}))
     stations = plan_stations(targets, ROBOT_START_XY, MissionConfig())
-    mission, localization = localized_mission(targets, stations, reality, model, priors, mesh_for_family,
-                                              MissionConfig(), ROBOT_START_XY, seed=0)
+    mission, localization = localized_mission(targets, stations, model,
+                                              lambda: DemoPerception("ideal", model, reality, priors, seed=0),
+                                              priors, mesh_for_family, MissionConfig(), ROBOT_START_XY, seed=0)
     return reality, mission, localization
 
 

@@ -3,16 +3,19 @@ pose on the BIM there (looking around when one view leaves a direction free), an
 placed with that estimate, never with the simulator's truth.
 
 ``LocalizedRobot`` is the mission's ``perceive(station, T_world_camera)``: ``T_world_camera`` is the planned
-station, in the robot's belief. The robot commands the move from its estimate to the station; the simulated
-robot carries it out exactly and its odometry reports it with drift. With ``anchored`` the station's frame is
-fixed on the BIM and fused; without, the robot runs on dead reckoning alone (the comparison run). Each station's
-record keeps what the report needs: the estimate, the fixes, the check shots, and (scored afterwards, from the
-simulator) the true pose.
+station, in the robot's belief. The robot walks the route's path from its estimate (the simulated robot carries
+each commanded move out exactly and its odometry reports it with drift), and after a walk fixes the pose on the
+frame it sees (with ``anchored``; without, it runs on dead reckoning alone: the comparison run). The camera and
+the detector are the demo's (``render(T_true)`` and ``detect(station, frame, T_believed)``, see
+:mod:`bim2rdt.demo.perceivers`). Each station's record keeps what the report needs: the estimate, the fixes, the
+check shots, and (scored afterwards, from the simulator) the true pose.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Protocol
 
 import numpy as np
 
@@ -21,17 +24,13 @@ from bim2rdt.localization import LocalizationConfig, OdometryNoise, PoseFilter, 
 from bim2rdt.localization.checkshots import StationCheck, check_shots
 from bim2rdt.localization.planar import between, from_planar, to_planar
 from bim2rdt.mission import DirectRoute, run_mission
-from bim2rdt.mission.route import Route
 from bim2rdt.mission.records import MissionResult
+from bim2rdt.mission.route import Route
 from bim2rdt.perception.camera import Intrinsics, look_at
 from bim2rdt.perception.detection import Detection
 from bim2rdt.registration import IcpConfig
-from bim2rdt.sim.building import building_parts
-from bim2rdt.sim.reality import Reality
-from bim2rdt.sim.render import render_rgbd
+from bim2rdt.sim.render import RgbdFrame
 from bim2rdt.sim.robot import SimulatedRobot
-from bim2rdt.sim.scene import SiteScene
-from bim2rdt.sim.views import object_scene_points
 
 DOCK_SIGMA = (0.01, np.deg2rad(0.1))
 """The robot leaves a surveyed dock: 1 cm and 0.1 degree (1 sigma)."""
@@ -39,11 +38,22 @@ TURN_ONLY = 0.3
 """A look after walking less than this (m) is a turn in place; the robot does not localize again for it."""
 
 
+class Eyes(Protocol):
+    """The camera and the detector: ``render`` a frame from where the camera truly is, ``detect`` the objects in
+    it placed from where the robot believes it is."""
+
+    intrinsics: Intrinsics
+
+    def render(self, T_world_camera: np.ndarray) -> RgbdFrame: ...
+
+    def detect(self, station: int, rendered: RgbdFrame, T_world_camera: np.ndarray) -> list[Detection]: ...
+
+
 @dataclass
 class StationLocalization:
-    """One station of the mission: the planned pose, what the robot believed when it captured (``estimate``),
-    the looks it took (each a :class:`~bim2rdt.localization.StationFix`), its check shots, and the true pose
-    (the simulator's, for scoring only)."""
+    """One localized look of the mission: the planned pose, what the robot believed when it captured
+    (``estimate``), the looks it took (each a :class:`~bim2rdt.localization.StationFix`), its check shots, and
+    the true pose (the simulator's, for scoring only)."""
 
     index: int
     planned: np.ndarray
@@ -59,34 +69,26 @@ class StationLocalization:
 
 
 class LocalizedRobot:
-    """The mission's ``perceive`` callable for a simulated robot that localizes on ``model`` (``anchored``) or
-    runs on dead reckoning.
+    """The mission's ``perceive`` callable for a simulated robot with ``eyes`` that localizes on ``model``
+    (``anchored``) or runs on dead reckoning, walking ``route``'s paths when given."""
 
-    The robot's depth frames (what it localizes on) show ``reality``'s objects inside the model's building. Its
-    detections come from a render of ``reality``'s own scene from the same true pose: without the building when
-    the reality has none, as the mission's perception had it before localization existed (it still sees objects
-    through walls; the perception work owns making it cope with occlusion)."""
-
-    def __init__(self, reality: Reality, model: BimModel, dock: np.ndarray, seed: int = 0, anchored: bool = True,
-                 config: LocalizationConfig | None = None, intrinsics: Intrinsics = Intrinsics(),
-                 min_pixels: int = 150, route=None):
-        self.reality, self.model, self.anchored, self.route = reality, model, anchored, route
-        self.config, self.intrinsics, self.min_pixels = config or LocalizationConfig(), intrinsics, min_pixels
-        self.robot = SimulatedRobot(with_building(reality.scene, model), dock, seed, intrinsics)
+    def __init__(self, eyes: Eyes, model: BimModel, dock: np.ndarray, seed: int = 0, anchored: bool = True,
+                 config: LocalizationConfig | None = None, route: Route | None = None):
+        self.eyes, self.model, self.anchored, self.route = eyes, model, anchored, route
+        self.config, self.intrinsics = config or LocalizationConfig(), eyes.intrinsics
+        self.robot = SimulatedRobot(None, dock, seed, eyes.intrinsics, renderer=eyes.render)
         state, _ = to_planar(dock)
         self.filter = PoseFilter(state, np.diag([DOCK_SIGMA[0] ** 2] * 3 + [DOCK_SIGMA[1] ** 2]), OdometryNoise())
         self.stations: list[StationLocalization] = []
-        self.rng = np.random.default_rng(seed + 7)
 
     def __call__(self, station: int, T_world_camera: np.ndarray) -> list[Detection]:
         """Go to ``T_world_camera`` (believed), fix the pose there if the robot walked, return the detections."""
         goal, tilt = to_planar(T_world_camera)
         walked = self._walk(station, goal, tilt)
-        estimate = from_planar(self.filter.state, tilt)
+        frames = [self.robot.render()]
         if walked > TURN_ONLY:  # a look before a leg is a turn in place: the last fix still holds
-            estimate = self._localize(station, T_world_camera, tilt)
-        view = render_rgbd(self.reality.scene, self.intrinsics, self.robot.T_world_camera, self.rng)
-        return self._detections(replace(view, T_world_camera=estimate), station)
+            self._localize(station, T_world_camera, tilt, frames)
+        return self.eyes.detect(station, frames[-1], from_planar(self.filter.state, tilt))
 
     def _walk(self, station: int, goal: np.ndarray, tilt: np.ndarray) -> float:
         """Walk the route's path to this station (believed waypoints, as planned), then to ``goal``; each move
@@ -104,9 +106,9 @@ class LocalizedRobot:
         self.filter.predict(reading.increment, reading.distance, reading.turned)
         return reading.distance
 
-    def _localize(self, station: int, planned: np.ndarray, tilt: np.ndarray) -> np.ndarray:
-        """Fix the pose on the BIM (anchored) or keep dead reckoning; record the station. Returns the estimate."""
-        frames = [self.robot.render()]
+    def _localize(self, station: int, planned: np.ndarray, tilt: np.ndarray, frames: list[RgbdFrame]) -> None:
+        """Fix the pose on the BIM (anchored; looking around and back when needed) or keep dead reckoning, and
+        record the look; ``frames`` ends with the frame facing the station's view."""
         record = StationLocalization(station, planned, np.eye(4), self.robot.T_world_camera.copy())
         if self.anchored:
             record.looks = localize_station(self.filter, self.model, frames[0].as_frame(self.intrinsics), tilt,
@@ -116,23 +118,14 @@ class LocalizedRobot:
         if self.anchored:
             record.check = check_shots(frames[-1].as_frame(self.intrinsics), self.model, record.estimate)
         self.stations.append(record)
-        return record.estimate
 
-    def _turn(self, frames: list):
+    def _turn(self, frames: list[RgbdFrame]) -> Callable[[float], Turned]:
         def turn(angle: float) -> Turned:
             _, tilt = to_planar(self.robot.T_world_camera)
             reading = self.robot.drive(np.array([0.0, 0.0, 0.0, angle]), tilt)
             frames.append(self.robot.render())
             return Turned(frames[-1].as_frame(self.intrinsics), reading.increment, reading.distance, reading.turned)
         return turn
-
-    def _detections(self, view, station: int) -> list[Detection]:
-        """The ideal detector's objects in the view, their corners placed with the robot's estimate (the
-        frame's ``T_world_camera`` is the estimate here, not the truth)."""
-        seen, pixels = np.unique(view.labels[view.labels >= 0], return_counts=True)
-        return [Detection(self.reality.truth[index].family,
-                          object_scene_points(view, self.intrinsics, int(index), self.rng), station)
-                for index, count in zip(seen, pixels) if count >= self.min_pixels]
 
 
 @dataclass
@@ -153,29 +146,20 @@ def dock_pose(stations: list[np.ndarray], start_xy, camera_height: float) -> np.
     return look_at((*start_xy, camera_height), (first[0], first[1], camera_height))
 
 
-def localized_mission(targets, stations, reality: Reality, model: BimModel, priors, new_object_mesh,
+def localized_mission(targets, stations, model: BimModel, eyes: Callable[[], Eyes], priors, new_object_mesh,
                       mission_config, start_xy, seed: int = 0, icp: IcpConfig | None = None, tick=lambda: None,
                       route: Route | None = None,
                       comparison_route: Route | None = None) -> tuple[MissionResult, MissionLocalization]:
     """Run the mission on odometry + BIM localization (its verdicts go to the twin), then again on dead
-    reckoning alone (for comparison only). ``route`` walks the first run and ``comparison_route`` (a fresh one:
-    a route keeps what it walked) the second; None walks straight to each station."""
+    reckoning alone (for comparison only). ``eyes()`` makes each run's camera and detector; ``route`` walks the
+    first run and ``comparison_route`` (a fresh one: a route keeps what it walked) the second; None walks
+    straight to each station."""
     icp = icp or IcpConfig()
     dock = dock_pose(stations, start_xy, mission_config.camera_height)
-    anchored = LocalizedRobot(reality, model, dock, seed, anchored=True, route=route)
+    anchored = LocalizedRobot(eyes(), model, dock, seed, anchored=True, route=route)
     mission = run_mission(targets, stations, anchored, priors, new_object_mesh, mission_config, icp, tick=tick,
                           route=route or DirectRoute())
-    drifting = LocalizedRobot(reality, model, dock, seed, anchored=False, route=comparison_route)
+    drifting = LocalizedRobot(eyes(), model, dock, seed, anchored=False, route=comparison_route)
     dead = run_mission(targets, stations, drifting, priors, new_object_mesh, mission_config, icp,
                        route=comparison_route or DirectRoute())
     return mission, MissionLocalization(anchored.stations, dead, drifting.stations)
-
-
-def with_building(scene: SiteScene, model: BimModel) -> SiteScene:
-    """``scene``'s objects and workers inside the model's building (its walls, slabs, columns and doors), on
-    open ground; ``scene`` itself when it already has the building."""
-    if scene.building:
-        return scene
-    return SiteScene(scene.objects, ground_size=max(scene.ground_size, 60.0), building=building_parts(model),
-                     workers=scene.workers)
-

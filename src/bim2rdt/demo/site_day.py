@@ -4,8 +4,9 @@
 2. Semantics: family names -> detector labels and upright priors (offline knowledge base).
 3. Robot: the as-built site (objects moved, one knocked over, one unplanned) is seen from stations that see
    their objects over the walls, toured by path length and walked on planned paths, replanned around what the
-   robot finds and around workers while their tools run (:mod:`bim2rdt.demo.routes`); corners in each detection
-   become points; SG-ICP registers each BIM object; deviations are judged.
+   robot finds and around workers while their tools run (:mod:`bim2rdt.demo.routes`), on drifting odometry with
+   a fix on the BIM after each walk (:mod:`bim2rdt.demo.localized`); corners in each detection become points
+   placed from that estimate; SG-ICP registers each BIM object; deviations are judged.
 4. Twin: every observation is recorded into the day's twin (``twin.db``, :mod:`bim2rdt.demo.site_twin`), which
    judges it against its tolerance preset.
 5. Safety (run first, so the robot's keep-out zones follow the monitor's events): wearables stream hand-arm
@@ -30,6 +31,7 @@ from bim2rdt.mission import MissionConfig, MissionResult, Target
 from bim2rdt.registration import IcpConfig
 from bim2rdt.semantics import KnowledgeBasePriors, UprightPrior
 from bim2rdt.sim.meshes import mesh_for_family
+from bim2rdt.demo.perceivers import DemoPerception
 from bim2rdt.sim.reality import Reality, body_mesh, simulate_reality
 from bim2rdt.sim.site import ZONES, build_site_ifc
 from bim2rdt.twin import DigitalTwin, TwinConfig
@@ -66,28 +68,36 @@ def objects_of_interest(model: BimModel) -> list[Target]:
 def run_site_day(out_dir: Path, seed: int = 0, workers: int = 2, minutes: float = 60.0, fs: float = 5000.0,
                  mission_config: MissionConfig = MissionConfig(), icp: IcpConfig = IcpConfig(),
                  twin_config: TwinConfig = TwinConfig(),
-                 tick: Callable[[str], None] = lambda stage: None) -> SiteDay:
+                 tick: Callable[[str], None] = lambda stage: None, detector: str = "geometric",
+                 yoloe: tuple[Path, Path] | None = None) -> SiteDay:
     """Run the day into ``out_dir``: ``site.ifc`` (as designed), the day's twin (``twin.db``) and its exports
     (``site_twin.ifc`` as built with safety records, ``site_issues.bcf``, ``twin.json``), and the monitor's state
     under ``state/`` (both started afresh: the demo simulates a new day). The mission runs with
     ``mission_config`` and registers with ``icp``; the twin judges with ``twin_config``'s presets (the demo passes
-    ``Settings.mission``, ``Settings.registration`` and ``Settings.twin``)."""
+    ``Settings.mission``, ``Settings.registration`` and ``Settings.twin``). The robot's camera sees the building
+    and reads its frames with ``detector`` (:mod:`bim2rdt.demo.perceivers`)."""
     out_dir.mkdir(parents=True, exist_ok=True)
     model = load_ifc(build_site_ifc(out_dir / "site.ifc"), cache_dir=_model_cache())
     tick("bim")
     targets = objects_of_interest(model)
-    reality = simulate_reality(model, [t.global_id for t in targets], seed=seed, unplanned_at=UNPLANNED_DRUM_XY)
+    reality = simulate_reality(model, [t.global_id for t in targets], seed=seed, unplanned_at=UNPLANNED_DRUM_XY,
+                               building=True)
     priors = KnowledgeBasePriors().priors(sorted({t.family for t in reality.truth}))
     twin = open_day_twin(out_dir, model, priors, twin_config)
     events, timeline = _hav_day(twin, out_dir / "state", workers, minutes, fs)
     tick("hav")
+
     def route_for_today() -> DayRoute:
         return plan_day_route(model, targets, ROBOT_START_XY, mission_config, events, _shift_start())
 
+    def perception() -> DemoPerception:
+        return DemoPerception(detector, model, reality, priors, seed, yoloe)
+
     route = route_for_today()
-    mission, localization = localized_mission(targets, route.plan.stations, reality, model, priors, mesh_for_family,
-                                              route.config, ROBOT_START_XY, seed, icp, tick=lambda: tick("station"),
-                                              route=route.route, comparison_route=route_for_today().route)
+    mission, localization = localized_mission(targets, route.plan.stations, model, perception, priors,
+                                              mesh_for_family, route.config, ROBOT_START_XY, seed, icp,
+                                              tick=lambda: tick("station"), route=route.route,
+                                              comparison_route=route_for_today().route)
     record_mission(twin, mission.observations, mission.stations, times=route.route.arrivals)
     tick("twin")
     files = export_day_twin(twin, out_dir)

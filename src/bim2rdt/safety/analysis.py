@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bim2rdt.atomic import write_bytes_atomic
+from bim2rdt.atomic import WriteError, write_bytes_atomic
 from bim2rdt.bus.event import Event
 from bim2rdt.bus.payloads import AccelBatch
 from bim2rdt.safety.activity import ACTIVITY_ENDED, ARTEFACT
@@ -130,5 +130,5 @@ def plot_day(report: DayReport, path: Path, title: str = "Daily vibration exposu
     plt.close(fig)
     try:  # atomically: a full disk leaves the old plot (or none), never a truncated or empty PNG
         return write_bytes_atomic(Path(path), image.getvalue())
-    except OSError as error:
-        raise HavError(f"cannot write the plot {path}: {error.strerror or error}") from None
+    except WriteError as error:  # its message names the path and the system's reason
+        raise HavError(str(error).replace("cannot write ", "cannot write the plot ", 1)) from None

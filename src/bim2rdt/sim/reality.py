@@ -17,6 +17,7 @@ import trimesh
 from bim2rdt.bim import BimModel
 from bim2rdt.perception.detection import Detection
 from bim2rdt.perception.camera import Intrinsics
+from bim2rdt.perception.library import element_body_mesh
 from bim2rdt.registration.so3 import axis_angle
 from bim2rdt.sim.building import DEFAULT_COLOUR, building_scene, element_colours
 from bim2rdt.sim.meshes import mesh_for_family
@@ -47,12 +48,8 @@ class Reality:
     truth: list[TrueObject]
 
 
-def body_mesh(model: BimModel, global_id: str) -> trimesh.Trimesh:
-    """An element's tessellated body in its own frame (world mesh mapped through the inverse placement)."""
-    vertices_world, faces = model.mesh(global_id)
-    T_model_world = np.linalg.inv(model.element(global_id).placement)
-    vertices_body = vertices_world @ T_model_world[:3, :3].T + T_model_world[:3, 3]
-    return trimesh.Trimesh(vertices_body, faces, process=False)
+body_mesh = element_body_mesh
+"""An element's tessellated body in its own frame (perception's, which registers against the same mesh)."""
 
 
 def simulate_reality(model: BimModel, global_ids: list[str], seed: int = 0, move_fraction: float = 0.5,

@@ -18,6 +18,7 @@ from bim2rdt.perception.camera import Intrinsics
 from bim2rdt.perception.frame import Frame
 from bim2rdt.sim.scene import GROUND, MISS, STRUCTURE, WORKER, SiteScene, ground_albedo, texture
 from bim2rdt.sim.surfaces import finish_albedo
+from bim2rdt.sim.tof import TofEffects, amplitude, dropout_chance, mixed_depth, step_pixels, subpixel_rays
 
 _LIGHT = np.array([0.35, 0.25, 0.9]) / np.linalg.norm([0.35, 0.25, 0.9])
 SKY_GREY = 200.0
@@ -39,6 +40,8 @@ class RgbdFrame:
     T_world_camera: np.ndarray
     rgb: np.ndarray | None = None
     part: np.ndarray | None = None
+    dropout: np.ndarray | None = None
+    """(H, W) chance (0-1) that the sensor returns no depth there (with :class:`~bim2rdt.sim.tof.TofEffects`)."""
 
     @property
     def colour(self) -> np.ndarray:
@@ -57,21 +60,27 @@ def depth_sigma(z: np.ndarray) -> np.ndarray:
 
 
 def render_rgbd(scene: SiteScene, intrinsics: Intrinsics, T_world_camera: np.ndarray,
-                rng: np.random.Generator | None = None) -> RgbdFrame:
-    """Render the scene from ``T_world_camera``; with ``rng``, add depth and image noise."""
-    frame = cast_frame(scene, intrinsics, T_world_camera)
+                rng: np.random.Generator | None = None, tof: TofEffects | None = None) -> RgbdFrame:
+    """Render the scene from ``T_world_camera``; with ``rng``, add depth and image noise; with ``tof``, mixed
+    pixels at depth steps and dropouts (see :mod:`bim2rdt.sim.tof`)."""
+    frame = cast_frame(scene, intrinsics, T_world_camera, tof)
     return frame if rng is None else add_sensor_noise(frame, rng)
 
 
 def add_sensor_noise(frame: RgbdFrame, rng: np.random.Generator) -> RgbdFrame:
     """A noisy copy of a clean frame: axial depth noise (:func:`depth_sigma`) and 2 grey levels of image noise
-    (per channel, for an RGB frame). Cheap, so many noisy trials can share one ray cast."""
+    (per channel, for an RGB frame), then the frame's dropouts, if it has any. Cheap, so many noisy trials can
+    share one ray cast."""
     depth = frame.depth + rng.normal(0.0, 1.0, frame.depth.shape) * depth_sigma(frame.depth)
     if frame.rgb is None:
         gray = np.clip(frame.gray + rng.normal(0.0, 2.0, frame.gray.shape), 0, 255).astype(np.uint8)
-        return RgbdFrame(depth, gray, frame.labels, frame.T_world_camera)
-    rgb = np.clip(frame.rgb + rng.normal(0.0, 2.0, frame.rgb.shape), 0, 255).astype(np.uint8)
-    return RgbdFrame(depth, luminance(rgb), frame.labels, frame.T_world_camera, rgb, frame.part)
+        rgb = None
+    else:
+        rgb = np.clip(frame.rgb + rng.normal(0.0, 2.0, frame.rgb.shape), 0, 255).astype(np.uint8)
+        gray = luminance(rgb)
+    if frame.dropout is not None:
+        depth[rng.random(depth.shape) < frame.dropout] = np.nan
+    return RgbdFrame(depth, gray, frame.labels, frame.T_world_camera, rgb, frame.part, frame.dropout)
 
 
 def luminance(rgb: np.ndarray) -> np.ndarray:
@@ -79,22 +88,67 @@ def luminance(rgb: np.ndarray) -> np.ndarray:
     return np.clip(rgb @ LUMA + 0.5, 0, 255).astype(np.uint8)
 
 
-def cast_frame(scene: SiteScene, intrinsics: Intrinsics, T_world_camera: np.ndarray) -> RgbdFrame:
-    """The noise-free frame: one embree ray per pixel, first hit only (so occlusion is real)."""
+def cast_frame(scene: SiteScene, intrinsics: Intrinsics, T_world_camera: np.ndarray,
+               tof: TofEffects | None = None) -> RgbdFrame:
+    """The noise-free frame: one embree ray per pixel, first hit only (so occlusion is real); with ``tof``,
+    depth steps get mixed pixels and the frame carries its dropout chances (drawn by :func:`add_sensor_noise`)."""
     hits = cast_rays(scene, intrinsics.pixel_rays().reshape(-1, 3) @ T_world_camera[:3, :3].T, T_world_camera[:3, 3])
     shape = (intrinsics.height, intrinsics.width)
     shade = _lambert(hits.normals, hits.directions)
-    if not scene.coloured:
+    if scene.coloured:
+        albedo = reflectance(scene, hits)
+        rgb = np.full((hits.count, 3), SKY_GREY)
+        rgb[hits.hit] = 255.0 * albedo * shade[:, None]
+        rgb = np.clip(rgb + 0.5, 0, 255).astype(np.uint8).reshape(*shape, 3)
+        part = np.where(np.isin(hits.labels, (STRUCTURE, WORKER)), hits.part, -1).reshape(shape)
+        frame = RgbdFrame(hits.depth.reshape(shape), luminance(rgb), hits.labels.reshape(shape), T_world_camera,
+                          rgb, part)
+    else:
+        albedo = _grey_albedo(scene, hits.labels[hits.hit], hits.points)
         gray = np.full(hits.count, SKY_GREY)
-        gray[hits.hit] = 255.0 * _grey_albedo(scene, hits.labels[hits.hit], hits.points) * shade
-        return RgbdFrame(hits.depth.reshape(shape), np.clip(gray, 0, 255).astype(np.uint8).reshape(shape),
-                         hits.labels.reshape(shape), T_world_camera)
-    rgb = np.full((hits.count, 3), SKY_GREY)
-    rgb[hits.hit] = 255.0 * reflectance(scene, hits) * shade[:, None]
-    rgb = np.clip(rgb + 0.5, 0, 255).astype(np.uint8).reshape(*shape, 3)
-    part = np.where(np.isin(hits.labels, (STRUCTURE, WORKER)), hits.part, -1)
-    return RgbdFrame(hits.depth.reshape(shape), luminance(rgb), hits.labels.reshape(shape), T_world_camera, rgb,
-                     part.reshape(shape))
+        gray[hits.hit] = 255.0 * albedo * shade
+        frame = RgbdFrame(hits.depth.reshape(shape), np.clip(gray, 0, 255).astype(np.uint8).reshape(shape),
+                          hits.labels.reshape(shape), T_world_camera)
+    return frame if tof is None else _with_tof(frame, scene, intrinsics, hits, _ir(albedo), tof)
+
+
+def _ir(albedo: np.ndarray) -> np.ndarray:
+    """Near-infrared reflectance of hits, approximated by the mean of their visible reflectance."""
+    return albedo.mean(axis=1) if albedo.ndim == 2 else albedo
+
+
+def _with_tof(frame: RgbdFrame, scene: SiteScene, intrinsics: Intrinsics, hits: Hits, ir: np.ndarray,
+              tof: TofEffects) -> RgbdFrame:
+    shape = frame.depth.shape
+    cos_incidence = _cos_incidence(hits.normals, hits.directions)
+    depth = frame.depth.copy()
+    if tof.flying_pixels:
+        vs, us = np.nonzero(step_pixels(frame.depth, tof.step, tof.step_per_metre))
+        depth[vs, us] = _subpixel_depth(scene, intrinsics, frame.T_world_camera, us, vs)
+    dropout = None
+    if tof.dropouts:
+        chance = np.zeros(hits.count)
+        ranges = hits.depth[hits.hit] * np.linalg.norm(hits.directions, axis=1)
+        chance[hits.hit] = dropout_chance(cos_incidence, amplitude(ir, cos_incidence, ranges), tof)
+        dropout = chance.reshape(shape)
+    return RgbdFrame(depth, frame.gray, frame.labels, frame.T_world_camera, frame.rgb, frame.part, dropout)
+
+
+def _subpixel_depth(scene: SiteScene, intrinsics: Intrinsics, T_world_camera: np.ndarray, us: np.ndarray,
+                    vs: np.ndarray) -> np.ndarray:
+    """Mixed depth (n,) of pixels (us, vs): 2 x 2 sub-rays, weighted by their return amplitudes."""
+    rays = subpixel_rays(intrinsics, us, vs)
+    hits = cast_rays(scene, rays @ T_world_camera[:3, :3].T, T_world_camera[:3, 3])
+    weights = np.zeros(hits.count)
+    if hits.hit.any():
+        ir = _ir(reflectance(scene, hits) if scene.coloured else _grey_albedo(scene, hits.labels[hits.hit], hits.points))
+        ranges = hits.depth[hits.hit] * np.linalg.norm(hits.directions, axis=1)
+        weights[hits.hit] = amplitude(ir, _cos_incidence(hits.normals, hits.directions), ranges)
+    return mixed_depth(hits.depth.reshape(4, -1), weights.reshape(4, -1))
+
+
+def _cos_incidence(normals: np.ndarray, directions: np.ndarray) -> np.ndarray:
+    return np.abs(np.einsum("ni,ni->n", normals, directions)) / np.linalg.norm(directions, axis=1)
 
 
 @dataclass(frozen=True)

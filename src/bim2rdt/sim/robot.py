@@ -3,6 +3,8 @@ and reports only what a real one would (frames and drifting odometry). Its true 
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from bim2rdt.localization.planar import compose, from_planar, to_planar
@@ -15,12 +17,12 @@ from bim2rdt.sim.render import RgbdFrame, render_rgbd
 
 
 class SimulatedRobot:
-    """Starts at ``T_world_camera``; ``walk_to`` and ``turn`` move the true pose and return odometry readings,
-    ``capture`` renders a noisy frame of ``scene`` from the true pose. Seeded."""
+    """Starts at ``T_world_camera``; ``walk_to``, ``drive`` and ``turn`` move the true pose and return odometry
+    readings, ``render``/``capture`` a noisy frame from the true pose. Seeded."""
 
-    def __init__(self, scene: SiteScene, T_world_camera: np.ndarray, seed: int = 0,
-                 intrinsics: Intrinsics = Intrinsics()):
-        self.scene, self.intrinsics = scene, intrinsics
+    def __init__(self, scene: SiteScene | None, T_world_camera: np.ndarray, seed: int = 0,
+                 intrinsics: Intrinsics = Intrinsics(), renderer: Callable[[np.ndarray], RgbdFrame] | None = None):
+        self.scene, self.intrinsics, self.renderer = scene, intrinsics, renderer
         self.T_world_camera = np.asarray(T_world_camera, dtype=float).copy()
         self.odometry = SimulatedOdometry(seed)
         self.rng = np.random.default_rng(seed)
@@ -39,7 +41,10 @@ class SimulatedRobot:
         return self.walk_to(from_planar(compose(state, increment), R_level_camera))
 
     def render(self) -> RgbdFrame:
-        """A noisy frame from the true pose, with the simulator's labels (for an ideal detector)."""
+        """A noisy frame from the true pose, with the simulator's labels: ``renderer``'s when given (a camera
+        model with its own artefacts), else a plain ray cast of ``scene``."""
+        if self.renderer is not None:
+            return self.renderer(self.T_world_camera)
         return render_rgbd(self.scene, self.intrinsics, self.T_world_camera, self.rng)
 
     def capture(self) -> Frame:
