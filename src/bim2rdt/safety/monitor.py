@@ -131,7 +131,7 @@ class HavMonitor:
         except PayloadError as error:
             self.refuse(device, str(error), self.clock())
             return []
-        if status.boot is not None:
+        if status.online and status.boot is not None:  # a device coming online says which boot it is in
             self.announce_boot(device, status.boot)
         if status.online and status.worker:
             self.start_session(device, status.worker, status.tool, status.position, status.zone, status.hand)
