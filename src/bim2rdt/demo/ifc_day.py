@@ -52,15 +52,16 @@ def run_ifc_day(ifc_path: Path, out_dir: Path, seed: int = 0, workers: int = 1, 
     tick("site")
     targets = objects_of_interest(model)
     reality = simulate_reality(model, [t.global_id for t in targets], seed=seed, unplanned_at=layout.unplanned_xy)
-    priors = KnowledgeBasePriors().priors(sorted({t.family for t in reality.truth}))
+    priors = KnowledgeBasePriors().priors(sorted({t.family for t in targets} | {t.family for t in reality.truth}))
     twin = open_day_twin(out_dir, model, priors, twin_config)
     events, timeline = _hav_day(twin, out_dir / "state", workers, minutes, fs, zone=None)
     tick("hav")
     config = mission_config.model_copy(update={"standoff": min(mission_config.standoff, IFC_DAY_STANDOFF)})
     route = plan_day_route(model, targets, layout.dock_xy, config, events, _shift_start(), spots=layout.worker_spots)
-    mission = run_mission(targets, route.plan.stations, SimulatedPerception(reality, seed=seed), priors,
-                          mesh_for_family, route.config, icp, tick=lambda: tick("station"), route=route.route)
-    record_mission(twin, mission.observations, mission.stations, times=route.route.arrivals)
+    perceive = SimulatedPerception(reality, seed=seed)
+    mission = run_mission(targets, route.plan.stations, perceive, priors, mesh_for_family, route.config, icp,
+                          tick=lambda: tick("station"), route=route.route, frame_of=perceive.station_frame)
+    record_mission(twin, mission.observations, mission.stations, times=route.route.arrivals, missing=mission.missing)
     tick("twin")
     files = export_day_twin(twin, out_dir)
     return SiteDay(model, priors, reality, mission, files.ifc, events, timeline, ifc_records(files.ifc), twin, files,

@@ -2,10 +2,11 @@
 
 1. BIM: build the default site (IFC4) and read it; its proxies are the objects of interest.
 2. Semantics: family names -> detector labels and upright priors (offline knowledge base).
-3. Robot: the as-built site (objects moved, one knocked over, one unplanned) is seen from stations that see
+3. Robot: the as-built site (objects moved, one knocked over, one taken away, one unplanned) is seen from stations that see
    their objects over the walls, toured by path length and walked on planned paths, replanned around what the
    robot finds and around workers while their tools run (:mod:`bim2rdt.demo.routes`); corners in each detection
-   become points; SG-ICP registers each BIM object; deviations are judged.
+   become points; SG-ICP registers each BIM object; deviations are judged; a planned object whose place a
+   station's depth shows empty is missing.
 4. Twin: every observation is recorded into the day's twin (``twin.db``, :mod:`bim2rdt.demo.site_twin`), which
    judges it against its tolerance preset.
 5. Safety (run first, so the robot's keep-out zones follow the monitor's events): wearables stream hand-arm
@@ -37,6 +38,9 @@ from bim2rdt.twin import DigitalTwin, TwinConfig
 ROBOT_START_XY = (1.0, 1.0)
 """Where the robot's dock is on the default site, metres."""
 WORK_ZONE = ZONES[0][0]
+REMOVED_OBJECTS = 1
+"""Planned objects the day's reality takes off the site (someone carried a drum away): the robot must see their
+places empty and report them missing."""
 
 
 @dataclass
@@ -78,16 +82,16 @@ def run_site_day(out_dir: Path, seed: int = 0, workers: int = 2, minutes: float 
     tick("bim")
     targets = objects_of_interest(model)
     reality = simulate_reality(model, [t.global_id for t in targets], seed=seed, unplanned_at=UNPLANNED_DRUM_XY,
-                               building=True)
-    priors = KnowledgeBasePriors().priors(sorted({t.family for t in reality.truth}))
+                               building=True, removed=REMOVED_OBJECTS)
+    priors = KnowledgeBasePriors().priors(sorted({t.family for t in targets} | {t.family for t in reality.truth}))
     twin = open_day_twin(out_dir, model, priors, twin_config)
     events, timeline = _hav_day(twin, out_dir / "state", workers, minutes, fs)
     tick("hav")
     route = plan_day_route(model, targets, ROBOT_START_XY, mission_config, events, _shift_start())
     perceive = DemoPerception(detector, model, reality, priors, seed, yoloe)
     mission = run_mission(targets, route.plan.stations, perceive, priors, mesh_for_family, route.config, icp,
-                          tick=lambda: tick("station"), route=route.route)
-    record_mission(twin, mission.observations, mission.stations, times=route.route.arrivals)
+                          tick=lambda: tick("station"), route=route.route, frame_of=perceive.station_frame)
+    record_mission(twin, mission.observations, mission.stations, times=route.route.arrivals, missing=mission.missing)
     tick("twin")
     files = export_day_twin(twin, out_dir)
     return SiteDay(model, priors, reality, mission, files.ifc, events, timeline, ifc_records(files.ifc), twin, files,

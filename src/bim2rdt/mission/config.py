@@ -32,3 +32,9 @@ class MissionConfig(BaseModel):
                                                            "is explained by it (merging views, no truth needed).")
     merge_fraction: float = Field(0.5, gt=0.0, le=1.0, description="A detection whose points above the slab are "
                                   "at least this much explained by registered objects is another view of them.")
+    missing_margin: float = Field(0.10, gt=0.0, description="A depth this much beyond a planned element's surface "
+                                  "means the camera saw through its place, m.")
+    missing_fraction: float = Field(0.8, gt=0.0, le=1.0, description="An element is missing when the camera saw "
+                                    "through at least this share of its place's cells in one frame.")
+    missing_in_view: float = Field(0.5, gt=0.0, le=1.0, description="Share of an element's camera-facing surface "
+                                   "that must be in the image for its place to count as looked at.")

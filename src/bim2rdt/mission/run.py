@@ -12,7 +12,9 @@ The steps, per the paper's loop (Fig. 1):
 5. register: SG-ICP from the BIM pose moved onto the detection (BIM yaw, the detection's centroid), with the
    family's upright prior;
 6. decide: as planned / deviating (moved or turned) / new / unverified (fit too poor to trust), with
-   translation, yaw and tilt deltas modulo the family's symmetry.
+   translation, yaw and tilt deltas modulo the family's symmetry;
+7. absence: a planned element no detection claimed, whose place a station's frame shows empty (the camera saw
+   through it: :mod:`bim2rdt.mission.absence`), is missing; one never in view, or occluded, stays not seen.
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 import trimesh
 
+from bim2rdt.mission.absence import depth_view, seen_empty
 from bim2rdt.mission.association import associate
 from bim2rdt.mission.config import MissionConfig
 from bim2rdt.mission.fitting import best_fit, initial_poses, rests_on_slab
@@ -31,6 +34,8 @@ from bim2rdt.mission.records import MissionResult, Observation, Target
 from bim2rdt.mission.route import DirectRoute, Locate, Route
 from bim2rdt.mission.verdict import judge
 from bim2rdt.perception.detection import Detection
+from bim2rdt.perception.frame import Frame
+from bim2rdt.perception.visibility import DepthView
 from bim2rdt.registration import IcpConfig, sample_model
 from bim2rdt.semantics import UprightPrior
 
@@ -39,19 +44,23 @@ def run_mission(targets: Sequence[Target], stations: Sequence[np.ndarray],
                 perceive: Callable[[int, np.ndarray], list[Detection]],
                 priors: dict[str, UprightPrior], new_object_mesh: Callable[[str], trimesh.Trimesh],
                 config: MissionConfig = MissionConfig(), icp: IcpConfig = IcpConfig(),
-                tick: Callable[[], None] = lambda: None, route: Route = DirectRoute()) -> MissionResult:
+                tick: Callable[[], None] = lambda: None, route: Route = DirectRoute(),
+                frame_of: Callable[[int], Frame | None] | None = None) -> MissionResult:
     """Visit ``stations``; ``perceive(station_index, T_world_camera)`` returns that frame's detections. Each
     object is registered once, from its detection with the most points; a detection its registered neighbours
     already explain is another view of them (:mod:`bim2rdt.mission.merging`). Returns every verdict.
-    ``route`` gets the robot to each station and hears what it saw (:mod:`bim2rdt.mission.route`)."""
+    ``route`` gets the robot to each station and hears what it saw (:mod:`bim2rdt.mission.route`).
+    ``frame_of(station_index)``, when given, is the frame (depth, intrinsics, camera pose) the station's
+    detections were read from: with it, a planned element whose place a frame shows empty is missing."""
     result = MissionResult(list(stations))
+    views: dict[int, DepthView] = {}
 
     def locate(detection: Detection) -> tuple[Observation, trimesh.Trimesh]:
         target = associate(detection, targets, set(), config)
         mesh = target.mesh_body if target else new_object_mesh(detection.family)
         return _observe(detection, target, mesh, priors, config, icp)[0], mesh
 
-    detections = _capture(result, perceive, config, tick, route, locate)
+    detections = _capture(result, perceive, config, tick, route, locate, frame_of, views)
     claimed: set[str] = set()
     registered: list[RegisteredObject] = []
     for detection in sorted(detections, key=lambda d: -len(d.points_world)):
@@ -65,20 +74,28 @@ def run_mission(targets: Sequence[Target], stations: Sequence[np.ndarray],
         observation, model_pts = _observe(detection, target, mesh, priors, config, icp)
         registered.append(RegisteredObject.of(observation, model_pts))
         result.observations.append(observation)
-    result.not_seen = [t.global_id for t in targets if t.global_id not in claimed]
+    unclaimed = [t for t in targets if t.global_id not in claimed]
+    result.missing = [gone for gone in (seen_empty(t, views, config, icp) for t in unclaimed) if gone is not None]
+    gone_ids = {gone.global_id for gone in result.missing}
+    result.not_seen = [t.global_id for t in unclaimed if t.global_id not in gone_ids]
     return result
 
 
 def _capture(result: MissionResult, perceive: Callable[[int, np.ndarray], list[Detection]], config: MissionConfig,
-             tick: Callable[[], None], route: Route, locate: Locate) -> list[Detection]:
+             tick: Callable[[], None], route: Route, locate: Locate, frame_of: Callable[[int], Frame | None] | None,
+             views: dict[int, DepthView]) -> list[Detection]:
     """Every reached station's detections with at least ``min_points`` points (fewer: the object is not seen
-    there); ``result.stations`` keeps the poses the route actually took."""
+    there); ``result.stations`` keeps the poses the route actually took, ``views`` each reached station's depth
+    (with ``frame_of``)."""
     found = []
     for index, planned in enumerate(result.stations):
         T_world_camera = route.reach(index, planned, lambda T: _seen(perceive(index, T), config), locate)
         if T_world_camera is not None:
             result.stations[index] = T_world_camera
             seen = _seen(perceive(index, T_world_camera), config)
+            frame = frame_of(index) if frame_of is not None else None
+            if frame is not None:
+                views[index] = depth_view(frame)
             route.seen(index, seen, locate)
             found += seen
         tick()
