@@ -19,6 +19,9 @@ The steps, per the paper's loop (Fig. 1):
 
 from __future__ import annotations
 
+import dataclasses
+import logging
+import math
 from collections.abc import Callable, Sequence
 
 import numpy as np
@@ -38,6 +41,9 @@ from bim2rdt.perception.frame import Frame
 from bim2rdt.perception.visibility import DepthView
 from bim2rdt.registration import IcpConfig, sample_model
 from bim2rdt.semantics import UprightPrior
+from bim2rdt.twin.status import ElementStatus
+
+log = logging.getLogger(__name__)
 
 
 def run_mission(targets: Sequence[Target], stations: Sequence[np.ndarray],
@@ -116,9 +122,15 @@ def _observe(detection: Detection, target: Target | None, mesh: trimesh.Trimesh,
                    prior, config, icp, local_first=target is not None,
                    support_height=config.slab_height if rests_on_slab(target, model_pts, config) else None)
     judged = judge(target, fit, prior.symmetry, config)
+    reason = ""
+    if not math.isfinite(fit.rmse):  # a partial view behind a wall: no point lies on the fitted model
+        judged = dataclasses.replace(judged, status=ElementStatus.UNVERIFIED)
+        reason = (f"(no inlier: none of its {len(object_pts)} points lies within {100 * icp.score_distance:.0f} cm "
+                  "of the fitted model)")
+        log.info("%s at station %s: unverified %s", detection.family, detection.station, reason)
     observation = Observation(family=detection.family, global_id=target.global_id if target else None,
                               pose=fit.pose, rmse=fit.rmse, fitness=fit.fitness, points=len(object_pts),
                               station=detection.station, frames=(detection.station,), fit=fit,
                               status=judged.status, shift=judged.shift, yaw_deg=judged.yaw_deg,
-                              tilt_deg=judged.tilt_deg, upright_bias=prior.upright_bias)
+                              tilt_deg=judged.tilt_deg, upright_bias=prior.upright_bias, reason=reason)
     return observation, model_pts
