@@ -112,7 +112,7 @@ def test_the_twin_ifc_holds_measured_placements_the_new_proxy_and_safety_records
     moved = [r for r in record["observations"] if r["status"] == ElementStatus.DEVIATING]
     for row in moved:
         before, after = designed.element(row["global_id"]).placement, twin.element(row["global_id"]).placement
-        assert np.linalg.norm(after[:2, 3] - before[:2, 3]) == pytest.approx(row["shift_m"], abs=1e-3)
+        assert np.linalg.norm(after[:3, 3] - before[:3, 3]) == pytest.approx(row["shift_m"], abs=1e-3)
     proxies = lambda m: [e for e in m.elements if e.ifc_class == "IfcBuildingElementProxy"]  # noqa: E731
     assert len(proxies(twin)) == len(proxies(designed)) + 1
     added = next(e for e in proxies(twin) if e.global_id not in {p.global_id for p in proxies(designed)})

@@ -60,7 +60,8 @@ def run_ifc_day(ifc_path: Path, out_dir: Path, seed: int = 0, workers: int = 1, 
     route = plan_day_route(model, targets, layout.dock_xy, config, events, _shift_start(), spots=layout.worker_spots)
     perceive = SimulatedPerception(reality, seed=seed)
     mission = run_mission(targets, route.plan.stations, perceive, priors, mesh_for_family, route.config, icp,
-                          tick=lambda: tick("station"), route=route.route, frame_of=perceive.station_frame)
+                          tick=lambda: tick("station"), route=route.route, frame_of=perceive.station_frame,
+                          tolerances=twin_config.tolerance_policy())
     record_mission(twin, mission.observations, mission.stations, times=route.route.arrivals, missing=mission.missing)
     tick("twin")
     files = export_day_twin(twin, out_dir)

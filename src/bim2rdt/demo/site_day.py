@@ -62,7 +62,8 @@ class SiteDay:
 
 def objects_of_interest(model: BimModel) -> list[Target]:
     """The site objects the robot verifies: proxies (temporary works, materials, equipment) with a body."""
-    return [Target(el.global_id, el.family or el.name or el.ifc_class, el.placement, body_mesh(model, el.global_id))
+    return [Target(el.global_id, el.family or el.name or el.ifc_class, el.placement, body_mesh(model, el.global_id),
+                   el.ifc_class)
             for el in model.elements if el.ifc_class == "IfcBuildingElementProxy" and model.has_mesh(el.global_id)]
 
 
@@ -90,7 +91,8 @@ def run_site_day(out_dir: Path, seed: int = 0, workers: int = 2, minutes: float 
     route = plan_day_route(model, targets, ROBOT_START_XY, mission_config, events, _shift_start())
     perceive = DemoPerception(detector, model, reality, priors, seed, yoloe)
     mission = run_mission(targets, route.plan.stations, perceive, priors, mesh_for_family, route.config, icp,
-                          tick=lambda: tick("station"), route=route.route, frame_of=perceive.station_frame)
+                          tick=lambda: tick("station"), route=route.route, frame_of=perceive.station_frame,
+                          tolerances=twin_config.tolerance_policy())
     record_mission(twin, mission.observations, mission.stations, times=route.route.arrivals, missing=mission.missing)
     tick("twin")
     files = export_day_twin(twin, out_dir)

@@ -13,12 +13,14 @@ from bim2rdt.twin.status import ElementStatus
 
 @dataclass(frozen=True)
 class Target:
-    """An object the mission looks for: a BIM element (GlobalId, family, placement, body mesh)."""
+    """An object the mission looks for: a BIM element (GlobalId, family, placement, body mesh, and its IFC class,
+    which with the family picks its tolerance preset)."""
 
     global_id: str
     family: str
     placement: np.ndarray
     mesh_body: trimesh.Trimesh
+    ifc_class: str | None = None
 
 
 @dataclass(kw_only=True)

@@ -35,13 +35,14 @@ from bim2rdt.mission.ground import off_slab
 from bim2rdt.mission.merging import RegisteredObject, repeated_view
 from bim2rdt.mission.records import MissionResult, Observation, Target
 from bim2rdt.mission.route import DirectRoute, Locate, Route
-from bim2rdt.mission.verdict import judge
+from bim2rdt.mission.verdict import judge, tolerance_of
 from bim2rdt.perception.detection import Detection
 from bim2rdt.perception.frame import Frame
 from bim2rdt.perception.visibility import DepthView
 from bim2rdt.registration import IcpConfig, sample_model
 from bim2rdt.semantics import UprightPrior
 from bim2rdt.twin.status import ElementStatus
+from bim2rdt.twin.tolerance import TolerancePolicy
 
 log = logging.getLogger(__name__)
 
@@ -51,20 +52,23 @@ def run_mission(targets: Sequence[Target], stations: Sequence[np.ndarray],
                 priors: dict[str, UprightPrior], new_object_mesh: Callable[[str], trimesh.Trimesh],
                 config: MissionConfig = MissionConfig(), icp: IcpConfig = IcpConfig(),
                 tick: Callable[[], None] = lambda: None, route: Route = DirectRoute(),
-                frame_of: Callable[[int], Frame | None] | None = None) -> MissionResult:
+                frame_of: Callable[[int], Frame | None] | None = None,
+                tolerances: TolerancePolicy | None = None) -> MissionResult:
     """Visit ``stations``; ``perceive(station_index, T_world_camera)`` returns that frame's detections. Each
     object is registered once, from its detection with the most points; a detection its registered neighbours
     already explain is another view of them (:mod:`bim2rdt.mission.merging`). Returns every verdict.
     ``route`` gets the robot to each station and hears what it saw (:mod:`bim2rdt.mission.route`).
     ``frame_of(station_index)``, when given, is the frame (depth, intrinsics, camera pose) the station's
-    detections were read from: with it, a planned element whose place a frame shows empty is missing."""
+    detections were read from: with it, a planned element whose place a frame shows empty is missing.
+    ``tolerances`` judges as planned vs deviating (the twin's presets: pass ``Settings.twin.tolerance_policy()``
+    so the mission and the twin agree; default ``TwinConfig()``'s)."""
     result = MissionResult(list(stations))
     views: dict[int, DepthView] = {}
 
     def locate(detection: Detection) -> tuple[Observation, trimesh.Trimesh]:
         target = associate(detection, targets, set(), config)
         mesh = target.mesh_body if target else new_object_mesh(detection.family)
-        return _observe(detection, target, mesh, priors, config, icp)[0], mesh
+        return _observe(detection, target, mesh, priors, config, icp, tolerances)[0], mesh
 
     detections = _capture(result, perceive, config, tick, route, locate, frame_of, views)
     claimed: set[str] = set()
@@ -77,7 +81,7 @@ def run_mission(targets: Sequence[Target], stations: Sequence[np.ndarray],
             continue
         target = associate(detection, targets, claimed, config)
         mesh = target.mesh_body if target else new_object_mesh(detection.family)
-        observation, model_pts = _observe(detection, target, mesh, priors, config, icp)
+        observation, model_pts = _observe(detection, target, mesh, priors, config, icp, tolerances)
         registered.append(RegisteredObject.of(observation, model_pts))
         result.observations.append(observation)
     unclaimed = [t for t in targets if t.global_id not in claimed]
@@ -113,15 +117,17 @@ def _seen(detections: list[Detection], config: MissionConfig) -> list[Detection]
 
 
 def _observe(detection: Detection, target: Target | None, mesh: trimesh.Trimesh, priors: dict[str, UprightPrior],
-             config: MissionConfig, icp: IcpConfig) -> tuple[Observation, np.ndarray]:
-    """Register one object and judge it; also returns the model's surface samples (body frame)."""
+             config: MissionConfig, icp: IcpConfig,
+             tolerances: TolerancePolicy | None = None) -> tuple[Observation, np.ndarray]:
+    """Register one object and judge it (against its tolerance preset under ``tolerances``); also returns the
+    model's surface samples (body frame)."""
     prior = priors[detection.family]
     model_pts, model_normals = sample_model(mesh, icp.sample_count, seed=icp.seed)
     object_pts = off_slab(detection.points_world, config)
     fit = best_fit(model_pts, model_normals, object_pts, initial_poses(detection, target, model_pts, config),
                    prior, config, icp, local_first=target is not None,
                    support_height=config.slab_height if rests_on_slab(target, model_pts, config) else None)
-    judged = judge(target, fit, prior.symmetry, config)
+    judged = judge(target, fit, prior.symmetry, config, tolerance_of(target, tolerances) if target else None)
     reason = ""
     if not math.isfinite(fit.rmse):  # a partial view behind a wall: no point lies on the fitted model
         judged = dataclasses.replace(judged, status=ElementStatus.UNVERIFIED)
