@@ -2,8 +2,8 @@
 
 1. BIM: build the default site (IFC4) and read it; its proxies are the objects of interest.
 2. Semantics: family names -> detector labels and upright priors (offline knowledge base).
-3. Robot: the as-built site (objects moved, one knocked over, one taken away, one unplanned) is seen from stations that see
-   their objects over the walls, toured by path length and walked on planned paths, replanned around what the
+3. Robot: the as-built site (objects moved, one knocked over, one taken away, one unplanned) is seen from
+   stations that see their objects over the walls, toured by path length and walked on planned paths, replanned around what the
    robot finds and around workers while their tools run (:mod:`bim2rdt.demo.routes`); corners in each detection
    become points; SG-ICP registers each BIM object; deviations are judged; a planned object whose place a
    station's depth shows empty is missing.
@@ -39,8 +39,8 @@ ROBOT_START_XY = (1.0, 1.0)
 """Where the robot's dock is on the default site, metres."""
 WORK_ZONE = ZONES[0][0]
 REMOVED_OBJECTS = 1
-"""Planned objects the day's reality takes off the site (someone carried a drum away): the robot must see their
-places empty and report them missing."""
+"""Planned objects the day's reality takes off the site (the last unchanged one: the tripod at seed 0): the
+robot must see their places empty and report them missing."""
 
 
 @dataclass
@@ -105,13 +105,13 @@ def _hav_day(twin: DigitalTwin, state_dir: Path, workers: int, minutes: float, f
     """Simulated wearables -> in-process bus -> monitor -> events into the twin's history; the workers work in
     ``zone`` (a zone name of the model, or None)."""
     from bim2rdt.bus import LocalBus
-    from bim2rdt.config import get_settings
+    from bim2rdt.demo.settings import demo_settings
     from bim2rdt.safety import HavMonitor, ListSink
     from bim2rdt.sim.wearables import default_plans, publish_plans
     from bim2rdt.twin import TwinSink
 
     shutil.rmtree(state_dir, ignore_errors=True)
-    settings = get_settings()
+    settings = demo_settings()  # what config.json records: the demo's raw retention unless the environment sets one
     events = ListSink()
     monitor = HavMonitor(state_dir, settings.hav.site_secret, [events, TwinSink(twin)],
                          settings.hav.monitor_config(keep_timeline=True))
