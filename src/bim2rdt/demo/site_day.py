@@ -3,9 +3,9 @@
 1. BIM: build the default site (IFC4) and read it; its proxies are the objects of interest.
 2. Semantics: family names -> detector labels and upright priors (offline knowledge base).
 3. Robot: the as-built site (objects moved, one knocked over, one taken away, one unplanned) is seen from
-   stations that see their objects over the walls, toured by path length and walked on planned paths, replanned around what the
-   robot finds and around workers while their tools run (:mod:`bim2rdt.demo.routes`); corners in each detection
-   become points; SG-ICP registers each BIM object; deviations are judged; a planned object whose place a
+   stations that see their objects over the walls, toured by path length and walked on planned paths,
+   replanned around what the robot finds and around workers while their tools run
+   (:mod:`bim2rdt.demo.routes`); corners in each detection become points; SG-ICP registers each BIM object; deviations are judged; a planned object whose place a
    station's depth shows empty is missing.
 4. Twin: every observation is recorded into the day's twin (``twin.db``, :mod:`bim2rdt.demo.site_twin`), which
    judges it against its tolerance preset.
