@@ -36,12 +36,16 @@ def seen_empty(target: Target, views: Mapping[int, DepthView], config: MissionCo
     if not empty:
         return None
     best = max(empty, key=lambda station: empty[station].through)
+    open_cells = empty[best].seen - empty[best].blocked
     return MissingElement(target.global_id, target.family, best, tuple(sorted(empty)),
-                          empty[best].through / empty[best].seen, empty[best].seen)
+                          empty[best].through / open_cells, open_cells)
 
 
 def shows_empty(look: PlaceLook, config: MissionConfig) -> bool:
-    """In view (at least ``missing_in_view`` of its facing surface in the image, ``min_points`` cells with a
-    depth return) and seen through at ``missing_fraction`` of those cells."""
+    """In view (at least ``missing_in_view`` of its facing surface in the image, and of the cells with a depth
+    return at least ``min_points`` and half not occluded: nothing nearer in front) and seen through at
+    ``missing_fraction`` of the cells not occluded."""
     in_view = look.facing > 0 and look.in_frame >= config.missing_in_view * look.facing
-    return in_view and look.seen >= config.min_points and look.through >= config.missing_fraction * look.seen
+    open_cells = look.seen - look.blocked
+    return (in_view and open_cells >= config.min_points and open_cells >= 0.5 * look.seen
+            and look.through >= config.missing_fraction * open_cells)

@@ -44,7 +44,7 @@ class Observation(PerceivedObject):
 class MissingElement:
     """A planned element whose place was seen empty: its GlobalId and family, the ``station`` whose frame shows
     it best (most cells seen through), every station whose frame showed it empty (``frames``), and that best
-    view's ``see_through`` fraction and number of ``cells`` seen."""
+    view's ``cells`` seen and not occluded, and the ``see_through`` fraction of them."""
 
     global_id: str
     family: str
