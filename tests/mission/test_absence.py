@@ -79,3 +79,36 @@ def test_an_object_standing_there_undetected_is_not_missing():
 def test_a_detected_object_is_observed_and_a_moved_one_leaves_no_missing_behind():
     result = _mission([_drum_at(0.5)], [EYE], detect=True)
     assert [o.global_id for o in result.observations] == ["drum-1"] and result.missing == []
+
+
+def test_a_fit_standing_where_the_camera_saw_through_is_set_aside_or_unverified(monkeypatch):
+    """The free-space test in the mission's fitting: among the fits from every start the plausible one wins
+    even at a worse score; when every start ends where the station's depth shows free space (a drum pulled
+    half a metre towards the camera, the mirror side of an arc), the verdict is unverified, with the reason."""
+    import dataclasses
+    from types import SimpleNamespace
+
+    from bim2rdt.mission import fitting
+    from bim2rdt.mission import run as mission_run
+    from bim2rdt.twin import ElementStatus
+
+    starts = [np.eye(4), np.eye(4) * 2]
+    monkeypatch.setattr(fitting, "register", lambda *a, init, **k: SimpleNamespace(pose=init, score=float(init[0, 0])))
+    pick = fitting.best_fit(np.zeros((1, 3)), np.zeros((1, 3)), np.zeros((1, 3)), starts,
+                            SimpleNamespace(upright_bias=0.5, yaw_only=False), MissionConfig(), None,
+                            local_first=False, plausible=lambda fit: fit.score > 1.5)
+    assert pick.pose is starts[1]
+    monkeypatch.undo()
+
+    real_fit = mission_run.best_fit
+
+    def towards_camera(*args, **kwargs):
+        fit = real_fit(*args, **kwargs)
+        pose = fit.pose.copy()
+        pose[0, 3] += 0.5  # the camera stands at +x
+        return dataclasses.replace(fit, pose=pose)
+
+    monkeypatch.setattr(mission_run, "best_fit", towards_camera)
+    result = _mission([_drum_at(0.0)], [EYE], detect=True)
+    observation = result.observations[0]
+    assert observation.status is ElementStatus.UNVERIFIED and "saw through" in observation.reason

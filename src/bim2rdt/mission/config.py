@@ -32,6 +32,9 @@ class MissionConfig(BaseModel):
                                                            "is explained by it (merging views, no truth needed).")
     merge_fraction: float = Field(0.5, gt=0.0, le=1.0, description="A detection whose points above the slab are "
                                   "at least this much explained by registered objects is another view of them.")
+    max_see_through: float = Field(0.1, ge=0.0, le=1.0, description="A fit whose camera-facing surface stands "
+                                   "where the station's camera saw through at more than this share of its cells is "
+                                   "implausible (free space, as perception.visibility tests it).")
     missing_margin: float = Field(0.10, gt=0.0, description="A depth this much beyond a planned element's surface "
                                   "means the camera saw through its place, m.")
     missing_fraction: float = Field(0.8, gt=0.0, le=1.0, description="An element is missing when the camera saw "

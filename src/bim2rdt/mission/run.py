@@ -7,8 +7,8 @@ The steps, per the paper's loop (Fig. 1):
 2. capture: a frame per station (``capture(T_world_camera)``: the RGB-D simulator here, a robot driver on site);
 3. perceive: detections (an ROI and a family label each) -> Shi-Tomasi corners in the ROI -> depth -> world points;
    a detection whose points lie on objects already registered is another view of them, not a new object;
-4. associate: a detection belongs to the nearest unclaimed BIM element of its family within ``association_radius``;
-   none means an object the BIM does not have;
+4. associate: a detection belongs to the BIM element of its family the frame's joint assignment gives it, else
+   the nearest unclaimed one within ``association_radius``; none means an object the BIM does not have;
 5. register: SG-ICP from the BIM pose moved onto the detection (BIM yaw, the detection's centroid), with the
    family's upright prior;
 6. decide: as planned / deviating (moved or turned) / new / unverified (fit too poor to trust), with
@@ -28,7 +28,7 @@ import numpy as np
 import trimesh
 
 from bim2rdt.mission.absence import depth_view, seen_empty
-from bim2rdt.mission.association import associate
+from bim2rdt.mission.association import associate, preferred_targets
 from bim2rdt.mission.config import MissionConfig
 from bim2rdt.mission.fitting import best_fit, initial_poses, rests_on_slab
 from bim2rdt.mission.ground import off_slab
@@ -38,8 +38,8 @@ from bim2rdt.mission.route import DirectRoute, Locate, Route
 from bim2rdt.mission.verdict import judge, tolerance_of
 from bim2rdt.perception.detection import Detection
 from bim2rdt.perception.frame import Frame
-from bim2rdt.perception.visibility import DepthView
-from bim2rdt.registration import IcpConfig, sample_model
+from bim2rdt.perception.visibility import DepthView, see_through_fraction
+from bim2rdt.registration import IcpConfig, RegistrationResult, sample_model
 from bim2rdt.semantics import UprightPrior
 from bim2rdt.twin.status import ElementStatus
 from bim2rdt.twin.tolerance import TolerancePolicy
@@ -72,6 +72,7 @@ def run_mission(targets: Sequence[Target], stations: Sequence[np.ndarray],
 
     detections = _capture(result, perceive, config, tick, route, locate, frame_of, views)
     claimed: set[str] = set()
+    preferred = preferred_targets(detections, targets, config)
     registered: list[RegisteredObject] = []
     for detection in sorted(detections, key=lambda d: -len(d.points_world)):
         seen_before = repeated_view(detection, registered, config)
@@ -79,9 +80,10 @@ def run_mission(targets: Sequence[Target], stations: Sequence[np.ndarray],
             if seen_before.family == detection.family:
                 seen_before.seen_from(detection.station)
             continue
-        target = associate(detection, targets, claimed, config)
+        target = associate(detection, targets, claimed, config, preferred)
         mesh = target.mesh_body if target else new_object_mesh(detection.family)
-        observation, model_pts = _observe(detection, target, mesh, priors, config, icp, tolerances)
+        observation, model_pts = _observe(detection, target, mesh, priors, config, icp, tolerances,
+                                          views.get(detection.station))
         registered.append(RegisteredObject.of(observation, model_pts))
         result.observations.append(observation)
     unclaimed = [t for t in targets if t.global_id not in claimed]
@@ -112,27 +114,42 @@ def _capture(result: MissionResult, perceive: Callable[[int, np.ndarray], list[D
     return found
 
 
+def _free_space(model_pts: np.ndarray, model_normals: np.ndarray, view: DepthView | None,
+                config: MissionConfig) -> Callable[[RegistrationResult], bool]:
+    """The free-space test of a fit in ``view`` (every fit passes without a view)."""
+    if view is None:
+        return lambda fit: True
+    return lambda fit: see_through_fraction(fit.pose, model_pts, model_normals, view) <= config.max_see_through
+
+
 def _seen(detections: list[Detection], config: MissionConfig) -> list[Detection]:
     return [d for d in detections if len(d.points_world) >= config.min_points]
 
 
 def _observe(detection: Detection, target: Target | None, mesh: trimesh.Trimesh, priors: dict[str, UprightPrior],
              config: MissionConfig, icp: IcpConfig,
-             tolerances: TolerancePolicy | None = None) -> tuple[Observation, np.ndarray]:
+             tolerances: TolerancePolicy | None = None,
+             view: DepthView | None = None) -> tuple[Observation, np.ndarray]:
     """Register one object and judge it (against its tolerance preset under ``tolerances``); also returns the
-    model's surface samples (body frame)."""
+    model's surface samples (body frame). With ``view`` (the depth of the detection's station) a fit that
+    stands where the camera saw through is set aside for a consistent one."""
     prior = priors[detection.family]
     model_pts, model_normals = sample_model(mesh, icp.sample_count, seed=icp.seed)
     object_pts = off_slab(detection.points_world, config)
     fit = best_fit(model_pts, model_normals, object_pts, initial_poses(detection, target, model_pts, config),
                    prior, config, icp, local_first=target is not None,
-                   support_height=config.slab_height if rests_on_slab(target, model_pts, config) else None)
+                   support_height=config.slab_height if rests_on_slab(target, model_pts, config) else None,
+                   plausible=_free_space(model_pts, model_normals, view, config))
     judged = judge(target, fit, prior.symmetry, config, tolerance_of(target, tolerances) if target else None)
     reason = ""
     if not math.isfinite(fit.rmse):  # a partial view behind a wall: no point lies on the fitted model
-        judged = dataclasses.replace(judged, status=ElementStatus.UNVERIFIED)
         reason = (f"(no inlier: none of its {len(object_pts)} points lies within {100 * icp.score_distance:.0f} cm "
                   "of the fitted model)")
+    elif view is not None and (seen_through := see_through_fraction(fit.pose, model_pts, model_normals, view)) \
+            > config.max_see_through:  # every start ended where the camera saw through
+        reason = f"(the fit stands where the camera saw through, at {seen_through:.0%} of its visible surface)"
+    if reason:
+        judged = dataclasses.replace(judged, status=ElementStatus.UNVERIFIED)
         log.info("%s at station %s: unverified %s", detection.family, detection.station, reason)
     observation = Observation(family=detection.family, global_id=target.global_id if target else None,
                               pose=fit.pose, rmse=fit.rmse, fitness=fit.fitness, points=len(object_pts),
