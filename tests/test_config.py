@@ -89,15 +89,15 @@ def test_usable_folder_creates_the_folder_and_leaves_nothing_in_it(tmp_path):
 def test_the_missions_knobs_are_a_settings_section_read_from_the_environment(monkeypatch):
     from bim2rdt.mission import MissionConfig
 
-    monkeypatch.setenv("BIM2RDT_MISSION__MOVED_TRANSLATION", "0.12")
+    monkeypatch.setenv("BIM2RDT_MISSION__MERGE_DISTANCE", "0.12")
     settings = get_settings()
-    assert isinstance(settings.mission, MissionConfig) and settings.mission.moved_translation == 0.12
+    assert isinstance(settings.mission, MissionConfig) and settings.mission.merge_distance == 0.12
     assert settings.mission.standoff == MissionConfig().standoff
 
 
 def test_a_misspelt_mission_setting_is_refused_naming_it(monkeypatch):
-    monkeypatch.setenv("BIM2RDT_MISSION__MOVED_TRANSLATON", "0.12")
-    with pytest.raises(ConfigError, match=r"^BIM2RDT_MISSION__MOVED_TRANSLATON: Extra inputs are not permitted"):
+    monkeypatch.setenv("BIM2RDT_MISSION__MERGE_DISTANSE", "0.12")
+    with pytest.raises(ConfigError, match=r"^BIM2RDT_MISSION__MERGE_DISTANSE: Extra inputs are not permitted"):
         get_settings()
 
 

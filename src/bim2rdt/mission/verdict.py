@@ -1,5 +1,9 @@
 """The verdict on a registered object against its BIM placement: as planned, deviating (moved or turned), new
-or unverified (:class:`~bim2rdt.twin.ElementStatus`)."""
+or unverified (:class:`~bim2rdt.twin.ElementStatus`).
+
+The mission measures the deviation the way the twin does and leaves as planned vs deviating to the twin's
+tolerance presets (``Settings.twin``: temporary site objects 5 cm / 5 degrees, columns and walls 1 cm / 0.5
+degrees), so the report, the twin's state and its BCF issues never disagree."""
 
 from __future__ import annotations
 
@@ -10,8 +14,11 @@ import numpy as np
 from bim2rdt.mission.config import MissionConfig
 from bim2rdt.mission.records import Target
 from bim2rdt.registration import RegistrationResult
-from bim2rdt.registration.symmetry import closest_equivalent
+from bim2rdt.twin.config import TwinConfig
+from bim2rdt.twin.deviation import Deviation, pose_deviation
 from bim2rdt.twin.status import ElementStatus
+from bim2rdt.twin.tolerance import Tolerance, TolerancePolicy
+from bim2rdt.twin.verdict import against_tolerance
 
 
 def pose_delta(T_ref: np.ndarray, T: np.ndarray) -> tuple[float, float, float]:
@@ -24,8 +31,10 @@ def pose_delta(T_ref: np.ndarray, T: np.ndarray) -> tuple[float, float, float]:
 
 @dataclass(frozen=True)
 class Verdict:
-    """The status of one registered object and the deltas behind it, against its BIM placement modulo the
-    family's symmetry: ``shift`` (m, horizontal), ``yaw_deg`` (wrapped to +-180), ``tilt_deg`` (from world z)."""
+    """The status of one registered object and the deviation behind it, against its BIM placement modulo the
+    family's symmetry, measured as the twin measures it (:func:`bim2rdt.twin.pose_deviation`): ``shift`` (m,
+    between the origins), ``yaw_deg`` (about the element's up axis, within +-180/n), ``tilt_deg`` (between the
+    up axes)."""
 
     status: ElementStatus
     shift: float
@@ -33,23 +42,32 @@ class Verdict:
     tilt_deg: float
 
 
-def judge(target: Target | None, fit: RegistrationResult, symmetry: float, config: MissionConfig) -> Verdict:
+def judge(target: Target | None, fit: RegistrationResult, symmetry: float, config: MissionConfig,
+          tolerance: Tolerance | None = None) -> Verdict:
     """The verdict on ``fit`` against ``target``'s placement (its own pose for a new object). The fit is first
     turned by the symmetry (the prior's rotational order about up) that brings it closest to the BIM, so a drum
-    turned about its own axis, or a pallet turned end for end, has not deviated."""
+    turned about its own axis, or a pallet turned end for end, has not deviated. As planned or deviating is the
+    twin's call: ``tolerance`` is the element's preset (default: ``TwinConfig()``'s for its class and family)."""
     reference = target.placement if target else fit.pose
-    shift, yaw, tilt = pose_delta(reference, closest_equivalent(fit.pose, reference, symmetry))
-    return Verdict(verdict(target, fit, shift, yaw, tilt, config), shift, yaw, tilt)
+    deviation = pose_deviation(reference, fit.pose, symmetry)
+    return Verdict(verdict(target, fit, deviation, config, tolerance), deviation.translation, deviation.yaw_deg,
+                   deviation.tilt_deg)
 
 
-def verdict(target: Target | None, fit: RegistrationResult, shift: float, yaw: float, tilt: float,
-            config: MissionConfig) -> ElementStatus:
-    """UNVERIFIED when the fit explains too few points to trust, NEW for an object the BIM lacks, DEVIATING when
-    moved or turned beyond the tolerances (``moved_translation`` m, ``moved_rotation_deg``), else AS_PLANNED."""
+def verdict(target: Target | None, fit: RegistrationResult, deviation: Deviation, config: MissionConfig,
+            tolerance: Tolerance | None = None) -> ElementStatus:
+    """UNVERIFIED when the fit explains too few points to trust, NEW for an object the BIM lacks, else the
+    twin's judgement of ``deviation`` against the element's tolerance preset (AS_PLANNED or DEVIATING)."""
     if fit.fitness < config.min_fitness:
         return ElementStatus.UNVERIFIED
     if target is None:
         return ElementStatus.NEW
-    deviated = (shift > config.moved_translation or abs(yaw) > config.moved_rotation_deg
-                or tilt > config.moved_rotation_deg)
-    return ElementStatus.DEVIATING if deviated else ElementStatus.AS_PLANNED
+    return against_tolerance(deviation, tolerance or tolerance_of(target))
+
+
+def tolerance_of(target: Target, policy: TolerancePolicy | None = None) -> Tolerance:
+    """The target's tolerance preset under ``policy`` (default: ``TwinConfig()``'s), by family, else IFC class."""
+    return (policy or _DEFAULT_POLICY).for_element(target.ifc_class, target.family)
+
+
+_DEFAULT_POLICY = TwinConfig().tolerance_policy()
