@@ -22,6 +22,8 @@ def test_bench_localization_json_scores_every_station_against_dead_reckoning_and
     last = stations[-1]
     assert last["fused"]["position"] < 0.01 < 0.05 < last["dead_reckoning"]["position"]  # building as modelled
     assert all(s["fix"] is not None and s["fix_seconds"] > 0 for s in stations)
+    assert all(len(s["frame_seconds"]) == s["looks"] and s["fix_seconds"] == max(s["frame_seconds"]) for s in stations)
+    assert report["summary"]["bim"]["worst_seconds"] == max(t for s in stations for t in s["frame_seconds"])
     names = [t["name"] for t in report["targets"]]
     assert "fused worst station <= 5 cm" in names and "<= 0.3 s per frame on one core" in names
     assert (tmp_path / "errors.png").stat().st_size > 0

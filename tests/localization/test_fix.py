@@ -146,6 +146,10 @@ def test_a_building_set_out_a_centimetre_off_its_bim_still_gives_a_centimetre_fi
     from bim2rdt.sim.tour import tour_scene
 
     off = tour_scene(site_model, seed=3, tolerance=0.01)
-    fix = localize(frame(off, CORNER_VIEW), site_model, offset(CORNER_VIEW, 0.2, 0.1, -2.0))
+    seen = frame(off, CORNER_VIEW)
+    fix = localize(seen, site_model, offset(CORNER_VIEW, 0.2, 0.1, -2.0))
+    floor = localize(seen, site_model, CORNER_VIEW)  # what these walls allow: the fix from the true pose
     shift, yaw = errors(fix.pose, CORNER_VIEW)
-    assert np.linalg.norm(shift) < 0.05 and abs(yaw) < 0.3  # the walls themselves stand ~1-2 cm off the BIM
+    assert np.linalg.norm(fix.pose[:3, 3] - floor.pose[:3, 3]) < 0.01  # the prior's 22 cm and 2 deg are gone
+    assert np.linalg.norm(shift) < 0.06 and abs(yaw) < 0.3  # the walls themselves stand ~1-2 cm off the BIM:
+    # on this view (seed 3) the fix from the truth is 5.3 cm off too, mostly along x (the column's weak side)

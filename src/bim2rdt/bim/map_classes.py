@@ -24,6 +24,10 @@ MAP_CLASSES: frozenset[str] = frozenset({
 })
 """IFC classes whose elements make the localization map (IFC2X3's *StandardCase classes included)."""
 
+NO_MAP = "no walls, columns, slabs, stairs or doors with a body: the robot has no map to localize on"
+"""Why a model cannot be localized on, in the same words wherever it is said (``info --readiness``, its
+``--require-map`` exit, and ``localize``'s refusal)."""
+
 
 def in_map(element: BimElement) -> bool:
     """Whether the element belongs to the localization map (see :data:`MAP_CLASSES`)."""

@@ -16,7 +16,7 @@ from typing import Protocol
 
 from bim2rdt.bim.integrity import DANGLING
 from bim2rdt.bim.model import BimModel
-from bim2rdt.bim.map_classes import in_map, map_elements
+from bim2rdt.bim.map_classes import NO_MAP, in_map, map_elements
 
 PASS, WARN, UNAVAILABLE = "pass", "warn", "unavailable"
 EXAMPLES = 10
@@ -131,12 +131,10 @@ def _localization_map(model: BimModel) -> ReadinessCheck:
     if model.meshes is None:
         mapped = [el for el in model.elements if in_map(el)]
         if not mapped:
-            return ReadinessCheck(name, WARN, "no walls, columns, slabs, stairs or doors: the robot has no map to "
-                                  "localize on (odometry only)")
+            return ReadinessCheck(name, WARN, f"{NO_MAP} (odometry only)")
         return ReadinessCheck(name, UNAVAILABLE, f"{len(mapped)} permanent elements, bodies not checked "
                               "(--no-geometry)")
     mapped = map_elements(model)
     if not mapped:
-        return ReadinessCheck(name, WARN, "no walls, columns, slabs, stairs or doors with a body: the robot has no "
-                              "map to localize on (odometry only)")
+        return ReadinessCheck(name, WARN, f"{NO_MAP} (odometry only)")
     return ReadinessCheck(name, PASS, f"{len(mapped)} permanent elements with a body")

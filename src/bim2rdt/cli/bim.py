@@ -30,6 +30,9 @@ def info_command(
     geometry: bool = typer.Option(True, "--geometry/--no-geometry", help="Tessellate (cached by file hash) to find "
                                   "elements whose geometry fails and locate identity-placed elements."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON document instead of tables."),
+    require_map: bool = typer.Option(False, "--require-map", help="Exit 1 after the report, with one line, when the "
+                                     "model has no walls, columns, slabs, stairs or doors to localize the robot on "
+                                     "(what `localize` would refuse); without it that is a readiness warning."),
     strict: bool = typer.Option(False, "--strict", help="Also check every attribute value's type against the "
                                 "schema, and exit 1 after the report if the reader had to read past anything "
                                 "(dangling references, malformed entities, geometry that fails)."),
@@ -47,6 +50,8 @@ def info_command(
                         [(c.name, c.status, c.summary, "; ".join(c.examples[:3])) for c in checks])
     if strict:
         _fail_if_doubtful(model)
+    if require_map:
+        _fail_without_map(model)
 
 
 def site_command(
@@ -122,6 +127,16 @@ def _fail_if_doubtful(model) -> None:
     if doubts:
         more = f" (and {len(doubts) - 1} more)" if len(doubts) > 1 else ""
         raise BimError(f"{model.path.name}: --strict: {doubts[0]}{more}")
+
+
+def _fail_without_map(model) -> None:
+    """--require-map: no permanent element to localize on is an error (after the report was printed)."""
+    from bim2rdt.bim import BimError
+    from bim2rdt.bim.map_classes import NO_MAP, in_map, map_elements
+
+    mapped = map_elements(model) if model.meshes is not None else [el for el in model.elements if in_map(el)]
+    if not mapped:
+        raise BimError(f"{model.path.name}: --require-map: {NO_MAP}")
 
 
 def _readiness(model):

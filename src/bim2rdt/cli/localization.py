@@ -69,7 +69,7 @@ def show_record(record: dict) -> None:
                      "-" if not s["check_shots"] else f"{s['check_residual'] * 100:.2f}{' FLAG' if s['check_flagged'] else ''}",
                      *[_cm(s["peers"][name][0]) for name in names]))
     print_table("Camera error (position cm / yaw deg) against distance walked",
-                ["#", "walked m", "dead reckoning", "prior", "BIM fix", "free dirs", "fused", "fix s",
+                ["#", "walked m", "dead reckoning", "prior", "BIM fix", "free dirs", "fused", "frame s (slowest)",
                  "check shot cm", *names], rows)
     summary = record["summary"]
     bim, fused, dead = summary["bim"], summary["fused"], summary["dead_reckoning"]
@@ -79,7 +79,8 @@ def show_record(record: dict) -> None:
                          f"(horizontal {bim['median_horizontal'] * 100:.2f} cm, height {bim['median_abs_height'] * 100:.2f} cm)",
               f"{bim['fixes']} fixes ({bim['degenerate']} degenerate), {bim['refused']} refused; across constrained "
               f"directions median {bim['median_position_constrained'] * 100:.2f} cm, worst "
-              f"{bim['worst_position_constrained'] * 100:.2f} cm; {bim['median_seconds']:.3f} s per frame"),
+              f"{bim['worst_position_constrained'] * 100:.2f} cm; {bim['median_seconds']:.3f} s per frame (worst "
+              f"{bim['worst_seconds']:.3f} s)"),
              ("fused", f"worst {fused['worst_position'] * 100:.2f} cm, median {fused['median_position'] * 100:.2f} cm",
               f"worst yaw {fused['worst_yaw_deg']:.3f} deg; looked around at {fused['looked_around']} stations "
               f"(worst {fused['worst_position_first_look'] * 100:.2f} cm after the first look alone)"),

@@ -17,7 +17,7 @@ import numpy as np
 import trimesh
 
 from bim2rdt.bim import BimModel
-from bim2rdt.bim.map_classes import map_elements
+from bim2rdt.bim.map_classes import NO_MAP, map_elements
 from bim2rdt.localization.errors import LocalizationError
 from bim2rdt.perception.camera import Intrinsics
 
@@ -53,8 +53,8 @@ class PermanentMap:
                                     "(load_ifc(path, geometry=True))")
         elements = map_elements(model)
         if not elements:
-            raise LocalizationError(f"{model.path.name}: no walls, columns, slabs, stairs or doors with a body, so "
-                                    "there is no map to localize on (see bim2rdt info --readiness)")
+            raise LocalizationError(f"{model.path.name}: {NO_MAP} (bim2rdt info --readiness --require-map checks a "
+                                    "model before a tour)")
         parts = [model.mesh(el.global_id) for el in elements]
         vertices = np.concatenate([v for v, _ in parts])
         offsets = np.cumsum([0] + [len(v) for v, _ in parts[:-1]])

@@ -47,7 +47,8 @@ class Station:
     """One station of the tour, scored. ``fix`` (the station's first frame) is None when the frame was refused
     (``reason`` says why) or the fix was gated; ``fix_across`` is its position error across the directions it
     constrains. ``looks`` counts frames (more than one when the robot looked around), ``fused_first_look`` is the
-    estimate after the first frame alone, ``fused`` after all of them."""
+    estimate after the first frame alone, ``fused`` after all of them. ``frame_seconds`` is each look's CPU time
+    (localize and fuse; the robot's turn and capture excluded), ``fix_seconds`` the slowest of them."""
 
     index: int
     walked: float
@@ -65,6 +66,7 @@ class Station:
     peers: dict[str, tuple[PoseError, float]] = field(default_factory=dict)
     looks: int = 1
     fused_first_look: PoseError | None = None
+    frame_seconds: list[float] = field(default_factory=list)
 
 
 @dataclass
@@ -141,10 +143,10 @@ class _Tour:
         frames = [robot.capture()]
         peers = {peer.name: _run_peer(peer, frames[0], self.model, self.whole, prior, first_truth)
                  for peer in self.peers}
-        started = time.process_time()
-        looks = localize_station(self.pose_filter, self.model, frames[0], tilt, self._turner(robot, frames),
+        clock = _FrameClock()
+        looks = localize_station(self.pose_filter, self.model, frames[0], tilt, self._turner(robot, frames, clock),
                                  self.cfg)
-        seconds = (time.process_time() - started) / len(looks)
+        seconds = clock.stop()
         fix = looks[0].fix if looks[0].applied else None
         after_first = from_planar(to_planar(looks[0].prior)[0] + looks[0].correction, tilt)
         truth, believed = robot.T_world_camera, from_planar(self.pose_filter.state, tilt)
@@ -153,23 +155,45 @@ class _Tour:
             index=index, walked=walked, dead_reckoning=pose_error(from_planar(self.dead, tilt), truth),
             prior=pose_error(prior, first_truth), fix=pose_error(fix.pose, first_truth) if fix else None,
             fix_across=_across(fix, first_truth) if fix else None, degenerate=len(fix.degenerate) if fix else 0,
-            reason=looks[0].reason, fix_seconds=seconds, fused=pose_error(believed, truth),
+            reason=looks[0].reason, fix_seconds=max(seconds), frame_seconds=seconds, fused=pose_error(believed, truth),
             check_residual=check.residual, check_flagged=check.flagged,
             check_shots=[(shot.landmark.name, shot.residual, shot.tape) for shot in check.shots], peers=peers,
             looks=len(looks), fused_first_look=pose_error(after_first, first_truth))
 
-    def _turner(self, robot: SimulatedRobot, frames: list):
-        """The robot's turn for a look-around: dead reckoning integrates it too; its frame is kept."""
+    def _turner(self, robot: SimulatedRobot, frames: list, clock: _FrameClock):
+        """The robot's turn for a look-around: dead reckoning integrates it too; its frame is kept; the clock
+        leaves the turn and the capture out of the frames' time."""
         if not self.cfg.look_around_deg:
             return None
 
         def turn(angle: float):
+            clock.lap()
             turned = robot.turn(angle)
             self.dead = compose(self.dead, turned.increment)
             frames.append(turned.frame)
+            clock.start()
             return turned
 
         return turn
+
+
+class _FrameClock:
+    """CPU time of each frame a station localizes: started before the first, lapped when the robot turns for
+    another look (the turn and its capture are the robot's, not the localizer's), started again after it."""
+
+    def __init__(self):
+        self.laps: list[float] = []
+        self.start()
+
+    def start(self) -> None:
+        self.started = time.process_time()
+
+    def lap(self) -> None:
+        self.laps.append(time.process_time() - self.started)
+
+    def stop(self) -> list[float]:
+        self.lap()
+        return self.laps
 
 
 def _run_peer(peer, frame, model, whole, prior, truth) -> tuple[PoseError, float]:

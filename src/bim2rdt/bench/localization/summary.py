@@ -47,8 +47,9 @@ def summarize(run: LocalizationRun) -> dict:
                 "median_yaw_deg": _median([abs(s.fix.yaw_deg) for s in fixes]),
                 "median_position_constrained": _median([s.fix_across for s in fixes]),
                 "worst_position_constrained": max((s.fix_across for s in fixes), default=float("nan")),
-                "median_seconds": _median([s.fix_seconds for s in stations]),
-                "worst_seconds": max(s.fix_seconds for s in stations)},
+                "frames": sum(len(s.frame_seconds) for s in stations),
+                "median_seconds": _median([t for s in stations for t in s.frame_seconds]),
+                "worst_seconds": max(t for s in stations for t in s.frame_seconds)},
         "fused": {"worst_position": max(s.fused.position for s in stations),
                   "worst_position_first_look": max(s.fused_first_look.position for s in stations),
                   "looked_around": sum(1 for s in stations if s.looks > 1),
@@ -83,8 +84,9 @@ def targets(summary: dict) -> list[Target]:
                f"{bim['median_yaw_deg']:.3f} deg"),
         Target("fused worst station <= 5 cm", fused["worst_position"] <= FUSED_WORST_POSITION,
                f"{fused['worst_position'] * 100:.2f} cm {walked}"),
-        Target("<= 0.3 s per frame on one core", bim["median_seconds"] <= SECONDS_PER_FRAME,
-               f"median {bim['median_seconds']:.3f} s, worst {bim['worst_seconds']:.3f} s CPU"),
+        Target("<= 0.3 s per frame on one core", bim["worst_seconds"] <= SECONDS_PER_FRAME,
+               f"every frame: worst {bim['worst_seconds']:.3f} s, median {bim['median_seconds']:.3f} s CPU over "
+               f"{bim['frames']} frames"),
     ]
     for name, peer in summary["peers"].items():
         out.append(Target(f"better than {name}", bim["median_position"] < peer["median_position"],
