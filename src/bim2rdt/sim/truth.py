@@ -55,20 +55,21 @@ class PoseError:
         return "yaw" if self.rotation_deg >= max_rotation_deg else "slide"
 
 
-def pose_error(family: str, T_est: np.ndarray, T_true: np.ndarray) -> PoseError:
-    """Errors of ``T_est`` against ``T_true`` (both T_world_model), modulo the family's symmetry."""
+def pose_error(family: str, T_est: np.ndarray, T_true: np.ndarray, order: int | None = None) -> PoseError:
+    """Errors of ``T_est`` against ``T_true`` (both T_world_model), modulo the family's symmetry (``order``
+    overrides the family's, for shapes outside :data:`SYMMETRY_ORDER`)."""
     tilt = float(np.rad2deg(np.arccos(np.clip(T_est[:3, 2] @ T_true[:3, 2], -1.0, 1.0))))
-    closest = closest_equivalent(family, T_est, T_true)
+    closest = closest_equivalent(family, T_est, T_true, order)
     rotation = float(np.rad2deg(rotation_angle(closest[:3, :3] @ T_true[:3, :3].T)))
     return PoseError(rotation, float(np.linalg.norm(T_est[:3, 3] - T_true[:3, 3])), tilt)
 
 
-def closest_equivalent(family: str, T_est: np.ndarray, T_true: np.ndarray) -> np.ndarray:
+def closest_equivalent(family: str, T_est: np.ndarray, T_true: np.ndarray, order: int | None = None) -> np.ndarray:
     """The pose that shows the same object as ``T_est`` (turned about its body z axis by a symmetry of the
     family) and is closest in rotation to ``T_true``. Metrics on fixed surface samples then measure the surface
     error, not the sampling: a drum turned by 10 degrees about its axis puts every sample somewhere else, on
     the same surface."""
-    order = SYMMETRY_ORDER.get(family, 1)
+    order = SYMMETRY_ORDER.get(family, 1) if order is None else order
     M = T_true[:3, :3].T @ T_est[:3, :3]
     if order == AXIAL:  # argmax over theta of tr(M Rz(theta))
         angles = np.array([np.arctan2(M[0, 1] - M[1, 0], M[0, 0] + M[1, 1])])
