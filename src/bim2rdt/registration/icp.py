@@ -244,10 +244,9 @@ def _release_if_leaning(best: RegistrationResult, problem: Problem, model: match
     _, pairs = score_poses(model, np.stack([best.pose, polished.poses[0]]), problem.scene_pts_world, cfg)
     if lean_evidence(pairs.residual, cfg.score_distance) <= np.log(problem.upright_bias / (1 - problem.upright_bias)):
         return best
-    pose, distance = polished.poses[0], pairs.residual[1]
-    inliers = distance < cfg.score_distance
-    return replace(best, pose=pose.copy(), rmse=float(np.sqrt(np.mean(distance[inliers] ** 2))),
-                   fitness=float(inliers.mean()), released=True,
+    pose = polished.poses[0]
+    rmse, fitness = surface_fit(model, pose, problem.scene_pts_world, cfg.score_distance)
+    return replace(best, pose=pose.copy(), rmse=rmse, fitness=fitness, released=True,
                    tilt_deg=float(np.rad2deg(tilt_angle(pose[:3, :3], problem.up_world))),
                    total_iterations=best.total_iterations + int(polished.iterations[0]))
 
@@ -281,23 +280,66 @@ def lean_evidence(residuals: np.ndarray, truncation: float, freed: int = 2) -> f
 
 def _keep_best(restarts: _Restarts, problem: Problem, model: matching.ModelIndex, cfg: IcpConfig) -> RegistrationResult:
     """Algorithm 1's ScoreAndKeepBest: rescore every surviving restart at its final pose (data score plus the
-    upright penalty when the bias is on), keep the lowest."""
+    upright penalty when the bias is on) and keep the best by :func:`pick_restart`; its fit is reported on
+    the distance to the model surface."""
     alive = np.flatnonzero(~restarts.pruned)
-    scores, pairs = score_poses(model, restarts.poses[alive], problem.scene_pts_world, cfg)
-    scores = scores + upright_penalty(restarts.poses[alive], pairs, problem, cfg)
-    best = int(np.argmin(scores))
-    distance = pairs.residual[best]
-    inliers = distance < cfg.score_distance
-    pose = restarts.poses[alive[best]]
+    poses = restarts.poses[alive]
+    scores, pairs = score_poses(model, poses, problem.scene_pts_world, cfg)
+    penalties = upright_penalty(poses, pairs, problem, cfg)
+    per_point = np.minimum(pairs.residual, cfg.score_distance) ** 2
+    best = pick_restart(per_point, penalties, poses, problem, cfg)
+    pose = poses[best]
+    rmse, fitness = surface_fit(model, pose, problem.scene_pts_world, cfg.score_distance)
     return RegistrationResult(
-        pose=pose.copy(),
-        rmse=float(np.sqrt(np.mean(distance[inliers] ** 2))) if inliers.any() else float("inf"),
-        fitness=float(inliers.mean()),
+        pose=pose.copy(), rmse=rmse, fitness=fitness,
         iterations=int(restarts.iterations[alive[best]]),
-        score=float(scores[best]),
+        score=float(scores[best] + penalties[best]),
         restart=int(alive[best]),
         converged=bool(restarts.done[alive[best]]),
         tilt_deg=float(np.rad2deg(tilt_angle(pose[:3, :3], problem.up_world))),
         total_iterations=int(restarts.iterations.sum()),
-        restart_scores=tuple(float(s) for s in scores),
+        restart_scores=tuple(float(s) for s in scores + penalties),
     )
+
+
+def pick_restart(per_point: np.ndarray, penalties: np.ndarray, poses: np.ndarray, problem: Problem,
+                 cfg: IcpConfig) -> int:
+    """Index of the restart to keep, from each restart's per-point score terms (K, N) (m^2), its upright
+    penalty (K,) and its pose (K, 4, 4).
+
+    The lowest score wins, unless it wins only within the score's own noise. On a sparse, half-occluded view
+    many restarts end in distinct poses that explain the points about equally well (a box slid along its
+    hidden side, turned by 90 degrees); the lowest of many near-ties is then a lottery that favours the
+    extreme ones. That is how the upright prior cost accuracy (issue 13): levelled starts let far more
+    restarts reach such upright near-ties than plain ICP's tilted starts (which mostly die at pruning and
+    leave the one nearest the start), so SG-ICP drew from a larger lottery. Here a restart ties with the
+    lowest when their paired per-point difference is within ``tie_sigmas`` standard errors; among the ties,
+    those whose centroid lies within ``tie_slide`` of the one nearest the initial guess's centroid are
+    eligible, and the lowest score of those is kept: when the view cannot tell, stay where the guess put the
+    object (the BIM or last pose), and let the score decide between poses that are the same up to a
+    symmetry of the shape."""
+    totals = per_point.mean(axis=1) + penalties
+    lowest = int(np.argmin(totals))
+    if cfg.tie_sigmas <= 0.0 or len(totals) == 1:
+        return lowest
+    difference = per_point - per_point[lowest]
+    noise = difference.std(axis=1) / np.sqrt(per_point.shape[1])
+    tied = np.flatnonzero(totals - totals[lowest] <= cfg.tie_sigmas * noise)
+    centroid = problem.model_pts_body.mean(axis=0)
+    start = problem.T_world_model_init[:3, :3] @ centroid + problem.T_world_model_init[:3, 3]
+    moved = np.linalg.norm(np.einsum("kij,j->ki", poses[tied, :3, :3], centroid) + poses[tied, :3, 3] - start,
+                           axis=1)
+    eligible = tied[moved <= moved.min() + cfg.tie_slide]
+    return int(eligible[np.argmin(totals[eligible])])
+
+
+def surface_fit(model: matching.ModelIndex, pose: np.ndarray, scene_pts_world: np.ndarray,
+                inlier_distance: float) -> tuple[float, float]:
+    """(RMSE m, fitness 0-1) of ``pose``: the scene points within ``inlier_distance`` of the model SURFACE
+    (:func:`bim2rdt.registration.matching.surface_distances`) and their root mean square distance (inf when
+    none)."""
+    distance = matching.surface_distances(model, _transform(invert_poses(pose[None]), scene_pts_world)[0],
+                                          inlier_distance)
+    inliers = distance < inlier_distance
+    rmse = float(np.sqrt(np.mean(distance[inliers] ** 2))) if inliers.any() else float("inf")
+    return rmse, float(inliers.mean())
