@@ -69,7 +69,13 @@ def show_run(run, targets: bool = True) -> None:
                          *[f"{getattr(s[p], key) * scale:.6f}" for p in peers]))
         for label, key, fmt in (("success", "success", "{:.0%}"), ("tilt err (deg)", "tilt_deg", "{:.2f}"),
                                 (f"leaning tilt (n={s['ICP'].knocked})", "knocked_tilt_deg", _degrees),
-                                ("fails t/f/y/s", "modes", _modes), ("time (ms)", "time_ms", "{:.1f}")):
+                                ("fails t/f/y/s", "modes", _modes), ("time (ms)", "time_ms", "{:.1f}"),
+                                ("covariance: in 95 % (n)", "calibration", None),
+                                ("well-constrained", "well_constrained", _share)):
+            if fmt is None:
+                rows.append((result.name, label, _calibration(s["ICP"]), _calibration(s["SG-ICP"]), "",
+                             *[_calibration(s[p]) for p in peers]))
+                continue
             fmt = fmt.format if isinstance(fmt, str) else fmt
             rows.append((result.name, label, fmt(getattr(s["ICP"], key)), fmt(getattr(s["SG-ICP"], key)), "",
                          *[fmt(getattr(s[p], key)) for p in peers]))
@@ -97,7 +103,8 @@ def show_families(run) -> None:
                 f"{improvement(s['ICP'].mean, s['SG-ICP'].mean):+.1f} % [{low:+.0f}, {high:+.0f}]",
                 *([f"{1000 * s[peer].mean:.1f}"] if peer else []),
                 f"{s['ICP'].success:.0%} / {s['SG-ICP'].success:.0%}",
-                f"{_modes(s['ICP'].modes)} -> {_modes(s['SG-ICP'].modes)}")
+                f"{_modes(s['ICP'].modes)} -> {_modes(s['SG-ICP'].modes)}",
+                f"{_calibration(s['ICP'])} / {_calibration(s['SG-ICP'])}")
 
     rows = [row(r, r.name) for r in run.families]
     worst = worst_family(run.families)
@@ -105,7 +112,17 @@ def show_families(run) -> None:
     print_table(f"Scene families: mean surface error (mm) over {run.trials} trials x 3 objects "
                 "(cut by SG-ICP [95 % paired bootstrap interval])",
                 ["family", "scene", "ICP", "SG-ICP", "cut", *([peer] if peer else []), "success ICP / SG",
-                 "fails t/f/y/s ICP -> SG"], rows)
+                 "fails t/f/y/s ICP -> SG", "cov. in 95 % (n) ICP / SG"], rows)
+
+
+def _calibration(stats) -> str:
+    """Share of judged estimates inside their 95 % covariance ellipsoid and how many were judged; '-' for a
+    method that reports no covariance (a peer)."""
+    return "-" if stats.calibrated == 0 else f"{stats.calibration:.2f} ({stats.calibrated})"
+
+
+def _share(value: float) -> str:
+    return "-" if value != value else f"{value:.0%}"
 
 
 def _degrees(value: float) -> str:

@@ -102,5 +102,10 @@ class IcpConfig(BaseModel):
                     "guess count as equally near, and the lowest score among them is kept: symmetric copies "
                     "of a cone end within mm of each other, a crate turned by 180 degrees moves its centroid "
                     "1-2 cm, a box slid along its hidden side moves it 5-20 cm.")
+    unobservable_ratio: float = Field(
+        0.01, gt=0.0, lt=1.0,
+        description="A pose direction is reported unobservable when its information (rotations scaled by the "
+                    "view's size, so both are in metres) is below this fraction of the best-constrained "
+                    "direction's (see registration.uncertainty.weak_directions).")
     scene_normal_neighbours: int = Field(16, ge=3, description="Neighbours for the scene points' PCA normals.")
     seed: int = Field(0, description="Seed of the yaw jitter, so runs are reproducible.")

@@ -12,8 +12,10 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from bim2rdt.registration import matching
 from bim2rdt.registration.config import IcpConfig
+from bim2rdt.registration.fit import report_fit
 from bim2rdt.registration.so3 import axis_angle, invert_poses, rotation_angle, tilt_angle
 from bim2rdt.registration.solvers import SOLVERS, gravity_weight
+from bim2rdt.registration.uncertainty import PoseUncertainty
 from bim2rdt.registration.validation import Problem, validate_problem
 
 BODY_UP = np.array([0.0, 0.0, 1.0])
@@ -22,9 +24,10 @@ BODY_UP = np.array([0.0, 0.0, 1.0])
 
 @dataclass(frozen=True)
 class RegistrationResult:
-    """The best restart's pose and its fit. ``rmse`` (m, surface residuals) and ``fitness`` (0-1) are over
-    scene points within ``IcpConfig.score_distance`` of the posed model; ``score`` is the truncated mean
-    squared residual (m^2, plus the upright penalty under a bias) that chose the restart."""
+    """The best restart's pose and its fit. ``rmse`` (m) and ``fitness`` (0-1) are over scene points within
+    ``IcpConfig.score_distance`` of the posed model's SURFACE; ``score`` is the truncated mean squared
+    residual (m^2, plus the upright penalty under a bias) that chose the restart; ``uncertainty`` the pose
+    covariance and what the view leaves unconstrained (see :mod:`bim2rdt.registration.uncertainty`)."""
 
     pose: np.ndarray  # T_world_model (4, 4)
     rmse: float
@@ -37,6 +40,19 @@ class RegistrationResult:
     total_iterations: int
     restart_scores: tuple[float, ...] = field(default=())
     released: bool = False  # the data showed a lean strongly enough to overrule the upright prior
+    uncertainty: PoseUncertainty | None = None
+
+    @property
+    def covariance(self) -> np.ndarray:
+        """(6, 6) pose covariance in :data:`bim2rdt.registration.uncertainty.POSE_PARAMETERS` order: rotation
+        (rad) about world x, y, z through the model's centroid, then the centroid's shift (m) along them."""
+        return self.uncertainty.covariance
+
+    @property
+    def unobservable(self) -> np.ndarray:
+        """(k, 6) unit directions (rotation scaled by ``uncertainty.length``, then translation) that the view
+        leaves unconstrained, weakest first; empty (0, 6) when the view pins every direction down."""
+        return self.uncertainty.unobservable
 
 
 @dataclass
@@ -95,9 +111,18 @@ def register(model_points, model_normals, scene_points, init=np.eye(4), up=(0.0,
         if iteration + 1 == cfg.prune_after:
             restarts.prune(cfg.prune_ratio, cfg.prune_keep)
     best = _keep_best(restarts, problem, model, cfg)
-    if not 0.0 < problem.upright_bias < 1.0 or yaw_only or cfg.release_iterations == 0:
-        return best  # no prior, a certain one (bias 1: never overruled), or roll/pitch held by yaw_only
-    return _release_if_leaning(best, problem, model, normals_world, cfg)
+    if 0.0 < problem.upright_bias < 1.0 and not yaw_only and cfg.release_iterations > 0:
+        best = _release_if_leaning(best, problem, model, normals_world, cfg)
+    return _with_fit(best, problem, model, cfg, yaw_only)  # (no prior, a certain one, or yaw_only: no release)
+
+
+def _with_fit(result: RegistrationResult, problem: Problem, model: matching.ModelIndex, cfg: IcpConfig,
+              yaw_only: bool) -> RegistrationResult:
+    """The result with its fit on the model surface and its pose uncertainty (the prior counts unless the data
+    overruled it; yaw_only holds roll and pitch exactly)."""
+    prior = 0.0 if result.released else problem.upright_bias
+    report = report_fit(result.pose, problem, model, cfg, prior, yaw_only)
+    return replace(result, rmse=report.rmse, fitness=report.fitness, uncertainty=report.uncertainty)
 
 
 def level_towards_up(T: np.ndarray, centroid_body: np.ndarray, up_world: np.ndarray, fraction: float) -> np.ndarray:
@@ -245,8 +270,7 @@ def _release_if_leaning(best: RegistrationResult, problem: Problem, model: match
     if lean_evidence(pairs.residual, cfg.score_distance) <= np.log(problem.upright_bias / (1 - problem.upright_bias)):
         return best
     pose = polished.poses[0]
-    rmse, fitness = surface_fit(model, pose, problem.scene_pts_world, cfg.score_distance)
-    return replace(best, pose=pose.copy(), rmse=rmse, fitness=fitness, released=True,
+    return replace(best, pose=pose.copy(), released=True,
                    tilt_deg=float(np.rad2deg(tilt_angle(pose[:3, :3], problem.up_world))),
                    total_iterations=best.total_iterations + int(polished.iterations[0]))
 
@@ -280,8 +304,7 @@ def lean_evidence(residuals: np.ndarray, truncation: float, freed: int = 2) -> f
 
 def _keep_best(restarts: _Restarts, problem: Problem, model: matching.ModelIndex, cfg: IcpConfig) -> RegistrationResult:
     """Algorithm 1's ScoreAndKeepBest: rescore every surviving restart at its final pose (data score plus the
-    upright penalty when the bias is on) and keep the best by :func:`pick_restart`; its fit is reported on
-    the distance to the model surface."""
+    upright penalty when the bias is on) and keep the best by :func:`pick_restart`."""
     alive = np.flatnonzero(~restarts.pruned)
     poses = restarts.poses[alive]
     scores, pairs = score_poses(model, poses, problem.scene_pts_world, cfg)
@@ -289,9 +312,8 @@ def _keep_best(restarts: _Restarts, problem: Problem, model: matching.ModelIndex
     per_point = np.minimum(pairs.residual, cfg.score_distance) ** 2
     best = pick_restart(per_point, penalties, poses, problem, cfg)
     pose = poses[best]
-    rmse, fitness = surface_fit(model, pose, problem.scene_pts_world, cfg.score_distance)
     return RegistrationResult(
-        pose=pose.copy(), rmse=rmse, fitness=fitness,
+        pose=pose.copy(), rmse=float("nan"), fitness=float("nan"),  # reported on the final pose by _with_fit
         iterations=int(restarts.iterations[alive[best]]),
         score=float(scores[best] + penalties[best]),
         restart=int(alive[best]),
@@ -331,15 +353,3 @@ def pick_restart(per_point: np.ndarray, penalties: np.ndarray, poses: np.ndarray
                            axis=1)
     eligible = tied[moved <= moved.min() + cfg.tie_slide]
     return int(eligible[np.argmin(totals[eligible])])
-
-
-def surface_fit(model: matching.ModelIndex, pose: np.ndarray, scene_pts_world: np.ndarray,
-                inlier_distance: float) -> tuple[float, float]:
-    """(RMSE m, fitness 0-1) of ``pose``: the scene points within ``inlier_distance`` of the model SURFACE
-    (:func:`bim2rdt.registration.matching.surface_distances`) and their root mean square distance (inf when
-    none)."""
-    distance = matching.surface_distances(model, _transform(invert_poses(pose[None]), scene_pts_world)[0],
-                                          inlier_distance)
-    inliers = distance < inlier_distance
-    rmse = float(np.sqrt(np.mean(distance[inliers] ** 2))) if inliers.any() else float("inf")
-    return rmse, float(inliers.mean())

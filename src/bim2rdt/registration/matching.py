@@ -27,9 +27,12 @@ class Pairs:
 
 
 SURFEL_CANDIDATES = 8
-"""Nearest samples tried as the surface patch a scene point lies on (see :func:`surfel_residual`)."""
+"""Nearest samples tried as the surface patch a scene point lies on (see :func:`surfel_distances`)."""
 SURFEL_RADIUS = 3.0
-"""Radius of each sample's surface patch, in median sample spacings (see :func:`surfel_residual`)."""
+"""Radius of each sample's surface patch, in median sample spacings (see :func:`surfel_distances`)."""
+OTHER_FACE_DEG = 60.0
+"""Patches whose normals differ by more belong to different faces of the object (a box's edge, 90 degrees), not to
+one rounded surface (a 2.5 cm tube's neighbouring facets, 30 degrees)."""
 EDGE_ANGLE_DEG = 10.0
 """Samples whose normals differ by more lie on different faces (or around a bend): one cuts the other's patch
 where the surface turns away convexly. 10 degrees: a 32-sided drum's facets (11 degrees) and a 2.5 cm tripod
@@ -77,18 +80,42 @@ def plane_residual(model: ModelIndex, scene_body: np.ndarray, index: np.ndarray,
 
 
 def surface_distances(model: ModelIndex, points: np.ndarray, max_distance: float = np.inf) -> np.ndarray:
-    """Distance (N,) m of body-frame points (N, 3) to the model SURFACE (see :func:`surfel_residual`); inf
-    where the surface is surely farther than ``max_distance`` (no sample within it plus a patch radius)."""
+    """Distance (N,) m of body-frame points (N, 3) to the model SURFACE (see :func:`nearest_patches`); inf
+    where the surface is surely farther than ``max_distance``."""
+    return nearest_patches(model, points, max_distance).distance
+
+
+@dataclass(frozen=True)
+class Patches:
+    """Where points lie on the model surface: the distance (N,) m to the nearest sample patch, that patch's
+    sample (N,), and the distance (N,) m to the nearest patch on another face (normals more than
+    :data:`OTHER_FACE_DEG` apart; inf if none among the candidates). A point about as near to two faces lies on their edge: which face it
+    belongs to, and so which way its residual points, is then not known."""
+
+    distance: np.ndarray
+    sample: np.ndarray
+    other_face: np.ndarray
+
+
+def nearest_patches(model: ModelIndex, points: np.ndarray, max_distance: float = np.inf) -> Patches:
+    """The :class:`Patches` of body-frame points (N, 3) (see :func:`surfel_distances`); distances are inf where
+    no sample lies within ``max_distance`` plus a patch radius (the surface is surely farther)."""
     distance, index = model.tree.query(points, k=SURFEL_CANDIDATES,
                                        distance_upper_bound=max_distance + model.surfel_radius)
-    return surfel_residual(model, points, index, distance)
+    to_patch, candidates = surfel_distances(model, points, index, distance)
+    rows = np.arange(len(points))
+    nearest = np.argmin(to_patch, axis=1)
+    normals = model.normals[candidates]
+    across = np.einsum("nci,ni->nc", normals, normals[rows, nearest]) < np.cos(np.deg2rad(OTHER_FACE_DEG))
+    return Patches(to_patch[rows, nearest], candidates[rows, nearest],
+                   np.where(across, to_patch, np.inf).min(axis=1))
 
 
-def surfel_residual(model: ModelIndex, points: np.ndarray, candidates: np.ndarray, distance: np.ndarray):
-    """Distance (N,) m of points (N, 3) to the model SURFACE, not to its nearest sample: each of the (N, c)
-    ``candidates`` (nearest samples, ``distance`` (N, c) away, inf = none) stands for a disc of
-    ``model.surfel_radius`` on its tangent plane, cut off where the surface turns away convexly, and the
-    residual is the distance to the nearest such patch.
+def surfel_distances(model: ModelIndex, points: np.ndarray, candidates: np.ndarray, distance: np.ndarray):
+    """Distances (N, c) m of points (N, 3) to the surface patches of their (N, c) ``candidates`` (nearest
+    samples, ``distance`` (N, c) away, inf = none), and the candidates with misses clamped to valid indices:
+    each sample stands for a disc of ``model.surfel_radius`` on its tangent plane, cut off where the surface
+    turns away convexly. The nearest patch's distance is the point's distance to the model SURFACE.
 
     Why patches. Model samples are random, so a scene point on the surface is often 1-2 spacings from its
     nearest sample (a gap), and a corner on an edge is often nearest to a sample on the neighbouring face, whose
@@ -115,7 +142,7 @@ def surfel_residual(model: ModelIndex, points: np.ndarray, candidates: np.ndarra
     tangential = np.sqrt(np.maximum(np.einsum("nci,nci->nc", offset, offset) - height**2, 0.0))
     clip = _past_convex_edges(centres, normals, height, inside).max(axis=2)
     excess = np.maximum(np.maximum(tangential - model.surfel_radius, clip), 0.0)
-    return np.where(inside, np.hypot(height, excess), np.inf).min(axis=1)
+    return np.where(inside, np.hypot(height, excess), np.inf), candidates
 
 
 def _past_convex_edges(centres: np.ndarray, normals: np.ndarray, height: np.ndarray, inside: np.ndarray):

@@ -1,7 +1,8 @@
 """Registration methods compared by the benchmark, behind one call signature so the loop has no if-chains.
 
-``method(model_pts, model_normals, scene_pts_world, T_init, bias, yaw_only, support_height) -> T_world_model``
-(``support_height``: the slab the object rests on, m, or None when the scene does not know it). Every method
+``method(model_pts, model_normals, scene_pts_world, T_init, bias, yaw_only, support_height)`` returns T_world_model
+or, for bim2rdt's own loop, the whole RegistrationResult (with its covariance); ``support_height`` is the slab
+the object rests on (m), or None when the scene does not know it. Every method
 gets the same yaw restarts (:func:`bim2rdt.registration.icp.yaw_restarts`), the same iteration cap and pair
 distance, and picks its best restart with the same truncated score.
 """
@@ -13,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from bim2rdt.errors import Bim2RdtError
-from bim2rdt.registration import IcpConfig, register
+from bim2rdt.registration import IcpConfig, RegistrationResult, register
 from bim2rdt.registration.icp import score_poses, yaw_restarts
 from bim2rdt.registration.matching import ModelIndex
 from bim2rdt.registration.so3 import invert_poses
@@ -38,12 +39,12 @@ class SgIcp:
         return "SG-ICP" if self.contact else "SG-ICP upright only"
 
     def __call__(self, model_pts, model_normals, scene_pts, T_init, bias, yaw_only,
-                 support_height: float | None = 0.0) -> np.ndarray:
+                 support_height: float | None = 0.0) -> RegistrationResult:
         if not self.use_prior:
-            return register(model_pts, model_normals, scene_pts, T_init, UP, 0.0, False, self.config).pose
+            return register(model_pts, model_normals, scene_pts, T_init, UP, 0.0, False, self.config)
         start = level(T_init) if yaw_only else T_init
         return register(model_pts, model_normals, scene_pts, start, UP, bias, yaw_only, self.config,
-                        support_height=support_height if self.contact else None).pose
+                        support_height=support_height if self.contact else None)
 
 
 @dataclass(frozen=True)

@@ -11,8 +11,9 @@ from pathlib import Path
 
 from bim2rdt.atomic import write_bytes_atomic
 from bim2rdt.registration import IcpConfig
-from bim2rdt.bench.registration.stats import (COLUMNS, Prior, ScenarioResult, Target, check_family_targets,
-                                              check_targets, cut_interval, improvement, run_scenario, worst_family)
+from bim2rdt.bench.registration.stats import (COLUMNS, Prior, ScenarioResult, Target, check_calibration_target,
+                                              check_family_targets, check_targets, cut_interval, improvement,
+                                              run_scenario, worst_family)
 from bim2rdt.bench.registration.peers import Open3dIcp, SgIcp
 from bim2rdt.bench.registration.plots import plot_before_after
 from bim2rdt.sim.families import FAMILIES, family_scenario
@@ -66,7 +67,8 @@ def run_registration_scenarios(out_dir: Path | None, trials: int, seed: int, con
         if out_dir is not None:
             plots.append(plot_before_after(built, result, Path(out_dir) / f"registration_{name}.png"))
     family_results = [run_family(name, trials, seed, config, peers, tick) for name in families]
-    targets = check_targets(results) + check_family_targets(family_results)
+    targets = (check_targets(results) + check_family_targets(family_results)
+               + check_calibration_target(results + family_results))
     return RegistrationRun(config, trials, seed, priors, results, targets, plots, family_results)
 
 

@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from bim2rdt.bench.registration.calibration import calibration, check_covariance
 from bim2rdt.registration import hausdorff
 from bim2rdt.sim.scenarios import Scenario
 from bim2rdt.sim.truth import FAILURE_MODES, closest_equivalent, pose_error
@@ -39,12 +40,16 @@ class MethodStats:
     modes: dict[str, int] = field(default_factory=dict)
     knocked_tilt_deg: float = float("nan")  # median tilt error over truly tilted objects (nan: none in the run)
     knocked: int = 0
+    calibration: float = float("nan")  # share of judged estimates inside their 95 % covariance ellipsoid
+    calibrated: int = 0  # how many were judged (well-constrained, right basin; see bench.registration.calibration)
+    well_constrained: float = float("nan")  # share of estimates with no unobservable direction
 
 
 @dataclass
 class ScenarioResult:
     """All methods on one scenario: summaries, the raw per-registration rows (rmse, mean, max, success, tilt,
-    seconds, failure mode, knocked) and every estimated pose (for plots): poses[method][trial][object]."""
+    seconds, failure mode, knocked, covariance check or None) and every estimated pose (for plots):
+    poses[method][trial][object]."""
 
     name: str
     description: str
@@ -75,13 +80,16 @@ def _register_one(method: Method, scenario: Scenario, obj, priors: dict[str, Pri
     model_pts, model_normals = scenario.models[obj.family]
     bias, yaw_only = priors[obj.family]
     start = time.perf_counter()
-    pose = method(model_pts, model_normals, obj.scene_pts_world, obj.T_init, bias, yaw_only, obj.support_height)
+    found = method(model_pts, model_normals, obj.scene_pts_world, obj.T_init, bias, yaw_only, obj.support_height)
     elapsed = time.perf_counter() - start
+    pose = getattr(found, "pose", found)
     shown = closest_equivalent(obj.family, pose, obj.T_world_model, obj.symmetry_order)
     stats = hausdorff(_posed(model_pts, shown), _posed(model_pts, obj.T_world_model))
     error = pose_error(obj.family, pose, obj.T_world_model, obj.symmetry_order)
+    check = (check_covariance(found, obj.family, obj.T_world_model, model_pts, obj.symmetry_order)
+             if getattr(found, "uncertainty", None) is not None else None)
     rows.append((stats.rmse, stats.mean, stats.max, error.success(), error.tilt_deg, elapsed,
-                 error.failure_mode(), obj.knocked))
+                 error.failure_mode(), obj.knocked, check))
     return pose
 
 
@@ -93,12 +101,15 @@ def _summarise(rows: list[tuple]) -> MethodStats:
     a = np.array([row[:6] for row in rows], dtype=float)
     modes = [row[6] for row in rows]
     knocked = np.array([row[7] for row in rows], dtype=bool)
+    checks = [row[8] for row in rows if len(row) > 8 and row[8] is not None]
+    inside, judged = calibration(checks)
     return MethodStats(rmse=float(a[:, 0].mean()), mean=float(a[:, 1].mean()), max=float(a[:, 2].mean()),
                        success=float(a[:, 3].mean()), tilt_deg=float(np.median(a[:, 4])),
                        time_ms=float(1000 * np.median(a[:, 5])), registrations=len(a),
                        modes={mode: modes.count(mode) for mode in FAILURE_MODES},
                        knocked_tilt_deg=float(np.median(a[knocked, 4])) if knocked.any() else float("nan"),
-                       knocked=int(knocked.sum()))
+                       knocked=int(knocked.sum()), calibration=inside, calibrated=judged,
+                       well_constrained=float(np.mean([c.well_constrained for c in checks])) if checks else float("nan"))
 
 
 def improvement(before: float, after: float) -> float:
@@ -211,3 +222,25 @@ def check_family_targets(results: Sequence[ScenarioResult]) -> list[Target]:
                bool(traps) and all(c >= TILT_TRAP_CUT for c in trap_cuts.values()),
                ", ".join(f"{name} {cut:.1f} %" for name, cut in trap_cuts.items()) or "no tilt-trap family run"),
     ]
+
+
+CALIBRATION_RANGE = (0.90, 0.98)
+"""The share of judged true errors inside their 95 % covariance ellipsoid that counts as calibrated (issue 13)."""
+
+
+def pooled_calibration(results: Sequence[ScenarioResult], methods: Sequence[str] = ("ICP", "SG-ICP")
+                       ) -> tuple[float, int]:
+    """(share inside the 95 % ellipsoid, count) over every judged estimate of ``methods`` in ``results``."""
+    checks = [row[8] for r in results for m in methods if m in r.rows for row in r.rows[m]
+              if len(row) > 8 and row[8] is not None]
+    return calibration(checks)
+
+
+def check_calibration_target(results: Sequence[ScenarioResult]) -> list[Target]:
+    """The covariance is calibrated when 90-98 % of the judged true errors (well-constrained, right basin;
+    ICP and SG-ICP over every scenario and family run) fall inside their 95 % ellipsoid."""
+    share, judged = pooled_calibration(results)
+    low, high = CALIBRATION_RANGE
+    detail = (f"{share:.3f} of {judged} well-constrained estimates in the right basin inside their 95 % ellipsoid"
+              if judged else "no well-constrained estimate in the right basin to judge")
+    return [Target(f"covariance calibration {low:.2f}-{high:.2f}", judged > 0 and low <= share <= high, detail)]
