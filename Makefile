@@ -18,6 +18,7 @@ demo: $(STAMP)
 	$(VENV)/bin/bim2rdt demo --out out/demo
 
 test: $(STAMP)
+	$(VENV)/bin/lint-imports --no-logo
 	$(PY) -m pytest -q
 
 bench: $(STAMP)

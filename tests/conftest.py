@@ -23,6 +23,22 @@ def samples() -> Path:
     return folder
 
 
+@pytest.fixture(scope="session")
+def site_ifc(tmp_path_factory):
+    """The default construction site as an IFC4 file (read-only for tests: copy it before writing)."""
+    from bim2rdt.sim.site import build_site_ifc
+
+    return build_site_ifc(tmp_path_factory.mktemp("site") / "site.ifc")
+
+
+@pytest.fixture(scope="session")
+def site_model(site_ifc, tmp_path_factory):
+    """The embedded site read once per session (geometry included), with its own cache folder."""
+    from bim2rdt.bim import load_ifc
+
+    return load_ifc(site_ifc, cache_dir=tmp_path_factory.mktemp("site-cache"))
+
+
 @pytest.fixture(autouse=True)
 def _isolated_cache(tmp_path_factory, monkeypatch):
     """Every test gets its own cache folder so caches never leak between tests or into $HOME."""

@@ -1,7 +1,11 @@
 """Typed settings, loaded once at the edge (env prefix ``BIM2RDT_``, nested with ``__``).
 
 Core classes never take a ``Settings``; the CLI and the orchestrator unpack the fields they need into plain
-arguments. Example: ``BIM2RDT_LLM__MODEL=gpt-4o-mini``, ``BIM2RDT_SAMPLES=/data/ifc``.
+arguments. Example: ``BIM2RDT_LLM__MODEL=gpt-4o-mini``, ``BIM2RDT_SAMPLES=/data/ifc``,
+``BIM2RDT_MISSION__MOVED_TRANSLATION=0.1``. ``Settings`` gathers each package's own config section
+(``registration.IcpConfig``, ``mission.MissionConfig``, ``semantics.LlmPriorsConfig``), so this module sits above
+the library in the import layers (.importlinter): library code never imports it. A run writes
+:func:`settings_record` of what it ran with next to its results.
 """
 
 from __future__ import annotations
@@ -9,11 +13,21 @@ from __future__ import annotations
 from functools import lru_cache
 from pathlib import Path
 
-from pydantic import BaseModel, Field, ValidationError
+from pydantic import BaseModel, Field, ValidationError, model_validator
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
 from bim2rdt.errors import Bim2RdtError
+from bim2rdt.mission.config import MissionConfig
 from bim2rdt.registration.config import IcpConfig
+from bim2rdt.safety.config import MonitorConfig
+from bim2rdt.semantics.llm import LlmPriorsConfig
+from bim2rdt.twin.config import TwinConfig
+
+
+def default_samples_dir() -> Path:
+    """Where real IFC samples are when ``samples`` is unset: ``../shared/data/ifc`` beside the checkout this
+    package runs from (this file is ``<checkout>/src/bim2rdt/config.py``)."""
+    return Path(__file__).resolve().parents[2].parent / "shared" / "data" / "ifc"
 
 
 def _default_cache_dir() -> Path:
@@ -26,32 +40,15 @@ class BimSettings(BaseModel):
     tessellation_cache: bool = Field(True, description="Cache tessellated meshes on disk, keyed by file hash.")
 
 
-class LlmSettings(BaseModel):
-    """The OpenAI-compatible endpoint that assigns upright priors (extra `llm`)."""
-
-    base_url: str | None = Field(None, description="OpenAI-compatible endpoint; None means the SDK default.")
-    model: str = Field("gpt-4o-mini", description="Model name; the paper used gpt-4o-mini.")
-    api_key: str | None = Field(None, description="API key; falls back to OPENAI_API_KEY.")
-    timeout_s: float = Field(30.0, gt=0, description="Per-request timeout, seconds.")
-    max_retries: int = Field(3, ge=0, description="Retries with backoff on 429/5xx/timeouts.")
-    backoff_s: float = Field(0.5, ge=0, description="First retry delay, seconds; doubles per retry.")
-    backoff_max_s: float = Field(8.0, ge=0, description="Longest retry delay (also caps a server's Retry-After), s.")
-    batch_size: int = Field(40, ge=1, description="Families per request.")
-    cache: bool = Field(True, description="Cache answers per (model, family) under cache_dir/llm_priors.")
-
-
-class HavSettings(BaseModel):
-    """Hand-arm vibration monitoring."""
+class HavSettings(MonitorConfig):
+    """Hand-arm vibration monitoring: the monitor's configuration (defaults in :class:`MonitorConfig`; ``site``
+    always follows ``mqtt.site``) and the key of the worker pseudonyms."""
 
     site_secret: str = Field("change-me", description="Key for worker pseudonyms (keyed hash).")
-    raw_retention_s: float = Field(7 * 24 * 3600.0, description="How long raw sensor windows are kept, seconds.")
-    start_threshold: float = Field(1.0, description="Block a_hv (m/s^2) at which a tool activity starts (trigger).")
-    stop_threshold: float = Field(0.5, description="Block a_hv (m/s^2) under which an activity is winding down.")
-    stop_hold_s: float = Field(2.0, description="Seconds under stop_threshold that end an activity.")
-    predict_every_s: float = Field(60.0, description="Activity seconds between predictions of the time to EAV.")
-    reorder_s: float = Field(2.0, description="Seconds a batch waits for a missing predecessor before a gap.")
-    max_reorder: int = Field(8, description="Out-of-order batches held before a missing one is declared a gap.")
-    crest_limit: float = Field(25.0, description="Crest factor above which a block is a shock artefact.")
+
+    def monitor_config(self, **overrides) -> MonitorConfig:
+        """The monitor's part with ``overrides``, without the secret (the monitor takes it as its own argument)."""
+        return MonitorConfig(**{**self.model_dump(include=set(MonitorConfig.model_fields)), **overrides})
 
 
 class MqttSettings(BaseModel):
@@ -73,14 +70,44 @@ class Settings(BaseSettings):
 
     model_config = SettingsConfigDict(env_prefix="BIM2RDT_", env_nested_delimiter="__", extra="ignore")
 
-    samples: Path | None = Field(None, description="Folder of real IFC sample files used by tests/benchmarks.")
+    samples: Path | None = Field(None, description="Folder of real IFC sample files used by tests/benchmarks "
+                                                    "(unset: ../shared/data/ifc beside the checkout).")
     cache_dir: Path = Field(default_factory=_default_cache_dir, description="On-disk caches (meshes, LLM answers).")
     data_dir: Path = Field(Path("var"), description="Persistent state (SQLite exposure store, twin history).")
     bim: BimSettings = BimSettings()
-    llm: LlmSettings = LlmSettings()
+    llm: LlmPriorsConfig = LlmPriorsConfig()
     hav: HavSettings = HavSettings()
     mqtt: MqttSettings = MqttSettings()
     registration: IcpConfig = IcpConfig()
+    mission: MissionConfig = MissionConfig()
+    twin: TwinConfig = TwinConfig()
+
+    @model_validator(mode="after")
+    def _one_site(self) -> Settings:
+        """The monitor reads the topics of the bus's site: ``hav.site`` follows ``mqtt.site``."""
+        if "site" not in self.hav.model_fields_set:
+            self.hav = self.hav.model_copy(update={"site": self.mqtt.site})
+        elif self.hav.site != self.mqtt.site:
+            raise ValueError(f"hav.site {self.hav.site!r} differs from mqtt.site {self.mqtt.site!r}: set "
+                             "BIM2RDT_MQTT__SITE only")
+        return self
+
+
+SECRET_WORDS = ("secret", "password", "api_key")
+"""Settings whose name holds one of these are masked in a run's record (a config.json is shared with results)."""
+
+
+def settings_record(settings: Settings) -> dict:
+    """The resolved settings that ran, as JSON-ready data for a run's ``config.json`` or results: every section,
+    secrets masked ("***" where one is set)."""
+    return _masked(settings.model_dump(mode="json"))
+
+
+def _masked(value: object) -> object:
+    if not isinstance(value, dict):
+        return value
+    return {key: "***" if any(word in key for word in SECRET_WORDS) and item is not None else _masked(item)
+            for key, item in value.items()}
 
 
 class ConfigError(Bim2RdtError):

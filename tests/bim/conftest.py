@@ -1,23 +1,11 @@
-"""Fixtures of the BIM tests: the embedded site built once, and each real sample read once per session
-(Office_A alone tessellates for ~7 s), each with its own cache folder."""
+"""Fixtures of the BIM tests: each real sample read once per session (Office_A alone tessellates for ~7 s), with
+its own cache folder. The embedded site (``site_ifc``, ``site_model``) comes from tests/conftest.py."""
 
 from __future__ import annotations
 
 import pytest
 
 from bim2rdt.bim import load_ifc
-from bim2rdt.sim.site import build_site_ifc
-
-
-@pytest.fixture(scope="session")
-def site_ifc(tmp_path_factory):
-    """The default construction site as an IFC4 file (read-only for tests: copy it before writing)."""
-    return build_site_ifc(tmp_path_factory.mktemp("site") / "site.ifc")
-
-
-@pytest.fixture(scope="session")
-def site_model(site_ifc, tmp_path_factory):
-    return load_ifc(site_ifc, cache_dir=tmp_path_factory.mktemp("site-cache"))
 
 
 @pytest.fixture(scope="session")

@@ -5,6 +5,9 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+from pathlib import Path
+
+import pytest
 
 
 def run_cli(*args: str) -> subprocess.CompletedProcess:
@@ -59,3 +62,22 @@ def test_bench_ifc_reports_both_figures_as_json(site_ifc):
     for contender in ("bare_loop", "load", "cached"):
         assert payload[contender]["wall_s"] > 0 and payload[contender]["cpu_s"] > 0
     assert payload["overhead"] == payload["load"]["cpu_s"] / payload["bare_loop"]["cpu_s"] - 1
+
+
+def test_the_default_samples_folder_is_shared_beside_this_checkout():
+    """Not two levels up: with the checkout at /x/main the samples are /x/shared/data/ifc, never /shared."""
+    from bim2rdt.config import default_samples_dir
+
+    checkout = Path(__file__).resolve().parents[2]
+    assert default_samples_dir() == checkout.parent / "shared" / "data" / "ifc"
+
+
+def test_bench_ifc_without_a_file_takes_the_office_model_from_the_default_folder(samples, monkeypatch):
+    from bim2rdt.cli.bim import BENCH_FILE, _default_bench_file
+    from bim2rdt.config import default_samples_dir, get_settings
+
+    if not (default_samples_dir() / BENCH_FILE).is_file():
+        pytest.skip(f"{default_samples_dir()} has no {BENCH_FILE}")
+    monkeypatch.delenv("BIM2RDT_SAMPLES", raising=False)
+    get_settings.cache_clear()
+    assert _default_bench_file() == default_samples_dir() / BENCH_FILE

@@ -39,8 +39,9 @@ def test_a_neglected_model_is_flagged_item_by_item(site_ifc, tmp_path):
     assert checks["families the prior table does not know"].examples == ("Zorblax_Widget_Q7",)
     assert checks["off-limits zones tagged"].status == WARN
     assert checks["geo-reference"].status == WARN
-    assert stray.GlobalId in " ".join(checks["elements without family"].examples)
-    assert odd.GlobalId  # kept for the reader: it has a family, only an unknown one
+    assert checks["elements without family"].examples == (f"IfcBuildingElementProxy {stray.GlobalId}",)
+    assert set(checks["elements without storey"].examples) == {  # both new proxies, the odd one by its name
+        f"IfcBuildingElementProxy {stray.GlobalId}", f"IfcBuildingElementProxy {odd.Name}"}
 
 
 def test_without_a_prior_table_that_check_is_unavailable_not_passed(site_model):

@@ -179,3 +179,24 @@ def test_a_model_read_without_geometry_is_tessellated_only_when_an_element_moves
     assert np.allclose(again.element(part.global_id).placement, shifted, atol=1e-6)
     assert np.allclose(again.mesh(part.global_id)[0].min(axis=0),
                        with_geometry.mesh(part.global_id)[0].min(axis=0) + (1.0, 2.0, 0.0), atol=1e-5)
+
+
+def test_an_added_object_can_keep_the_global_id_it_already_has(writer, tmp_path):
+    drum = mesh_for_family("Steel_Drum_55gal")
+    gid = writer.add_object("Steel_Drum_55gal", drum.vertices, drum.faces, yaw_pose(7.0, 3.0, 0.0, 0.0),
+                            global_id="2Xq$SNz5P0suRzqFdBk9Yp")
+    assert gid == "2Xq$SNz5P0suRzqFdBk9Yp"
+    again = load_ifc(writer.save(tmp_path / "kept.ifc"), cache_dir=tmp_path / "cache")
+    assert again.element(gid).family == "Steel_Drum_55gal"
+    with pytest.raises(BimError, match="already taken"):
+        writer.add_object("Steel_Drum_55gal", drum.vertices, drum.faces, np.eye(4), global_id=gid)
+    with pytest.raises(BimError, match="not an IFC GlobalId"):
+        writer.add_object("Steel_Drum_55gal", drum.vertices, drum.faces, np.eye(4), global_id="drum-1")
+
+
+def test_properties_added_to_an_existing_element_are_read_back_typed(writer, site_model, tmp_path):
+    cone = _cone(site_model)
+    writer.add_properties(cone.global_id, {"Status": "deviating", "TranslationMetres": 0.3, "Station": 2})
+    again = load_ifc(writer.save(tmp_path / "props.ifc"), cache_dir=tmp_path / "cache")
+    assert again.element(cone.global_id).psets["BIM2RDT_Observation"] == {"Status": "deviating",
+                                                                          "TranslationMetres": 0.3, "Station": 2}

@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 
 
-def run_cli(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "bim2rdt", *args], capture_output=True, text=True, timeout=300)
+def run_cli(*args: str, **env: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "bim2rdt", *args], capture_output=True, text=True, timeout=300,
+                          env={**os.environ, **env})
 
 
 def test_bench_registration_json_has_every_scenario_method_and_target(tmp_path):
@@ -32,7 +34,8 @@ def test_bench_registration_json_has_every_scenario_method_and_target(tmp_path):
 
 
 def test_bench_registration_prints_the_table_with_pass_or_fail(tmp_path):
-    result = run_cli("bench", "registration", "--trials", "1", "--no-peers", "--out", str(tmp_path))
+    result = run_cli("bench", "registration", "--trials", "1", "--no-peers", "--out", str(tmp_path),
+                     BIM2RDT_REGISTRATION__RESTARTS="12")
     assert result.returncode == 0, result.stderr
     assert "SG-ICP" in result.stdout and "Targets" in result.stdout
     assert "fails t/f/y/s" in result.stdout and "leaning tilt" in result.stdout
@@ -40,6 +43,9 @@ def test_bench_registration_prints_the_table_with_pass_or_fail(tmp_path):
     assert len(verdicts) == 5  # without peers: the RMSE cut, no worse than ICP, the families' two, calibration
     assert "covariance: in 95 %" in result.stdout
     assert "worst family" in result.stdout and "Scene families" in result.stdout
+    results = json.loads((tmp_path / "results.json").read_text())
+    assert results["config"]["restarts"] == 12  # what the methods ran with ...
+    assert results["settings"]["registration"]["restarts"] == 12  # ... is what the record shows
 
 
 def test_bench_registration_can_leave_the_families_out(tmp_path):

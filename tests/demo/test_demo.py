@@ -4,6 +4,7 @@ verdicts match the simulated truth, the twin IFC carries the moves, the new obje
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 
@@ -11,6 +12,8 @@ import numpy as np
 import pytest
 
 from bim2rdt.bim import load_ifc
+from bim2rdt.config import Settings, settings_record
+from bim2rdt.twin import ElementStatus
 
 
 @pytest.fixture(scope="module")
@@ -30,17 +33,35 @@ def test_demo_writes_the_twin_report_plots_and_resolved_config(demo_out):
     assert len(list((out / "registration").glob("*.png"))) == 4
     config = json.loads((out / "config.json").read_text())
     assert config["seed"] == 0 and config["workers"] == 1 and "numpy" in config["versions"]
+    recorded, defaults = config["settings"], settings_record(Settings())
+    assert set(recorded) == set(defaults)  # every section, as the run read it (defaults here)
+    assert recorded["mission"] == defaults["mission"] and recorded["registration"] == defaults["registration"]
+    assert config["settings"]["hav"]["site_secret"] == "***"  # and no secret in a file that travels with results
     assert "Robot mission" in stdout and "Hand-arm vibration events" in stdout
 
 
+def test_a_setting_changed_through_the_environment_is_what_runs_and_what_config_json_shows(tmp_path):
+    """BIM2RDT_MISSION__MIN_FITNESS=0.99: no fit explains 99 % of its points, so every verdict is unverified."""
+    env = {**os.environ, "BIM2RDT_MISSION__MIN_FITNESS": "0.99"}
+    result = subprocess.run([sys.executable, "-m", "bim2rdt", "demo", "--out", str(tmp_path), "--trials", "1",
+                             "--workers", "1", "--minutes", "1"], capture_output=True, text=True, timeout=600, env=env)
+    assert result.returncode == 0, result.stderr
+    assert json.loads((tmp_path / "config.json").read_text())["settings"]["mission"]["min_fitness"] == 0.99
+    rows = json.loads((tmp_path / "site_day.json").read_text())["observations"]
+    assert len(rows) == 11 and {r["status"] for r in rows} == {ElementStatus.UNVERIFIED}
+
+
 def test_the_robot_finds_the_unplanned_drum_and_flags_what_moved(demo_out):
-    rows = json.loads((demo_out[0] / "site_day.json").read_text())["observations"]
-    new = [r for r in rows if r["status"] == "new"]
+    record = json.loads((demo_out[0] / "site_day.json").read_text())
+    rows = record["observations"]
+    assert len(rows) == 11 and record["not_seen"] == []  # 10 BIM objects and the unplanned drum, each once
+    assert all(r["truth"] is not None for r in rows)  # and each matches a true object: no phantom, no duplicate
+    new = [r for r in rows if r["status"] == ElementStatus.NEW]
     assert len(new) == 1 and new[0]["truth"] == "unplanned" and new[0]["error_translation_m"] < 0.03
     moved_truth = [r for r in rows if r["truth"] in ("moved", "knocked")]
-    assert moved_truth and all(r["status"] == "moved" for r in moved_truth)
+    assert moved_truth and all(r["status"] == ElementStatus.DEVIATING for r in moved_truth)
     unchanged = [r for r in rows if r["truth"] == "unchanged"]
-    assert sum(r["status"] == "as-planned" for r in unchanged) >= 0.8 * len(unchanged)
+    assert unchanged and all(r["status"] == ElementStatus.AS_PLANNED for r in unchanged)
 
 
 def test_the_knocked_cone_keeps_its_tilt_under_its_low_upright_bias(demo_out):
@@ -58,14 +79,14 @@ def test_the_twin_ifc_holds_measured_placements_the_new_proxy_and_safety_records
     record = json.loads((out / "site_day.json").read_text())
     twin = load_ifc(out / "site_twin.ifc", geometry=False)
     designed = load_ifc(out / "site.ifc", geometry=False)
-    moved = [r for r in record["observations"] if r["status"] == "moved"]
+    moved = [r for r in record["observations"] if r["status"] == ElementStatus.DEVIATING]
     for row in moved:
         before, after = designed.element(row["global_id"]).placement, twin.element(row["global_id"]).placement
         assert np.linalg.norm(after[:2, 3] - before[:2, 3]) == pytest.approx(row["shift_m"], abs=1e-3)
     proxies = lambda m: [e for e in m.elements if e.ifc_class == "IfcBuildingElementProxy"]  # noqa: E731
     assert len(proxies(twin)) == len(proxies(designed)) + 1
     added = next(e for e in proxies(twin) if e.global_id not in {p.global_id for p in proxies(designed)})
-    assert added.family == "Steel_Drum_55gal" and added.psets["BIM2RDT_Observation"]["Status"] == "new"
+    assert added.family == "Steel_Drum_55gal" and added.psets["BIM2RDT_Observation"]["Status"] == ElementStatus.NEW
     kinds = [c for c, _ in record["twin_records"]]
     assert len(twin.events) == kinds.count("IfcEvent") > 0 and len(twin.tasks) == kinds.count("IfcTask") > 0
     event_kinds = [e["kind"] for e in record["hav_events"]]
@@ -81,3 +102,33 @@ def test_reaching_the_eav_puts_an_intervention_task_after_its_event_on_the_work_
     eav_event = next(e for e in twin.events if e.global_id in task.after)
     assert "EAV" in eav_event.name and task.psets["BIM2RDT_Task"]["DailyExposureA8"] == pytest.approx(2.5, abs=0.05)
     assert work_zone.global_id in task.related
+
+
+def test_the_day_is_recorded_in_the_twin_and_exported_as_ifc_bcf_json_and_html(demo_out):
+    """Every observation is in the twin's history with the mission's verdict, the monitor's events are in it
+    too, the BCF has one topic per deviating or new object, and report.html is self-contained."""
+    from bcf.v2.bcfxml import BcfXml
+
+    from bim2rdt.twin import DigitalTwin
+
+    out = demo_out[0]
+    rows = json.loads((out / "site_day.json").read_text())["observations"]
+    designed = load_ifc(out / "site.ifc", geometry=False)
+    with DigitalTwin.open(f"sqlite:///{out / 'twin.db'}", designed) as twin:
+        states = twin.state()
+        events = twin.events()
+    for row in rows:
+        if row["global_id"] is not None:
+            assert states[row["global_id"]].status.value == row["status"]
+    assert sum(s.status.value == "new" for s in states.values()) == sum(r["status"] == "new" for r in rows)
+    assert sum(e.kind == "observation" for e in events) == len(rows)
+    assert any(e.kind == "safety" and e.data["kind"] == "hav.eav_reached" for e in events)
+    issues = sum(s.status.value in ("deviating", "missing", "new") for s in states.values())
+    bcf = BcfXml.load(out / "site_issues.bcf")
+    assert len(bcf.topics) == issues > 0
+    assert all(next(iter(t.viewpoints.values())).snapshot.startswith(b"\x89PNG") for t in bcf.topics.values())
+    bcf.close()
+    page = (out / "report.html").read_text()
+    assert page.count("data:image/png;base64,") >= 6 and 'src="http' not in page
+    for name in ("site_twin.ifc", "site_issues.bcf", "twin.json"):
+        assert f'href="{name}"' in page

@@ -1,15 +1,20 @@
-"""The mission's pure parts: station planning, pose deltas, association of detections to BIM elements."""
+"""The mission's pure parts: station planning, pose deltas, association of detections to BIM elements, verdicts."""
 
 from __future__ import annotations
+
+import math
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
 from bim2rdt.mission import MissionConfig, Target, plan_stations, pose_delta
 from bim2rdt.mission.association import associate
+from bim2rdt.mission.verdict import judge
 from bim2rdt.perception.detection import Detection
 from bim2rdt.registration.so3 import axis_angle
 from bim2rdt.sim.meshes import mesh_for_family
+from bim2rdt.twin import ElementStatus
 
 
 def pose(x, y, yaw_deg=0.0, tilt_deg=0.0):
@@ -60,3 +65,32 @@ def test_a_detection_far_from_every_element_of_its_family_is_a_new_object():
     found = associate(Detection("Traffic_Cone_Orange_70cm", close, 0), cones, claimed, MissionConfig())
     assert found.global_id == "near" and claimed == {"near"}
     assert associate(Detection("Traffic_Cone_Orange_70cm", close, 0), cones, claimed, MissionConfig()) is None
+
+
+def _fit(T, fitness=0.9):
+    return SimpleNamespace(pose=T, fitness=fitness)
+
+
+def test_a_fit_turned_by_the_familys_symmetry_has_not_deviated():
+    """A pallet (order 2) found end for end, a drum (inf) turned 70 degrees about its axis: as planned. With no
+    symmetry (order 1) the same fits are turned by 180 and 70 degrees: deviating."""
+    pallet, drum = target("p", "Pallet_Wood_EUR", 1.0, 2.0, yaw=10.0), target("d", "Steel_Drum_55gal", 4.0, 0.0)
+    turned_pallet, turned_drum = _fit(pose(1.0, 2.0, yaw_deg=190.0)), _fit(pose(4.0, 0.0, yaw_deg=70.0))
+    assert judge(pallet, turned_pallet, 2, MissionConfig()).status is ElementStatus.AS_PLANNED
+    assert judge(drum, turned_drum, math.inf, MissionConfig()).yaw_deg == pytest.approx(0.0, abs=1e-6)
+    assert judge(drum, turned_drum, math.inf, MissionConfig()).status is ElementStatus.AS_PLANNED
+    assert judge(pallet, turned_pallet, 1, MissionConfig()).status is ElementStatus.DEVIATING
+    assert abs(judge(pallet, turned_pallet, 1, MissionConfig()).yaw_deg) == pytest.approx(180.0)
+    assert judge(drum, turned_drum, 1, MissionConfig()).yaw_deg == pytest.approx(70.0)
+
+
+@pytest.mark.parametrize("fit, bim, status", [
+    (_fit(pose(0.0, 0.0, tilt_deg=7.0)), True, ElementStatus.DEVIATING),
+    (_fit(pose(0.06, 0.0)), True, ElementStatus.DEVIATING),
+    (_fit(pose(0.02, 0.0, yaw_deg=3.0)), True, ElementStatus.AS_PLANNED),
+    (_fit(pose(0.0, 0.0), fitness=0.3), True, ElementStatus.UNVERIFIED),
+    (_fit(pose(5.0, 5.0, yaw_deg=40.0)), False, ElementStatus.NEW),
+])
+def test_the_verdict_is_an_element_status(fit, bim, status):
+    crate = target("c", "Wooden_Crate_1200x800x600", 0.0, 0.0) if bim else None
+    assert judge(crate, fit, 2, MissionConfig()).status is status

@@ -10,12 +10,12 @@ import subprocess
 import sys
 import threading
 
-import numpy as np
 import pytest
 
 from bim2rdt.bim import load_ifc
 from bim2rdt.bus.broker import free_port
 from bim2rdt.safety import daily_exposure
+from bim2rdt.safety.recording import write_accel_csv
 from bim2rdt.sim.site import build_site_ifc
 from bim2rdt.sim.vibration import session_signal
 
@@ -34,9 +34,7 @@ def cli_env(tmp_path):
 def test_analyze_reports_the_exposure_of_a_recording_and_plots_the_day(tmp_path):
     fs = 2000.0
     signal = session_signal([("idle", 3), ("grinder", 40), ("idle", 5)], fs, a_hv={"grinder": 6.0})
-    path = tmp_path / "day.csv"
-    np.savetxt(path, np.column_stack([np.arange(len(signal)) / fs, signal]), delimiter=",", header="t,ax,ay,az",
-               comments="", fmt="%.6f")
+    path = write_accel_csv(tmp_path / "day.csv", signal, fs)
     result = run_cli("hav", "analyze", str(path), "--out", str(tmp_path / "out"), "--json")
     assert result.returncode == 0, result.stderr
     report = json.loads(result.stdout)
@@ -85,12 +83,17 @@ def test_simulated_wearables_in_process_write_the_twin(tmp_path, cli_env):
 
 
 def test_bench_hav_reports_throughput_against_the_floor_and_latency(cli_env):
-    result = run_cli("bench", "hav", "--streams", "40", "--seconds", "2", "--messages", "30", "--json", env=cli_env)
+    result = run_cli("bench", "hav", "--streams", "40", "--seconds", "2", "--messages", "30", "--store-minutes", "2",
+                     "--json", env=cli_env)
     assert result.returncode == 0, result.stderr
     report = json.loads(result.stdout)
     assert report["throughput"]["streams"] == 40 and report["throughput"]["ratio_to_floor"] > 0
     assert report["latency"]["messages"] == 30 and report["latency"]["p99_ms"] >= report["latency"]["p50_ms"] > 0
-    assert set(report["targets"]) == {"streams_ge_2000", "within_1_5x_floor"}
+    store = report["store"]["modes"]
+    assert store["per_message"]["batches_per_commit"] == pytest.approx(1.0, abs=0.05)  # status messages commit too
+    assert store["group_commit"]["batches_per_commit"] > 10 and store["group_commit"]["commits_per_s"] > 0
+    assert all(mode["reads_per_batch_last_quarter"] <= 2.0 for mode in store.values())
+    assert set(report["targets"]) == {"streams_ge_2000", "within_1_5x_floor", "store_reads_per_batch_le_2"}
 
 
 def test_a_live_run_through_mosquitto_with_the_shipped_config(tmp_path, cli_env):
@@ -150,3 +153,15 @@ def follow(process: subprocess.Popen, text: str, timeout: float) -> tuple[list[s
     if not seen.wait(timeout):
         pytest.fail(f"{process.args[3:5]} printed no {text!r} within {timeout} s: {''.join(lines)[-300:]!r}")
     return lines, reader
+
+
+def test_analyze_uses_the_live_monitors_settings_from_the_environment(tmp_path):
+    fs = 2000.0
+    signal = session_signal([("idle", 3), ("grinder", 20), ("idle", 5)], fs, a_hv={"grinder": 6.0})
+    path = write_accel_csv(tmp_path / "day.csv", signal, fs)
+    default = run_cli("hav", "analyze", str(path), "--out", str(tmp_path), "--json")
+    raised = run_cli("hav", "analyze", str(path), "--out", str(tmp_path), "--json",
+                     env={"BIM2RDT_HAV__START_THRESHOLD": "8", "BIM2RDT_HAV__STOP_THRESHOLD": "4"})
+    assert default.returncode == raised.returncode == 0, default.stderr + raised.stderr
+    assert len(json.loads(default.stdout)["activities"]) == 1
+    assert json.loads(raised.stdout)["activities"] == []  # a 6 m/s^2 grinder is under an 8 m/s^2 trigger

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from bim2rdt.bus import AccelBatch, encode_accel
-from bim2rdt.safety import HavError, Trigger, combine_exposures, time_to_limit
+from bim2rdt.safety import HavError, combine_exposures, time_to_limit
 from bim2rdt.safety.activity import E_EAV, E_ELV
 
 from hav_helpers import DAY, T0, feed, main_kinds, plan_batches
@@ -51,7 +51,7 @@ def test_a_day_with_three_tools_emits_start_eav_elv_and_end_events_in_order(make
 
 
 def test_the_first_prediction_matches_time_to_limit_at_the_tool_a_hv(make_monitor, clock):
-    monitor, sink = make_monitor(trigger=Trigger(predict_every_s=10.0))
+    monitor, sink = make_monitor(predict_every_s=10.0)
     monitor.start_session("dev-1", "bob", "hammer_drill")
     feed(monitor, plan_batches("dev-1", SHORT_PLAN, a_hv={"hammer_drill": 10.0}), clock)
     predictions = [e for e in sink.events if e.kind == "hav.eav_predicted"]

@@ -48,7 +48,7 @@ class FakeLlmServer:
 
     def __init__(self) -> None:
         self.script: deque[Callable[[dict], Reply]] = deque()
-        self.answers: dict[str, tuple[str, float, bool]] = {}
+        self.answers: dict[str, tuple] = {}  # family -> (label, bias, yaw_only[, symmetry])
         self.requests: list[dict] = []
         self._lock = threading.Lock()
         self._http = ThreadingHTTPServer(("127.0.0.1", 0), self._handler())
@@ -63,9 +63,9 @@ class FakeLlmServer:
     def valid(self, request: dict) -> Reply:
         items = []
         for family in asked_families(request):
-            label, bias, yaw_only = self.answers.get(family, ("thing", 0.5, False))
+            label, bias, yaw_only, symmetry = (*self.answers.get(family, ("thing", 0.5, False)), 1)[:4]
             items.append({"family": family, "label": label, "upright_bias": bias, "yaw_only": yaw_only,
-                          "rationale": f"test server on {family}"})
+                          "symmetry": symmetry, "rationale": f"test server on {family}"})
         return Reply(body=completion(json.dumps({"priors": items})))
 
     def _reply_to(self, request: dict) -> Reply:

@@ -24,9 +24,10 @@ def test_families_option_prints_a_table_with_label_bias_and_source():
 
 
 def test_json_output_lists_every_family_with_its_prior():
-    result = run_cli("--families", "Steel_I-Beam_W12x26_A992, Ladder", "--json")
+    result = run_cli("--families", "Steel_I-Beam_W12x26_A992, Ladder, Steel_Drum_55gal", "--json")
     assert result.returncode == 0, result.stderr
-    rows = {row["family"]: row for row in json.loads(result.stdout)}
+    rows = {row["family"]: row for row in json.loads(result.stdout)}  # strict JSON: no Infinity
+    assert rows["Steel_I-Beam_W12x26_A992"]["symmetry"] == 2 and rows["Steel_Drum_55gal"]["symmetry"] == "inf"
     assert rows["Steel_I-Beam_W12x26_A992"]["label"] == "steel I-beam"
     assert rows["Steel_I-Beam_W12x26_A992"]["yaw_only"] is True
     assert rows["Ladder"]["upright_bias"] == pytest.approx(0.2)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 from collections import Counter, defaultdict
 
 import pytest
@@ -127,7 +128,8 @@ def test_a_custom_default_bias_is_used_for_unknown_families():
 def test_a_broken_table_file_raises_a_one_line_typed_error(tmp_path):
     path = tmp_path / "kb.json"
     path.write_text(json.dumps({"version": 1, "classes": [{"label": "cone", "category": "temporary works",
-                                                           "bias": 1.5, "yaw_only": False, "why": "x"}]}))
+                                                           "bias": 1.5, "yaw_only": False, "symmetry": 4,
+                                                           "why": "x"}]}))
     with pytest.raises(SemanticsError, match="unusable") as caught:
         load_table(path)
     assert "\n" not in str(caught.value)
@@ -136,13 +138,35 @@ def test_a_broken_table_file_raises_a_one_line_typed_error(tmp_path):
 def test_a_user_table_replaces_the_curated_one(tmp_path):
     path = tmp_path / "kb.json"
     path.write_text(json.dumps({"version": 1, "default_bias": 0.3, "classes": [
-        {"label": "widget", "category": "equipment", "bias": 0.7, "yaw_only": False, "synonyms": ["gizmo"],
-         "why": "test"}]}))
+        {"label": "widget", "category": "equipment", "bias": 0.7, "yaw_only": False, "symmetry": "inf",
+         "synonyms": ["gizmo"], "why": "test"}]}))
     kb = KnowledgeBasePriors(load_table(path))
-    assert kb.prior("Gizmo_12").upright_bias == 0.7
+    assert kb.prior("Gizmo_12").upright_bias == 0.7 and kb.prior("Gizmo_12").symmetry == math.inf
     assert kb.prior("Traffic cone").upright_bias == 0.3
 
 
 def test_building_services_entities_of_ifc2x3_are_fixed_permanent_elements(kb):
     prior = kb.prior("8370-001300", ifc_class="IfcFlowTerminal")
     assert prior.known and prior.yaw_only and prior.upright_bias == 1.0
+
+
+@pytest.mark.parametrize("family, order", [
+    ("Steel_Drum_55gal", math.inf), ("Gas cylinder 50 l", math.inf), ("Bucket", math.inf),
+    ("Wooden_Crate_1200x800x600", 2), ("Pallet_Wood_EUR", 2), ("Steel_I-Beam_W12x26_A992", 2),
+    ("Survey_Tripod_Aluminium", 3), ("Traffic_Cone_Orange_70cm", 4), ("Wheelbarrow", 1), ("Zorblax_Q7", 1),
+])
+def test_each_family_gets_its_rotational_symmetry_about_up(kb, family, order):
+    assert kb.prior(family).symmetry == order
+
+
+def test_every_class_of_the_table_states_a_whole_order_or_inf(kb):
+    for entry in kb.classes:
+        assert math.isinf(entry.symmetry) or (entry.symmetry >= 1 and entry.symmetry == int(entry.symmetry))
+
+
+def test_a_table_class_without_a_symmetry_is_refused(tmp_path):
+    path = tmp_path / "kb.json"
+    path.write_text(json.dumps({"version": 2, "classes": [{"label": "cone", "category": "temporary works",
+                                                           "bias": 0.5, "yaw_only": False, "why": "x"}]}))
+    with pytest.raises(SemanticsError, match="symmetry"):
+        load_table(path)

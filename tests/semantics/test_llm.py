@@ -4,11 +4,12 @@ partial, slow, rate-limited, failing and refusing responses."""
 from __future__ import annotations
 
 import json
+import math
 
 import pytest
 from fake_llm_server import Reply, asked_families, completion, error
 
-from bim2rdt.semantics import KnowledgeBasePriors, LlmPriors
+from bim2rdt.semantics import KnowledgeBasePriors, LlmPriors, LlmPriorsConfig
 from bim2rdt.semantics.llm_answer import PAPER_INSTRUCTION
 
 KB = KnowledgeBasePriors()
@@ -17,8 +18,14 @@ CONE, CRATE, TRIPOD = "Traffic_Cone_Orange_70cm", "Wooden_Crate_1200x800x600", "
 
 def make_priors(server, tmp_path=None, **options) -> LlmPriors:
     settings = {"model": "test-model", "base_url": server.url, "api_key": "sk-test", "timeout_s": 2.0,
-                "max_retries": 2, "backoff_s": 0.01, "backoff_max_s": 0.05, "cache_dir": tmp_path}
-    return LlmPriors(**{**settings, **options})
+                "max_retries": 2, "backoff_s": 0.01, "backoff_max_s": 0.05}
+    return LlmPriorsConfig(**{**settings, **options}).setup(cache_dir=tmp_path)
+
+
+def _item(family: str, label: str, bias, symmetry=1) -> dict:
+    """One answer item as the schema wants it."""
+    return {"family": family, "label": label, "upright_bias": bias, "yaw_only": False, "symmetry": symmetry,
+            "rationale": "r"}
 
 
 def test_a_valid_answer_gives_the_models_labels_and_biases(llm_server):
@@ -41,7 +48,7 @@ def test_the_request_carries_the_papers_instruction_the_families_and_a_strict_sc
     schema_format = request["response_format"]
     assert schema_format["type"] == "json_schema" and schema_format["json_schema"]["strict"] is True
     item = schema_format["json_schema"]["schema"]["properties"]["priors"]["items"]
-    assert set(item["required"]) == {"family", "label", "upright_bias", "yaw_only", "rationale"}
+    assert set(item["required"]) == {"family", "label", "upright_bias", "yaw_only", "symmetry", "rationale"}
 
 
 def test_malformed_json_falls_back_to_the_knowledge_base_for_every_family(llm_server):
@@ -54,11 +61,8 @@ def test_malformed_json_falls_back_to_the_knowledge_base_for_every_family(llm_se
 
 
 def test_a_partial_answer_keeps_good_items_clamps_small_overshoots_and_falls_back_for_the_rest(llm_server):
-    items = [{"family": CONE, "label": "traffic cone", "upright_bias": 0.4, "yaw_only": False, "rationale": "r"},
-             {"family": CRATE, "label": "crate", "upright_bias": 7.0, "yaw_only": False, "rationale": "r"},
-             {"family": "Ladder", "label": "ladder", "upright_bias": 1.03, "yaw_only": False, "rationale": "r"},
-             {"family": "Zzyzx", "label": "zzyzx", "upright_bias": "high", "yaw_only": False, "rationale": "r"},
-             {"family": "Not asked", "label": "x", "upright_bias": 0.5, "yaw_only": False, "rationale": "r"}]
+    items = [_item(CONE, "traffic cone", 0.4), _item(CRATE, "crate", 7.0), _item("Ladder", "ladder", 1.03),
+             _item("Zzyzx", "zzyzx", "high"), _item("Not asked", "x", 0.5)]
     llm_server.then(Reply(body=completion(json.dumps({"priors": items}))))
     priors = make_priors(llm_server).priors([CONE, CRATE, "Ladder", "Zzyzx", TRIPOD])
     assert priors[CONE].source == "llm" and priors[CONE].upright_bias == 0.4
@@ -69,6 +73,25 @@ def test_a_partial_answer_keeps_good_items_clamps_small_overshoots_and_falls_bac
     assert priors["Zzyzx"].source == "default (llm fallback)" and "invalid item" in priors["Zzyzx"].rationale
     assert "missing from the answer" in priors[TRIPOD].rationale
     assert "Not asked" not in priors
+
+
+def test_the_answers_symmetry_is_the_priors_and_zero_means_any_turn(llm_server):
+    llm_server.answers = {"Steel_Drum": ("steel drum", 0.8, False, 0), CRATE: ("crate", 0.9, False, 2),
+                          TRIPOD: ("tripod", 0.3, False, 3)}
+    priors = make_priors(llm_server).priors(["Steel_Drum", CRATE, TRIPOD])
+    assert priors["Steel_Drum"].symmetry == math.inf
+    assert (priors[CRATE].symmetry, priors[TRIPOD].symmetry) == (2, 3)
+
+
+def test_a_negative_or_fractional_symmetry_falls_back_for_that_family(llm_server):
+    items = [_item(CONE, "cone", 0.4, symmetry=-2), _item(CRATE, "crate", 0.9, symmetry=2.5),
+             _item(TRIPOD, "tripod", 0.3, symmetry=3)]
+    llm_server.then(Reply(body=completion(json.dumps({"priors": items}))))
+    priors = make_priors(llm_server).priors([CONE, CRATE, TRIPOD])
+    assert priors[CONE].source == "knowledge-base (llm fallback)" and "symmetry -2" in priors[CONE].rationale
+    assert priors[CONE].symmetry == KB.prior(CONE).symmetry
+    assert priors[CRATE].source == "knowledge-base (llm fallback)" and "invalid item" in priors[CRATE].rationale
+    assert priors[TRIPOD].source == "llm" and priors[TRIPOD].symmetry == 3
 
 
 def test_a_rate_limit_is_retried_and_then_answered(llm_server):
@@ -145,8 +168,9 @@ def test_the_cache_is_per_model(llm_server, tmp_path):
 
 
 def test_an_unreachable_endpoint_falls_back_without_raising():
-    priors = LlmPriors(base_url="http://127.0.0.1:9/v1", api_key="k", timeout_s=0.5, max_retries=1,
-                       backoff_s=0.01).priors([CONE])
+    config = LlmPriorsConfig(base_url="http://127.0.0.1:9/v1", api_key="k", timeout_s=0.5, max_retries=1,
+                             backoff_s=0.01)
+    priors = LlmPriors(config).priors([CONE])
     assert priors[CONE].source == "knowledge-base (llm fallback)"
     assert "connection failed" in priors[CONE].rationale
 
@@ -156,4 +180,4 @@ def test_the_real_openai_endpoint_without_a_key_is_a_typed_error(monkeypatch):
 
     monkeypatch.delenv("OPENAI_API_KEY", raising=False)
     with pytest.raises(SemanticsError, match="no API key"):
-        LlmPriors(base_url=None).priors([CONE])
+        LlmPriors(LlmPriorsConfig(base_url=None)).priors([CONE])

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import json
+import math
+
 import pytest
 
 from bim2rdt.errors import Bim2RdtError
@@ -16,7 +19,20 @@ def test_a_bias_outside_zero_one_is_refused_with_a_typed_error():
 def test_a_prior_serialises_with_its_known_flag():
     prior = UprightPrior("cone", 0.4, False, "default", "no class")
     assert prior.to_dict() == {"label": "cone", "upright_bias": 0.4, "yaw_only": False, "source": "default",
-                               "rationale": "no class", "known": False}
+                               "rationale": "no class", "symmetry": 1, "known": False}
+
+
+def test_an_axial_symmetry_serialises_as_inf_and_reads_back():
+    prior = UprightPrior("drum", 0.8, False, "llm", "round", math.inf)
+    record = prior.to_dict()
+    assert record["symmetry"] == "inf" and json.loads(json.dumps(record))["symmetry"] == "inf"
+    assert UprightPrior(**{k: v for k, v in record.items() if k != "known"}) == prior
+
+
+@pytest.mark.parametrize("order", [0, -2, 2.5, "round", None, float("nan"), -math.inf])
+def test_a_symmetry_that_is_not_a_whole_order_or_inf_is_refused(order):
+    with pytest.raises(Bim2RdtError, match="symmetry"):
+        UprightPrior("thing", 0.5, False, "llm", "x", order)
 
 
 def test_the_knowledge_base_is_a_prior_provider():

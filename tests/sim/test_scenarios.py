@@ -73,17 +73,21 @@ def test_a_leaning_cone_rests_on_the_ground_tilted_within_the_knocked_range():
 
 
 def test_sg_icp_with_the_cones_low_bias_leaves_a_leaning_cone_leaning():
-    """The prior's cost: a cone (bias 0.45) truly leaning 8-20 degrees keeps most of its lean (the soft term
-    reaches an equilibrium with the data), where plain ICP keeps all of it; the prior is not a clamp."""
+    """The prior's cost: a cone (bias 0.45) truly leaning 8-20 degrees keeps nearly all of its lean: the data
+    overrule a low bias (the release test), so the prior is not a clamp. Over 8 trials the tilt error is under
+    a tenth of the lean on average (measured: 0.06; without the release test 0.16, at bias 1 0.34) and under
+    0.3 of it in every trial (measured at most 0.23)."""
     leaning = dataclasses.replace(SCENARIOS["S2"], knocked_fraction=1.0)
-    built = scenario("S2", trials=3, seed=0, spec=leaning)
+    built = scenario("S2", trials=8, seed=0, spec=leaning)
     bias, _ = upright_priors([leaning.knocked[0]])[leaning.knocked[0]]
     assert bias < 0.5
+    lost = []
     for trial in built.trials:
         cone = trial[0]
         result = register(*built.models[cone.family], cone.scene_pts_world, cone.T_init, upright_bias=bias)
         true_lean = pose_error("none", cone.T_world_model, np.eye(4)).tilt_deg
-        assert pose_error(cone.family, result.pose, cone.T_world_model).tilt_deg < 0.5 * true_lean
+        lost.append(pose_error(cone.family, result.pose, cone.T_world_model).tilt_deg / true_lean)
+    assert np.mean(lost) < 0.1 and max(lost) < 0.3
 
 
 def test_the_benchmark_counts_every_registration_in_exactly_one_failure_mode():

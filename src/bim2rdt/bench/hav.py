@@ -9,6 +9,12 @@ the same machine load; the first round (stream set-up, activities starting, filt
 the thread's CPU time (what one core spends; other processes on a shared machine do not count) and figures use
 the median round of each pipeline.
 
+Store: a simulated shift (two wearables, 0.5 s int16 batches at 5 kHz, raw batches kept) goes through the bus
+subscriber twice, committing every message alone and in group commits. Figures: commits per second of the
+store (thread CPU time inside its transactions), batches per commit, and read syscalls per batch (Linux
+``/proc/self/io``, over the first and the last quarter of the shift, so growth with the shift shows). The floor is
+a bare SQLite INSERT of the same int16 blob, one per transaction, in a file with the same settings.
+
 Latency: a simulated device publishes 0.1 s batches (QoS 1; 3 s of hammer drilling, 3 s pause, repeated) to a
 real Mosquitto with the shipped config; the monitor, subscribed through its own client, ingests each; latency is
 publish call to ingest done (events emitted), per message, and separately for the messages that produced events
@@ -28,13 +34,32 @@ import scipy.signal
 
 from bim2rdt.bus.payloads import AccelBatch, encode_accel
 from bim2rdt.bus.topics import accel_topic, wearable_pattern
-from bim2rdt.safety.activity import Trigger
 from bim2rdt.safety.filters import design_weighting
-from bim2rdt.safety.monitor import HavMonitor, MonitorConfig
+from bim2rdt.safety.config import MonitorConfig
+from bim2rdt.safety.monitor import HavMonitor
 from bim2rdt.sim.vibration import WEARABLE_RANGE, tool_vibration
 
 DISTINCT_SIGNALS = 12
 TOOLS = ("hammer_drill", "grinder", "breaker")
+TARGET_STREAMS = 2000
+"""Streams one core must keep up with in real time (3 axes at 5 kHz each)."""
+TARGET_FLOOR_RATIO = 1.5
+"""The monitor may cost at most this many times the bare sosfilt floor."""
+TARGET_READS_PER_BATCH = 2.0
+"""Read syscalls per batch the store may need at the end of a shift: about one is the WAL checkpoint reading
+back a page it copies into the database; pruning raw batches by a scan of each stream's history needed ~1200
+after 20 minutes, growing with the shift."""
+
+
+def targets(result: dict) -> dict[str, bool]:
+    """Which targets the figures of :func:`run_throughput` (and :func:`run_store`, if run) reach."""
+    throughput = result["throughput"]
+    met = {"streams_ge_2000": throughput["monitor_streams_realtime"] >= TARGET_STREAMS,
+           "within_1_5x_floor": throughput["ratio_to_floor"] <= TARGET_FLOOR_RATIO}
+    if "store" in result:
+        met["store_reads_per_batch_le_2"] = all(mode["reads_per_batch_last_quarter"] <= TARGET_READS_PER_BATCH
+                                                for mode in result["store"]["modes"].values())
+    return met
 
 
 def run_throughput(streams: int = 2000, seconds: int = 6, fs: float = 5000.0, keep_raw: bool = False,
@@ -79,7 +104,7 @@ def run_latency(messages: int = 200, rate_hz: float = 20.0, fs: float = 5000.0, 
     users = {"monitor": "bench-monitor", "w1": "bench-w1"}
     done, produced, finished = [], [], threading.Event()
     with tempfile.TemporaryDirectory(prefix="bim2rdt-bench-") as folder, MosquittoBroker(users) as broker:
-        config = MonitorConfig(site="bench", trigger=Trigger(predict_every_s=1.0))  # events on many messages
+        config = MonitorConfig(site="bench", predict_every_s=1.0, commit_delay_s=0.0)  # events on many messages
         monitor = HavMonitor(Path(folder), "bench", [], config)
 
         def on_accel(topic: str, payload: bytes) -> None:
@@ -126,3 +151,78 @@ def _latency_summary(published: np.ndarray, done: np.ndarray, produced: np.ndarr
             "event_messages": int(with_events.size),
             "event_p50_ms": float(np.percentile(with_events, 50)) if with_events.size else None,
             "event_p99_ms": float(np.percentile(with_events, 99)) if with_events.size else None}
+
+
+def run_store(minutes: float = 10.0, devices: int = 2, fs: float = 5000.0,
+              tick: Callable[[], None] | None = None) -> dict:
+    """Commits per second and reads per batch of the exposure store over a simulated shift (module docstring)."""
+    from bim2rdt.bus.local import LocalBus
+    from bim2rdt.sim.wearables import default_plans, timed_messages
+
+    messages = list(timed_messages(default_plans(devices, minutes), "bench", fs, 1.7e9))
+    modes = {}
+    for name, batches_per_commit in (("per_message", 1), ("group_commit", 64)):
+        config = MonitorConfig(site="bench", commit_batches=batches_per_commit, commit_delay_s=10.0)
+        with tempfile.TemporaryDirectory(prefix="bim2rdt-bench-") as folder:
+            monitor = HavMonitor(Path(folder), "bench", [], config, clock=lambda: 1.7e9)  # no time-based commits
+            bus = LocalBus().connect()
+            monitor.attach(bus)
+            quarters = [_reads_during(bus, part) for part in np.array_split(np.arange(len(messages)), 4)
+                        for part in [[messages[i] for i in part]]]
+            monitor.close()
+            modes[name] = _store_figures(monitor.store, quarters, sum(1 for m in messages if m[2].endswith("accel")))
+        if tick is not None:
+            tick()
+    floor = _floor_commits_per_s(messages)
+    for mode in modes.values():
+        mode["cost_per_batch_x_floor"] = floor / mode["batches_per_s"]
+    return {"minutes": minutes, "devices": devices, "fs": fs, "floor_commits_per_s": floor, "modes": modes}
+
+
+def _reads_during(bus, messages: list) -> tuple[int, int]:
+    """(read syscalls, accel batches) while ``messages`` go through ``bus``."""
+    before = _read_syscalls()
+    for _, _, topic, payload, retain in messages:
+        bus.publish(topic, payload, qos=1, retain=retain)
+    return _read_syscalls() - before, sum(1 for m in messages if m[2].endswith("accel"))
+
+
+def _store_figures(store, quarters: list[tuple[int, int]], batches: int) -> dict:
+    reads = sum(r for r, _ in quarters)
+    return {"commits": store.commits, "batches_per_commit": batches / store.commits,
+            "commits_per_s": store.commits / store.commit_s, "batches_per_s": batches / store.commit_s,
+            "reads_per_batch": reads / batches,
+            "reads_per_batch_first_quarter": quarters[0][0] / max(quarters[0][1], 1),
+            "reads_per_batch_last_quarter": quarters[-1][0] / max(quarters[-1][1], 1)}
+
+
+def _floor_commits_per_s(messages: list, rows: int = 2000) -> float:
+    """Bare INSERTs of one batch's int16 samples, one per transaction, same pragmas as the store."""
+    import sqlite3
+
+    from bim2rdt.bus.payloads import decode_accel
+    from bim2rdt.safety.store import PAGE_SIZE
+
+    blob = next(decode_accel(p) for _, _, t, p, _ in messages if t.endswith("accel")).xyz.astype("<i2").tobytes()
+    with tempfile.TemporaryDirectory(prefix="bim2rdt-bench-") as folder:
+        db = sqlite3.connect(Path(folder) / "floor.sqlite", isolation_level=None)
+        for pragma in (f"page_size={PAGE_SIZE}", "journal_mode=WAL", "synchronous=NORMAL"):
+            db.execute(f"PRAGMA {pragma}")
+        db.execute("CREATE TABLE raw (seq INTEGER PRIMARY KEY, samples BLOB)")
+        start = time.thread_time()
+        for seq in range(rows):
+            db.execute("BEGIN")
+            db.execute("INSERT INTO raw VALUES (?, ?)", (seq, blob))
+            db.execute("COMMIT")
+        elapsed = time.thread_time() - start
+        db.close()
+    return rows / elapsed
+
+
+def _read_syscalls() -> int:
+    """Read syscalls (read, pread64, ...) of this process so far; 0 where /proc/self/io does not exist."""
+    try:
+        with open("/proc/self/io") as handle:
+            return next(int(line.split()[1]) for line in handle if line.startswith("syscr"))
+    except OSError:
+        return 0

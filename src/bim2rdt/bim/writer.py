@@ -82,18 +82,23 @@ class TwinWriter:
         self._poses[global_id] = pose
 
     def add_object(self, family: str, vertices: np.ndarray, faces: np.ndarray, pose: np.ndarray,
-                   storey: str | None = None, properties: Mapping[str, Any] | None = None) -> str:
+                   storey: str | None = None, properties: Mapping[str, Any] | None = None,
+                   global_id: str | None = None) -> str:
         """Add an observed object as an IfcBuildingElementProxy; returns its GlobalId.
 
         ``vertices`` (N,3) are in the object's body frame, metres; ``faces`` (M,3) index them; ``pose`` (4x4)
         maps body to world. ``storey`` is a storey name or GlobalId (default: the highest storey at or below
-        the object). ``properties`` go into the ``BIM2RDT_Observation`` property set.
+        the object). ``properties`` go into the ``BIM2RDT_Observation`` property set. ``global_id`` keeps an
+        identity the object already has (the twin's, so BCF topics point at it); default: a new one.
         """
         pose = _checked_pose(pose)
         vertices, faces = _checked_mesh(vertices, faces)
         proxy = ifcopenshell.api.root.create_entity(self.ifc, "IfcBuildingElementProxy", name=family,
                                                     predefined_type="NOTDEFINED")
         proxy.ObjectType = family
+        if global_id is not None:
+            self._check_new_guid(global_id)
+            proxy.GlobalId = global_id
         ifcopenshell.api.type.assign_type(self.ifc, related_objects=[proxy], relating_type=self._proxy_type(family),
                                           should_map_representations=False)
         body = ifcopenshell.api.geometry.add_mesh_representation(
@@ -106,6 +111,10 @@ class TwinWriter:
             add_typed_pset(self.ifc, proxy, OBSERVATION_PSET, properties)
         self._poses[proxy.GlobalId] = pose
         return proxy.GlobalId
+
+    def add_properties(self, global_id: str, properties: Mapping[str, Any], pset: str = OBSERVATION_PSET) -> None:
+        """Attach a property set of typed values (default ``BIM2RDT_Observation``) to an existing product."""
+        add_typed_pset(self.ifc, self._product(global_id), pset, properties)
 
     # ---- processes --------------------------------------------------------------------------------------------
 
@@ -182,6 +191,15 @@ class TwinWriter:
             if el.placement_from_geometry:
                 self._located_by_geometry.add(el.global_id)
         self.model = model
+
+    def _check_new_guid(self, global_id: str) -> None:
+        try:
+            self.ifc.by_guid(global_id)
+        except RuntimeError:
+            if len(global_id) == 22:
+                return
+            raise BimError(f"{global_id!r} is not an IFC GlobalId (22 characters)") from None
+        raise BimError(f"{self.model.path.name}: GlobalId {global_id} is already taken")
 
     def _product(self, global_id: str) -> ifcopenshell.entity_instance:
         return self._entity(global_id, "IfcProduct", "element")

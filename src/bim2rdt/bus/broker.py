@@ -1,15 +1,12 @@
 """Run the project's Mosquitto configuration on a private loopback port (tests, benchmarks, local demos).
 
 The shipped ``mosquitto.conf`` and ``acl.conf`` are used unchanged except for the port and file locations.
-Passwords are written with Debian's ``mosquitto_passwd -b``. Dev provisioning derives each device's password
-from a secret (:func:`device_password`) so a simulator and a broker agree without exchanging files; a real
-site provisions each device's password individually.
+Passwords are written with Debian's ``mosquitto_passwd -b`` (see :mod:`bim2rdt.bus.credentials` for who gets
+which).
 """
 
 from __future__ import annotations
 
-import hashlib
-import hmac
 import os
 import shutil
 import socket
@@ -27,11 +24,6 @@ _REWRITTEN = ("listener", "password_file", "acl_file", "persistence_location")
 
 class BrokerError(Bim2RdtError):
     """The Mosquitto broker could not be started (binary missing, bad config, port not opening)."""
-
-
-def device_password(secret: str, device: str) -> str:
-    """Dev provisioning: a device's broker password as a keyed hash of its id."""
-    return hmac.new(secret.encode(), f"device:{device}".encode(), hashlib.sha256).hexdigest()[:32]
 
 
 def shipped_config(name: str) -> str:

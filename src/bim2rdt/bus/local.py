@@ -19,8 +19,9 @@ class LocalBus:
     def connect(self) -> LocalBus:
         return self
 
-    def subscribe(self, pattern: str, handler: Handler, qos: int = 1) -> None:
-        """Call ``handler(topic, payload)`` for every message matching ``pattern``; retained ones first."""
+    def subscribe(self, pattern: str, handler: Handler, qos: int = 1, manual_ack: bool = False) -> None:
+        """Call ``handler(topic, payload)`` for every message matching ``pattern``; retained ones first.
+        ``manual_ack`` is accepted for :class:`MqttBus` compatibility: nothing here is ever redelivered."""
         self._handlers.append((pattern, handler))
         for topic, payload in list(self._retained.items()):
             if topic_matches(pattern, topic):

@@ -3,7 +3,11 @@
 With ``session_expiry_s`` and a fixed ``client_id`` the broker keeps the subscription and queues QoS 1 messages
 while the client is away (a restarted monitor gets what it missed; its de-duplication drops what it had).
 
-Handlers run on paho's network thread, one message at a time, in arrival order. ``publish(..., wait=True)``
+Handlers run on paho's network thread, one message at a time, in arrival order; a handler that raises is logged
+and counted (``handler_errors``), never allowed to stop that thread. With ``manual_ack=True`` a subscription
+made with ``manual_ack=True`` gets a third argument, ``ack()``, and the broker's QoS 1 acknowledgement waits until
+the handler calls it (after its commit): what a crash interrupts is redelivered. Other messages are acknowledged
+after their handlers return. ``publish(..., wait=True)``
 blocks until the broker's PUBACK and returns its reason code: 0 when accepted, 135 (not authorized) when the
 broker's ACL refused it. ``connect`` and ``subscribe`` return once the broker acknowledged the subscriptions
 (SUBACK), so a message published after they return reaches the handler; every wait is bounded by ``timeout_s``.
@@ -11,6 +15,7 @@ broker's ACL refused it. ``connect`` and ``subscribe`` return once the broker ac
 
 from __future__ import annotations
 
+import logging
 import threading
 import uuid
 from collections.abc import Callable
@@ -22,8 +27,9 @@ from paho.mqtt.properties import Properties
 from bim2rdt.bus.topics import topic_matches
 from bim2rdt.errors import Bim2RdtError
 
-Handler = Callable[[str, bytes], None]
+Handler = Callable[..., object]
 _KEPT_ACKS = 4096
+log = logging.getLogger(__name__)
 
 
 class BusError(Bim2RdtError):
@@ -35,15 +41,16 @@ class MqttBus:
 
     def __init__(self, host: str, port: int, client_id: str | None = None, username: str | None = None,
                  password: str | None = None, will: tuple[str, bytes] | None = None, timeout_s: float = 10.0,
-                 session_expiry_s: int = 0):
+                 session_expiry_s: int = 0, manual_ack: bool = False):
         self.host, self.port, self.timeout_s, self.session_expiry_s = host, port, timeout_s, session_expiry_s
-        self._client = mqtt.Client(mqtt.CallbackAPIVersion.VERSION2,
-                                   client_id=client_id or f"bim2rdt-{uuid.uuid4().hex[:8]}", protocol=mqtt.MQTTv5)
+        self.manual_ack, self.handler_errors = manual_ack, 0
+        self._client = mqtt.Client(mqtt.CallbackAPIVersion.VERSION2, protocol=mqtt.MQTTv5, manual_ack=manual_ack,
+                                   client_id=client_id or f"bim2rdt-{uuid.uuid4().hex[:8]}")
         if username is not None:
             self._client.username_pw_set(username, password)
         if will is not None:
             self._client.will_set(will[0], will[1], qos=1, retain=True)
-        self._handlers: list[tuple[str, Handler, int]] = []
+        self._handlers: list[tuple[str, Handler, int, bool]] = []
         self._connected = threading.Event()
         self._connect_reason: str | None = None
         self._acks: dict[int, threading.Event] = {}  # PUBACK and SUBACK by message id (one counter in paho)
@@ -76,10 +83,11 @@ class MqttBus:
             self._await_ack(mid, "SUBACK", "the subscriptions")
         return self
 
-    def subscribe(self, pattern: str, handler: Handler, qos: int = 1) -> int:
-        """Call ``handler(topic, payload)`` for every message matching ``pattern`` (on the network thread).
-        When connected, wait for the SUBACK and return its reason code (the granted QoS, >= 128 if refused)."""
-        self._handlers.append((pattern, handler, qos))
+    def subscribe(self, pattern: str, handler: Handler, qos: int = 1, manual_ack: bool = False) -> int:
+        """Call ``handler(topic, payload)`` for every message matching ``pattern`` (on the network thread); on a
+        ``manual_ack`` bus with ``manual_ack`` here, ``handler(topic, payload, ack)``. When connected, wait for
+        the SUBACK and return its reason code (the granted QoS, >= 128 if refused)."""
+        self._handlers.append((pattern, handler, qos, manual_ack and self.manual_ack))
         if not self._connected.is_set():
             return 0
         return self._await_ack(self._client.subscribe(pattern, qos=qos)[1], "SUBACK", pattern)
@@ -120,13 +128,23 @@ class MqttBus:
         if reason_code.is_failure:
             self._connect_reason = str(reason_code)
         else:
-            self._resubscribed = [client.subscribe(pattern, qos=qos)[1] for pattern, _, qos in self._handlers]
+            self._resubscribed = [client.subscribe(pattern, qos=qos)[1] for pattern, _, qos, _ in self._handlers]
         self._connected.set()
 
     def _on_message(self, client, userdata, message) -> None:
-        for pattern, handler, _ in self._handlers:
-            if topic_matches(pattern, message.topic):
-                handler(message.topic, message.payload)
+        ack = _Ack(client, message.mid, message.qos) if self.manual_ack else None
+        handed_over = False
+        for pattern, handler, _, takes_ack in self._handlers:
+            if not topic_matches(pattern, message.topic):
+                continue
+            try:
+                handler(message.topic, message.payload, ack) if takes_ack else handler(message.topic, message.payload)
+                handed_over |= takes_ack
+            except Exception:  # never let a handler stop the network thread; the message is dead-lettered
+                self.handler_errors += 1
+                log.exception("handler for %s failed; message dropped", message.topic)
+        if ack is not None and not handed_over:
+            ack()
 
     def _on_subscribe(self, client, userdata, mid, reason_codes, properties) -> None:
         self._on_publish(client, userdata, mid, reason_codes[0], properties)
@@ -139,3 +157,15 @@ class MqttBus:
             waiting = self._acks.get(mid)
             if waiting is not None:
                 waiting.set()
+
+
+class _Ack:
+    """Acknowledges one received message (QoS 1 PUBACK) once, from any thread."""
+
+    def __init__(self, client: mqtt.Client, mid: int, qos: int):
+        self._client, self._mid, self._qos, self._done = client, mid, qos, False
+
+    def __call__(self) -> None:
+        if not self._done and self._qos > 0:
+            self._done = True
+            self._client.ack(self._mid, self._qos)

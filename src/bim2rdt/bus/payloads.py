@@ -32,7 +32,8 @@ class AccelBatch:
     """Consecutive tri-axial samples from one wearable: ``xyz`` (n, 3) float32, m/s^2, at ``fs`` Hz.
 
     ``device_time`` is the first sample's time on the device clock, ``received_time`` when it reached us
-    (both UTC epoch seconds); ``full_scale`` is the sensor range in m/s^2 (None when unknown).
+    (both UTC epoch seconds); ``full_scale`` is the sensor range in m/s^2 (None when unknown); ``scale`` the
+    m/s^2 per count when the samples came as int16 counts (``xyz`` = counts x float32(scale), exactly).
     """
 
     device: str
@@ -42,6 +43,7 @@ class AccelBatch:
     xyz: np.ndarray
     full_scale: float | None = None
     received_time: float | None = None
+    scale: float | None = None
 
     @property
     def duration_s(self) -> float:
@@ -54,9 +56,12 @@ class AccelBatch:
 def encode_accel(batch: AccelBatch, dtype: str = "int16") -> bytes:
     """Pack a batch; int16 quantises to the batch's full scale (default 16 g) over 32767 counts."""
     scale = (batch.full_scale or 16 * 9.80665) / 32767.0 if dtype == "int16" else 1.0
-    samples = np.asarray(batch.xyz, dtype=np.float64) / scale
-    if dtype == "int16":
-        samples = np.clip(np.round(np.nan_to_num(samples)), -32768, 32767)
+    samples = np.asarray(batch.xyz, dtype=np.float32)
+    if dtype == "int16":  # float32 keeps counts to within 0.002 of their float64 values
+        counts = np.rint(samples * np.float32(1.0 / scale))
+        if not np.isfinite(counts).all():
+            counts = np.nan_to_num(counts)
+        samples = np.clip(counts, -32768, 32767, out=counts)
     header = {"device": batch.device, "seq": int(batch.seq), "t_ms": round(batch.device_time * 1000.0, 3),
               "fs": batch.fs, "n": int(samples.shape[0]), "dtype": dtype, "scale": scale,
               "full_scale": batch.full_scale}
@@ -77,7 +82,7 @@ def decode_accel(payload: bytes) -> AccelBatch:
         samples = np.frombuffer(payload, dtype=dtype, offset=6 + head_len, count=3 * n).reshape(n, 3)
         xyz = (samples.astype(np.float32) * np.float32(header["scale"])) if dtype.kind == "i" else samples.copy()
         return AccelBatch(str(header["device"]), int(header["seq"]), t_ms / 1000.0, fs, xyz,
-                          header.get("full_scale"))
+                          header.get("full_scale"), scale=float(header["scale"]) if dtype.kind == "i" else None)
     except (ValueError, KeyError, TypeError) as error:
         raise PayloadError(f"malformed accel payload: {error}") from error
 

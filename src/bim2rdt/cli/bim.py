@@ -69,7 +69,9 @@ def bench_ifc_command(
         task = progress.add_task(f"benchmarking {path.name}", total=2 * repeat + max(3, repeat))
         result = run_ifc_bench(path, repeat, step=lambda label: progress.update(task, advance=1, description=label))
     if as_json:
-        print_json(result.to_dict())
+        from bim2rdt.config import get_settings, settings_record
+
+        print_json({**result.to_dict(), "settings": settings_record(get_settings())})
         return
     summary = result.to_dict()
     bare = result.bare_loop
@@ -141,9 +143,9 @@ def _info_payload(model, checks) -> dict:
 
 def _default_bench_file() -> Path:
     from bim2rdt.bim import BimError
-    from bim2rdt.config import get_settings
+    from bim2rdt.config import default_samples_dir, get_settings
 
-    folder = get_settings().samples or Path(__file__).resolve().parents[4].parent / "shared" / "data" / "ifc"
+    folder = get_settings().samples or default_samples_dir()
     path = Path(folder) / BENCH_FILE
     if not path.is_file():
         raise BimError(f"{path}: benchmark file absent (set BIM2RDT_SAMPLES or pass --file)")

@@ -55,3 +55,16 @@ def _json_default(value: Any) -> Any:
     if hasattr(value, "model_dump"):
         return value.model_dump()
     return str(value)
+
+
+def sample_file(name: str) -> Path:
+    """A shared sample IFC file by name: $BIM2RDT_SAMPLES, else ../shared/data/ifc beside the checkout. A one-line
+    error when it is absent."""
+    from bim2rdt.bim import BimError
+    from bim2rdt.config import get_settings
+
+    folder = get_settings().samples or Path(__file__).resolve().parents[4].parent / "shared" / "data" / "ifc"
+    path = Path(folder) / name
+    if not path.is_file():
+        raise BimError(f"{path}: sample file absent (set BIM2RDT_SAMPLES or pass --file)")
+    return path

@@ -20,6 +20,9 @@ def demo_command(
     workers: int = typer.Option(2, "--workers", min=1, help="Workers with vibration wearables."),
     minutes: float = typer.Option(60.0, "--minutes", min=1.0, help="Minutes of tool work per worker."),
     seed: int = typer.Option(0, "--seed", min=0, help="Seed of the simulated site changes, sensor noise and trials."),
+    ifc: Path | None = typer.Option(None, "--ifc", exists=True, dir_okay=False,
+                                    help="Run the loop on this building instead (IFC4; IFC2X3 runs without IFC "
+                                         "write-back): site objects are placed on its ground floor."),
 ) -> None:
     """Run a simulated day on the embedded site: the robot verifies the BIM's site objects with SG-ICP, the twin
     is updated and hand-arm vibration exposure becomes IfcEvent/IfcTask records; then the paper's registration
@@ -29,7 +32,7 @@ def demo_command(
     from bim2rdt.cli.registration import show_run
     from bim2rdt.demo.run import run_demo
 
-    stages = {"bim": "site model read", "station": "robot station", "twin": "twin updated",
+    stages = {"bim": "site model read", "site": "site objects placed", "station": "robot station", "twin": "twin updated",
               "hav": "vibration day monitored", "trial": "registration trial"}
     with Progress(console=console, transient=True) as bar:
         task = bar.add_task("site day", total=None)
@@ -37,12 +40,20 @@ def demo_command(
         def tick(stage: str) -> None:
             bar.update(task, advance=1, description=stages.get(stage, stage))
 
-        result = run_demo(out, trials=trials, seed=seed, workers=workers, minutes=minutes, tick=tick)
+        if ifc is not None:
+            from bim2rdt.demo.ifc_day import run_ifc_demo
+
+            result = run_ifc_demo(ifc, out, seed=seed, workers=workers, minutes=minutes, tick=tick)
+        else:
+            result = run_demo(out, trials=trials, seed=seed, workers=workers, minutes=minutes, tick=tick)
     _show_site_day(result)
-    show_run(result.registration, targets=False)
-    console.print(f"(registration: {trials} trials per scenario, a quick look; the paper's targets are judged on "
-                  "50 trials by `bim2rdt bench registration`)")
-    console.print(f"twin: {result.site_day.twin_path}; report: {result.report['report']}; plots and JSON in {out}")
+    if result.registration is not None:
+        show_run(result.registration, targets=False)
+        console.print(f"(registration: {trials} trials per scenario, a quick look; the paper's targets are judged "
+                      "on 50 trials by `bim2rdt bench registration`)")
+    twin = result.site_day.twin_path or f"not written back ({result.site_day.model.schema}: IFC write-back needs IFC4)"
+    console.print(f"twin: {twin} (history {out / 'twin.db'}, issues {out / 'site_issues.bcf'}); report: "
+                  f"{result.report['html']} and {result.report['report']}; plots and JSON in {out}")
 
 
 def _show_site_day(result) -> None:
@@ -50,6 +61,12 @@ def _show_site_day(result) -> None:
 
     print_table("Robot mission: BIM objects verified with SG-ICP", OBSERVATION_COLUMNS,
                 [observation_cells(r) for r in observation_rows(result.site_day)])
+    if result.site_day.route is not None:
+        from bim2rdt.demo.routes import route_rows
+
+        summary = result.site_day.route.summary()
+        print_table(f"Robot route: {summary['stations']} stations, {summary['walked_m']} m walked on planned paths; "
+                    "replans", ("time (UTC)", "at (x, y) m", "why"), route_rows(result.site_day.route))
     events = [e for e in result.site_day.hav_events if not e.kind.endswith("predicted")]
     print_table("Hand-arm vibration events (written to the twin as IfcEvent/IfcTask)",
                 ("event", "worker", "A(8) m/s²"),

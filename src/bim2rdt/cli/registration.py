@@ -34,20 +34,21 @@ def bench_registration(
 ) -> None:
     """Run S1-S4 with ICP, SG-ICP (priors from the knowledge base) and Open3D, then the scene families F1-F9;
     print the tables and targets."""
-    from bim2rdt.config import get_settings
     from bim2rdt.bench.registration.runs import run_registration_scenarios, run_record, save_run
+    from bim2rdt.config import get_settings, settings_record
     from bim2rdt.sim.families import FAMILIES
 
     if one_core and hasattr(os, "sched_setaffinity"):
         os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
     use_peers = _open3d_available() if peers is None else peers
-    config = get_settings().registration
+    settings = get_settings()
     names = tuple(FAMILIES) if families else ()
     with progress((4 + len(names)) * trials, "registration scenarios and families") as tick:
-        run = run_registration_scenarios(out, trials, seed, config, use_peers, families=names, tick=tick)
-    save_run(run, out)
+        run = run_registration_scenarios(out, trials, seed, settings.registration, use_peers, families=names,
+                                         tick=tick)
+    save_run(run, out, settings_record(settings))
     if as_json:
-        print_json(run_record(run))
+        print_json(run_record(run, settings_record(settings)))
         return
     show_run(run)
     console.print(f"plots and results.json in {out}")

@@ -25,7 +25,8 @@ def priors_command(
                              "(extra llm); families it cannot answer fall back to the knowledge base."),
     as_json: bool = typer.Option(False, "--json", help="Print JSON instead of a table."),
 ) -> None:
-    """Print each BIM family's detector label, upright bias, yaw-only flag and source.
+    """Print each BIM family's detector label, upright bias, yaw-only flag, rotational symmetry about up (1 none,
+    2 a crate, inf a drum) and source.
 
     The bias (0..1) weighs SG-ICP's soft upright term; source is knowledge-base, default (unknown family),
     llm, llm-cache, or "... (llm fallback)" with the reason in the JSON rationale."""
@@ -33,16 +34,17 @@ def priors_command(
     from bim2rdt.semantics import get_prior_provider
 
     hints = _family_hints(ifc_file, families)
-    provider = get_prior_provider(get_settings(), llm=llm)
+    settings = get_settings()
+    provider = get_prior_provider(settings.llm if llm else None, settings.cache_dir)
     with _status.status(f"asking for {len(hints)} families' priors", spinner="dots"):
         priors = provider.priors(hints, ifc_classes={f: c for f, c in hints.items() if c})
     if as_json:
         print_json([{"family": family, "ifc_class": hints[family] or None, **prior.to_dict()}
                     for family, prior in priors.items()])
         return
-    rows = [(family, prior.label, prior.upright_bias, "yes" if prior.yaw_only else "no", prior.source)
-            for family, prior in priors.items()]
-    print_table("Upright priors per BIM family", ["family", "label", "bias", "yaw-only", "source"], rows)
+    rows = [(family, prior.label, prior.upright_bias, "yes" if prior.yaw_only else "no",
+             prior.to_dict()["symmetry"], prior.source) for family, prior in priors.items()]
+    print_table("Upright priors per BIM family", ["family", "label", "bias", "yaw-only", "symmetry", "source"], rows)
     unknown = sum(not prior.known for prior in priors.values())
     console.print(f"{len(priors)} families, {unknown} unknown (default bias)")
 

@@ -5,7 +5,9 @@
    exposure plot, ``site_day.json`` and ``report.md``;
 2. the paper's four registration scenarios (ICP vs SG-ICP, a few trials) with a before/after plot each, in
    ``registration/``;
-3. the resolved configuration, seed and versions in ``config.json``.
+3. the settings that ran (``Settings``: every section, secrets masked), seed and versions in ``config.json``;
+4. ``report.html``: the self-contained report (plan map, deviations with tolerances, ICP vs SG-ICP, A(8) per
+   worker, links to the twin IFC, BCF issues and maps).
 """
 
 from __future__ import annotations
@@ -32,18 +34,31 @@ class DemoResult:
 
 def run_demo(out_dir: Path, trials: int = DEMO_TRIALS, seed: int = DEMO_SEED, workers: int = 2,
              minutes: float = 60.0, tick: Callable[[str], None] = lambda stage: None) -> DemoResult:
-    """Run the site day and the registration scenarios into ``out_dir`` (created)."""
-    from bim2rdt.config import get_settings
+    """Run the site day and the registration scenarios into ``out_dir`` (created), with the settings read once
+    from the environment; ``config.json`` records those settings (secrets masked), the seed and the versions."""
+    from bim2rdt.config import get_settings, settings_record
     from bim2rdt.demo.site_report import write_site_report
 
     out_dir = Path(out_dir)
-    day = run_site_day(out_dir, seed=seed, workers=workers, minutes=minutes, tick=tick)
+    settings = get_settings()
+    day = run_site_day(out_dir, seed=seed, workers=workers, minutes=minutes, mission_config=settings.mission,
+                       icp=settings.registration, twin_config=settings.twin, tick=tick)
     report = write_site_report(day, out_dir)
-    config = get_settings().registration
-    run = run_registration_scenarios(out_dir / "registration", trials, seed, config, peers=False,
+    run = run_registration_scenarios(out_dir / "registration", trials, seed, settings.registration, peers=False,
                                      tick=lambda: tick("trial"))
-    save_run(run, out_dir / "registration")
-    resolved = {"registration": config.model_dump(), "trials": trials, "seed": seed, "workers": workers,
+    save_run(run, out_dir / "registration", settings_record(settings))
+    resolved = {"settings": settings_record(settings), "trials": trials, "seed": seed, "workers": workers,
                 "minutes": minutes, "versions": versions()}
     write_bytes_atomic(out_dir / "config.json", json.dumps(resolved, indent=2).encode("utf-8"))
+    report["html"] = _html(day, run, out_dir)
     return DemoResult(day, report, run)
+
+
+def _html(day: SiteDay, run: RegistrationRun, out_dir: Path) -> Path:
+    """report.html beside report.md (written last, so it links to every file of the run); closes the day's twin."""
+    from bim2rdt.demo.day_html import write_day_html
+
+    try:
+        return write_day_html(day, run, out_dir)
+    finally:
+        day.twin.close()

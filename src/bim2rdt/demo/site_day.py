@@ -2,12 +2,17 @@
 
 1. BIM: build the default site (IFC4) and read it; its proxies are the objects of interest.
 2. Semantics: family names -> detector labels and upright priors (offline knowledge base).
-3. Robot: the as-built site (objects moved, one knocked over, one unplanned) is seen from planned stations;
-   corners in each detection become points; SG-ICP registers each BIM object; deviations are judged.
-4. Twin: moved objects get their measured placement, unplanned ones become proxies with an observation pset.
-5. Safety: wearables stream hand-arm vibration through the bus into the ISO 5349-1 monitor; activity starts and
-   ends, EAV/ELV crossings become IfcEvent/IfcTask records linked to the work zone.
-6. The twin is saved atomically; the caller writes the report.
+3. Robot: the as-built site (objects moved, one knocked over, one unplanned) is seen from stations that see
+   their objects over the walls, toured by path length and walked on planned paths, replanned around what the
+   robot finds and around workers while their tools run (:mod:`bim2rdt.demo.routes`); corners in each detection
+   become points; SG-ICP registers each BIM object; deviations are judged.
+4. Twin: every observation is recorded into the day's twin (``twin.db``, :mod:`bim2rdt.demo.site_twin`), which
+   judges it against its tolerance preset.
+5. Safety (run first, so the robot's keep-out zones follow the monitor's events): wearables stream hand-arm
+   vibration through the bus into the ISO 5349-1 monitor; its events go into the twin's history.
+6. The twin is exported: ``site_twin.ifc`` (moved objects at their measured placement, unplanned ones as proxies,
+   activity starts and ends and EAV/ELV crossings as IfcEvent/IfcTask on the work zone), the BCF issues and the
+   JSON state; the caller writes the report.
 """
 
 from __future__ import annotations
@@ -17,14 +22,16 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
-
-from bim2rdt.bim import BimModel, TwinWriter, load_ifc
-from bim2rdt.mission import MissionConfig, MissionResult, Observation, Target, plan_stations, run_mission
+from bim2rdt.bim import BimModel, load_ifc
+from bim2rdt.demo.routes import UNPLANNED_DRUM_XY, DayRoute, plan_day_route
+from bim2rdt.demo.site_twin import TwinFiles, export_day_twin, ifc_records, open_day_twin, record_mission
+from bim2rdt.mission import MissionConfig, MissionResult, Target, run_mission
+from bim2rdt.registration import IcpConfig
 from bim2rdt.semantics import KnowledgeBasePriors, UprightPrior
 from bim2rdt.sim.meshes import mesh_for_family
 from bim2rdt.sim.reality import Reality, SimulatedPerception, body_mesh, simulate_reality
 from bim2rdt.sim.site import ZONES, build_site_ifc
+from bim2rdt.twin import DigitalTwin, TwinConfig
 
 ROBOT_START_XY = (1.0, 1.0)
 """Where the robot's dock is on the default site, metres."""
@@ -39,10 +46,13 @@ class SiteDay:
     priors: dict[str, UprightPrior]
     reality: Reality
     mission: MissionResult
-    twin_path: Path
+    twin_path: Path | None
     hav_events: list
     exposure_timeline: list[tuple[float, str, float]]
     twin_records: list[tuple[str, str]]
+    twin: DigitalTwin | None = None
+    twin_files: TwinFiles | None = None
+    route: DayRoute | None = None
 
 
 def objects_of_interest(model: BimModel) -> list[Target]:
@@ -52,68 +62,54 @@ def objects_of_interest(model: BimModel) -> list[Target]:
 
 
 def run_site_day(out_dir: Path, seed: int = 0, workers: int = 2, minutes: float = 60.0, fs: float = 5000.0,
-                 mission_config: MissionConfig = MissionConfig(),
+                 mission_config: MissionConfig = MissionConfig(), icp: IcpConfig = IcpConfig(),
+                 twin_config: TwinConfig = TwinConfig(),
                  tick: Callable[[str], None] = lambda stage: None) -> SiteDay:
-    """Run the day into ``out_dir``: ``site.ifc`` (as designed), ``site_twin.ifc`` (as built, with safety
-    records) and the monitor's state under ``state/`` (started afresh: the demo simulates a new day)."""
+    """Run the day into ``out_dir``: ``site.ifc`` (as designed), the day's twin (``twin.db``) and its exports
+    (``site_twin.ifc`` as built with safety records, ``site_issues.bcf``, ``twin.json``), and the monitor's state
+    under ``state/`` (both started afresh: the demo simulates a new day). The mission runs with
+    ``mission_config`` and registers with ``icp``; the twin judges with ``twin_config``'s presets (the demo passes
+    ``Settings.mission``, ``Settings.registration`` and ``Settings.twin``)."""
     out_dir.mkdir(parents=True, exist_ok=True)
     model = load_ifc(build_site_ifc(out_dir / "site.ifc"))
     tick("bim")
     targets = objects_of_interest(model)
-    reality = simulate_reality(model, [t.global_id for t in targets], seed=seed)
+    reality = simulate_reality(model, [t.global_id for t in targets], seed=seed, unplanned_at=UNPLANNED_DRUM_XY)
     priors = KnowledgeBasePriors().priors(sorted({t.family for t in reality.truth}))
-    stations = plan_stations(targets, ROBOT_START_XY, mission_config)
-    mission = run_mission(targets, stations, SimulatedPerception(reality, seed=seed), priors, mesh_for_family,
-                          mission_config, tick=lambda: tick("station"))
-    writer = TwinWriter(model)
-    apply_observations(writer, mission.observations)
-    tick("twin")
-    events, timeline, records = _hav_day(writer, model, out_dir / "state", workers, minutes, fs)
+    twin = open_day_twin(out_dir, model, priors, twin_config)
+    events, timeline = _hav_day(twin, out_dir / "state", workers, minutes, fs)
     tick("hav")
-    twin_path = writer.save(out_dir / "site_twin.ifc")
-    return SiteDay(model, priors, reality, mission, twin_path, events, timeline, records)
+    route = plan_day_route(model, targets, ROBOT_START_XY, mission_config, events, _shift_start())
+    mission = run_mission(targets, route.plan.stations, SimulatedPerception(reality, seed=seed), priors,
+                          mesh_for_family, route.config, icp, tick=lambda: tick("station"), route=route.route)
+    record_mission(twin, mission.observations, mission.stations, times=route.route.arrivals)
+    tick("twin")
+    files = export_day_twin(twin, out_dir)
+    return SiteDay(model, priors, reality, mission, files.ifc, events, timeline, ifc_records(files.ifc), twin, files,
+                   route)
 
 
-def apply_observations(writer: TwinWriter, observations: list[Observation]) -> dict[str, str]:
-    """Write verdicts into the twin: moved objects get their measured placement, new ones become proxies.
-    Returns {observation index: GlobalId} of the new proxies."""
-    added = {}
-    for index, obs in enumerate(observations):
-        if obs.status == "moved":
-            writer.move_element(obs.global_id, obs.pose)
-        elif obs.status == "new":
-            mesh = mesh_for_family(obs.family)
-            added[str(index)] = writer.add_object(obs.family, np.asarray(mesh.vertices), np.asarray(mesh.faces),
-                                                  obs.pose, properties=_observation_properties(obs))
-    return added
-
-
-def _observation_properties(obs: Observation) -> dict:
-    return {"Status": obs.status, "Fitness": float(obs.fit.fitness), "RmseMetres": float(obs.fit.rmse),
-            "ScenePoints": int(obs.points), "UprightBias": float(obs.upright_bias), "TiltDegrees": float(obs.tilt_deg),
-            "Station": int(obs.station)}
-
-
-def _hav_day(writer: TwinWriter, model: BimModel, state_dir: Path, workers: int, minutes: float, fs: float):
-    """Simulated wearables -> in-process bus -> monitor -> IFC records on ``writer``."""
+def _hav_day(twin: DigitalTwin, state_dir: Path, workers: int, minutes: float, fs: float,
+             zone: str | None = WORK_ZONE):
+    """Simulated wearables -> in-process bus -> monitor -> events into the twin's history; the workers work in
+    ``zone`` (a zone name of the model, or None)."""
     from bim2rdt.bus import LocalBus
     from bim2rdt.config import get_settings
     from bim2rdt.safety import HavMonitor, ListSink
-    from bim2rdt.safety.ifc_sink import IfcSink
-    from bim2rdt.safety.setup import monitor_config
     from bim2rdt.sim.wearables import default_plans, publish_plans
+    from bim2rdt.twin import TwinSink
 
     shutil.rmtree(state_dir, ignore_errors=True)
     settings = get_settings()
-    events, ifc_sink = ListSink(), IfcSink(writer, model)
-    monitor = HavMonitor(state_dir, settings.hav.site_secret, [events, ifc_sink],
-                         monitor_config(settings, keep_timeline=True))
+    events = ListSink()
+    monitor = HavMonitor(state_dir, settings.hav.site_secret, [events, TwinSink(twin)],
+                         settings.hav.monitor_config(keep_timeline=True))
     bus = LocalBus().connect()
     monitor.attach(bus)
-    publish_plans(lambda device: bus, default_plans(workers, minutes, WORK_ZONE), settings.mqtt.site, fs,
+    publish_plans(lambda device: bus, default_plans(workers, minutes, zone), settings.mqtt.site, fs,
                   t0=_shift_start())
     monitor.close()
-    return events.events, list(monitor.timeline), list(ifc_sink.records)
+    return events.events, list(monitor.timeline)
 
 
 def _shift_start() -> float:

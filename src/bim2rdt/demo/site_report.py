@@ -15,27 +15,39 @@ import numpy as np  # noqa: E402
 
 from bim2rdt.atomic import write_bytes_atomic  # noqa: E402
 from bim2rdt.safety import EAV, ELV  # noqa: E402
+from bim2rdt.demo.plan_map import outline  # noqa: E402
+from bim2rdt.demo.routes import draw_walk, route_markdown, write_route_files  # noqa: E402
 from bim2rdt.demo.site_day import SiteDay, objects_of_interest  # noqa: E402
 from bim2rdt.sim.meshes import mesh_for_family  # noqa: E402
-from bim2rdt.sim.truth import pose_error  # noqa: E402
+from bim2rdt.sim.reality import TrueObject  # noqa: E402
+from bim2rdt.sim.truth import match_truth, pose_error  # noqa: E402
+from bim2rdt.twin import ElementStatus  # noqa: E402
 
-STATUS_COLOURS = {"as-planned": "tab:green", "moved": "tab:orange", "new": "tab:red", "unverified": "tab:grey"}
+STATUS_COLOURS = {ElementStatus.AS_PLANNED: "tab:green", ElementStatus.DEVIATING: "tab:orange",
+                  ElementStatus.NEW: "tab:red", ElementStatus.UNVERIFIED: "tab:grey"}
 OBSERVATION_COLUMNS = ("object", "verdict", "truth", "bias", "shift m", "yaw °", "tilt °", "fitness", "err cm",
                        "err °")
 """Headers of :func:`observation_cells`, shared by the terminal table and report.md."""
 
 
+def true_objects(day: SiteDay) -> list[TrueObject | None]:
+    """The simulated truth behind each observation, found by geometry after the mission (None: a phantom)."""
+    matches = match_truth([(obs.family, obs.pose) for obs in day.mission.observations],
+                          [(t.family, t.T_world_model) for t in day.reality.truth])
+    return [None if index is None else day.reality.truth[index] for index in matches]
+
+
 def observation_rows(day: SiteDay) -> list[dict]:
     """One row per registered object: verdict, deltas against the BIM, fit, and the error against the truth."""
     rows = []
-    for obs in day.mission.observations:
-        truth = day.reality.truth[obs.truth_index] if obs.truth_index is not None else None
-        error = pose_error(obs.family, obs.pose, truth.T_world_model) if truth else None
+    for obs, truth in zip(day.mission.observations, true_objects(day)):
+        error = (pose_error(obs.family, obs.pose, truth.T_world_model, day.priors[obs.family].symmetry)
+                 if truth else None)
         rows.append({
             "family": obs.family, "label": day.priors[obs.family].label, "global_id": obs.global_id,
-            "status": obs.status, "truth": truth.change if truth else None, "upright_bias": obs.upright_bias,
+            "status": obs.status.value, "truth": truth.change if truth else None, "upright_bias": obs.upright_bias,
             "shift_m": obs.shift, "yaw_deg": obs.yaw_deg, "tilt_deg": obs.tilt_deg, "points": obs.points,
-            "fitness": obs.fit.fitness, "rmse_m": obs.fit.rmse,
+            "fitness": obs.fitness, "rmse_m": obs.rmse, "frames": list(obs.frames),
             "error_rotation_deg": error.rotation_deg if error else None,
             "error_translation_m": error.translation if error else None,
             "error_tilt_deg": error.tilt_deg if error else None})
@@ -54,12 +66,15 @@ def observation_cells(row: dict) -> tuple[str, ...]:
 
 
 def write_site_report(day: SiteDay, out_dir: Path) -> dict[str, Path]:
-    """Write plan.png, exposure.png, site_day.json and report.md into ``out_dir``; returns their paths."""
+    """Write plan.png, exposure.png, site_day.json and report.md into ``out_dir``, and with a planned route the
+    plan map and the Nav2 map (:func:`bim2rdt.demo.routes.write_route_files`); returns their paths."""
     rows = observation_rows(day)
     paths = {"plan": plot_plan(day, out_dir / "plan.png"), "exposure": plot_exposure(day, out_dir / "exposure.png")}
     record = {"twin": str(day.twin_path), "observations": rows, "not_seen": day.mission.not_seen,
               "hav_events": [_event_row(e) for e in day.hav_events if not e.kind.endswith("predicted")],
-              "twin_records": day.twin_records}
+              "twin_records": day.twin_records, "route": day.route.summary() if day.route else None}
+    if day.route is not None:
+        paths.update(write_route_files(day, out_dir))
     paths["json"] = out_dir / "site_day.json"
     write_bytes_atomic(paths["json"], json.dumps(record, indent=2, default=float).encode("utf-8"))
     paths["report"] = out_dir / "report.md"
@@ -73,14 +88,17 @@ def plot_plan(day: SiteDay, path: Path) -> Path:
     for el in day.model.elements:
         if el.ifc_class in ("IfcWall", "IfcWallStandardCase", "IfcColumn") and day.model.has_mesh(el.global_id):
             vertices, _ = day.model.mesh(el.global_id)
-            ax.fill(*_hull(vertices[:, :2]).T, color="0.8", zorder=0)
+            ax.fill(*outline(vertices[:, :2]).T, color="0.8", zorder=0)
     targets = {t.global_id: t for t in objects_of_interest(day.model)}
-    for obs in day.mission.observations:
-        _draw_observation(ax, obs, targets.get(obs.global_id), day)
-    stations = np.array([T[:3, 3] for T in day.mission.stations])
-    ax.plot(stations[:, 0], stations[:, 1], "-o", color="tab:blue", ms=4, lw=1, label="robot stations")
+    for obs, truth in zip(day.mission.observations, true_objects(day)):
+        _draw_observation(ax, obs, targets.get(obs.global_id), truth)
+    if day.route is not None:
+        draw_walk(ax, day.route, day.mission.stations)
+    else:
+        stations = np.array([T[:3, 3] for T in day.mission.stations])
+        ax.plot(stations[:, 0], stations[:, 1], "-o", color="tab:blue", ms=4, lw=1, label="robot stations")
     for status, colour in STATUS_COLOURS.items():
-        ax.fill([], [], color=colour, alpha=0.7, label=status)
+        ax.fill([], [], color=colour, alpha=0.7, label=status.value)
     ax.set(aspect="equal", xlabel="x (m)", ylabel="y (m)",
            title="Site plan: BIM (dashed) vs measured by SG-ICP (filled); x = true position")
     ax.legend(loc="upper right", fontsize=8)
@@ -89,7 +107,7 @@ def plot_plan(day: SiteDay, path: Path) -> Path:
     return path
 
 
-def _draw_observation(ax, obs, target, day: SiteDay) -> None:
+def _draw_observation(ax, obs, target, truth: TrueObject | None) -> None:
     """One object on the plan: its BIM footprint (dashed, if planned), the measured one filled with the verdict's
     colour, and its true centre (x)."""
     if target is not None:
@@ -97,9 +115,8 @@ def _draw_observation(ax, obs, target, day: SiteDay) -> None:
         ax.plot(*np.vstack([bim, bim[:1]]).T, "--", color="0.3", lw=0.8)
     body = target.mesh_body.vertices if target is not None else mesh_for_family(obs.family).vertices
     ax.fill(*_footprint(body, obs.pose).T, color=STATUS_COLOURS[obs.status], alpha=0.7)
-    if obs.truth_index is not None:
-        truth = day.reality.truth[obs.truth_index].T_world_model
-        ax.plot(truth[0, 3], truth[1, 3], "kx", ms=6)
+    if truth is not None:
+        ax.plot(truth.T_world_model[0, 3], truth.T_world_model[1, 3], "kx", ms=6)
 
 
 def plot_exposure(day: SiteDay, path: Path) -> Path:
@@ -122,11 +139,16 @@ def plot_exposure(day: SiteDay, path: Path) -> Path:
 
 
 def _markdown(day: SiteDay, rows: list[dict], record: dict) -> str:
-    lines = ["# bim2rdt site day", "", f"Twin written to `{day.twin_path.name}` (as-designed model: `site.ifc`).", "",
+    twin = (f"Twin written to `{day.twin_path.name}` (as-designed model: `site.ifc`)." if day.twin_path else
+            f"No IFC twin written: `site.ifc` is {day.model.schema}, which has no IfcEvent or IfcTaskTime; IFC "
+            "write-back needs IFC4 (the twin lives in the history and BCF).")
+    lines = ["# bim2rdt site day", "", twin, "",
              "## Objects verified by the robot", "",
              "| " + " | ".join(("family", *OBSERVATION_COLUMNS)) + " |", "|---" * (len(OBSERVATION_COLUMNS) + 1) + "|"]
     lines += ["| " + " | ".join((r["family"], *observation_cells(r))) + " |" for r in rows]
-    lines += ["", f"Not seen: {', '.join(day.mission.not_seen) or 'none'}.", "", "## Safety events", "",
+    lines += ["", f"Not seen: {', '.join(day.mission.not_seen) or 'none'}.", ""]
+    lines += route_markdown(day.route) if day.route is not None else []
+    lines += ["## Safety events", "",
               "| time (UTC) | event | worker | A(8) m/s² |", "|---|---|---|---|"]
     for e in record["hav_events"]:
         lines.append(f"| {e['time']} | {e['kind']} | {e['subject'][:8]} | {e['a8']} |")
@@ -145,11 +167,5 @@ def _event_row(event) -> dict:
 
 def _footprint(vertices_body: np.ndarray, T: np.ndarray) -> np.ndarray:
     world = np.asarray(vertices_body) @ T[:3, :3].T + T[:3, 3]
-    return _hull(world[:, :2])
+    return outline(world[:, :2])
 
-
-def _hull(points_xy: np.ndarray) -> np.ndarray:
-    from scipy.spatial import ConvexHull
-
-    unique = np.unique(np.round(points_xy, 4), axis=0)
-    return unique[ConvexHull(unique).vertices] if len(unique) >= 3 else unique

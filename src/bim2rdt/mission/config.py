@@ -1,4 +1,6 @@
-"""The mission's knobs (lengths in metres, angles in degrees)."""
+"""The mission's knobs (lengths in metres, angles in degrees): ``Settings.mission`` (``BIM2RDT_MISSION__*``).
+
+How densely models are sampled is the registration's ``IcpConfig.sample_count``, one field for both."""
 
 from __future__ import annotations
 
@@ -14,6 +16,8 @@ class MissionConfig(BaseModel):
 
     standoff: float = Field(2.6, gt=0.5, description="Camera distance from each object it is sent to look at.")
     camera_height: float = Field(1.1, gt=0.1, description="Camera height above the slab (quadruped with a mast).")
+    slab_height: float = Field(0.0, description="World height of the floor the objects stand on, m: the storey's "
+                                                "slab top (planning.find_floor), not a constant.")
     min_points: int = Field(30, ge=6, description="Fewer ROI points than this and the object is 'not seen'.")
     slab_contact: float = Field(0.05, ge=0.0, description="A BIM element whose lowest point is this close to the "
                                                           "slab stands on it (registration pulls it onto the slab).")
@@ -24,4 +28,7 @@ class MissionConfig(BaseModel):
     min_fitness: float = Field(0.5, ge=0.0, le=1.0, description="Below this inlier fraction (of the points above the slab) the fit is unverified.")
     tie_ratio: float = Field(1.15, ge=1.0, description="A fit from the BIM pose within this factor of the best "
                                                         "score wins (the BIM is the prior).")
-    model_samples: int = Field(10000, ge=6, description="Surface samples per model (see IcpConfig.sample_count).")
+    merge_distance: float = Field(0.05, gt=0.0, description="A point this close to a registered object's surface "
+                                                           "is explained by it (merging views, no truth needed).")
+    merge_fraction: float = Field(0.5, gt=0.0, le=1.0, description="A detection whose points above the slab are "
+                                  "at least this much explained by registered objects is another view of them.")

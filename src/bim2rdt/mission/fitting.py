@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from bim2rdt.mission.config import MissionConfig
-from bim2rdt.mission.ground import SLAB_HEIGHT, UP_WORLD, box_centre
+from bim2rdt.mission.ground import UP_WORLD, box_centre
 from bim2rdt.mission.records import Target
 from bim2rdt.perception.detection import Detection
 from bim2rdt.registration import IcpConfig, RegistrationResult, register
@@ -50,7 +50,7 @@ def rests_on_slab(target: Target | None, model_pts: np.ndarray, config: MissionC
     if target is None:
         return True
     lowest = float(np.min(model_pts @ target.placement[:3, :3].T[:, 2] + target.placement[2, 3]))
-    return abs(lowest - SLAB_HEIGHT) <= config.slab_contact
+    return abs(lowest - config.slab_height) <= config.slab_contact
 
 
 def best_fit(model_pts: np.ndarray, model_normals: np.ndarray, object_pts: np.ndarray, inits: list[np.ndarray],

@@ -9,14 +9,12 @@ from bim2rdt.mission.config import MissionConfig
 from bim2rdt.perception.slab import off_the_slab
 
 UP_WORLD = np.array([0.0, 0.0, 1.0])
-SLAB_HEIGHT = 0.0
-"""Height of the site's slab in the site frame, m (the embedded site's ground; ROI points near it are dropped)."""
 
 
 def off_slab(points_world: np.ndarray, config: MissionConfig, least: int | None = None) -> np.ndarray:
     """The ROI's points above the slab (the slab is in the BIM, so its corners are known clutter), or all of
     them when fewer than ``least`` (default ``config.min_points``) are above it."""
-    return off_the_slab(points_world, slab_height=SLAB_HEIGHT, clearance=config.ground_clearance,
+    return off_the_slab(points_world, slab_height=config.slab_height, clearance=config.ground_clearance,
                         least=config.min_points if least is None else least)
 
 

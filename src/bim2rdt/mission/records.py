@@ -7,7 +7,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import trimesh
 
-from bim2rdt.registration import RegistrationResult
+from bim2rdt.perception.observation import Observation as PerceivedObject
+from bim2rdt.twin.status import ElementStatus
 
 
 @dataclass(frozen=True)
@@ -20,22 +21,19 @@ class Target:
     mesh_body: trimesh.Trimesh
 
 
-@dataclass
-class Observation:
-    """One registered object and the mission's verdict on it."""
+@dataclass(kw_only=True)
+class Observation(PerceivedObject):
+    """One registered object and the mission's verdict on it: the shared perception record (family, global_id,
+    pose, rmse, fitness, points, ..., station it was seen best from, every station in ``frames``, the ``fit``)
+    plus the verdict ``status`` and the deltas behind it: ``shift`` (m, horizontal), ``yaw_deg`` and ``tilt_deg``
+    against the BIM placement, modulo the family's symmetry (0 for new objects), and the prior's
+    ``upright_bias``."""
 
-    family: str
-    global_id: str | None
-    status: str  # "as-planned" | "moved" | "new" | "unverified"
-    pose: np.ndarray
-    fit: RegistrationResult
-    points: int
-    station: int
-    shift: float  # m, horizontal, against the BIM placement (0 for new objects)
+    status: ElementStatus
+    shift: float
     yaw_deg: float
     tilt_deg: float
     upright_bias: float
-    truth_index: int | None = None
 
 
 @dataclass

@@ -18,15 +18,22 @@ def plan_stations(targets: Sequence[Target], start_xy: Sequence[float], config: 
     centre = np.mean([t.placement[:2, 3] for t in targets], axis=0)
     poses = []
     for target in targets:
-        where = target.placement[:2, 3]
-        view = _view_direction(target, centre - where)
-        standoff = max(config.standoff, 1.2 * float(np.max(target.mesh_body.extents[:2])))
-        poses.append(look_at(np.r_[where + standoff * view, config.camera_height], np.r_[where, 0.35]))
+        view = view_directions(target, centre - target.placement[:2, 3])[0]
+        poses.append(station_pose(target, view, config))
     return _tour(poses, np.asarray(start_xy, dtype=float))
 
 
-def _view_direction(target: Target, towards: np.ndarray) -> np.ndarray:
-    """Unit (2,) direction from the object to its camera: broadside +-35 degrees, the one nearest ``towards``."""
+def station_pose(target: Target, view: np.ndarray, config: MissionConfig, scale: float = 1.0) -> np.ndarray:
+    """T_world_camera looking at ``target`` from the unit (2,) direction ``view`` (object to camera), far enough
+    back for the whole object (times ``scale``)."""
+    where = target.placement[:2, 3]
+    standoff = scale * max(config.standoff, 1.2 * float(np.max(target.mesh_body.extents[:2])))
+    return look_at(np.r_[where + standoff * view, config.camera_height], np.r_[where, 0.35])
+
+
+def view_directions(target: Target, towards: np.ndarray) -> list[np.ndarray]:
+    """Unit (2,) directions from the object to its camera, best first: broadside +-35 degrees, the one nearest
+    ``towards`` first, then the other three."""
     extents = target.mesh_body.extents
     long_axis = target.placement[:2, 0] if extents[0] >= extents[1] else target.placement[:2, 1]
     broadside = np.array([-long_axis[1], long_axis[0]]) / np.linalg.norm(long_axis)
@@ -36,7 +43,7 @@ def _view_direction(target: Target, towards: np.ndarray) -> np.ndarray:
             c, s = np.cos(turn), np.sin(turn)
             candidates.append(sign * np.array([c * broadside[0] - s * broadside[1], s * broadside[0] + c * broadside[1]]))
     towards = towards / np.linalg.norm(towards) if np.linalg.norm(towards) > 1e-6 else np.array([0.0, -1.0])
-    return max(candidates, key=lambda d: float(d @ towards))
+    return sorted(candidates, key=lambda d: -float(d @ towards))
 
 
 def _tour(poses: list[np.ndarray], start_xy: np.ndarray) -> list[np.ndarray]:

@@ -14,4 +14,3 @@ class Detection:
     family: str
     points_world: np.ndarray
     station: int
-    truth_index: int | None = None  # simulation only: which true object produced it, for scoring

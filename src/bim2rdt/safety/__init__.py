@@ -1,16 +1,34 @@
-"""Hand-arm vibration safety: ISO 5349-1 exposure maths, the streaming monitor, mounting correction, privacy."""
+"""Hand-arm vibration safety: ISO 5349-1 exposure maths, the streaming monitor, mounting correction, privacy.
 
-from bim2rdt.safety.activity import Trigger
-from bim2rdt.safety.errors import AccessDenied, HavError
-from bim2rdt.safety.exposure import (EAV, ELV, a_hv, combine_exposures, daily_exposure, exposure_points,
-                                     time_to_limit)
-from bim2rdt.safety.monitor import HavMonitor, MonitorConfig, Session
-from bim2rdt.safety.mounting import MountingCorrection
-from bim2rdt.safety.privacy import IdentityMap, pseudonym
-from bim2rdt.safety.sinks import BusSink, CallbackSink, EventSink, ListSink
-from bim2rdt.safety.weighting import covered_band, weighted_rms, wh_weighting_factor
+Names are imported on first use (PEP 562), so ``bim2rdt.safety.config`` (read by the settings) loads without the
+signal-processing stack.
+"""
 
-__all__ = ["EAV", "ELV", "AccessDenied", "BusSink", "CallbackSink", "EventSink", "HavError", "HavMonitor",
-           "IdentityMap", "ListSink", "MonitorConfig", "MountingCorrection", "Session", "Trigger", "a_hv",
-           "combine_exposures", "covered_band", "daily_exposure", "exposure_points", "pseudonym", "time_to_limit",
-           "weighted_rms", "wh_weighting_factor"]
+from __future__ import annotations
+
+import importlib
+
+_HOMES = {
+    "Trigger": "config", "ArtefactLimits": "config", "MonitorConfig": "config",
+    "AccessDenied": "errors", "HavError": "errors",
+    "EAV": "exposure", "ELV": "exposure", "a_hv": "exposure", "combine_exposures": "exposure",
+    "daily_exposure": "exposure", "exposure_points": "exposure", "time_to_limit": "exposure",
+    "HavMonitor": "monitor", "Session": "sessions", "MountingCorrection": "mounting",
+    "IdentityMap": "privacy", "pseudonym": "privacy",
+    "BusSink": "sinks", "CallbackSink": "sinks", "EventSink": "sinks", "ListSink": "sinks",
+    "covered_band": "weighting", "weighted_rms": "weighting", "wh_weighting_factor": "weighting",
+}
+
+
+def __getattr__(name: str):
+    home = _HOMES.get(name)
+    if home is None:
+        raise AttributeError(f"module 'bim2rdt.safety' has no attribute {name!r}")
+    return getattr(importlib.import_module(f"bim2rdt.safety.{home}"), name)
+
+
+def __dir__() -> list[str]:
+    return sorted(__all__)
+
+
+__all__ = sorted(_HOMES)

@@ -14,6 +14,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
+from bim2rdt.safety.config import Trigger
 from bim2rdt.safety.exposure import EAV, ELV, T0_S, a8_from_energy, points_from_energy
 
 ACTIVITY_STARTED = "hav.activity_started"
@@ -28,17 +29,6 @@ E_ELV = ELV**2 * T0_S
 
 Notice = tuple[str, float, dict]
 """(event kind, device time, data) produced by the tracker; the monitor turns it into an Event."""
-
-
-@dataclass(frozen=True)
-class Trigger:
-    """Activity detection: start at ``start_threshold`` m/s^2, stop after ``stop_hold_s`` s under
-    ``stop_threshold`` m/s^2; re-predict the time to EAV every ``predict_every_s`` s of activity."""
-
-    start_threshold: float = 1.0
-    stop_threshold: float = 0.5
-    stop_hold_s: float = 2.0
-    predict_every_s: float = 60.0
 
 
 @dataclass

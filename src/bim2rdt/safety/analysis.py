@@ -1,16 +1,12 @@
-"""Exposure of a recorded file: read a CSV of tri-axial acceleration, run it through the monitor, plot the day.
+"""Exposure of a recording (:mod:`~bim2rdt.safety.recording`): run it through the monitor, plot the day.
 
-The CSV has a header with a time column (``t`` or ``time``, seconds; epoch or from 0) and three acceleration
-columns (``ax, ay, az`` or ``x, y, z``, m/s^2). The sampling rate is the median time step. The recording goes
-through the same :class:`HavMonitor` as live data (trigger-time activities, artefact rejection), so a file and
-a stream give the same figures.
+The recording goes through the same :class:`HavMonitor` as live data, configured like the live one
+(trigger-time activities, artefact rejection), so a file and a stream give the same figures.
 """
 
 from __future__ import annotations
 
-import csv
 import tempfile
-import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -19,22 +15,15 @@ import numpy as np
 from bim2rdt.bus.event import Event
 from bim2rdt.bus.payloads import AccelBatch
 from bim2rdt.safety.activity import ACTIVITY_ENDED, ARTEFACT
+from bim2rdt.safety.config import MonitorConfig
 from bim2rdt.safety.errors import HavError
 from bim2rdt.safety.exposure import EAV, ELV, time_to_limit
-from bim2rdt.safety.monitor import HavMonitor, MonitorConfig
+from bim2rdt.safety.monitor import HavMonitor
+from bim2rdt.safety.recording import Recording, read_accel_csv
 from bim2rdt.safety.sinks import ListSink
-from bim2rdt.safety.weighting import BandCoverage, covered_band, require_weighable_rate
+from bim2rdt.safety.weighting import BandCoverage, covered_band
 
-TIME_NAMES, AXIS_NAMES = ("t", "time", "time_s"), (("ax", "ay", "az"), ("x", "y", "z"))
-
-
-@dataclass
-class Recording:
-    """Samples ``xyz`` (n, 3) m/s^2 at ``fs`` Hz starting at ``t0`` (s)."""
-
-    t0: float
-    fs: float
-    xyz: np.ndarray
+__all__ = ["DayReport", "Recording", "analyze_recording", "plot_day", "read_accel_csv"]
 
 
 @dataclass
@@ -68,57 +57,14 @@ class DayReport:
         return time_to_limit(a_hv, limit) * (1 - (self.a8 / limit) ** 2)
 
 
-def read_accel_csv(path: Path) -> Recording:
-    """Read a CSV recording; HavError with the reason if it is not one."""
-    header = _header(Path(path))
-    columns = _columns(header, path)
-    try:
-        with warnings.catch_warnings():  # 'input contained no data': the sample count below says it in one line
-            warnings.simplefilter("ignore", UserWarning)
-            data = np.loadtxt(path, delimiter=",", skiprows=1, usecols=columns, ndmin=2)
-    except ValueError as error:
-        raise HavError(f"{path}: not numeric CSV data ({str(error).splitlines()[0]})") from None
-    if data.shape[0] < 16:
-        raise HavError(f"{path}: only {data.shape[0]} samples; a recording needs at least 16")
-    step = float(np.median(np.diff(data[:, 0])))
-    if not step > 0:
-        raise HavError(f"{path}: the time column does not increase")
-    fs = round(1.0 / step, 6)
-    try:
-        require_weighable_rate(fs)
-    except HavError as error:
-        raise HavError(f"{path}: {error} (is the time column in seconds?)") from None
-    return Recording(float(data[0, 0]), fs, data[:, 1:4])
-
-
-def _header(path: Path) -> list[str]:
-    """The CSV's first row, lower-cased; HavError if the path is no readable text file."""
-    if not path.exists():
-        raise HavError(f"no such file: {path}")
-    if not path.is_file():
-        raise HavError(f"{path}: not a file")
-    try:
-        with open(path, newline="", encoding="utf-8") as handle:
-            return [name.strip().lower() for name in next(csv.reader(handle), [])]
-    except UnicodeDecodeError:
-        raise HavError(f"{path}: not a text CSV (it is not UTF-8)") from None
-
-
-def _columns(header: list[str], path: Path) -> list[int]:
-    time_col = next((header.index(n) for n in TIME_NAMES if n in header), None)
-    axes = next((names for names in AXIS_NAMES if all(n in header for n in names)), None)
-    if time_col is None or axes is None:
-        raise HavError(f"{path}: the header needs a time column (t) and ax, ay, az (or x, y, z); got {header}")
-    return [time_col, *(header.index(n) for n in axes)]
-
-
 def analyze_recording(recording: Recording, tool: str = "unknown", position: str = "handle",
-                      batch_s: float = 1.0) -> DayReport:
-    """Run a recording through a throw-away monitor and collect the day."""
+                      batch_s: float = 1.0, config: MonitorConfig = MonitorConfig()) -> DayReport:
+    """Run a recording through a throw-away monitor configured like the live one (``config``) and collect the
+    day."""
     sink = ListSink()
+    config = config.model_copy(update={"keep_timeline": True})
     with tempfile.TemporaryDirectory(prefix="bim2rdt-hav-") as folder:
-        monitor = HavMonitor(Path(folder), "analysis", [sink], MonitorConfig(keep_timeline=True),
-                             clock=lambda: recording.t0)
+        monitor = HavMonitor(Path(folder), "analysis", [sink], config, clock=lambda: recording.t0)
         subject = monitor.start_session("file", "recording", tool, position)
         step = max(1, int(round(batch_s * recording.fs)))
         for seq, start in enumerate(range(0, recording.xyz.shape[0], step)):

@@ -9,24 +9,15 @@ vibration). The block after a rejected one is rejected too (``settling``) while 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
+
+from bim2rdt.safety.config import ArtefactLimits
 
 BLOCK_S = 0.5
 """Analysis block length, seconds: the time resolution of activity start/stop and limit crossings."""
 NAN, SATURATION, SHOCK, SETTLING = 1, 2, 4, 8
 ARTEFACT_NAMES = {NAN: "nan", SATURATION: "saturation", SHOCK: "shock", SETTLING: "settling"}
 REJECTED_BEFORE_SETTLING = NAN | SATURATION | SHOCK
-
-
-@dataclass(frozen=True)
-class ArtefactLimits:
-    """When a block is rejected (see the module docstring)."""
-
-    saturation_ratio: float = 0.98
-    crest_limit: float = 25.0
-    shock_min_peak: float = 100.0
 
 
 def block_starts(n: int, fs: float) -> np.ndarray:
@@ -39,16 +30,21 @@ def block_sums(values: np.ndarray, starts: np.ndarray, square: bool = False) -> 
     """Per-block sums (rows, k) of ``values`` (rows, n) (of their squares if ``square``) for blocks starting
     at ``starts``; a reshaped view (no copy) when the blocks are equally long, as they usually are."""
     n = values.shape[1]
-    if n % starts.size == 0:
+    if _equal_blocks(n, starts):
         view = values.reshape(values.shape[0], starts.size, n // starts.size)
         return np.einsum("rkb,rkb->rk", view, view) if square else view.sum(axis=-1)
     return np.add.reduceat(values * values if square else values, starts, axis=1)
 
 
+def _equal_blocks(n: int, starts: np.ndarray) -> bool:
+    """Whether blocks starting at ``starts`` cut ``n`` samples into equal lengths (then a reshape sums them)."""
+    return n % starts.size == 0 and (starts.size == 1 or bool((np.diff(starts) == n // starts.size).all()))
+
+
 def block_extremes(values: np.ndarray, starts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Per-block maxima and minima (rows, k) of ``values`` (rows, n)."""
     n = values.shape[1]
-    if n % starts.size == 0:
+    if _equal_blocks(n, starts):
         view = values.reshape(values.shape[0], starts.size, n // starts.size)
         return view.max(axis=-1), view.min(axis=-1)
     return np.maximum.reduceat(values, starts, axis=1), np.minimum.reduceat(values, starts, axis=1)

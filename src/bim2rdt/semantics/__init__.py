@@ -8,7 +8,7 @@ knowledge base per family).
 
 from bim2rdt.semantics.errors import SemanticsError
 from bim2rdt.semantics.knowledge import KnowledgeBasePriors, KnowledgeClass, load_table
-from bim2rdt.semantics.llm import LlmPriors
+from bim2rdt.semantics.llm import LlmPriors, LlmPriorsConfig
 from bim2rdt.semantics.names import detector_prompt, simplify_family
 from bim2rdt.semantics.priors import DEFAULT_UPRIGHT_BIAS, PriorProvider, UprightPrior, families_by_label
 from bim2rdt.semantics.provider import get_prior_provider
@@ -18,6 +18,7 @@ __all__ = [
     "KnowledgeBasePriors",
     "KnowledgeClass",
     "LlmPriors",
+    "LlmPriorsConfig",
     "PriorProvider",
     "SemanticsError",
     "UprightPrior",

@@ -1,12 +1,12 @@
 """The offline, deterministic prior provider: a curated table of construction classes and a name matcher.
 
 The table (``knowledge_base.json``, package data) lists permanent elements, temporary works, site materials,
-equipment and tools, each with a detector label, an upright bias, a yaw-only flag, synonyms (English plus
-common German/French/Spanish words) and the IFC entities it stands for. A family matches a class when every
-token of one of its synonyms occurs in the family name (so word order does not matter; plurals, accents and
-abbreviations are normalised on both sides by :mod:`bim2rdt.semantics.names`). Among matches the winner is:
-in Revit's family part before its type part; in the earliest hyphen segment (Revit writes ``Table-Coffee``);
-the longest synonym; then the last word (English puts the noun last: "steel drum", "brick wall").
+equipment and tools, each with a detector label, an upright bias, a yaw-only flag, its rotational symmetry about
+up, synonyms (English plus common German/French/Spanish words) and the IFC entities it stands for. A family
+matches a class when every token of one of its synonyms occurs in the family name (so word order does not matter;
+plurals, accents and abbreviations are normalised on both sides by :mod:`bim2rdt.semantics.names`). Among matches
+the winner is: in Revit's family part before its type part; in the earliest hyphen segment (Revit writes
+``Table-Coffee``); the longest synonym; then the last word (English puts the noun last: "steel drum", "brick wall").
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
 
-from pydantic import BaseModel, Field, ValidationError
+from pydantic import BaseModel, Field, ValidationError, field_validator
 
 from bim2rdt.semantics.errors import SemanticsError
 from bim2rdt.semantics.names import Token, family_tokens, material_of, phrase_tokens, simplify_family
@@ -26,6 +26,7 @@ from bim2rdt.semantics.priors import (
     SOURCE_DEFAULT,
     SOURCE_KNOWLEDGE_BASE,
     UprightPrior,
+    symmetry_order,
 )
 
 
@@ -36,9 +37,19 @@ class KnowledgeClass(BaseModel, frozen=True):
     category: str = Field(description="permanent, temporary works, material, equipment, tool, furnishing.")
     bias: float = Field(ge=0.0, le=1.0, description="Upright bias: weight of SG-ICP's soft upright term.")
     yaw_only: bool = Field(description="Only rotation about gravity is free.")
+    symmetry: float = Field(description="Rotational order about up: turns in 360 degrees that show the same "
+                                        "object (1 none, 2 a crate, 4 a square plate, inf a drum).")
     synonyms: tuple[str, ...] = Field(default=(), description="Other names, any language, any word order.")
     ifc: tuple[str, ...] = Field(default=(), description="IFC entities this class stands for, e.g. IfcWall.")
     why: str = Field(description="One line: the physical reason for the bias.")
+
+    @field_validator("symmetry", mode="before")
+    @classmethod
+    def _whole_or_axial(cls, value: object) -> float:
+        try:
+            return symmetry_order(value)
+        except SemanticsError as error:
+            raise ValueError(str(error)) from None
 
 
 class KnowledgeTable(BaseModel, frozen=True):
@@ -67,8 +78,15 @@ def load_table(path: Path | None = None) -> KnowledgeTable:
             text = Path(path).read_text("utf-8")
         return KnowledgeTable.model_validate(json.loads(text))
     except (OSError, json.JSONDecodeError, ValidationError) as error:
-        first_line = str(error).splitlines()[0]
-        raise SemanticsError(f"knowledge-base table {path or 'knowledge_base.json'} is unusable: {first_line}")
+        raise SemanticsError(f"knowledge-base table {path or 'knowledge_base.json'} is unusable: {_reason(error)}")
+
+
+def _reason(error: Exception) -> str:
+    """One line: where and what for a validation error ("classes.0.symmetry: Field required"), else the first."""
+    if isinstance(error, ValidationError):
+        first = error.errors()[0]
+        return f"{'.'.join(str(part) for part in first['loc'])}: {first['msg']}"
+    return str(error).splitlines()[0]
 
 
 def _rank(phrase: tuple[str, ...], tokens: Sequence[Token]) -> tuple[int, int, int, int] | None:
@@ -136,7 +154,7 @@ class KnowledgeBasePriors:
     @staticmethod
     def _prior(family: str, entry: KnowledgeClass, reason: str) -> UprightPrior:
         return UprightPrior(_label(family, entry.label), entry.bias, entry.yaw_only, SOURCE_KNOWLEDGE_BASE,
-                            f"{reason}: {entry.why}")
+                            f"{reason}: {entry.why}", entry.symmetry)
 
 
 def _label(family: str, class_label: str) -> str:

@@ -15,6 +15,8 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import replace
 from pathlib import Path
 
+from pydantic import BaseModel, ConfigDict, Field
+
 from bim2rdt.semantics.cache import PriorCache
 from bim2rdt.semantics.errors import SemanticsError
 from bim2rdt.semantics.knowledge import KnowledgeBasePriors
@@ -29,24 +31,46 @@ class _RequestFailed(Exception):
     """A request gave no usable answer; the message is the reason recorded in the fallback priors."""
 
 
+class LlmPriorsConfig(BaseModel):
+    """The OpenAI-compatible endpoint that assigns upright priors (extra ``llm``); ``Settings.llm``
+    (``BIM2RDT_LLM__*``). :meth:`setup` builds the :class:`LlmPriors` it describes."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    base_url: str | None = Field(None, description="OpenAI-compatible endpoint; None means the SDK default.")
+    model: str = Field("gpt-4o-mini", description="Model name; the paper used gpt-4o-mini.")
+    api_key: str | None = Field(None, description="API key; falls back to OPENAI_API_KEY.")
+    timeout_s: float = Field(30.0, gt=0, description="Per-request timeout, seconds.")
+    max_retries: int = Field(3, ge=0, description="Retries with backoff on 429/5xx/timeouts.")
+    backoff_s: float = Field(0.5, ge=0, description="First retry delay, seconds; doubles per retry.")
+    backoff_max_s: float = Field(8.0, ge=0, description="Longest retry delay (also caps a server's Retry-After), s.")
+    batch_size: int = Field(40, ge=1, description="Families per request.")
+    cache: bool = Field(True, description="Cache answers per (model, family) under cache_dir/llm_priors.")
+
+    def setup(self, cache_dir: Path | None = None, fallback: PriorProvider | None = None) -> LlmPriors:
+        """The provider: answers cached under ``cache_dir`` (when given and ``cache`` is on), unanswered
+        families from ``fallback`` (default: the knowledge base)."""
+        return LlmPriors(self, cache_dir=cache_dir if self.cache else None, fallback=fallback)
+
+
 class LlmPriors:
     """Upright priors from an OpenAI-compatible chat endpoint, with knowledge-base fallback and a disk cache.
 
-    ``timeout_s`` bounds each request; 429, 5xx, timeouts and connection errors are retried ``max_retries``
-    times after ``backoff_s * 2**attempt`` seconds (capped at ``backoff_max_s``, which also caps a server's
-    Retry-After). ``cache_dir=None`` disables the cache."""
+    ``config.timeout_s`` bounds each request; 429, 5xx, timeouts and connection errors are retried
+    ``max_retries`` times after ``backoff_s * 2**attempt`` seconds (capped at ``backoff_max_s``, which also caps
+    a server's Retry-After). ``cache_dir=None`` disables the cache."""
 
-    def __init__(self, model: str = "gpt-4o-mini", base_url: str | None = None, api_key: str | None = None,
-                 timeout_s: float = 30.0, max_retries: int = 3, backoff_s: float = 0.5,
-                 backoff_max_s: float = 8.0, batch_size: int = 40, cache_dir: Path | None = None,
+    def __init__(self, config: LlmPriorsConfig | None = None, cache_dir: Path | None = None,
                  fallback: PriorProvider | None = None) -> None:
-        self.model, self.base_url, self.api_key = model, base_url, api_key
-        self.timeout_s, self.max_retries = timeout_s, max_retries
-        self.backoff_s, self.backoff_max_s, self.batch_size = backoff_s, backoff_max_s, max(1, batch_size)
+        self.config = config or LlmPriorsConfig()
         self.cache = PriorCache(Path(cache_dir) / "llm_priors", PROMPT_VERSION) if cache_dir else None
         self.fallback = fallback or KnowledgeBasePriors()
         self.requests_sent = 0
         self._client = None
+
+    @property
+    def model(self) -> str:
+        return self.config.model
 
     def priors(self, families: Iterable[str],
                ifc_classes: Mapping[str, str] | None = None) -> dict[str, UprightPrior]:
@@ -55,8 +79,8 @@ class LlmPriors:
         wanted = list(dict.fromkeys(families))
         found = self._cached(wanted)
         missing = [family for family in wanted if family not in found]
-        for start in range(0, len(missing), self.batch_size):
-            found.update(self._ask(missing[start:start + self.batch_size], hints))
+        for start in range(0, len(missing), self.config.batch_size):
+            found.update(self._ask(missing[start:start + self.config.batch_size], hints))
         return {family: found[family] for family in wanted}
 
     def _cached(self, families: Sequence[str]) -> dict[str, UprightPrior]:
@@ -94,8 +118,8 @@ class LlmPriors:
                 return self._complete(batch, hints)
             except (openai.RateLimitError, openai.InternalServerError, openai.APITimeoutError,
                     openai.APIConnectionError) as error:
-                if attempt >= self.max_retries:
-                    raise _RequestFailed(f"{_describe(error)} after {self.max_retries} retries") from error
+                if attempt >= self.config.max_retries:
+                    raise _RequestFailed(f"{_describe(error)} after {self.config.max_retries} retries") from error
                 time.sleep(self._delay(attempt, error))
                 attempt += 1
             except openai.APIStatusError as error:  # 400/401/404...: retrying will not help
@@ -119,15 +143,15 @@ class LlmPriors:
 
     def _delay(self, attempt: int, error: Exception) -> float:
         """Exponential backoff; a server's Retry-After wins when it is shorter than the cap."""
-        delay = self.backoff_s * 2 ** attempt
+        delay = self.config.backoff_s * 2 ** attempt
         retry_after = _retry_after_s(error)
         if retry_after is not None:
             delay = retry_after
-        return min(delay, self.backoff_max_s)
+        return min(delay, self.config.backoff_max_s)
 
     def _get_client(self):
         if self._client is None:
-            self._client = make_client(self.base_url, self.api_key, self.timeout_s)
+            self._client = make_client(self.config.base_url, self.config.api_key, self.config.timeout_s)
         return self._client
 
 

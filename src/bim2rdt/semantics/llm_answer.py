@@ -12,7 +12,7 @@ from collections.abc import Mapping, Sequence
 
 from pydantic import BaseModel, ValidationError
 
-from bim2rdt.semantics.priors import SOURCE_LLM, UprightPrior
+from bim2rdt.semantics.priors import AXIAL, SOURCE_LLM, UprightPrior
 
 PAPER_INSTRUCTION = (
     "You return BIM alignment priors. For each label, output: upright bias \u2208 [0,1] (fraction of tilt "
@@ -28,12 +28,19 @@ FIELD_INSTRUCTION = (
     "should look for, e.g. \"Steel_I-Beam_W12x26_A992\" -> \"steel I-beam\", \"Traffic_Cone_Orange_70cm\" -> "
     "\"traffic cone\"), `upright_bias` (high for heavy or fixed objects such as crates, drums, columns and "
     "walls; lower for cones; lower still for tripods and ladders; near 0 for hand tools), `yaw_only` (true "
-    "when the object can only turn about the vertical, e.g. permanent structure) and a one-sentence "
+    "when the object can only turn about the vertical, e.g. permanent structure), `symmetry` (how many turns "
+    "about the vertical within 360 degrees show the same object: 1 for none, e.g. a wheelbarrow; 2 for a "
+    "rectangular crate, pallet or I-beam; 3 for a tripod; 4 for a square plate or a square-based cone; 0 for "
+    "a round object that looks the same after any turn, e.g. a drum or a bucket) and a one-sentence "
     "`rationale`."
 )
-"""Our addition: the paper's LLM also simplified names; SG-ICP here also takes a yaw-only flag."""
+"""Our addition: the paper's LLM also simplified names; SG-ICP here also takes a yaw-only flag, and the verdict
+the symmetry (a drum turned about its axis has not moved)."""
 
-PROMPT_VERSION = "bim2rdt-priors-v1"
+ROUND = 0
+"""The answer's ``symmetry`` for "any turn" (JSON has no infinity): :data:`~bim2rdt.semantics.priors.AXIAL`."""
+
+PROMPT_VERSION = "bim2rdt-priors-v2"
 """Changes whenever the instruction or schema changes, so cached answers of an old prompt are not reused."""
 
 CLAMP_TOLERANCE = 0.05
@@ -52,9 +59,10 @@ RESPONSE_SCHEMA: dict = {
                     "label": {"type": "string"},
                     "upright_bias": {"type": "number"},
                     "yaw_only": {"type": "boolean"},
+                    "symmetry": {"type": "integer"},
                     "rationale": {"type": "string"},
                 },
-                "required": ["family", "label", "upright_bias", "yaw_only", "rationale"],
+                "required": ["family", "label", "upright_bias", "yaw_only", "symmetry", "rationale"],
                 "additionalProperties": False,
             },
         },
@@ -77,6 +85,7 @@ class AnswerItem(BaseModel):
     label: str
     upright_bias: float
     yaw_only: bool
+    symmetry: int
     rationale: str = ""
 
 
@@ -129,6 +138,9 @@ def _item_prior(raw: dict) -> tuple[UprightPrior | None, str]:
         return None, f"upright_bias {bias} out of range [0, 1]"
     if not item.label.strip():
         return None, "empty label"
+    if item.symmetry < ROUND:
+        return None, f"symmetry {item.symmetry} is negative"
     clamped = min(1.0, max(0.0, bias))
     note = f" (bias {bias} clamped to {clamped})" if clamped != bias else ""
-    return UprightPrior(item.label.strip(), clamped, item.yaw_only, SOURCE_LLM, item.rationale + note), ""
+    symmetry = AXIAL if item.symmetry == ROUND else item.symmetry
+    return UprightPrior(item.label.strip(), clamped, item.yaw_only, SOURCE_LLM, item.rationale + note, symmetry), ""

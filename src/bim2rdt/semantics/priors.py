@@ -4,11 +4,14 @@ In SG-ICP the bias weighs a soft upright term added to the rigid solve (``H <- H
 with ``lambda = bias * gamma0 * sum w |p|^2``; see docs and ``registration``). So 1.0 means "this object is
 upright unless the data insist otherwise" (a column, a loaded crate), 0.0 means "no prior" (a hand tool lying
 anywhere), and a tripod or a ladder sits low because it is tilted more often than not. ``yaw_only`` says the
-object may only turn about gravity (permanent structure, a container set level).
+object may only turn about gravity (permanent structure, a container set level). ``symmetry`` is the family's
+rotational order about up: how many turns in 360 degrees show the same object (1 none, 2 a crate or pallet,
+4 a square plate or a square-based cone, ``math.inf`` a drum): a turn by a symmetry is not a deviation.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Mapping
 from dataclasses import asdict, dataclass
 from typing import Protocol, runtime_checkable
@@ -23,21 +26,41 @@ SOURCE_DEFAULT = "default"
 SOURCE_LLM = "llm"
 FALLBACK_SUFFIX = " (llm fallback)"
 
+AXIAL = math.inf
+"""The symmetry order of a body of revolution about up (a drum, a bucket): any turn shows the same object."""
+NO_SYMMETRY = 1.0
+"""The symmetry order of a family nobody knows: no turn is taken for granted."""
+
+
+def symmetry_order(value: object) -> float:
+    """A rotational order about up as a float: a whole number >= 1, or ``math.inf`` (also spelt "inf").
+    Raises :class:`SemanticsError` otherwise."""
+    try:
+        order = float(value)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        order = float("nan")
+    if not (math.isinf(order) and order > 0) and not (order >= 1 and order == int(order)):
+        raise SemanticsError(f"symmetry {value!r} is not a whole number >= 1 or inf")
+    return order
+
 
 @dataclass(frozen=True)
 class UprightPrior:
     """The prior of one family: detector ``label``, ``upright_bias`` in [0, 1], ``yaw_only``, where it came
-    from (``source``: knowledge-base, default, llm, or "... (llm fallback)") and why (``rationale``)."""
+    from (``source``: knowledge-base, default, llm, or "... (llm fallback)"), why (``rationale``) and its
+    rotational ``symmetry`` order about up (1, 2, 3, 4, ... or ``math.inf``)."""
 
     label: str
     upright_bias: float
     yaw_only: bool
     source: str
     rationale: str
+    symmetry: float = NO_SYMMETRY
 
     def __post_init__(self) -> None:
         if not 0.0 <= self.upright_bias <= 1.0:
             raise SemanticsError(f"upright bias {self.upright_bias} of {self.label!r} is outside [0, 1]")
+        object.__setattr__(self, "symmetry", symmetry_order(self.symmetry))
 
     @property
     def known(self) -> bool:
@@ -45,8 +68,9 @@ class UprightPrior:
         return not self.source.startswith(SOURCE_DEFAULT)
 
     def to_dict(self) -> dict[str, object]:
-        """Plain JSON-ready fields."""
-        return {**asdict(self), "known": self.known}
+        """Plain JSON-ready fields (an axial symmetry as the string "inf": strict JSON has no infinity)."""
+        symmetry = "inf" if math.isinf(self.symmetry) else int(self.symmetry)
+        return {**asdict(self), "symmetry": symmetry, "known": self.known}
 
 
 @runtime_checkable

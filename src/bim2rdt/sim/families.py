@@ -15,6 +15,7 @@ h 0.68 m) on a 0.36 m square plate; 2,000 samples; 150 points; 4 mm noise; 10 % 
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -57,22 +58,22 @@ def cone_on_plate(radius: float, height: float, plate: float, plate_height: floa
 @dataclass(frozen=True)
 class FamilyObject:
     """One object of a family: a BIM-like family name, its mesh builder (body frame, upright +z, resting on
-    z = 0) and the order of its rotational symmetry about body z (0 = any turn, as a drum)."""
+    z = 0) and the order of its rotational symmetry about body z (``math.inf`` = any turn, as a drum)."""
 
     family: str
     build: Callable[[], trimesh.Trimesh]
-    symmetry_order: int
+    symmetry_order: float
 
 
 ISSUE_TRIO = (FamilyObject("Box_600x400x500", box((0.6, 0.4, 0.5)), 2),
-              FamilyObject("Drum_580x880", cylinder(0.29, 0.88), 0),
+              FamilyObject("Drum_580x880", cylinder(0.29, 0.88), math.inf),
               FamilyObject("Cone_680_on_plate_360", cone_on_plate(0.17, 0.68, 0.36), 4))
 SMALL_TRIO = (FamilyObject("Box_300x200x250", box((0.3, 0.2, 0.25)), 2),
-              FamilyObject("Bucket_300x300", cylinder(0.15, 0.30), 0),
+              FamilyObject("Bucket_300x300", cylinder(0.15, 0.30), math.inf),
               FamilyObject("Cone_300_on_plate_200", cone_on_plate(0.08, 0.30, 0.20), 4))
 LARGE_TRIO = (FamilyObject("Timber_Stack_3000x1000x600", box((3.0, 1.0, 0.6)), 2),
               FamilyObject("Steel_I-Beam_3000", steel_i_beam, 2),
-              FamilyObject("Tank_1200x2000", cylinder(0.6, 2.0), 0))
+              FamilyObject("Tank_1200x2000", cylinder(0.6, 2.0), math.inf))
 
 
 @dataclass(frozen=True)

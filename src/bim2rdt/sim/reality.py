@@ -102,7 +102,8 @@ def _mesh(model: BimModel, obj: TrueObject) -> trimesh.Trimesh:
 
 class SimulatedPerception:
     """The perception front end on simulated frames: render the real site from the robot's camera (with sensor
-    noise), and for every object in view hand its family label and ROI corner points to the mission.
+    noise), and for every object in view hand its family label and ROI corner points to the mission, nothing
+    more: which true object a detection was is for the scoring to find out afterwards, by geometry.
 
     The detector here is the renderer's instance mask with the true family (an ideal open-vocabulary detector);
     everything after the ROI (Shi-Tomasi corners, depth, back-projection, clutter) is the real pipeline."""
@@ -118,5 +119,5 @@ class SimulatedPerception:
         self.frames.append(frame)
         seen, pixels = np.unique(frame.labels[frame.labels >= 0], return_counts=True)
         return [Detection(self.reality.truth[index].family,
-                          object_scene_points(frame, self.intrinsics, int(index), self.rng), station, int(index))
+                          object_scene_points(frame, self.intrinsics, int(index), self.rng), station)
                 for index, count in zip(seen, pixels) if count >= self.min_pixels]

@@ -9,6 +9,7 @@ scaled so its Wh-weighted vibration total value a_hv is the requested one (exact
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 
@@ -19,6 +20,10 @@ from bim2rdt.safety.weighting import weighting_power
 
 GRAVITY = 9.80665
 LOOP_S = 8.0
+MODULATION_HZ = 0.1
+"""A tool's slow amplitude modulation (the operator's grip and feed force), Hz ..."""
+MODULATION_DEPTH = 0.05
+"""... and its depth: +-5 %."""
 WEARABLE_RANGE = 200 * GRAVITY
 """Sensor range, m/s^2: a +-200 g MEMS accelerometer (percussive tools peak at hundreds of m/s^2 unweighted)."""
 
@@ -45,19 +50,61 @@ TOOLS = {
 }
 
 
+class ToolSignal:
+    """``seconds`` of ``tool`` at ``fs`` Hz with weighted a_hv = ``a_hv``, sampled piece by piece
+    (:meth:`samples`), so a long shift is never held in memory: the loop is tiled and modulated on demand."""
+
+    def __init__(self, tool: str, seconds: float, fs: float, a_hv: float | None = None, seed: int = 0):
+        profile = TOOLS[tool]
+        rng = np.random.default_rng(seed)
+        self.loop = _loop(profile, fs, rng).astype(np.float32)
+        self.fs, self.n = fs, int(round(seconds * fs))
+        self.target = profile.a_hv if a_hv is None else a_hv
+        self._phase = rng.uniform(0, 2 * np.pi)
+        self._omega = 2 * np.pi * MODULATION_HZ / fs
+        self._norm = np.sqrt(_mean_square_modulation(self.n, self._omega, self._phase))
+        self._rotations: dict[int, np.ndarray] = {}
+
+    def samples(self, start: int = 0, stop: int | None = None) -> np.ndarray:
+        """(stop - start, 3) float32 samples ``start``..``stop`` of the signal, gravity on z."""
+        stop = self.n if stop is None else min(stop, self.n)
+        modulation = 1.0 + MODULATION_DEPTH * self._sine(start, stop - start)
+        signal = self._tiled(start, stop) * (self.target * modulation / self._norm).astype(np.float32)[:, None]
+        signal[:, 2] += np.float32(GRAVITY)
+        return signal
+
+    def _sine(self, start: int, count: int) -> np.ndarray:
+        """sin(omega k + phase) for k = start..start+count: one complex rotation of a cached table of
+        exp(i omega j), j < count, instead of ``count`` sines (the modulation is 0.1 Hz: smooth)."""
+        table = self._rotations.get(count)
+        if table is None:
+            table = self._rotations[count] = np.exp(1j * self._omega * np.arange(count))
+        return (np.exp(1j * (self._omega * start + self._phase)) * table).imag
+
+    def _tiled(self, start: int, stop: int) -> np.ndarray:
+        """Samples ``start``..``stop`` of the loop repeated end to end (slices, no index arrays)."""
+        size = self.loop.shape[0]
+        first = start % size
+        if first + stop - start <= size:
+            return self.loop[first:first + stop - start]
+        return np.take(self.loop, np.arange(start, stop) % size, axis=0)
+
+
 def tool_vibration(tool: str, seconds: float, fs: float, a_hv: float | None = None,
                    seed: int = 0) -> np.ndarray:
     """(n, 3) float32 acceleration of ``seconds`` of ``tool`` at ``fs`` Hz, weighted a_hv = ``a_hv``."""
-    profile = TOOLS[tool]
-    rng = np.random.default_rng(seed)
-    loop = _loop(profile, fs, rng)
-    target = profile.a_hv if a_hv is None else a_hv
-    n = int(round(seconds * fs))
-    tiled = np.tile(loop, (int(np.ceil(n / loop.shape[0])), 1))[:n]
-    modulation = 1.0 + 0.05 * np.sin(2 * np.pi * 0.1 * np.arange(n) / fs + rng.uniform(0, 2 * np.pi))
-    signal = tiled * (target * modulation / np.sqrt(np.mean(modulation**2)))[:, None]
-    signal[:, 2] += GRAVITY
-    return signal.astype(np.float32)
+    return ToolSignal(tool, seconds, fs, a_hv, seed).samples()
+
+
+def _mean_square_modulation(n: int, omega: float, phase: float) -> float:
+    """Mean over k < n of (1 + d sin(omega k + phase))^2, in closed form (sums of sines in arithmetic
+    progression), so the a_hv scaling does not need the whole signal at once."""
+    if n == 0:
+        return 1.0
+    sin_sum = math.sin(n * omega / 2) * math.sin(phase + (n - 1) * omega / 2) / math.sin(omega / 2)
+    cos2_sum = math.sin(n * omega) * math.cos(2 * phase + (n - 1) * omega) / math.sin(omega)
+    square_sum = n / 2 - cos2_sum / 2
+    return (n + 2 * MODULATION_DEPTH * sin_sum + MODULATION_DEPTH**2 * square_sum) / n
 
 
 def _loop(profile: ToolProfile, fs: float, rng: np.random.Generator) -> np.ndarray:
@@ -92,10 +139,12 @@ def session_signal(plan: Sequence[tuple[str, float]], fs: float, seed: int = 0,
     return np.concatenate(pieces)
 
 
-def batches(device: str, signal: np.ndarray, fs: float, start_time: float, batch_s: float = 0.5,
+def batches(device: str, signal: np.ndarray | ToolSignal, fs: float, start_time: float, batch_s: float = 0.5,
             first_seq: int = 0, full_scale: float | None = WEARABLE_RANGE) -> Iterator[AccelBatch]:
-    """Cut ``signal`` (n, 3) into the batches a wearable would publish (seq, device time of first sample)."""
+    """Cut ``signal`` ((n, 3) samples, or a :class:`ToolSignal` sampled as it goes) into the batches a wearable
+    would publish (seq, device time of first sample)."""
     step = max(1, int(round(batch_s * fs)))
-    for i, start in enumerate(range(0, signal.shape[0], step)):
-        yield AccelBatch(device, first_seq + i, start_time + start / fs, fs, signal[start:start + step],
-                         full_scale)
+    n = signal.n if isinstance(signal, ToolSignal) else signal.shape[0]
+    for i, start in enumerate(range(0, n, step)):
+        samples = signal.samples(start, start + step) if isinstance(signal, ToolSignal) else signal[start:start + step]
+        yield AccelBatch(device, first_seq + i, start_time + start / fs, fs, samples, full_scale)

@@ -17,7 +17,7 @@ import numpy as np
 
 from bim2rdt.bus.payloads import encode_accel
 from bim2rdt.bus.topics import accel_topic, status_topic
-from bim2rdt.sim.vibration import TOOLS, batches, tool_vibration
+from bim2rdt.sim.vibration import TOOLS, ToolSignal, batches
 
 TOOL_ORDER = ("grinder", "hammer_drill", "breaker")
 PAUSE_S = 30.0
@@ -75,7 +75,7 @@ def _device_messages(plan: WorkerPlan, site: str, fs: float, t0: float, batch_s:
         for batch in batches(plan.device, signal, fs, when, batch_s, seq):
             yield batch.device_time, plan.device, accel_topic(site, plan.device), encode_accel(batch), False
             seq = batch.seq + 1
-        when += signal.shape[0] / fs
+        when += signal.n / fs
     yield when, plan.device, status_topic(site, plan.device), status_payload(plan, tool, online=False), True
 
 
@@ -103,9 +103,41 @@ def plan_seconds(plan: WorkerPlan) -> float:
 
 def plan_signal(plan: WorkerPlan, fs: float, seed: int = 0) -> np.ndarray:
     """The (n, 3) samples of a whole plan (the same ones :func:`timed_messages` sends for seed ``seed``)."""
-    return np.concatenate([_piece_signal(plan, piece, seconds, fs, seed * 100 + i)
+    return np.concatenate([_piece_signal(plan, piece, seconds, fs, seed * 100 + i).samples()
                            for i, (piece, seconds) in enumerate(plan.pieces)])
 
 
-def _piece_signal(plan: WorkerPlan, tool: str, seconds: float, fs: float, seed: int) -> np.ndarray:
-    return tool_vibration(tool, seconds, fs, TOOLS[tool].a_hv * plan.intensity, seed=seed)
+def _piece_signal(plan: WorkerPlan, tool: str, seconds: float, fs: float, seed: int) -> ToolSignal:
+    return ToolSignal(tool, seconds, fs, TOOLS[tool].a_hv * plan.intensity, seed=seed)
+
+
+def run_in_process(plans: list[WorkerPlan], monitor, site: str, fs: float, speed: float = 0.0,
+                   tick: Callable[[float], None] | None = None) -> int:
+    """Publish every plan on an in-process bus that ``monitor`` (a :class:`~bim2rdt.safety.HavMonitor`) is
+    attached to, then commit what waits; returns the number of messages sent."""
+    from bim2rdt.bus.local import LocalBus
+
+    bus = LocalBus().connect()
+    monitor.attach(bus)
+    sent = publish_plans(lambda device: bus, plans, site, fs, speed=speed, tick=tick)
+    monitor.flush()
+    return sent
+
+
+def run_over_mqtt(plans: list[WorkerPlan], site: str, fs: float, host: str, port: int,
+                  password_of: Callable[[str], str], speed: float = 0.0,
+                  tick: Callable[[float], None] | None = None) -> int:
+    """Publish every plan to a broker, each device logged in as itself (``password_of(device)``) with its
+    retained offline status as last will; returns the number of messages sent."""
+    from bim2rdt.bus.mqtt import MqttBus
+
+    buses = {}
+    try:
+        for plan in plans:
+            will = (status_topic(site, plan.device), status_payload(plan, "", False))
+            buses[plan.device] = MqttBus(host, port, client_id=plan.device, username=plan.device,
+                                         password=password_of(plan.device), will=will).connect()
+        return publish_plans(buses.__getitem__, plans, site, fs, speed=speed, tick=tick)
+    finally:
+        for bus in buses.values():
+            bus.close()

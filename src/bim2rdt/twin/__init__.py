@@ -1,5 +1,31 @@
-"""bim2rdt.twin: the twin's element status (and, as it is built, its state, history and exports)."""
+"""bim2rdt.twin: the site's digital twin: element status against the BIM, an append-only history (SQLite or
+PostgreSQL through SQLAlchemy Core), and exports to IFC, JSON and BCF.
 
-from bim2rdt.twin.status import ElementStatus
+```python
+from bim2rdt.twin import DigitalTwin, ElementStatus
+twin = DigitalTwin.open("sqlite:///out/twin.db", model)
+twin.record(observation, time); twin.state(at=None); twin.history(global_id)
+twin.export_ifc(path); twin.export_bcf(path)
+```
+"""
 
-__all__ = ["ElementStatus"]
+from bim2rdt.twin.deviation import Deviation, pose_deviation
+from bim2rdt.twin.errors import TwinError
+from bim2rdt.twin.records import (EVENT_KINDS, MISSING, OBSERVATION, SAFETY, STATUS, ElementState, Evidence, Fit,
+                                  TwinEvent)
+from bim2rdt.twin.sink import TwinSink
+from bim2rdt.twin.status import STATUS_COLOURS, ElementStatus
+from bim2rdt.twin.config import TolerancePreset, TwinConfig
+from bim2rdt.twin.tolerance import Tolerance, TolerancePolicy
+
+__all__ = ["DigitalTwin", "Deviation", "ElementState", "ElementStatus", "EVENT_KINDS", "Evidence", "Fit", "MISSING",
+           "OBSERVATION", "SAFETY", "STATUS", "STATUS_COLOURS", "Tolerance", "TolerancePolicy", "TolerancePreset",
+           "TwinConfig", "TwinError", "TwinEvent", "TwinSink", "pose_deviation"]
+
+
+def __getattr__(name: str):
+    if name == "DigitalTwin":  # imported on first use: the store (SQLAlchemy) and the BIM reader are heavy
+        from bim2rdt.twin.twin import DigitalTwin
+
+        return DigitalTwin
+    raise AttributeError(name)

@@ -21,3 +21,9 @@ class ElementStatus(str, Enum):
 
     def __str__(self) -> str:
         return self.value
+
+
+STATUS_COLOURS = {ElementStatus.NOT_OBSERVED: "0.75", ElementStatus.AS_PLANNED: "tab:green",
+                  ElementStatus.DEVIATING: "tab:orange", ElementStatus.MISSING: "tab:purple",
+                  ElementStatus.NEW: "tab:red", ElementStatus.UNVERIFIED: "tab:grey"}
+"""One matplotlib colour per status, shared by snapshots, plan maps and reports."""

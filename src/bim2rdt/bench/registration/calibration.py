@@ -14,7 +14,8 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 from scipy.stats import chi2
 
-from bim2rdt.sim.truth import closest_equivalent
+from bim2rdt.registration.symmetry import closest_equivalent
+from bim2rdt.sim.truth import true_symmetry
 
 INSIDE_95 = float(chi2.ppf(0.95, 6))
 """Squared Mahalanobis radius of the 95 % ellipsoid of a 6-D Gaussian (12.59)."""
@@ -32,10 +33,10 @@ class CovarianceCheck:
 
 
 def pose_error_vector(family: str, T_est: np.ndarray, T_true: np.ndarray, model_pts: np.ndarray,
-                      order: int | None = None) -> np.ndarray:
+                      order: float | None = None) -> np.ndarray:
     """(6,) error in POSE_PARAMETERS: the rotation vector (rad, world axes) taking the estimate's orientation to
     the truth's (modulo the family's symmetry), then the true centroid minus the estimated one (m, world)."""
-    shown = closest_equivalent(family, T_est, T_true, order)
+    shown = closest_equivalent(T_est, T_true, true_symmetry(family, order))
     rotation = Rotation.from_matrix(T_true[:3, :3] @ shown[:3, :3].T).as_rotvec()
     centroid = model_pts.mean(axis=0)
     shift = (T_true[:3, :3] @ centroid + T_true[:3, 3]) - (shown[:3, :3] @ centroid + shown[:3, 3])
@@ -43,7 +44,7 @@ def pose_error_vector(family: str, T_est: np.ndarray, T_true: np.ndarray, model_
 
 
 def check_covariance(result, family: str, T_true: np.ndarray, model_pts: np.ndarray,
-                     order: int | None = None) -> CovarianceCheck:
+                     order: float | None = None) -> CovarianceCheck:
     """Judge one :class:`bim2rdt.registration.RegistrationResult` against the truth."""
     error = pose_error_vector(family, result.pose, T_true, model_pts, order)
     in_basin = bool(np.rad2deg(np.linalg.norm(error[:3])) < BASIN_DEG and np.linalg.norm(error[3:]) < BASIN_M)

@@ -87,10 +87,12 @@ FAMILY_METHODS = ("ICP", "SG-ICP", "Open3D pt-plane")
 """What runs on the scene families: the two methods the families judge, and the peer users would pick."""
 
 
-def run_record(run: RegistrationRun) -> dict:
-    """The run as plain JSON-able data: resolved config, seed, priors, versions, per-scenario stats, targets."""
+def run_record(run: RegistrationRun, settings: dict | None = None) -> dict:
+    """The run as plain JSON-able data: the registration config it ran with (and, given, every setting: see
+    ``bim2rdt.config.settings_record``), seed, priors, versions, per-scenario stats, targets."""
     return {
-        "config": run.config.model_dump(), "trials": run.trials, "seed": run.seed, "versions": versions(),
+        "config": run.config.model_dump(), **({"settings": settings} if settings is not None else {}),
+        "trials": run.trials, "seed": run.seed, "versions": versions(),
         "priors": {family: {"upright_bias": bias, "yaw_only": yaw} for family, (bias, yaw) in run.priors.items()},
         "scenarios": {r.name: {"description": r.description,
                                "methods": {m: _no_nan(asdict(s)) for m, s in r.stats.items()},
@@ -116,9 +118,9 @@ def _no_nan(record: dict) -> dict:
     return {key: None if isinstance(value, float) and value != value else value for key, value in record.items()}
 
 
-def save_run(run: RegistrationRun, out_dir: Path) -> Path:
+def save_run(run: RegistrationRun, out_dir: Path, settings: dict | None = None) -> Path:
     """Write ``results.json`` (see :func:`run_record`) atomically into ``out_dir``."""
-    text = json.dumps(run_record(run), indent=2)
+    text = json.dumps(run_record(run, settings), indent=2)
     return write_bytes_atomic(Path(out_dir) / "results.json", text.encode("utf-8"))
 
 

@@ -20,7 +20,8 @@ import numpy as np
 from bim2rdt.bench.registration.calibration import calibration, check_covariance
 from bim2rdt.registration import hausdorff
 from bim2rdt.sim.scenarios import Scenario
-from bim2rdt.sim.truth import FAILURE_MODES, closest_equivalent, pose_error
+from bim2rdt.registration.symmetry import closest_equivalent
+from bim2rdt.sim.truth import FAILURE_MODES, pose_error, true_symmetry
 
 Method = Callable[..., np.ndarray]
 Prior = tuple[float, bool]  # (upright_bias, yaw_only)
@@ -83,7 +84,7 @@ def _register_one(method: Method, scenario: Scenario, obj, priors: dict[str, Pri
     found = method(model_pts, model_normals, obj.scene_pts_world, obj.T_init, bias, yaw_only, obj.support_height)
     elapsed = time.perf_counter() - start
     pose = getattr(found, "pose", found)
-    shown = closest_equivalent(obj.family, pose, obj.T_world_model, obj.symmetry_order)
+    shown = closest_equivalent(pose, obj.T_world_model, true_symmetry(obj.family, obj.symmetry_order))
     stats = hausdorff(_posed(model_pts, shown), _posed(model_pts, obj.T_world_model))
     error = pose_error(obj.family, pose, obj.T_world_model, obj.symmetry_order)
     check = (check_covariance(found, obj.family, obj.T_world_model, model_pts, obj.symmetry_order)

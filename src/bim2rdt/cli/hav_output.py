@@ -1,0 +1,70 @@
+"""What the HAV commands (`hav listen`, `sim wearables`) print and write: event lines, the day's table, the twin."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+from bim2rdt.cli.common import console, print_table
+
+
+def event_line(event) -> None:
+    """One line per event: time (UTC, device clock), pseudonym, tool, what happened, running figures."""
+    data = event.data
+    stamp = time.strftime("%H:%M:%S", time.gmtime(event.time))
+    figures = (f"a_hv {data.get('a_hv') or 0:4.1f} A(8) {data.get('day_a8') or 0:4.2f} "
+               f"{data.get('day_points') or 0:3.0f}pt")
+    extra = f" EAV in {data['seconds_to_eav'] / 60:.0f} min" if data.get("seconds_to_eav") else ""
+    console.print(f"{stamp} {event.subject[:10]} {data.get('tool', ''):12.12s} {event.kind[4:]:17s} {figures}{extra}",
+                  soft_wrap=True)
+
+
+def print_summary(monitor, devices) -> None:
+    """The latest day of each device's worker: A(8), points, trigger minutes, risk."""
+    rows = []
+    for device in devices:
+        session = monitor.session(device)
+        if session is not None:
+            days = monitor.days_of(session.subject)
+            day = monitor.day(session.subject, days[-1] if days else None)
+            rows.append((session.subject, device, day.a8, day.points, day.seconds / 60.0, day.risk))
+    print_table("Daily exposure", ["worker (pseudonym)", "device", "A(8) m/s²", "points", "trigger min", "risk"], rows)
+
+
+def open_monitor(settings, sinks=(), data_dir: Path | None = None, **overrides):
+    """The HAV monitor as configured: state under ``data_dir`` (default ``settings.data_dir/hav``), the
+    ``settings.hav`` section (site = ``settings.mqtt.site``) with ``overrides``."""
+    from bim2rdt.safety import HavMonitor
+
+    folder = data_dir if data_dir is not None else settings.data_dir / "hav"
+    return HavMonitor(folder, settings.hav.site_secret, list(sinks), settings.hav.monitor_config(**overrides))
+
+
+@contextmanager
+def twin_sink(ifc: Path | None, out: Path | None) -> Iterator:
+    """An IfcSink writing into ``out`` (default <ifc>_hav.ifc) from ``ifc``; None when no IFC is asked for."""
+    if ifc is None:
+        yield None
+        return
+    from bim2rdt.bim import TwinWriter, load_ifc
+    from bim2rdt.safety.ifc_sink import IfcSink
+
+    model = load_ifc(ifc, geometry=False)
+    writer = TwinWriter(model)
+    yield IfcSink(writer, model)
+    target = out or ifc.with_name(ifc.stem + "_hav.ifc")
+    writer.save(target)
+    console.print(f"twin written to {target}")
+
+
+@contextmanager
+def progress(total: float, label: str) -> Iterator:
+    """A transient rich progress bar; yields ``update(done)``."""
+    from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
+
+    with Progress(TextColumn("{task.description}"), BarColumn(), TimeRemainingColumn(), console=console,
+                  transient=True) as bar:
+        task = bar.add_task(label, total=total)
+        yield lambda done: bar.update(task, completed=done)

@@ -1,0 +1,76 @@
+"""Simulator commands: `bim2rdt sim wearables` (other simulators add theirs to the same `sim` group)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+from bim2rdt.cli.common import console
+from bim2rdt.cli.hav_output import event_line, open_monitor, print_summary, progress, twin_sink
+
+sim_app = typer.Typer(help="Simulators: wearables on the site bus.", no_args_is_help=True)
+
+
+def register(app: typer.Typer, bench_app: typer.Typer) -> None:
+    app.add_typer(sim_app, name="sim")
+
+
+@sim_app.command("wearables")
+def sim_wearables(
+    mqtt: str | None = typer.Option(None, "--mqtt", help="Broker HOST:PORT; without it an in-process bus and "
+                                    "monitor run here."),
+    workers: int = typer.Option(3, "--workers", min=1, help="Simulated workers (devices w1..wN)."),
+    minutes: float = typer.Option(45.0, "--minutes", min=1.0, help="Minutes of work per worker."),
+    fs: float = typer.Option(5000.0, "--fs", min=200.0, help="Sensor sampling rate, Hz."),
+    speed: float = typer.Option(0.0, "--speed", min=0.0, help="1 = real time, 0 = as fast as possible."),
+    zone: str | None = typer.Option("Work Zone A - Drilling", "--zone", help="Work zone name or GlobalId."),
+    csv: Path | None = typer.Option(None, "--csv", help="Also write worker 1's samples as CSV (for hav analyze)."),
+    ifc: Path | None = typer.Option(None, "--ifc", help="In-process mode: site IFC to write the twin records into."),
+    out: Path | None = typer.Option(None, "--out", help="Where the twin IFC goes (default: <ifc>_hav.ifc)."),
+) -> None:
+    """Publish simulated hammer drill / grinder / breaker sessions (realistic spectra and magnitudes)."""
+    from bim2rdt.sim.wearables import default_plans, plan_seconds
+
+    plans = default_plans(workers, minutes, zone)
+    if csv is not None:
+        _write_csv(plans[0], fs, csv)
+    total = max(plan_seconds(p) for p in plans)
+    with progress(total, f"{workers} wearables, {total / 60:.0f} min each") as tick:
+        if mqtt is None:
+            _in_process(plans, fs, speed, tick, ifc, out)
+        else:
+            _over_mqtt(plans, fs, speed, tick, mqtt)
+
+
+def _in_process(plans, fs: float, speed: float, tick, ifc: Path | None, out: Path | None) -> None:
+    from bim2rdt.config import get_settings
+    from bim2rdt.safety import CallbackSink
+    from bim2rdt.sim.wearables import run_in_process
+
+    settings = get_settings()
+    with twin_sink(ifc, out) as ifc_sink:
+        monitor = open_monitor(settings, [CallbackSink(event_line)] + ([ifc_sink] if ifc_sink else []))
+        run_in_process(plans, monitor, settings.mqtt.site, fs, speed, tick)
+        print_summary(monitor, [p.device for p in plans])
+        monitor.close()
+
+
+def _over_mqtt(plans, fs: float, speed: float, tick, mqtt: str) -> None:
+    from bim2rdt.bus.credentials import device_password, parse_address
+    from bim2rdt.config import get_settings
+    from bim2rdt.sim.wearables import run_over_mqtt
+
+    settings = get_settings()
+    host, port = parse_address(mqtt)
+    sent = run_over_mqtt(plans, settings.mqtt.site, fs, host, port,
+                         lambda device: device_password(settings.mqtt.device_secret, device), speed, tick)
+    console.print(f"published {sent} messages to {host}:{port}")
+
+
+def _write_csv(plan, fs: float, path: Path) -> None:
+    from bim2rdt.safety.recording import write_accel_csv
+    from bim2rdt.sim.wearables import plan_signal
+
+    write_accel_csv(path, plan_signal(plan, fs), fs)
+    console.print(f"worker 1's samples written to {path}")

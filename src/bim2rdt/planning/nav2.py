@@ -1,0 +1,74 @@
+"""The grid as ROS map_server files, for Nav2: ``NAME.pgm`` + ``NAME.yaml``, and a keep-out filter mask.
+
+The map is the unpadded occupancy (walls, columns, objects, closed doors, no floor), not the robot-grown one:
+Nav2's own inflation layer grows it by the robot's footprint. Black (0) is occupied, white (254) free,
+``mode: trinary``, ``negate: 0``, thresholds 0.65/0.196 (map_server's defaults). The PGM's first row is the
+grid's top (largest y): ``origin`` is the world pose of the image's lower-left pixel.
+
+The keep-out mask (``NAME_keepout``) has the same frame; black cells are keep-out zones and worker circles, for
+the KeepoutFilter (costmap filter info ``type: 0``, ``base: 0.0``, ``multiplier: 1.0``; map_server
+``mode: scale`` turns black into 100 = lethal). It is written only when the grid has keep-out zones.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from bim2rdt.atomic import write_bytes_atomic
+from bim2rdt.planning.errors import PlanningError
+
+if TYPE_CHECKING:
+    from bim2rdt.planning.grid import OccupancyGrid
+
+OCCUPIED, FREE = 0, 254
+OCCUPIED_THRESH, FREE_THRESH = 0.65, 0.196
+
+
+def save_nav2(grid: OccupancyGrid, folder: Path, name: str) -> dict[str, Path]:
+    """Write the map (and the keep-out mask when there are zones) into ``folder``; returns {what: path}."""
+    from bim2rdt.planning.grid import KEEPOUT_KINDS, STRUCTURE_KINDS
+
+    if not name or "/" in name or name.startswith("."):
+        raise PlanningError(f"map name {name!r}: give a plain file stem such as 'site'")
+    folder.mkdir(parents=True, exist_ok=True)
+    written = _write_map(folder, name, grid.layer(STRUCTURE_KINDS + ("object",)), grid, "trinary")
+    keepout = grid.layer(KEEPOUT_KINDS)
+    if keepout.any():
+        masks = _write_map(folder, f"{name}_keepout", keepout, grid, "scale")
+        written.update({"keepout_image": masks["image"], "keepout_yaml": masks["yaml"]})
+    return written
+
+
+def read_pgm(path: Path) -> np.ndarray:
+    """A binary (P5) 8-bit PGM as uint8 (rows, cols), first row at the image's top."""
+    data = Path(path).read_bytes()
+    fields, position = [], 0
+    while len(fields) < 4:
+        while data[position:position + 1].isspace():
+            position += 1
+        if data[position:position + 1] == b"#":
+            position = data.index(b"\n", position) + 1
+            continue
+        end = position
+        while not data[end:end + 1].isspace():
+            end += 1
+        fields.append(data[position:end])
+        position = end
+    if fields[0] != b"P5" or int(fields[3]) > 255:
+        raise PlanningError(f"{path}: not an 8-bit binary PGM")
+    width, height = int(fields[1]), int(fields[2])
+    return np.frombuffer(data[position + 1:position + 1 + width * height], np.uint8).reshape(height, width)
+
+
+def _write_map(folder: Path, name: str, occupied: np.ndarray, grid: OccupancyGrid, mode: str) -> dict[str, Path]:
+    pixels = np.where(occupied, OCCUPIED, FREE).astype(np.uint8)[::-1]
+    header = f"P5\n# bim2rdt occupancy, {grid.resolution:g} m/cell\n{pixels.shape[1]} {pixels.shape[0]}\n255\n"
+    image = write_bytes_atomic(folder / f"{name}.pgm", header.encode("ascii") + pixels.tobytes())
+    x0, y0 = grid.frame.origin_xy
+    yaml = (f"image: {image.name}\nmode: {mode}\nresolution: {grid.resolution:.6f}\n"
+            f"origin: [{x0:.6f}, {y0:.6f}, 0.0]\nnegate: 0\noccupied_thresh: {OCCUPIED_THRESH}\n"
+            f"free_thresh: {FREE_THRESH}\n")
+    return {"image": image, "yaml": write_bytes_atomic(folder / f"{name}.yaml", yaml.encode("ascii"))}

@@ -1,0 +1,83 @@
+"""The HAV monitor's configuration: one validated object, also ``Settings.hav`` (``BIM2RDT_HAV__*``).
+
+Only pydantic is imported here, so reading the settings never loads the signal-processing stack. The monitor's
+parts take the plain values they need: :class:`Trigger` (activity detection) and :class:`ArtefactLimits`
+(artefact rejection) are built from the flat fields, which keep the environment names short
+(``BIM2RDT_HAV__START_THRESHOLD``, not ``..._TRIGGER__START_THRESHOLD``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+PHYSICAL_LIMIT = 5000.0
+"""m/s^2: no hand-held tool shakes a hand harder (percussive tools peak at a few hundred m/s^2 unweighted); a
+sample beyond it is a sensor or transmission artefact, never exposure (ISO 8041-2 artefact rejection)."""
+
+
+@dataclass(frozen=True)
+class Trigger:
+    """Activity detection: start at ``start_threshold`` m/s^2, stop after ``stop_hold_s`` s under
+    ``stop_threshold`` m/s^2; re-predict the time to EAV every ``predict_every_s`` s of activity."""
+
+    start_threshold: float = 1.0
+    stop_threshold: float = 0.5
+    stop_hold_s: float = 2.0
+    predict_every_s: float = 60.0
+
+
+@dataclass(frozen=True)
+class ArtefactLimits:
+    """When a block is rejected (see :mod:`bim2rdt.safety.blocks`)."""
+
+    saturation_ratio: float = 0.98
+    crest_limit: float = 25.0
+    shock_min_peak: float = 100.0
+    physical_limit: float = PHYSICAL_LIMIT
+
+
+class MonitorConfig(BaseModel):
+    """How the monitor detects activities, rejects artefacts, orders batches, commits and keeps raw data."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
+
+    site: str = Field("demo", description="Site id of the topics the monitor reads, site/{site}/wearable/+/...; "
+                      "in Settings it is always mqtt.site (BIM2RDT_MQTT__SITE).")
+    start_threshold: float = Field(1.0, gt=0, description="Block a_hv (m/s^2) at which a tool activity starts "
+                                   "(trigger time, as an ISO 8041-2 meter counts it).")
+    stop_threshold: float = Field(0.5, gt=0, description="Block a_hv (m/s^2) under which an activity is winding "
+                                  "down; at most start_threshold.")
+    stop_hold_s: float = Field(2.0, ge=0, le=3600, description="Seconds under stop_threshold that end an activity.")
+    predict_every_s: float = Field(60.0, gt=0, description="Activity seconds between predictions of the time to EAV.")
+    crest_limit: float = Field(25.0, gt=1, description="Crest factor above which a block is a shock artefact.")
+    saturation_ratio: float = Field(0.98, gt=0, le=1, description="Share of the sensor's full scale at which a "
+                                    "block counts as saturated.")
+    shock_min_peak: float = Field(100.0, gt=0, description="Smallest centred peak (m/s^2) a shock artefact has.")
+    max_reorder: int = Field(8, ge=0, le=10_000, description="Out-of-order batches held before a missing one is "
+                             "declared a gap.")
+    reorder_s: float = Field(2.0, ge=0, le=3600, description="Seconds a batch waits for a missing predecessor "
+                             "before a gap is declared.")
+    raw_retention_s: float = Field(7 * 24 * 3600.0, ge=0, description="Raw batches are deleted this long after "
+                                   "receipt once framed, seconds (0: as soon as framed).")
+    keep_timeline: bool = Field(False, description="Keep (time, subject, A(8)) after every counted block (plots).")
+    commit_batches: int = Field(64, ge=1, le=1000, description="Group commit: bus messages ingested and committed "
+                                "together at most (one SQLite transaction, one filtering pass per stream).")
+    commit_delay_s: float = Field(0.25, ge=0, le=10, description="Group commit: the longest a received batch waits "
+                                  "for its commit, seconds (0: every message commits alone).")
+
+    @model_validator(mode="after")
+    def _stop_not_above_start(self) -> MonitorConfig:
+        if self.stop_threshold > self.start_threshold:
+            raise ValueError(f"stop_threshold ({self.stop_threshold}) must not exceed start_threshold "
+                             f"({self.start_threshold})")
+        return self
+
+    @property
+    def trigger(self) -> Trigger:
+        return Trigger(self.start_threshold, self.stop_threshold, self.stop_hold_s, self.predict_every_s)
+
+    @property
+    def artefacts(self) -> ArtefactLimits:
+        return ArtefactLimits(self.saturation_ratio, self.crest_limit, self.shock_min_peak)

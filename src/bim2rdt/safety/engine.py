@@ -1,0 +1,252 @@
+"""The in-memory exposure engine: wearable batches in, safety events out; no I/O.
+
+Per stream it orders and de-duplicates batches and reports gaps (:mod:`~bim2rdt.safety.streams`), weighs samples
+with the fitted Wh IIR after the subject's mounting correction, state carried across batches
+(:mod:`~bim2rdt.safety.weighing`), rejects artefact blocks and feeds half-second blocks to the trigger-time
+activity tracker (:mod:`~bim2rdt.safety.activity`). Per worker-day it keeps A(8) and HSE points. The events it
+returns are what the monitor commits and hands to its sinks.
+"""
+
+from __future__ import annotations
+
+import heapq
+import math
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field
+
+from bim2rdt.bus.event import Event
+from bim2rdt.bus.payloads import AccelBatch
+from bim2rdt.safety.activity import ARTEFACT, GAP, ActivityState, ActivityTracker, DayState, Notice, utc_day
+from bim2rdt.safety.blocks import describe_flags
+from bim2rdt.safety.clock import DeviceClock
+from bim2rdt.safety.config import MonitorConfig
+from bim2rdt.safety.sessions import Session, SessionBook
+from bim2rdt.safety.streams import PushResult, StreamBuffer
+from bim2rdt.safety.weighing import Blocks, FilterState, Piece, weigh_round
+from bim2rdt.safety.weighting import covered_band
+
+
+@dataclass
+class Stream:
+    """One device's stream: ordering buffer, filter state, activity tracker, session, clock and counters."""
+
+    device: str
+    buffer: StreamBuffer
+    filter: FilterState
+    tracker: ActivityTracker
+    session: Session
+    clock: DeviceClock = field(default_factory=DeviceClock)
+    counters: dict[str, float] = field(default_factory=dict)
+
+    def count(self, name: str, amount: float = 1) -> None:
+        self.counters[name] = self.counters.get(name, 0) + amount
+
+
+@dataclass
+class Outcome:
+    """What one call changed: batches accepted (not duplicates or late), streams touched, events caused."""
+
+    accepted: list[AccelBatch] = field(default_factory=list)
+    streams: dict[str, Stream] = field(default_factory=dict)
+    events: list[Event] = field(default_factory=list)
+
+
+class ExposureEngine:
+    """Streams and worker-days in memory; the monitor persists what each call returns."""
+
+    def __init__(self, config: MonitorConfig, sessions: SessionBook, clock: Callable[[], float]):
+        self.config, self.sessions, self.clock = config, sessions, clock
+        self.streams: dict[str, Stream] = {}
+        self.days: dict[tuple[str, str], DayState] = {}
+        self.touched_days: set[tuple[str, str]] = set()
+        self.timeline: list[tuple[float, str, float]] = []
+        self.stats: dict[str, float] = {}
+
+    # --- streams -------------------------------------------------------------------------------------------
+    def stream(self, device: str) -> Stream:
+        """The device's stream, created (anonymous session) on first sight."""
+        stream = self.streams.get(device)
+        if stream is None:
+            stream = Stream(device, self.new_buffer(), FilterState(),
+                            ActivityTracker(self.config.trigger, device), self.sessions.anonymous(device))
+            self.streams[device] = stream
+        return stream
+
+    def new_buffer(self) -> StreamBuffer:
+        return StreamBuffer(self.config.max_reorder, self.config.reorder_s)
+
+    def count(self, name: str, amount: float = 1) -> None:
+        self.stats[name] = self.stats.get(name, 0) + amount
+
+    # --- ingest --------------------------------------------------------------------------------------------
+    def push(self, batches: Iterable[AccelBatch], now: float) -> Outcome:
+        """Take batches (received at ``now`` unless stamped) from any devices in any order."""
+        outcome, ordered = Outcome(), []
+        for batch in batches:
+            batch = batch if batch.received_time is not None else batch.received_at(now)
+            stream = self.stream(batch.device)
+            result = stream.buffer.push(batch, now)
+            outcome.events += self._note_push(stream, batch, result)
+            if result.duplicates == result.late == 0:
+                outcome.accepted.append(batch)
+            outcome.streams[stream.device] = stream
+            ordered += [(stream, piece, new_segment) for piece, new_segment in result.pieces]
+        outcome.events += self._process(ordered)
+        return outcome
+
+    def expire(self, now: float) -> Outcome:
+        """Declare overdue gaps on streams whose missing batches never came."""
+        outcome, ordered = Outcome(), []
+        for stream in [s for s in self.streams.values() if s.buffer.pending]:
+            result = PushResult()
+            stream.buffer.expire(now, result)
+            outcome.events += self._note_gaps(stream, result)
+            outcome.streams[stream.device] = stream
+            ordered += [(stream, piece, new_segment) for piece, new_segment in result.pieces]
+        outcome.events += self._process(ordered)
+        return outcome
+
+    def close(self, device: str, when: float | None = None) -> Outcome:
+        """Flush a stream's waiting batches and end its activity at ``when`` (default: the device time of its
+        last sample, not when the news reached us)."""
+        stream = self.streams.get(device)
+        if stream is None:
+            return Outcome()
+        result = PushResult()
+        last = stream.buffer.close(result)
+        events = self._note_gaps(stream, result) + self._process([(stream, b, s) for b, s in result.pieces])
+        when = when if when is not None else last if last is not None else self.clock()
+        return Outcome([], {device: stream}, events + self.stop_activity(stream, when))
+
+    def rebind(self, device: str, session: Session) -> Outcome:
+        """Put ``device`` under ``session``; a running activity of the old session ends first."""
+        stream = self.stream(device)
+        if stream.session == session:
+            return Outcome()
+        events = self.stop_activity(stream, self.last_time(stream))
+        stream.session, stream.tracker.hand = session, session.hand
+        return Outcome([], {device: stream}, events)
+
+    def stop_activity(self, stream: Stream, when: float) -> list[Event]:
+        notices = stream.tracker.stop(when, self._day_lookup(stream.session.subject))
+        return [self.event(stream, notice) for notice in notices]
+
+    def last_time(self, stream: Stream) -> float:
+        return stream.buffer.end_time if stream.buffer.end_time is not None else self.clock()
+
+    # --- order, gaps and clock -----------------------------------------------------------------------------
+    def _note_push(self, stream: Stream, batch: AccelBatch, result: PushResult) -> list[Event]:
+        stream.count("batches")
+        for name in ("duplicates", "late"):
+            if getattr(result, name):
+                stream.count(name, getattr(result, name))
+                self.count(name, getattr(result, name))
+        if result.duplicates == result.late == 0:
+            stream.clock.observe(batch.received_time, batch.device_time + batch.duration_s)
+        return self._note_gaps(stream, result)
+
+    def _note_gaps(self, stream: Stream, result: PushResult) -> list[Event]:
+        events = []
+        for gap in result.gaps:
+            seconds = max(gap.end - gap.start, 0.0)
+            stream.count("gaps")
+            stream.count("gap_s", seconds)
+            self.count("gaps")
+            stream.tracker.gap(seconds)
+            events.append(self.event(stream, (GAP, gap.start, {"end": gap.end, "seconds": seconds,
+                                                                "reason": gap.reason,
+                                                                "missing_batches": gap.missing_seqs})))
+        return events
+
+    # --- weighting and tracking ----------------------------------------------------------------------------
+    def _process(self, ordered: list[tuple[Stream, AccelBatch, bool]]) -> list[Event]:
+        """Weigh in-order batches, each stream's consecutive ones as one run, in rounds (one run per stream per
+        round); then track every stream's blocks in device-time order."""
+        runs: dict[str, list[Piece]] = {}
+        for stream, batch, new_segment in ordered:
+            queue = runs.setdefault(stream.device, [])
+            if queue and not new_segment and _continues(queue[-1], batch):
+                queue[-1].batches.append(batch)
+            else:
+                queue.append(Piece(stream.filter, [batch], new_segment, self.sessions.correction(stream.session)))
+        weighed: dict[str, list[Blocks]] = {device: [] for device in runs}
+        for r in range(max((len(q) for q in runs.values()), default=0)):
+            devices = [d for d, q in runs.items() if len(q) > r]
+            for device, blocks in zip(devices, weigh_round([runs[d][r] for d in devices], self.config.artefacts)):
+                weighed[device].append(blocks)
+        return self._track(weighed)
+
+    def _track(self, weighed: dict[str, list[Blocks]]) -> list[Event]:
+        """Feed blocks to the trackers, all streams merged by block end time (each stream's own order kept), so
+        two devices of one worker reach a limit in the order their samples were taken."""
+        streams = [_stream_blocks(self.streams[device], blocks) for device, blocks in weighed.items()]
+        events = []
+        for end, _, device, seconds, energy, flags in heapq.merge(*streams):
+            events += self._frame(self.streams[device], end, seconds, energy, flags)
+        return events
+
+    def _frame(self, stream: Stream, end: float, seconds: float, energy: float, flags: int) -> list[Event]:
+        tracker, subject = stream.tracker, stream.session.subject
+        if flags:
+            tracker.reject(seconds)
+            stream.count("rejected_s", seconds)
+            return [self.event(stream, (ARTEFACT, end - seconds, {"seconds": seconds,
+                                                                  "kinds": describe_flags(flags)}))]
+        day_of = self._day_lookup(subject)
+        notices = tracker.frame(end, seconds, energy, day_of)
+        if self.config.keep_timeline and tracker.state.id is not None:
+            self.timeline.append((end, subject, day_of(tracker.state.day).a8))
+        return [self.event(stream, notice) for notice in notices]
+
+    def _day_lookup(self, subject: str) -> Callable[[str], DayState]:
+        def day_of(day: str) -> DayState:
+            self.touched_days.add((subject, day))
+            return self.days.setdefault((subject, day), DayState())
+
+        return day_of
+
+    # --- events --------------------------------------------------------------------------------------------
+    def event(self, stream: Stream, notice: Notice) -> Event:
+        """A tracker's notice as a bus event, with the session, the day's figures and the covered band."""
+        kind, when, data = notice
+        session, fs = stream.session, stream.buffer.fs
+        coverage = covered_band(fs) if fs else None
+        day = self.days.get((session.subject, data.get("day", utc_day(when))), DayState())
+        body = {"site": self.config.site, "device": stream.device, "tool": session.tool,
+                "position": session.position, "zone": session.zone, "estimate": session.estimate,
+                "corrected": self.sessions.correction(session) is not None, "a_hv": stream.tracker.state.a_hv,
+                "day_a8": day.a8, "day_points": day.points, "risk": day.risk,
+                "band_hz": [coverage.low_hz, coverage.high_hz] if coverage else None,
+                "band_limited": bool(coverage and not coverage.complete), "clock_offset_s": stream.clock.offset_s}
+        body.update(data)
+        return Event(kind, float(when), session.subject, stream.device, _finite(body), self.clock())
+
+    def restore_stream(self, device: str, buffer: StreamBuffer, filter_state: FilterState,
+                       activity: ActivityState, session: Session, clock_offset_s: float | None,
+                       counters: dict[str, float]) -> Stream:
+        """Put a stream saved before a restart back."""
+        tracker = ActivityTracker(self.config.trigger, device, activity, session.hand)
+        stream = Stream(device, buffer, filter_state, tracker, session, DeviceClock(clock_offset_s), counters)
+        self.streams[device] = stream
+        return stream
+
+
+def _continues(piece: Piece, batch: AccelBatch) -> bool:
+    """Whether ``batch`` extends ``piece``'s run: same rate and sensor range (the buffer already said it
+    follows without a gap)."""
+    last = piece.batches[-1]
+    return batch.fs == last.fs and batch.full_scale == last.full_scale
+
+
+def _stream_blocks(stream: Stream, runs: list[Blocks]):
+    """(end, order, device, seconds, energy, flags) of a stream's blocks, in its own order."""
+    order = 0
+    for blocks in runs:
+        for end, seconds, energy, flags in zip(blocks.end, blocks.seconds, blocks.energy, blocks.flags):
+            yield end, order, stream.device, seconds, energy, flags
+            order += 1
+
+
+def _finite(body: dict) -> dict:
+    """JSON has no inf/NaN: unbounded times become None."""
+    return {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in body.items()}

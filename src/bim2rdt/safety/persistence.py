@@ -1,0 +1,90 @@
+"""The monitor's persistence: each ingest's changes in one SQLite transaction, and the engine restored from them.
+
+One commit holds the raw batches (all while retained, else only those still waiting for a predecessor), the
+touched streams' ordering, filter, activity and clock state, the touched worker-days, the events and the
+activities they start or end. A restart therefore resumes exactly where the last commit left off: batches
+redelivered after it are duplicates, batches it had not committed are new (see :class:`~bim2rdt.safety.monitor.
+HavMonitor` for the group-commit window).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+
+from bim2rdt.bus.event import Event
+from bim2rdt.bus.payloads import AccelBatch
+from bim2rdt.safety.activity import ACTIVITY_ENDED, ACTIVITY_STARTED, ActivityState, DayState
+from bim2rdt.safety.engine import ExposureEngine, Stream
+from bim2rdt.safety.mounting import MountingCorrection
+from bim2rdt.safety.sessions import Session
+from bim2rdt.safety.store import ExposureStore
+from bim2rdt.safety.weighing import FilterState
+
+
+class MonitorJournal:
+    """Writes an engine's changes to the exposure store and reads them back after a restart."""
+
+    def __init__(self, store: ExposureStore, raw_retention_s: float):
+        self.store, self.raw_retention_s = store, raw_retention_s
+        self._raw_devices: set[str] = set()  # streams that may have raw rows to drop
+
+    def corrections(self) -> list[MountingCorrection]:
+        return [MountingCorrection.from_json(text) for text in self.store.corrections()]
+
+    def restore(self, engine: ExposureEngine) -> None:
+        """Put the saved days and streams (with their sessions and waiting batches) back into ``engine``."""
+        engine.days.update({key: DayState(*row) for key, row in self.store.days().items()})  # (hands, eav, elv)
+        sessions = self.store.sessions()
+        for device, ((buffer_state, activity, clock_offset_s, counters), blob) in self.store.streams().items():
+            buffer = engine.new_buffer()
+            next_seq = buffer_state[0]
+            buffer.load(buffer_state, self.store.raw_batches(device, next_seq) if next_seq is not None else [])
+            saved = sessions.get(device)
+            session = Session(**saved) if saved else engine.sessions.anonymous(device)
+            engine.restore_stream(device, buffer, FilterState.from_bytes(blob), ActivityState(*activity), session,
+                                  clock_offset_s, counters)
+            self._raw_devices.add(device)
+
+    def commit(self, engine: ExposureEngine, batches: list[AccelBatch], streams: Iterable[Stream],
+               events: list[Event], now: float, sessions: dict[str, Session] | None = None) -> None:
+        """One transaction: raw batches, stream states, touched days, events, activities (and sessions)."""
+        streams = list(streams)
+        if self.raw_retention_s <= 0:
+            batches = [b for b in batches if b.seq in engine.streams[b.device].buffer.pending]
+        self._raw_devices.update(b.device for b in batches)
+        with self.store.transaction():
+            self.store.save_raw(batches)
+            self.store.save_streams([(s.device, _stream_state(s), s.filter.to_bytes()) for s in streams])
+            self.store.save_activities([_open_activity(engine.streams[e.source]) for e in events
+                                        if e.kind == ACTIVITY_STARTED])
+            self._drop_raw(engine, now)
+            self.store.save_days([(subject, day, engine.days[(subject, day)])
+                                  for subject, day in engine.touched_days])
+            self.store.add_events(events)
+            self.store.save_activities([(e.data["activity"], e.subject, e.data["day"], {**e.data, "open": False})
+                                        for e in events if e.kind == ACTIVITY_ENDED])
+            for device, session in (sessions or {}).items():
+                self.store.save_session(device, vars(session))
+        engine.touched_days.clear()
+
+    def save_correction(self, correction: MountingCorrection) -> None:
+        with self.store.transaction():
+            self.store.save_correction(correction.subject, correction.position, correction.to_json())
+
+    def _drop_raw(self, engine: ExposureEngine, now: float) -> None:
+        """Delete processed raw batches past retention, of every stream that stored any."""
+        stored = [engine.streams[d] for d in self._raw_devices if engine.streams[d].buffer.next_seq is not None]
+        self.store.drop_raw([(s.device, s.buffer.next_seq) for s in stored], now - self.raw_retention_s)
+        if self.raw_retention_s <= 0:
+            self._raw_devices.difference_update(s.device for s in stored if not s.buffer.pending)
+
+
+def _stream_state(stream: Stream) -> list:
+    """[buffer, activity, clock offset, counters]: a flat JSON list, saved for every touched stream."""
+    return [stream.buffer.to_list(), stream.tracker.state.to_list(), stream.clock.offset_s, stream.counters]
+
+
+def _open_activity(stream: Stream) -> tuple[str, str, str, dict]:
+    act, session = stream.tracker.state, stream.session
+    return (act.id, session.subject, act.day, {**act.to_dict(), "a_hv": act.a_hv, "tool": session.tool,
+                                                "device": stream.device, "zone": session.zone, "open": True})

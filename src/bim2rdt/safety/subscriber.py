@@ -1,0 +1,123 @@
+"""The monitor on the site bus: wearable accel and status messages in, group commits out.
+
+Accel messages are decoded and checked (a handler must never raise: it would stop an MQTT client's network
+thread), then held until ``commit_batches`` of them are waiting or the oldest has waited ``commit_delay_s``;
+then they are ingested together: one SQLite transaction and one filtering pass per stream instead of one per
+message. A background thread commits a group that waited ``commit_delay_s`` when no further message comes. A status message (a session starts or ends) first commits what is waiting, so every batch counts under
+the session it was sent in.
+
+Loss window: over MQTT with manual acknowledgement (``MqttBus(manual_ack=True)``) a message is acknowledged
+only after its commit, so a crash loses nothing: the broker redelivers what was not acknowledged and the
+monitor drops what it had already committed as duplicates. On a bus that cannot redeliver (the in-process
+``LocalBus``), a crash loses at most the batches waiting for their commit: ``commit_batches`` messages, received
+within the last ``commit_delay_s`` seconds (plus the time until the next message or ``tick``).
+"""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Callable
+from typing import TYPE_CHECKING
+
+from bim2rdt.bus.event import Event
+from bim2rdt.bus.payloads import AccelBatch, PayloadError, decode_accel
+from bim2rdt.bus.topics import device_of, wearable_pattern
+from bim2rdt.safety.errors import HavError
+from bim2rdt.safety.weighting import require_weighable_rate
+
+if TYPE_CHECKING:
+    from bim2rdt.safety.monitor import HavMonitor
+
+Ack = Callable[[], None]
+
+
+class BusSubscriber:
+    """Feeds a :class:`HavMonitor` from a bus in group commits (see the module docstring)."""
+
+    def __init__(self, monitor: HavMonitor, commit_batches: int, commit_delay_s: float,
+                 lock: threading.RLock):
+        self.monitor, self.commit_batches, self.commit_delay_s = monitor, commit_batches, commit_delay_s
+        self._waiting: list[AccelBatch] = []
+        self._acks: list[Ack] = []
+        self._oldest: float | None = None
+        self._lock = lock  # the monitor's: one lock, so a bus thread and a tick never wait on each other
+        self._stop = threading.Event()
+        self._flusher: threading.Thread | None = None
+
+    def attach(self, bus) -> None:
+        """Subscribe to the site's wearable status and accel topics (status first: a retained status tells
+        who wears a device before its samples arrive)."""
+        site = self.monitor.config.site
+        bus.subscribe(wearable_pattern(site, "status"), self.on_status, qos=1, manual_ack=True)
+        bus.subscribe(wearable_pattern(site, "accel"), self.on_accel, qos=1, manual_ack=True)
+        if self._flusher is None and self.commit_delay_s > 0:
+            self._flusher = threading.Thread(target=self._flush_when_due, name="hav-group-commit", daemon=True)
+            self._flusher.start()
+
+    def stop(self) -> None:
+        """Stop the background commits (the monitor then commits what waits)."""
+        self._stop.set()
+        if self._flusher is not None and self._flusher is not threading.current_thread():
+            self._flusher.join()
+
+    def _flush_when_due(self) -> None:
+        while not self._stop.wait(max(self.commit_delay_s / 2, 0.01)):
+            self.tick(self.monitor.clock())
+
+    def accept(self, topic: str, payload: bytes, received: float) -> AccelBatch | None:
+        """The message's batch, stamped ``received``; None (counted) if it is malformed, too slowly sampled to
+        weigh, or its device id is not the topic's."""
+        try:
+            batch = decode_accel(payload)
+            require_weighable_rate(batch.fs)
+        except (PayloadError, HavError):
+            self.monitor.count("malformed")
+            return None
+        if batch.device != device_of(topic):
+            self.monitor.count("mismatched")
+            return None
+        return batch.received_at(received)
+
+    def on_accel(self, topic: str, payload: bytes, ack: Ack | None = None) -> list[Event]:
+        """Hold a good batch for the next group commit; commit if the group is full or old enough."""
+        with self._lock:
+            now = self.monitor.clock()
+            batch = self.accept(topic, payload, now)
+            if batch is None and not self._waiting:
+                if ack is not None:  # dead-lettered: counted, acknowledged, never redelivered
+                    ack()
+                return []
+            if batch is not None:
+                self._waiting.append(batch)
+                self._oldest = now if self._oldest is None else self._oldest
+            if ack is not None:
+                self._acks.append(ack)
+            return self.flush(now) if self._due(now) else []
+
+    def on_status(self, topic: str, payload: bytes, ack: Ack | None = None) -> list[Event]:
+        """A wearable's retained status, after committing what is waiting."""
+        with self._lock:
+            events = self.flush()
+            events += self.monitor.on_status(topic, payload)
+            if ack is not None:
+                ack()
+            return events
+
+    def tick(self, now: float) -> list[Event]:
+        """Commit the waiting group if its oldest batch has waited ``commit_delay_s``."""
+        with self._lock:
+            return self.flush(now) if self._oldest is not None and now - self._oldest >= self.commit_delay_s else []
+
+    def flush(self, now: float | None = None) -> list[Event]:
+        """Ingest and commit every waiting batch, then acknowledge their messages (in order)."""
+        with self._lock:
+            batches, acks = self._waiting, self._acks
+            self._waiting, self._acks, self._oldest = [], [], None
+            events = self.monitor.ingest_many(batches, now=now) if batches else []
+            for ack in acks:
+                ack()
+            return events
+
+    def _due(self, now: float) -> bool:
+        return max(len(self._waiting), len(self._acks)) >= self.commit_batches or (
+            self._oldest is not None and now - self._oldest >= self.commit_delay_s)

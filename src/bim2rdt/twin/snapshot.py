@@ -1,0 +1,94 @@
+"""A snapshot from a camera pose: the BIM around an element, its BIM pose and where the robot found it, drawn as
+shaded triangles (painter's algorithm) with matplotlib. It is what a BCF viewpoint shows, rendered without a BIM
+viewer, so a coordinator sees the issue before opening the model.
+
+The camera is a pinhole in OpenCV's convention (x right, y down, z forward), T_world_camera, metres.
+"""
+
+from __future__ import annotations
+
+import io
+from dataclasses import dataclass
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from matplotlib.collections import PolyCollection  # noqa: E402
+
+from bim2rdt.perception.camera import Intrinsics  # noqa: E402
+
+NEAR_M = 0.1
+"""Triangles with a vertex closer than this to the camera plane are left out (no clipping)."""
+LIGHT = np.array([0.3, -0.5, 0.8]) / np.linalg.norm([0.3, -0.5, 0.8])
+
+
+@dataclass(frozen=True)
+class Layer:
+    """Triangles to draw: ``vertices_world`` (N,3), ``faces`` (M,3), an RGB(A) ``colour`` name or tuple,
+    ``alpha``, and ``edges`` (outline colour or None)."""
+
+    vertices_world: np.ndarray
+    faces: np.ndarray
+    colour: str | tuple
+    alpha: float = 1.0
+    edges: str | None = None
+
+
+def vertical_fov_deg(intrinsics: Intrinsics) -> float:
+    return float(np.degrees(2 * np.arctan2(intrinsics.height / 2, intrinsics.fy)))
+
+
+def render_snapshot(T_world_camera: np.ndarray, layers: list[Layer], intrinsics: Intrinsics = Intrinsics(),
+                    title: str | None = None) -> bytes:
+    """A PNG (intrinsics.width x height pixels) of ``layers`` seen from ``T_world_camera``."""
+    polygons, colours, edges, depths = [], [], [], []
+    for layer in layers:
+        for polygon, shade, depth in _project(layer, T_world_camera, intrinsics):
+            polygons.append(polygon)
+            colours.append(_shaded(layer.colour, shade, layer.alpha))
+            edges.append(layer.edges or "none")
+            depths.append(depth)
+    order = np.argsort(depths)[::-1]  # far first
+    dpi = 100
+    fig = plt.figure(figsize=(intrinsics.width / dpi, intrinsics.height / dpi), dpi=dpi)
+    ax = fig.add_axes((0, 0, 1, 1))
+    ax.set_facecolor((0.92, 0.95, 0.98))
+    if polygons:
+        ax.add_collection(PolyCollection([polygons[i] for i in order], facecolors=[colours[i] for i in order],
+                                         edgecolors=[edges[i] for i in order], linewidths=0.4))
+    ax.set(xlim=(0, intrinsics.width), ylim=(intrinsics.height, 0))
+    ax.axis("off")
+    if title:
+        ax.text(8, 20, title, fontsize=9, color="black", backgroundcolor=(1, 1, 1, 0.7))
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="png", dpi=dpi)
+    plt.close(fig)
+    return buffer.getvalue()
+
+
+def _project(layer: Layer, T_world_camera: np.ndarray, intrinsics: Intrinsics):
+    """(pixel polygon (3,2), Lambert shade, mean depth) of each triangle in front of the camera."""
+    vertices = np.asarray(layer.vertices_world, dtype=float)
+    faces = np.asarray(layer.faces, dtype=np.int64)
+    if len(faces) == 0:
+        return []
+    camera = (vertices - T_world_camera[:3, 3]) @ T_world_camera[:3, :3]
+    triangles = camera[faces]  # (M, 3, 3)
+    keep = np.all(triangles[:, :, 2] > NEAR_M, axis=1)
+    triangles, world = triangles[keep], vertices[faces[keep]]
+    if len(triangles) == 0:
+        return []
+    u = intrinsics.fx * triangles[:, :, 0] / triangles[:, :, 2] + intrinsics.cx
+    v = intrinsics.fy * triangles[:, :, 1] / triangles[:, :, 2] + intrinsics.cy
+    normals = np.cross(world[:, 1] - world[:, 0], world[:, 2] - world[:, 0])
+    normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-12)
+    shade = 0.55 + 0.45 * np.abs(normals @ LIGHT)
+    depth = triangles[:, :, 2].mean(axis=1)
+    return [(np.stack([u[k], v[k]], axis=1), shade[k], depth[k]) for k in range(len(triangles))]
+
+
+def _shaded(colour, shade: float, alpha: float) -> tuple[float, float, float, float]:
+    r, g, b = matplotlib.colors.to_rgb(colour)
+    return (r * shade, g * shade, b * shade, alpha)

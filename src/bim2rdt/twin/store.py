@@ -1,0 +1,219 @@
+"""The twin's append-only event store, through SQLAlchemy Core: an SQLite file by default (nothing to start),
+PostgreSQL by URL when several robots share one twin.
+
+One table, ``twin_events``, is only ever inserted into. Writers serialize: SQLite through ``BEGIN IMMEDIATE``
+(WAL journal, synchronous=FULL, so a committed event survives a crash), PostgreSQL through a transaction-level
+advisory lock. So ``seq`` order is commit order, a reader that has seen ``seq`` n has seen everything before it,
+and a writer that first catches up on what others appended decides on the present state. A write that fails
+rolls back whole: the history stays as it was.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Iterable, Iterator, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import sqlalchemy as sa
+from sqlalchemy.engine import URL, Connection, Engine
+from sqlalchemy.exc import ArgumentError, NoSuchModuleError, SQLAlchemyError
+
+from bim2rdt.twin.errors import TwinError
+from bim2rdt.twin.records import TwinEvent
+
+CONNECT_TIMEOUT_S = 5
+"""How long opening a PostgreSQL twin waits for the server before it says it cannot be reached."""
+SQLITE_BUSY_TIMEOUT_S = 60.0
+"""How long an SQLite writer waits for another one to commit."""
+_WRITE_LOCK = 0x62696D32  # "bim2": the advisory lock key of the twin's writers on PostgreSQL
+
+_metadata = sa.MetaData()
+events_table = sa.Table(
+    "twin_events", _metadata,
+    sa.Column("seq", sa.BigInteger().with_variant(sa.Integer(), "sqlite"), primary_key=True, autoincrement=True),
+    sa.Column("kind", sa.String(16), nullable=False),
+    sa.Column("time", sa.Double(), nullable=False),
+    sa.Column("global_id", sa.String(64), nullable=True, index=True),
+    sa.Column("source", sa.String(128), nullable=False),
+    sa.Column("data", sa.Text(), nullable=False),
+    sa.Column("recorded", sa.Double(), nullable=False),
+    sa.Index("twin_events_time", "time"),
+)
+
+
+@dataclass(frozen=True)
+class NewEvent:
+    """An event about to be appended (the store gives it its ``seq``)."""
+
+    kind: str
+    time: float
+    global_id: str | None
+    source: str
+    data: dict[str, Any] = field(default_factory=dict)
+
+
+class EventStore:
+    """Opens (and creates) the event table at a URL; appends in locked transactions; reads in order."""
+
+    def __init__(self, engine: Engine, url: URL):
+        self.engine, self.url = engine, url
+        self.label = url.render_as_string(hide_password=True)
+
+    @classmethod
+    def open(cls, url: str, create: bool = True) -> EventStore:
+        """Connect and create the table if absent (with ``create``; without it a store that has no history yet is
+        a TwinError); TwinError (naming the URL without its password) if the store cannot be reached."""
+        parsed = _parse(url)
+        label = parsed.render_as_string(hide_password=True)
+        if not create and parsed.get_backend_name() == "sqlite" and not Path(parsed.database or "").is_file():
+            raise TwinError(f"no twin at {label}: the file does not exist")
+        store = cls(_engine(parsed), parsed)
+        try:
+            with store._errors("cannot reach the twin at"), store._write_connection() as conn, conn.begin():
+                store._lock(conn)
+                if not create and not sa.inspect(conn).has_table(events_table.name):
+                    raise TwinError(f"no twin at {label}: it has no {events_table.name} table")
+                _metadata.create_all(conn)
+        except TwinError:
+            store.close()
+            raise
+        return store
+
+    def close(self) -> None:
+        self.engine.dispose()
+
+    @contextmanager
+    def writing(self) -> Iterator[Writer]:
+        """A transaction that holds the writers' lock; commits on exit, rolls back whole on any error."""
+        with self._errors("could not record into the twin at", "; the history is unchanged"):
+            with self._write_connection() as conn, conn.begin():
+                self._lock(conn)
+                yield Writer(conn)
+
+    def read(self, *, after: int = 0, until: float | None = None, since: float | None = None,
+             kinds: Iterable[str] | None = None, global_id: str | None = None,
+             by_time: bool = False) -> list[TwinEvent]:
+        """Events with seq > ``after`` and ``since`` < time <= ``until``, of ``kinds``, about ``global_id``;
+        in store order, or in time order (ties by seq) with ``by_time``."""
+        t = events_table.c
+        query = sa.select(events_table).where(t.seq > after)
+        if until is not None:
+            query = query.where(t.time <= until)
+        if since is not None:
+            query = query.where(t.time > since)
+        if kinds is not None:
+            query = query.where(t.kind.in_(list(kinds)))
+        if global_id is not None:
+            query = query.where(t.global_id == global_id)
+        query = query.order_by(t.time, t.seq) if by_time else query.order_by(t.seq)
+        with self._errors("cannot read the twin at"), self.engine.connect() as conn:
+            return [_event(row) for row in conn.execute(query)]
+
+    def _write_connection(self) -> Connection:
+        """A connection whose transactions take the write lock at BEGIN (SQLite: a deferred transaction that
+        reads before it writes can fail at once with "database is locked" instead of waiting its turn)."""
+        return self.engine.connect().execution_options(twin_write=True)
+
+    def _lock(self, conn: Connection) -> None:
+        if conn.dialect.name == "postgresql":
+            conn.execute(sa.text("SELECT pg_advisory_xact_lock(:key)"), {"key": _WRITE_LOCK})
+
+    @contextmanager
+    def _errors(self, what: str, after: str = "") -> Iterator[None]:
+        try:
+            yield
+        except SQLAlchemyError as error:
+            raise TwinError(f"{what} {self.label}: {_reason(error, self.url.password)}{after}") from None
+
+
+class Writer:
+    """Inside a write transaction: catch up on others' events, then append."""
+
+    def __init__(self, conn: Connection):
+        self.conn = conn
+
+    def read_after(self, seq: int) -> list[TwinEvent]:
+        query = sa.select(events_table).where(events_table.c.seq > seq).order_by(events_table.c.seq)
+        return [_event(row) for row in self.conn.execute(query)]
+
+    def append(self, event: NewEvent) -> TwinEvent:
+        """Insert one event; returns it with its seq (visible to others at commit)."""
+        row = {"kind": event.kind, "time": float(event.time), "global_id": event.global_id,
+               "source": event.source, "data": _dumps(event.data), "recorded": time.time()}
+        seq = self.conn.execute(events_table.insert().returning(events_table.c.seq), row).scalar_one()
+        return TwinEvent(seq=int(seq), kind=row["kind"], time=row["time"], global_id=row["global_id"],
+                         source=row["source"], data=json.loads(row["data"]), recorded=row["recorded"])
+
+    def append_all(self, events: Sequence[NewEvent]) -> list[TwinEvent]:
+        return [self.append(event) for event in events]
+
+
+def _parse(url: str) -> URL:
+    try:
+        parsed = sa.make_url(url)
+    except ArgumentError:
+        raise TwinError(f"not a database URL: {url.split('@')[-1]!r} (expected sqlite:///path/twin.db or "
+                        "postgresql+psycopg://user:password@host/db)") from None
+    if parsed.get_backend_name() not in ("sqlite", "postgresql"):
+        raise TwinError(f"the twin is stored in SQLite or PostgreSQL, not {parsed.get_backend_name()} "
+                        f"({parsed.render_as_string(hide_password=True)})")
+    return parsed
+
+
+def _engine(url: URL) -> Engine:
+    label = url.render_as_string(hide_password=True)
+    try:
+        if url.get_backend_name() == "sqlite":
+            return _sqlite_engine(url, label)
+        return sa.create_engine(url, connect_args={"connect_timeout": CONNECT_TIMEOUT_S}, pool_pre_ping=True)
+    except (NoSuchModuleError, ModuleNotFoundError) as error:
+        raise TwinError(f"cannot open {label}: its driver is not installed ({error}); for PostgreSQL install the "
+                        "'postgres' extra: pip install 'bim2rdt[postgres]'") from None
+
+
+def _sqlite_engine(url: URL, label: str) -> Engine:
+    """SQLite with the driver's own transaction handling off, so that writers can ``BEGIN IMMEDIATE`` (the
+    SQLAlchemy recipe for pysqlite), in WAL mode with full sync."""
+    if url.database and url.database != ":memory:":
+        try:
+            Path(url.database).parent.mkdir(parents=True, exist_ok=True)
+        except OSError as error:
+            raise TwinError(f"cannot reach the twin at {label}: {error.strerror}: {error.filename}") from None
+    engine = sa.create_engine(url, connect_args={"timeout": SQLITE_BUSY_TIMEOUT_S})
+
+    @sa.event.listens_for(engine, "connect")
+    def _on_connect(dbapi_connection, _record) -> None:
+        dbapi_connection.isolation_level = None
+        cursor = dbapi_connection.cursor()
+        cursor.execute("PRAGMA journal_mode=WAL")
+        cursor.execute("PRAGMA synchronous=FULL")
+        cursor.close()
+
+    @sa.event.listens_for(engine, "begin")
+    def _on_begin(conn: Connection) -> None:
+        conn.exec_driver_sql("BEGIN IMMEDIATE" if conn.get_execution_options().get("twin_write") else "BEGIN")
+
+    return engine
+
+
+def _event(row) -> TwinEvent:
+    return TwinEvent(seq=int(row.seq), kind=row.kind, time=float(row.time), global_id=row.global_id,
+                     source=row.source, data=json.loads(row.data), recorded=float(row.recorded))
+
+
+def _dumps(data: dict) -> str:
+    try:
+        return json.dumps(data, allow_nan=False, sort_keys=True)
+    except (TypeError, ValueError) as error:
+        raise TwinError(f"an event holds a value the history cannot store ({error})") from None
+
+
+def _reason(error: SQLAlchemyError, password: str | None) -> str:
+    """The driver's first line (never the SQL, never the password)."""
+    original = getattr(error, "orig", None) or error
+    text = " ".join(str(original).strip().splitlines()[:1]) or type(original).__name__
+    return text.replace(password, "***") if password else text

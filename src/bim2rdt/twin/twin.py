@@ -1,0 +1,318 @@
+"""``DigitalTwin``: the site as the robots found it, over the BIM, with its whole history.
+
+```python
+twin = DigitalTwin.open("sqlite:///out/twin.db", model)   # or postgresql+psycopg://user:password@host/db
+twin.record(observation, time)        # a perception Observation; judged against the BIM and appended
+twin.mark_missing(global_id, time)    # its place was seen empty
+twin.record_event(event)              # a safety event (bus.Event) of the HAV monitor
+twin.state(at=None)                   # {global_id: ElementState}: the present, or as it was at time `at`
+twin.history(global_id)               # every recorded change of one element, oldest first
+twin.events(since=None, after=0)      # the history as a feed (``after`` a seq: for pollers)
+twin.export_ifc(path); twin.export_json(path); twin.export_bcf(path)
+```
+
+Nothing is ever updated in place: the store is an append-only event log, and the state is a fold of it (see
+``projection``). Each write happens in one transaction under the writers' lock, after catching up on what other
+robots appended, so several processes can record into one twin and the status changes they log stay a chain.
+Times are UTC epoch seconds on the site's clock; poses are 4x4 T_world_model in metres.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+from collections.abc import Callable, Iterable, Mapping
+from pathlib import Path
+
+import ifcopenshell.guid
+import numpy as np
+
+from bim2rdt.atomic import write_bytes_atomic
+from bim2rdt.bim import BimElement, BimModel, load_ifc
+from bim2rdt.bus.event import Event
+from bim2rdt.perception.observation import Observation
+from bim2rdt.twin.errors import TwinError
+from bim2rdt.twin.projection import STATE_KINDS, Projection
+from bim2rdt.twin.records import MISSING, OBSERVATION, SAFETY, STATUS, ElementState, TwinEvent
+from bim2rdt.twin.status import ElementStatus
+from bim2rdt.twin.store import EventStore, NewEvent, Writer
+from bim2rdt.twin.config import TwinConfig
+from bim2rdt.twin.tolerance import TolerancePolicy
+from bim2rdt.twin.verdict import judge
+
+FamilyMesh = Callable[[str], tuple[np.ndarray, np.ndarray] | None]
+"""family -> (vertices (N,3) in the body frame, metres; faces (M,3)): the mesh of an object the BIM lacks (None
+when the family is unknown: a 0.5 m box stands in)."""
+NEW_MATCH_RADIUS = 1.0
+"""A new object seen within this distance (m, horizontal) of a known new object of its family is that object."""
+
+
+class DigitalTwin:
+    """The twin of one BIM model over one event store. Build it with :meth:`open`."""
+
+    def __init__(self, store: EventStore, model: BimModel, tolerances: TolerancePolicy,
+                 symmetry: Mapping[str, float], min_fitness: float, robot: str, family_mesh: FamilyMesh | None,
+                 new_match_radius: float):
+        self.store, self.model, self.tolerances = store, model, tolerances
+        self.symmetry, self.min_fitness, self.robot = dict(symmetry), min_fitness, robot
+        self.family_mesh, self.new_match_radius = family_mesh, new_match_radius
+        self._elements = {el.global_id: el for el in model.elements}
+        self._projection = Projection(model).apply_all(store.read())
+
+    @classmethod
+    def open(cls, url: str, model: BimModel | str | Path, *, tolerances: TolerancePolicy | None = None,
+             symmetry: Mapping[str, float] | None = None, min_fitness: float = 0.5, robot: str = "robot",
+             family_mesh: FamilyMesh | None = None, new_match_radius: float = NEW_MATCH_RADIUS,
+             create: bool = True) -> DigitalTwin:
+        """Open the twin at ``url`` over ``model`` (a BimModel or an IFC path); with ``create`` (default) an empty
+        store gets its table, without it a URL that holds no twin is a TwinError (for readers).
+
+        ``tolerances`` picks each element's preset (default: ``TwinConfig()``'s presets); ``symmetry`` maps a
+        family to its rotational order about up (``math.inf`` for axial; 1 where absent); observations under
+        ``min_fitness`` are unverified; ``robot`` is the default source of records; ``family_mesh`` gives the
+        mesh of objects the BIM lacks (exports; a 0.5 m box stands in without it). The edge builds these from
+        ``Settings.twin`` (``TwinConfig.resolved_url``, ``.tolerance_policy()``, ``.min_fitness``)."""
+        _check_symmetry(symmetry or {})
+        if not 0.0 <= min_fitness <= 1.0:
+            raise TwinError(f"min_fitness is a fraction in [0, 1], got {min_fitness}")
+        model = model if isinstance(model, BimModel) else load_ifc(model)
+        return cls(EventStore.open(url, create), model, tolerances or TwinConfig().tolerance_policy(), symmetry or {},
+                   min_fitness, robot, family_mesh, new_match_radius)
+
+    def close(self) -> None:
+        self.store.close()
+
+    def __enter__(self) -> DigitalTwin:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    # ---- recording (append-only) --------------------------------------------------------------------------
+
+    def record(self, observation: Observation, time: float, *, robot: str | None = None,
+               camera: np.ndarray | None = None) -> ElementState:
+        """Judge ``observation`` against the BIM and append it (and a status event if the element's present
+        status changes); returns the element's present state. ``camera`` is T_world_camera of the view it was
+        seen best from (the BCF viewpoint). An observation without a GlobalId is an object the BIM lacks: it
+        becomes a new object, or the known new one of its family within ``new_match_radius``."""
+        when = _checked_time(time)
+        pose = _checked_pose(observation.pose, "the observation's pose")
+        camera = None if camera is None else _checked_pose(camera, "the camera pose")
+        if not (0.0 <= observation.fitness <= 1.0 and math.isfinite(observation.rmse) and observation.rmse >= 0):
+            raise TwinError(f"an observation needs fitness in [0, 1] and a finite rmse >= 0, got "
+                            f"{observation.fitness} and {observation.rmse}")
+        source = robot or self.robot
+
+        def build(writer: Writer) -> list[TwinEvent]:
+            if observation.global_id:
+                global_id, element = observation.global_id, self._known(observation.global_id)
+            else:
+                global_id = self._match_new(observation.family, pose) or ifcopenshell.guid.new()
+                element = None
+            tolerance = self.tolerances.for_element(element.ifc_class, element.family) if element else None
+            status, deviation = judge(pose, observation.fitness, element, tolerance,
+                                      self.symmetry.get(observation.family, 1), self.min_fitness)
+            data = {"family": observation.family, "status": status.value, "pose": pose.tolist(),
+                    "deviation": deviation.to_dict() if deviation else None,
+                    "tolerance": tolerance.to_dict() if tolerance else None, "fit": _fit(observation),
+                    "evidence": _evidence(observation.station, observation.frames, camera, observation.bbox)}
+            return self._append_with_status(writer, NewEvent(OBSERVATION, when, global_id, source, data), status)
+
+        appended = self._write(build)
+        return self._projection.get(appended[0].global_id)
+
+    def mark_missing(self, global_id: str, time: float, *, station: int | None = None,
+                     frames: Iterable[int] = (), camera: np.ndarray | None = None,
+                     robot: str | None = None) -> ElementState:
+        """Record that the element's place was seen empty (from ``station``/``frames``, camera ``camera``)."""
+        when = _checked_time(time)
+        camera = None if camera is None else _checked_pose(camera, "the camera pose")
+
+        def build(writer: Writer) -> list[TwinEvent]:
+            element = self._known(global_id)
+            family = element.family if element else self._projection.get(global_id).family
+            data = {"family": family, "status": ElementStatus.MISSING.value, "pose": None,
+                    "evidence": _evidence(station, tuple(frames), camera, None)}
+            return self._append_with_status(writer, NewEvent(MISSING, when, global_id, robot or self.robot, data),
+                                            ElementStatus.MISSING)
+
+        return self._projection.get(self._write(build)[0].global_id)
+
+    def record_event(self, event: Event) -> TwinEvent:
+        """Append a safety event of the HAV monitor; it joins the history of the work zone (or element) its
+        ``data["zone"]`` names, if the BIM has it."""
+        when = _checked_time(event.time)
+        body = json.loads(event.to_json())
+        related = self._zone_of(event.data.get("zone"))
+        return self._write(lambda writer: [writer.append(
+            NewEvent(SAFETY, when, related, event.source or "hav-monitor", body))])[0]
+
+    # ---- reading ------------------------------------------------------------------------------------------
+
+    def state(self, at: float | None = None) -> dict[str, ElementState]:
+        """{global_id: ElementState} of every BIM element and every object the BIM lacks: the present (all that
+        any robot recorded so far), or, with ``at``, as it was at that time (a replay of the history)."""
+        if at is None:
+            self._catch_up()
+            return self._with_meshes(self._projection.states())
+        replay = Projection(self.model).apply_all(self.store.read(until=_checked_time(at), kinds=STATE_KINDS,
+                                                                  by_time=True))
+        return self._with_meshes(replay.states())
+
+    def history(self, global_id: str) -> list[TwinEvent]:
+        """Every event about one element (observations, missing, status changes, safety events in its zone),
+        oldest first (by the time it happened, then store order)."""
+        self._catch_up()
+        self._known(global_id)
+        return self.store.read(global_id=global_id, by_time=True)
+
+    def events(self, since: float | None = None, *, after: int = 0,
+               kinds: Iterable[str] | None = None) -> list[TwinEvent]:
+        """The history in store order: events that happened after ``since`` (UTC s) and/or were stored after
+        seq ``after`` (a poller passes the last seq it saw), of ``kinds`` (default all)."""
+        return self.store.read(after=after, since=since, kinds=kinds)
+
+    # ---- exports ------------------------------------------------------------------------------------------
+
+    def export_json(self, path: str | Path) -> Path:
+        """The present state as JSON (every element with status, deviation, tolerance, fit and evidence)."""
+        states = self.state()
+        counts = {status.value: 0 for status in ElementStatus}
+        for state in states.values():
+            counts[state.status.value] += 1
+        record = {"model": self.model.path.name, "schema": self.model.schema, "digest": self.model.digest,
+                  "store": self.store.label, "events": self._projection.last_seq,
+                  "tolerances": {name: t.to_dict() for name, t in self.tolerances.presets.items()},
+                  "counts": counts, "elements": [s.to_dict() for s in states.values()]}
+        return write_bytes_atomic(Path(path), json.dumps(record, indent=1).encode("utf-8"))
+
+    def export_ifc(self, path: str | Path) -> Path:
+        """The BIM with the twin written back (IFC4/IFC4X3): deviating elements moved to their measured pose,
+        new objects added as proxies, a ``BIM2RDT_Observation`` pset on every observed element, and the safety
+        events as IfcEvent/IfcTask. An IFC2X3 model cannot be written back (TwinError says so); its twin lives
+        in the history, the JSON and the BCF."""
+        from bim2rdt.twin.ifc_export import write_twin_ifc
+
+        safety = [Event.from_json(json.dumps(e.data)) for e in self.store.read(kinds=[SAFETY], by_time=True)]
+        return write_twin_ifc(self.model, self.state(), safety, Path(path), self.object_mesh)
+
+    def export_bcf(self, path: str | Path) -> Path:
+        """A BCF 2.1 file with one topic per deviating, missing or new element, each with the camera viewpoint
+        it was seen from and a snapshot image."""
+        from bim2rdt.twin.bcf_export import write_bcf
+
+        return write_bcf(self.model, self.state(), Path(path), self.object_mesh)
+
+    def object_mesh(self, state: ElementState) -> tuple[np.ndarray, np.ndarray]:
+        """(vertices in the body frame, faces) of an element: the BIM's mesh, else the family mesh, else a box."""
+        if state.mesh is not None:
+            return state.mesh
+        if state.in_bim and self.model.has_mesh(state.global_id):
+            vertices, faces = self.model.mesh(state.global_id)
+            placement = self._elements[state.global_id].placement
+            return (vertices - placement[:3, 3]) @ placement[:3, :3], faces
+        mesh = self.family_mesh(state.family) if self.family_mesh is not None and state.family else None
+        return mesh if mesh is not None else _placeholder_box()
+
+    # ---- helpers ------------------------------------------------------------------------------------------
+
+    def _with_meshes(self, states: dict[str, ElementState]) -> dict[str, ElementState]:
+        """Objects the BIM lacks get their mesh (family mesh or stand-in box), one lookup per family."""
+        meshes: dict[str | None, tuple[np.ndarray, np.ndarray]] = {}
+        for global_id, state in states.items():
+            if not state.in_bim:
+                if state.family not in meshes:
+                    meshes[state.family] = self.object_mesh(state)
+                states[global_id] = dataclasses.replace(state, mesh=meshes[state.family])
+        return states
+
+
+    def _write(self, build: Callable[[Writer], list[TwinEvent]]) -> list[TwinEvent]:
+        """One transaction under the writers' lock: catch up on others' events, build and append ours; the
+        projection takes ours only once they are committed."""
+        with self.store.writing() as writer:
+            self._projection.apply_all(writer.read_after(self._projection.last_seq))
+            appended = build(writer)
+        self._projection.apply_all(appended)
+        return appended
+
+    def _catch_up(self) -> None:
+        self._projection.apply_all(self.store.read(after=self._projection.last_seq))
+
+    def _append_with_status(self, writer: Writer, event: NewEvent, status: ElementStatus) -> list[TwinEvent]:
+        """Append ``event``, and a status event if it changes the element's present status (an event older than
+        the element's newest one is evidence of the past and changes nothing now)."""
+        appended = [writer.append(event)]
+        newest = self._projection.newest_time(event.global_id)
+        if newest is not None and event.time < newest:
+            return appended
+        before = self._projection.get(event.global_id)
+        previous = before.status if before else ElementStatus.NOT_OBSERVED
+        if previous is not status:
+            change = {"from": previous.value, "to": status.value, "event": appended[0].seq}
+            appended.append(writer.append(NewEvent(STATUS, event.time, event.global_id, event.source, change)))
+        return appended
+
+    def _known(self, global_id: str) -> BimElement | None:
+        """The BIM element, or None for an object the twin found that the BIM lacks; TwinError otherwise."""
+        if global_id in self._elements:
+            return self._elements[global_id]
+        if self._projection.get(global_id) is not None:
+            return None
+        raise TwinError(f"{self.model.path.name} has no element with GlobalId {global_id}")
+
+    def _match_new(self, family: str, pose: np.ndarray) -> str | None:
+        near = [(float(np.linalg.norm(s.pose[:2, 3] - pose[:2, 3])), s.global_id)
+                for s in self._projection.outside_bim() if s.family == family and s.pose is not None]
+        near = [entry for entry in near if entry[0] <= self.new_match_radius]
+        return min(near)[1] if near else None
+
+    def _zone_of(self, zone: str | None) -> str | None:
+        for candidate in self.model.zones:
+            if zone in (candidate.name, candidate.global_id):
+                return candidate.global_id
+        return zone if zone in self._elements else None
+
+
+def _fit(observation: Observation) -> dict:
+    return {"rmse": float(observation.rmse), "fitness": float(observation.fitness), "points": int(observation.points),
+            "score": float(observation.score), "detector": observation.detector}
+
+
+def _evidence(station, frames, camera, bbox) -> dict:
+    return {"station": None if station is None else int(station), "frames": [int(f) for f in frames],
+            "camera": None if camera is None else camera.tolist(),
+            "bbox": None if bbox is None else [int(v) for v in bbox]}
+
+
+def _checked_time(time: float) -> float:
+    if isinstance(time, bool) or not isinstance(time, int | float) or not math.isfinite(time):
+        raise TwinError(f"a twin time is finite UTC epoch seconds, got {time!r}")
+    return float(time)
+
+
+def _checked_pose(pose, what: str) -> np.ndarray:
+    pose = np.asarray(pose, dtype=float)
+    if pose.shape != (4, 4) or not np.all(np.isfinite(pose)):
+        raise TwinError(f"{what} must be a finite 4x4 matrix, got shape {pose.shape}")
+    rotation = pose[:3, :3]
+    if not np.allclose(rotation @ rotation.T, np.eye(3), atol=1e-6) or np.linalg.det(rotation) < 0:
+        raise TwinError(f"{what} has a rotation block that is not a proper rotation")
+    return pose
+
+
+def _check_symmetry(symmetry: Mapping[str, float]) -> None:
+    for family, order in symmetry.items():
+        if not (math.isinf(order) and order > 0) and not (order >= 1 and float(order).is_integer()):
+            raise TwinError(f"the symmetry of {family} is its rotational order about up (a whole number >= 1, or "
+                            f"math.inf for axial), got {order}")
+
+
+def _placeholder_box(size: float = 0.5) -> tuple[np.ndarray, np.ndarray]:
+    """A ``size`` cube standing on the body origin: the stand-in mesh of an object of unknown shape."""
+    import trimesh
+
+    box = trimesh.creation.box(extents=(size, size, size))
+    return np.asarray(box.vertices) + [0.0, 0.0, size / 2], np.asarray(box.faces)

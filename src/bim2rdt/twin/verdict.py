@@ -1,0 +1,27 @@
+"""The twin's verdict on one observation against the BIM: as planned, deviating, new or unverified.
+
+A fit whose fitness is under ``min_fitness`` cannot be judged (unverified), however close it lands. Otherwise an
+object the BIM lacks is new, and a BIM element is as planned when its translation, tilt and yaw are all within
+its tolerance preset, deviating when any is beyond it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from bim2rdt.bim import BimElement
+from bim2rdt.twin.deviation import Deviation, pose_deviation
+from bim2rdt.twin.status import ElementStatus
+from bim2rdt.twin.tolerance import Tolerance
+
+
+def judge(pose: np.ndarray, fitness: float, element: BimElement | None, tolerance: Tolerance | None,
+          symmetry: float, min_fitness: float) -> tuple[ElementStatus, Deviation | None]:
+    """The status and the deviation from the BIM pose (None for an object the BIM lacks)."""
+    deviation = pose_deviation(element.placement, pose, symmetry) if element is not None else None
+    if fitness < min_fitness:
+        return ElementStatus.UNVERIFIED, deviation
+    if element is None:
+        return ElementStatus.NEW, None
+    within = deviation.within(tolerance.translation, tolerance.rotation_deg)
+    return (ElementStatus.AS_PLANNED if within else ElementStatus.DEVIATING), deviation

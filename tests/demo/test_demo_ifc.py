@@ -1,0 +1,90 @@
+"""`bim2rdt demo --ifc FILE`: the loop on real buildings. The FZK house (IFC4): site objects placed in its rooms,
+the robot walks room to room through the doors, never through a wall, and the twin is written back. Duplex
+(IFC2X3) runs too, without IFC write-back, and says so."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from bim2rdt.demo.ifc_day import run_ifc_day
+from bim2rdt.planning.raster import mesh_cells
+
+from path_checks import segments_through, wall_mesh
+
+pytestmark = pytest.mark.samples
+
+
+def run_cli(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "bim2rdt", *args], capture_output=True, text=True, timeout=600)
+
+
+@pytest.fixture(scope="module")
+def fzk_day(samples, tmp_path_factory):
+    out = tmp_path_factory.mktemp("fzk-day")
+    return run_ifc_day(samples / "AC20-FZK-Haus.ifc", out, workers=1, minutes=3.0), out
+
+
+def test_site_objects_stand_on_the_ground_floor_slab_in_the_copy(fzk_day):
+    day, out = fzk_day
+    proxies = [el for el in day.model.elements if el.ifc_class == "IfcBuildingElementProxy"]
+    assert len(proxies) >= 4 and all(el.storey == "Erdgeschoss" for el in proxies)
+    assert all(abs(day.model.mesh(el.global_id)[0][:, 2].min() - 0.0) < 0.01 for el in proxies)
+    assert day.model.path == out / "site.ifc" and day.twin_path == out / "site_twin.ifc" and day.twin_path.is_file()
+
+
+def test_the_robot_walks_room_to_room_through_doors_and_never_through_a_wall(fzk_day):
+    day, _ = fzk_day
+    legs = [leg.path for leg in day.route.navigator.legs]
+    walls = wall_mesh(day.model)
+    assert all(segments_through(walls, path) == [] for path in legs)
+    grid = day.route.grid
+    rooms = [z for z in day.model.zones if z.ifc_class == "IfcSpace" and z.storey == "Erdgeschoss"]
+    visited = {room.name for room in rooms for T in day.mission.stations if _inside(grid, day.model, room, T[:2, 3])}
+    assert len(visited) >= 4
+    doors = [el for el in day.model.elements if el.ifc_class == "IfcDoor" and el.storey == "Erdgeschoss"]
+    crossed = {door.name for door in doors for path in legs if _crosses(door, day.model, path)}
+    assert len(crossed) >= 2
+
+
+def test_every_placed_object_is_seen_and_judged(fzk_day):
+    day, _ = fzk_day
+    assert day.mission.not_seen == [] and day.route.route.skipped == {}
+    assert any(obs.global_id is None and obs.family == "Steel_Drum_55gal" for obs in day.mission.observations)
+
+
+def test_an_ifc2x3_building_runs_without_ifc_write_back_and_says_why(samples, tmp_path):
+    result = run_cli("demo", "--ifc", str(samples / "Duplex_A_20110907.ifc"), "--out", str(tmp_path),
+                     "--workers", "1", "--minutes", "2")
+    assert result.returncode == 0, result.stderr
+    assert "not written back (IFC2X3: IFC write-back needs IFC4)" in result.stdout
+    assert not (tmp_path / "site_twin.ifc").exists() and (tmp_path / "site.ifc").is_file()
+    assert "IFC write-back needs IFC4" in (tmp_path / "report.md").read_text()
+
+
+def test_a_building_with_no_floor_to_stand_on_is_a_one_line_error(samples, tmp_path):
+    """The spec's 4D example has a wall but no slab or space on any storey: nowhere to put the robot."""
+    result = run_cli("demo", "--ifc", str(samples / "construction_scheduling_task.ifc"), "--out", str(tmp_path))
+    assert result.returncode == 1 and "Traceback" not in result.stderr
+    assert result.stderr.strip() == ("error: construction_scheduling_task.ifc: no storey has a slab (or a space) to "
+                                     "take its floor from")
+
+
+def _inside(grid, model, room, xy) -> bool:
+    row0, col0, mask = mesh_cells(*model.mesh(room.global_id), grid.z_band, grid.frame)
+    row, col = grid.frame.cell_of(xy)
+    return 0 <= row - row0 < mask.shape[0] and 0 <= col - col0 < mask.shape[1] and bool(mask[row - row0, col - col0])
+
+
+def _crosses(door, model, path) -> bool:
+    """Does the path pass through the door's plan box (its leaf stands in the opening)?"""
+    vertices = model.mesh(door.global_id)[0][:, :2]
+    low, high = vertices.min(axis=0) - 0.05, vertices.max(axis=0) + 0.05
+    for a, b in zip(path[:-1], path[1:]):
+        points = a + np.linspace(0.0, 1.0, 200)[:, None] * (b - a)
+        if np.any(np.all((points >= low) & (points <= high), axis=1)):
+            return True
+    return False
