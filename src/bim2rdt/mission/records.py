@@ -26,14 +26,16 @@ class Observation(PerceivedObject):
     """One registered object and the mission's verdict on it: the shared perception record (family, global_id,
     pose, rmse, fitness, points, ..., station it was seen best from, every station in ``frames``, the ``fit``)
     plus the verdict ``status`` and the deltas behind it: ``shift`` (m, horizontal), ``yaw_deg`` and ``tilt_deg``
-    against the BIM placement, modulo the family's symmetry (0 for new objects), and the prior's
-    ``upright_bias``."""
+    against the BIM placement, modulo the family's symmetry (0 for new objects), the prior's ``upright_bias``,
+    and ``reason``: what follows "unverified" (e.g. "along x (the view does not pin the pose down there,
+    ...)"), empty for the other statuses."""
 
     status: ElementStatus
     shift: float
     yaw_deg: float
     tilt_deg: float
     upright_bias: float
+    reason: str = ""
 
 
 @dataclass

@@ -103,5 +103,5 @@ def _observe(detection: Detection, target: Target | None, mesh: trimesh.Trimesh,
                               pose=fit.pose, rmse=fit.rmse, fitness=fit.fitness, points=len(object_pts),
                               station=detection.station, frames=(detection.station,), fit=fit,
                               status=judged.status, shift=judged.shift, yaw_deg=judged.yaw_deg,
-                              tilt_deg=judged.tilt_deg, upright_bias=prior.upright_bias)
+                              tilt_deg=judged.tilt_deg, upright_bias=prior.upright_bias, reason=judged.reason)
     return observation, model_pts

@@ -25,12 +25,15 @@ def pose_delta(T_ref: np.ndarray, T: np.ndarray) -> tuple[float, float, float]:
 @dataclass(frozen=True)
 class Verdict:
     """The status of one registered object and the deltas behind it, against its BIM placement modulo the
-    family's symmetry: ``shift`` (m, horizontal), ``yaw_deg`` (wrapped to +-180), ``tilt_deg`` (from world z)."""
+    family's symmetry: ``shift`` (m, horizontal), ``yaw_deg`` (wrapped to +-180), ``tilt_deg`` (from world z),
+    and ``reason``, what follows "unverified" in a report: "along x (the view does not pin ...)" or "(the fit
+    explains 40 % of its points, ...)"; empty for the other statuses."""
 
     status: ElementStatus
     shift: float
     yaw_deg: float
     tilt_deg: float
+    reason: str = ""
 
 
 def judge(target: Target | None, fit: RegistrationResult, symmetry: float, config: MissionConfig) -> Verdict:
@@ -38,18 +41,59 @@ def judge(target: Target | None, fit: RegistrationResult, symmetry: float, confi
     turned by the symmetry (the prior's rotational order about up) that brings it closest to the BIM, so a drum
     turned about its own axis, or a pallet turned end for end, has not deviated."""
     reference = target.placement if target else fit.pose
-    shift, yaw, tilt = pose_delta(reference, closest_equivalent(fit.pose, reference, symmetry))
-    return Verdict(verdict(target, fit, shift, yaw, tilt, config), shift, yaw, tilt)
+    shown = closest_equivalent(fit.pose, reference, symmetry)
+    shift, yaw, tilt = pose_delta(reference, shown)
+    status, reason = verdict(target, fit, shown[:3, 3] - reference[:3, 3], yaw, tilt, symmetry, config)
+    return Verdict(status, shift, yaw, tilt, reason)
 
 
-def verdict(target: Target | None, fit: RegistrationResult, shift: float, yaw: float, tilt: float,
-            config: MissionConfig) -> ElementStatus:
-    """UNVERIFIED when the fit explains too few points to trust, NEW for an object the BIM lacks, DEVIATING when
-    moved or turned beyond the tolerances (``moved_translation`` m, ``moved_rotation_deg``), else AS_PLANNED."""
+def verdict(target: Target | None, fit: RegistrationResult, moved: np.ndarray, yaw: float, tilt: float,
+            symmetry: float, config: MissionConfig) -> tuple[ElementStatus, str]:
+    """(status, reason). UNVERIFIED when the fit explains too few points to trust; NEW for an object the BIM
+    lacks; DEVIATING when moved (``moved`` (3,) m, world) or turned beyond the tolerances (``moved_translation``
+    m, ``moved_rotation_deg``) in directions the view pins down; UNVERIFIED when the view leaves a direction
+    unconstrained that could hide such a deviation (the registration's unobservable directions: a box seen on
+    one face may have slid along it, and an estimate along that face is the start, not evidence); else
+    AS_PLANNED."""
     if fit.fitness < config.min_fitness:
-        return ElementStatus.UNVERIFIED
+        return ElementStatus.UNVERIFIED, (f"(the fit explains {fit.fitness:.0%} of its points, under "
+                                          f"{config.min_fitness:.0%})")
     if target is None:
-        return ElementStatus.NEW
-    deviated = (shift > config.moved_translation or abs(yaw) > config.moved_rotation_deg
-                or tilt > config.moved_rotation_deg)
-    return ElementStatus.DEVIATING if deviated else ElementStatus.AS_PLANNED
+        return ElementStatus.NEW, ""
+    free, free_yaw = unconstrained_motion(fit, symmetry)
+    seen_shift = float(np.linalg.norm(_horizontal(moved - free.T @ (free @ moved))))
+    turned = abs(yaw) > config.moved_rotation_deg and not free_yaw
+    if seen_shift > config.moved_translation or turned or tilt > config.moved_rotation_deg:
+        return ElementStatus.DEVIATING, ""
+    blind = [axis for axis in free if np.linalg.norm(axis[:2]) > 0.5]  # the slab pins the height anyway
+    if blind or free_yaw:
+        parts = [f"along {axis_name(axis)}" for axis in blind] + (["in yaw"] if free_yaw else [])
+        return ElementStatus.UNVERIFIED, (f"{' and '.join(parts)} (the view does not pin the pose down there, so "
+                                          "the fit cannot tell whether it moved)")
+    return ElementStatus.AS_PLANNED, ""
+
+
+def unconstrained_motion(fit: RegistrationResult, symmetry: float) -> tuple[np.ndarray, bool]:
+    """(world unit vectors (k, 3) along which the fit leaves the position free, whether it leaves the yaw free),
+    from the registration's unobservable directions. A free turn about the up axis counts only for a body with
+    no rotational symmetry: a round body's (order ``math.inf``) is its symmetry, and a square-based cone's
+    (order 4) yaw is weak by design and no site deviation anyone acts on. A fit without an uncertainty (a test
+    double) is taken as fully constrained."""
+    uncertainty = getattr(fit, "uncertainty", None)
+    if uncertainty is None:
+        return np.zeros((0, 3)), False
+    axes = uncertainty.rotation_axes()
+    free_yaw = bool(np.any(np.abs(axes[:, 2]) > 0.9)) and symmetry <= 1.0
+    return uncertainty.translation_directions(), free_yaw
+
+
+def axis_name(direction: np.ndarray) -> str:
+    """'x', 'y' or 'z' for a unit vector within 25 degrees of a world axis (either sign), else its components."""
+    dominant = int(np.argmax(np.abs(direction)))
+    if abs(direction[dominant]) >= np.cos(np.deg2rad(25.0)):
+        return "xyz"[dominant]
+    return "(" + ", ".join(f"{c:.2f}" for c in direction) + ")"
+
+
+def _horizontal(vector: np.ndarray) -> np.ndarray:
+    return np.asarray(vector)[:2]

@@ -89,8 +89,8 @@ def surface_distances(model: ModelIndex, points: np.ndarray, max_distance: float
 class Patches:
     """Where points lie on the model surface: the distance (N,) m to the nearest sample patch, that patch's
     sample (N,), and the distance (N,) m to the nearest patch on another face (normals more than
-    :data:`OTHER_FACE_DEG` apart; inf if none among the candidates). A point about as near to two faces lies on their edge: which face it
-    belongs to, and so which way its residual points, is then not known."""
+    :data:`OTHER_FACE_DEG` apart; inf if none among the candidates). A point about as near to two faces lies
+    on their edge: which face it belongs to, and so which way its residual points, is then not known."""
 
     distance: np.ndarray
     sample: np.ndarray

@@ -114,7 +114,10 @@ class DigitalTwin:
             tolerance = self.tolerances.for_element(element.ifc_class, element.family) if element else None
             status, deviation = judge(pose, observation.fitness, element, tolerance,
                                       self.symmetry.get(observation.family, 1), self.min_fitness)
+            if getattr(observation, "status", None) is ElementStatus.UNVERIFIED:
+                status = ElementStatus.UNVERIFIED  # its observer could not judge it (a view blind along an axis)
             data = {"family": observation.family, "status": status.value, "pose": pose.tolist(),
+                    "reason": getattr(observation, "reason", ""),
                     "deviation": deviation.to_dict() if deviation else None,
                     "tolerance": tolerance.to_dict() if tolerance else None, "fit": _fit(observation),
                     "evidence": _evidence(observation.station, observation.frames, camera, observation.bbox)}

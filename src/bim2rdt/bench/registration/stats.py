@@ -110,7 +110,8 @@ def _summarise(rows: list[tuple]) -> MethodStats:
                        modes={mode: modes.count(mode) for mode in FAILURE_MODES},
                        knocked_tilt_deg=float(np.median(a[knocked, 4])) if knocked.any() else float("nan"),
                        knocked=int(knocked.sum()), calibration=inside, calibrated=judged,
-                       well_constrained=float(np.mean([c.well_constrained for c in checks])) if checks else float("nan"))
+                       well_constrained=(float(np.mean([c.well_constrained for c in checks])) if checks
+                                         else float("nan")))
 
 
 def improvement(before: float, after: float) -> float:
