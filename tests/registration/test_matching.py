@@ -120,3 +120,12 @@ def test_a_concave_crease_leaves_the_plate_next_to_a_cone_on_the_surface():
                                                     drop_resting_face=False))
     on_plate = np.array([[0.175, 0.0, 0.03], [0.0, -0.172, 0.03]])  # just outside the cone's foot
     assert matching.surface_distances(model, on_plate) == pytest.approx([0.0, 0.0], abs=0.002)
+
+
+def test_the_model_index_is_built_once_per_content_and_a_changed_model_gets_its_own():
+    points, normals = sample_model(trimesh.creation.box(extents=(0.4, 0.3, 0.2)), 500, seed=4)
+    first = matching.ModelIndex.cached(points, normals)
+    assert matching.ModelIndex.cached(points.copy(), normals.copy()) is first  # same content, new arrays
+    moved = points + [0.0, 0.0, 0.01]
+    assert matching.ModelIndex.cached(moved, normals) is not first
+    assert np.array_equal(matching.ModelIndex.cached(moved, normals).points, moved)

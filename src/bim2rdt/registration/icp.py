@@ -96,7 +96,7 @@ def register(model_points, model_normals, scene_points, init=np.eye(4), up=(0.0,
     """
     cfg = config or IcpConfig()
     problem = validate_problem(model_points, model_normals, scene_points, init, up, upright_bias, support_height)
-    model = matching.ModelIndex.build(problem.model_pts_body, problem.model_normals_body)
+    model = matching.ModelIndex.cached(problem.model_pts_body, problem.model_normals_body)
     normals_world = matching.scene_normals(problem.scene_pts_world, cfg.scene_normal_neighbours) \
         if cfg.normal_gate_deg < 90.0 else None
     centroid = problem.model_pts_body.mean(axis=0)
@@ -335,21 +335,21 @@ def pick_restart(per_point: np.ndarray, penalties: np.ndarray, poses: np.ndarray
     extreme ones. That is how the upright prior cost accuracy (issue 13): levelled starts let far more
     restarts reach such upright near-ties than plain ICP's tilted starts (which mostly die at pruning and
     leave the one nearest the start), so SG-ICP drew from a larger lottery. Here a restart ties with the
-    lowest when their paired per-point difference is within ``tie_sigmas`` standard errors; among the ties,
-    those whose centroid lies within ``tie_slide`` of the one nearest the initial guess's centroid are
-    eligible, and the lowest score of those is kept: when the view cannot tell, stay where the guess put the
-    object (the BIM or last pose), and let the score decide between poses that are the same up to a
-    symmetry of the shape."""
+    lowest when its score is behind by at most ``tie_sigmas`` standard errors of the paired per-point
+    difference, and among ties the one with the least of (standard errors behind + its centroid's distance
+    from the initial guess's / ``tie_distance``) is kept: when the view cannot tell, stay near where the guess
+    put the object (the BIM or last pose), and let the score decide between poses the same distance away
+    (symmetric copies of a cone). A soft trade, not the nearest outright: with a guess 10-15 cm off (S1), a tie
+    1.9 standard errors behind but 4 cm nearer the guess is a slide, and must not win over the truth."""
     totals = per_point.mean(axis=1) + penalties
     lowest = int(np.argmin(totals))
     if cfg.tie_sigmas <= 0.0 or len(totals) == 1:
         return lowest
     difference = per_point - per_point[lowest]
-    noise = difference.std(axis=1) / np.sqrt(per_point.shape[1])
-    tied = np.flatnonzero(totals - totals[lowest] <= cfg.tie_sigmas * noise)
+    noise = np.maximum(difference.std(axis=1) / np.sqrt(per_point.shape[1]), 1e-300)
+    behind = (totals - totals[lowest]) / noise  # how many standard errors each restart's score is behind
     centroid = problem.model_pts_body.mean(axis=0)
     start = problem.T_world_model_init[:3, :3] @ centroid + problem.T_world_model_init[:3, 3]
-    moved = np.linalg.norm(np.einsum("kij,j->ki", poses[tied, :3, :3], centroid) + poses[tied, :3, 3] - start,
-                           axis=1)
-    eligible = tied[moved <= moved.min() + cfg.tie_slide]
-    return int(eligible[np.argmin(totals[eligible])])
+    moved = np.linalg.norm(np.einsum("kij,j->ki", poses[:, :3, :3], centroid) + poses[:, :3, 3] - start, axis=1)
+    tied = np.flatnonzero(behind <= cfg.tie_sigmas)
+    return int(tied[np.argmin(behind[tied] + moved[tied] / cfg.tie_distance)])

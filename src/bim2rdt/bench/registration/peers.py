@@ -73,7 +73,7 @@ class Open3dIcp:
         poses = np.stack([invert_poses(reg.registration_icp(
             source, target, self.config.max_pair_distance, invert_poses(T), estimation, criteria).transformation)
             for T in starts])
-        scores, _ = score_poses(ModelIndex.build(model_pts, model_normals), poses, scene_pts, self.config)
+        scores, _ = score_poses(ModelIndex.cached(model_pts, model_normals), poses, scene_pts, self.config)
         return poses[int(np.argmin(scores))]
 
 
