@@ -4,7 +4,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test bench setup clean
+.PHONY: demo test bench setup clean web
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -25,6 +25,12 @@ bench: $(STAMP)
 	$(VENV)/bin/bim2rdt bench registration
 	$(VENV)/bin/bim2rdt bench ifc
 	$(VENV)/bin/bim2rdt bench hav
+	$(VENV)/bin/bim2rdt bench server
+	$(VENV)/bin/bim2rdt bench perception
+
+# The dashboard's page (web/ -> src/bim2rdt/server/static, committed): needs node 20 and npm from the npm registry.
+web:
+	cd web && npm ci --no-audit --no-fund && npm run build
 
 clean:
 	rm -rf $(VENV) out .pytest_cache

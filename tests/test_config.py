@@ -27,6 +27,55 @@ def test_the_cli_reports_a_bad_environment_value_in_one_line_and_exits_1(tmp_pat
         "integer (got 'zero')"]
 
 
+@pytest.fixture(scope="module")
+def site_ifc_path(tmp_path_factory):
+    from bim2rdt.sim.site import build_site_ifc
+
+    return build_site_ifc(tmp_path_factory.mktemp("site") / "site.ifc")
+
+
+def _cli(*args: str, **env: str) -> subprocess.CompletedProcess:
+    import os
+
+    return subprocess.run([sys.executable, "-m", "bim2rdt", *args], capture_output=True, text=True, timeout=300,
+                          env={**os.environ, **env})
+
+
+def test_a_whole_section_given_as_bad_json_is_one_line_naming_the_variable(site_ifc_path):
+    result = _cli("info", str(site_ifc_path), BIM2RDT_MQTT="{bad")
+    assert result.returncode == 1
+    assert result.stderr.startswith("error: BIM2RDT_MQTT: not valid JSON (") and result.stderr.count("\n") == 1
+
+
+def test_a_bad_field_inside_a_json_section_names_the_variable_that_was_set(monkeypatch):
+    monkeypatch.setenv("BIM2RDT_MQTT", '{"port": "x"}')
+    with pytest.raises(ConfigError, match=r"^BIM2RDT_MQTT \(field port\): Input should be a valid integer"):
+        get_settings()
+
+
+@pytest.mark.parametrize("variable", ["BIM2RDT_DATA_DIR", "BIM2RDT_CACHE_DIR"])
+def test_a_folder_setting_that_names_a_file_is_refused(tmp_path, monkeypatch, variable):
+    (tmp_path / "a_file").write_text("not a folder")
+    monkeypatch.setenv(variable, str(tmp_path / "a_file"))
+    with pytest.raises(ConfigError, match=rf"^{variable}: .*a_file is a file, not a folder$"):
+        get_settings()
+
+
+@pytest.mark.parametrize("cache", ["{tmp}/a_file/below", "/proc/bim2rdt-cache"], ids=["under a file", "in /proc"])
+def test_an_unusable_cache_dir_is_one_line_before_the_model_is_read(site_ifc_path, tmp_path, cache):
+    (tmp_path / "a_file").write_text("not a folder")
+    result = _cli("info", str(site_ifc_path), BIM2RDT_CACHE_DIR=cache.format(tmp=tmp_path))
+    assert result.returncode == 1 and result.stderr.count("\n") == 1
+    assert result.stderr.startswith("error: BIM2RDT_CACHE_DIR: cannot write into ")
+
+
+def test_usable_folder_creates_the_folder_and_leaves_nothing_in_it(tmp_path):
+    from bim2rdt.config import usable_folder
+
+    assert usable_folder(tmp_path / "a" / "b", "BIM2RDT_X") == tmp_path / "a" / "b"
+    assert list((tmp_path / "a" / "b").iterdir()) == []
+
+
 def test_the_missions_knobs_are_a_settings_section_read_from_the_environment(monkeypatch):
     from bim2rdt.mission import MissionConfig
 

@@ -10,17 +10,22 @@ the library in the import layers (.importlinter): library code never imports it.
 
 from __future__ import annotations
 
+import os
+import re
+import tempfile
 from functools import lru_cache
 from pathlib import Path
 
 from pydantic import BaseModel, Field, ValidationError, model_validator
 from pydantic_settings import BaseSettings, SettingsConfigDict
+from pydantic_settings.exceptions import SettingsError
 
 from bim2rdt.errors import Bim2RdtError
 from bim2rdt.mission.config import MissionConfig
 from bim2rdt.registration.config import IcpConfig
 from bim2rdt.safety.config import MonitorConfig
 from bim2rdt.semantics.llm import LlmPriorsConfig
+from bim2rdt.server.config import ServerConfig
 from bim2rdt.twin.config import TwinConfig
 
 
@@ -44,7 +49,8 @@ class HavSettings(MonitorConfig):
     """Hand-arm vibration monitoring: the monitor's configuration (defaults in :class:`MonitorConfig`; ``site``
     always follows ``mqtt.site``) and the key of the worker pseudonyms."""
 
-    site_secret: str = Field("change-me", description="Key for worker pseudonyms (keyed hash).")
+    site_secret: str = Field("change-me", min_length=1, description="Key for worker pseudonyms (keyed hash); the "
+                             "shipped default is refused outside --dev.")
 
     def monitor_config(self, **overrides) -> MonitorConfig:
         """The monitor's part with ``overrides``, without the secret (the monitor takes it as its own argument)."""
@@ -54,15 +60,19 @@ class HavSettings(MonitorConfig):
 class MqttSettings(BaseModel):
     """The site event bus."""
 
-    host: str | None = Field(None, description="Broker host; None means the in-process bus.")
-    port: int = Field(1883, description="Broker port.")
-    site: str = Field("demo", description="Site id used in topic names site/{site}/...")
-    username: str = Field("monitor", description="Broker user of the HAV monitor (the shipped ACL's reader).")
-    session_expiry_s: int = Field(3600, description="How long the broker queues QoS 1 messages for a stopped "
-                                  "monitor (MQTT 5 session expiry), seconds.")
-    password: str | None = Field(None, description="Monitor's broker password; None derives it from device_secret.")
-    device_secret: str = Field("change-me-devices", description="Dev provisioning: device passwords are keyed "
-                               "hashes of their ids with this secret (bim2rdt hav broker, sim wearables).")
+    host: str | None = Field(None, min_length=1, description="Broker host; None means the in-process bus.")
+    port: int = Field(1883, ge=1, le=65535, description="Broker port.")
+    site: str = Field("demo", pattern=r"^[A-Za-z0-9_.-]{1,64}$", description="Site id used in topic names "
+                      "site/{site}/... (one topic level: letters, digits, _ . -).")
+    username: str = Field("monitor", pattern=r"^[A-Za-z0-9_.-]{1,64}$", description="Broker user of the HAV "
+                          "monitor (its own credential; the ACL's reader of the site).")
+    session_expiry_s: int = Field(3600, ge=0, description="How long the broker queues QoS 1 messages for a "
+                                  "stopped monitor (MQTT 5 session expiry), seconds.")
+    password: str | None = Field(None, min_length=1, description="The monitor's own broker password; required "
+                                 "outside --dev (with --dev, derived from device_secret).")
+    device_secret: str = Field("change-me-devices", min_length=1, description="Dev provisioning: device passwords "
+                               "are keyed hashes of their ids with this secret (hav broker, sim wearables); the "
+                               "shipped default is refused outside --dev.")
 
 
 class Settings(BaseSettings):
@@ -81,6 +91,7 @@ class Settings(BaseSettings):
     registration: IcpConfig = IcpConfig()
     mission: MissionConfig = MissionConfig()
     twin: TwinConfig = TwinConfig()
+    server: ServerConfig = ServerConfig()
 
     @model_validator(mode="after")
     def _one_site(self) -> Settings:
@@ -93,7 +104,7 @@ class Settings(BaseSettings):
         return self
 
 
-SECRET_WORDS = ("secret", "password", "api_key")
+SECRET_WORDS = ("secret", "password", "api_key", "tokens")
 """Settings whose name holds one of these are masked in a run's record (a config.json is shared with results)."""
 
 
@@ -116,10 +127,58 @@ class ConfigError(Bim2RdtError):
 
 @lru_cache(maxsize=1)
 def get_settings() -> Settings:
-    """The process-wide settings, read from the environment once. Raises :class:`ConfigError` on a bad value."""
+    """The process-wide settings, read from the environment once. Raises :class:`ConfigError` on a bad value
+    (including a whole section given as bad JSON, and a folder setting that names an existing file)."""
     try:
-        return Settings()
+        settings = Settings()
     except ValidationError as error:
         first = error.errors()[0]
-        variable = "BIM2RDT_" + "__".join(str(part) for part in first["loc"]).upper()
+        variable = _variable(first["loc"])
         raise ConfigError(f"{variable}: {first['msg']} (got {first.get('input')!r})") from error
+    except SettingsError as error:  # a nested section set as one variable whose JSON does not parse
+        raise ConfigError(_settings_error(error)) from error
+    for name in ("cache_dir", "data_dir"):
+        folder = getattr(settings, name)
+        if folder.exists() and not folder.is_dir():
+            raise ConfigError(f"BIM2RDT_{name.upper()}: {folder} is a file, not a folder")
+    return settings
+
+
+def usable_folder(folder: Path, variable: str) -> Path:
+    """Create a folder a setting names and probe it with a temporary file, before any long work writes there;
+    a ConfigError names the variable and the system's reason (read-only, /proc, a file in the path ...)."""
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        tempfile.TemporaryFile(dir=folder).close()
+    except OSError as error:
+        raise ConfigError(f"{variable}: cannot write into {folder}: {error.strerror or error}") from error
+    return folder
+
+
+def ifc_cache_dir(settings: Settings) -> Path | None:
+    """Where ``load_ifc`` caches read models (``cache_dir/ifc``, checked writable), or None with
+    ``BIM2RDT_BIM__TESSELLATION_CACHE=false``."""
+    if not settings.bim.tessellation_cache:
+        return None
+    return usable_folder(settings.cache_dir / "ifc", "BIM2RDT_CACHE_DIR")
+
+
+def _variable(loc: tuple) -> str:
+    """The variable the user set for a failing field: ``BIM2RDT_MQTT__PORT``, or ``BIM2RDT_MQTT`` (field port)
+    when the section came as one JSON variable; a check across sections (no location) names none."""
+    if not loc:
+        return "BIM2RDT settings"
+    names = ["BIM2RDT_" + "__".join(str(part) for part in loc[:n]).upper() for n in range(len(loc), 0, -1)]
+    present = {key.upper() for key in os.environ}
+    chosen = next((name for name in names if name in present), names[0])
+    inner = ".".join(str(part) for part in loc[len(chosen.split("__")):])
+    return f"{chosen} (field {inner})" if inner and chosen != names[0] else chosen
+
+
+def _settings_error(error: SettingsError) -> str:
+    """'error parsing value for field "mqtt" from source ...' -> 'BIM2RDT_MQTT: not valid JSON (...)'."""
+    field = re.search(r'field "([^"]+)"', str(error))
+    variable = f"BIM2RDT_{field.group(1).upper()}" if field else "a BIM2RDT_ variable"
+    cause = error.__cause__
+    detail = f"not valid JSON ({cause})" if isinstance(cause, ValueError) else str(error)
+    return f"{variable}: {detail}; set a whole section as a JSON object, or one field as {variable}__FIELD"

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -62,6 +63,34 @@ def test_bench_ifc_reports_both_figures_as_json(site_ifc):
     for contender in ("bare_loop", "load", "cached"):
         assert payload[contender]["wall_s"] > 0 and payload[contender]["cpu_s"] > 0
     assert payload["overhead"] == payload["load"]["cpu_s"] / payload["bare_loop"]["cpu_s"] - 1
+
+
+def test_info_on_a_file_with_a_duplicate_id_exits_1_in_one_line_instead_of_crashing(site_text):
+    slab = site_text.line(r"=IFCSLAB\(")  # ifcopenshell 0.9 segfaults tessellating this file (exit 139)
+    before = site_text.text.splitlines()[site_text.line_number(slab) - 2]
+    path = site_text.replace(slab, slab.replace(f"#{site_text.entity_id(slab)}=", f"#{site_text.entity_id(before)}="))
+    result = run_cli("info", str(path))
+    assert result.returncode == 1
+    assert result.stderr.startswith("error: variant.ifc: entity id #") and result.stderr.count("\n") == 1
+
+
+def test_info_lists_warnings_and_strict_fails_on_them_after_the_report(site_text):
+    wall = site_text.line(r"=IFCWALL\(")
+    placement = re.search(r",(#\d+),#\d+,\$,\.SOLIDWALL\.", wall).group(1)
+    path = site_text.replace(wall, wall.replace(f",{placement},", ",#999999,"))
+    plain = run_cli("info", "--no-geometry", "--json", str(path))
+    assert plain.returncode == 0
+    [warning] = json.loads(plain.stdout)["warnings"]
+    assert warning["kind"] == "dangling reference" and "#999999" in warning["message"]
+    strict = run_cli("info", "--no-geometry", "--strict", str(path))
+    assert strict.returncode == 1 and "Reader warnings (1)" in strict.stdout
+    assert strict.stderr.startswith("error: variant.ifc: --strict: #") and strict.stderr.count("\n") == 1
+
+
+def test_info_strict_passes_a_clean_file(site_ifc):
+    result = run_cli("info", "--strict", str(site_ifc))
+    assert result.returncode == 0, result.stderr
+    assert "Reader warnings" not in result.stdout
 
 
 def test_the_default_samples_folder_is_shared_beside_this_checkout():

@@ -122,13 +122,19 @@ def test_a_damaged_cache_is_ignored_and_rewritten(site_ifc, tmp_path, damage):
     assert load_ifc(site_ifc, cache_dir=tmp_path).from_cache  # the damaged file was replaced by a whole one
 
 
-def test_the_default_cache_lives_under_the_configured_cache_dir(samples, tmp_path, monkeypatch):
-    from bim2rdt.config import get_settings
+def test_the_configured_cache_lives_under_the_cache_dir_and_no_cache_dir_means_no_cache(samples, tmp_path,
+                                                                                           monkeypatch):
+    from bim2rdt.config import get_settings, ifc_cache_dir
 
     monkeypatch.setenv("BIM2RDT_CACHE_DIR", str(tmp_path))
     get_settings.cache_clear()
     load_ifc(samples / "construction_scheduling_task.ifc")
+    assert not list(tmp_path.glob("**/*.npz"))  # library code reads no settings
+    load_ifc(samples / "construction_scheduling_task.ifc", cache_dir=ifc_cache_dir(get_settings()))
     assert list((tmp_path / "ifc").glob("*.npz"))
+    monkeypatch.setenv("BIM2RDT_BIM__TESSELLATION_CACHE", "false")
+    get_settings.cache_clear()
+    assert ifc_cache_dir(get_settings()) is None
 
 
 def test_an_element_whose_geometry_fails_is_reported_and_the_rest_still_tessellates(site_ifc, tmp_path):

@@ -9,13 +9,18 @@ import pytest
 
 from bim2rdt.bus.broker import MOSQUITTO, MosquittoBroker
 
-USERS = {"monitor": "monitor-pw", "dashboard": "dash-pw", "w1": "w1-pw", "w2": "w2-pw"}
+SITE = "s"
+MONITORS = ("monitor", "monitor-acks", "monitor-auto", "monitor-poison", "monitor-fuzz")
+"""Monitor users: with client ids bound to usernames, tests that keep a persistent session use their own."""
+USERS = {**{user: f"{user}-pw" for user in MONITORS}, "dashboard": "dash-pw", "w1": "w1-pw", "w2": "w2-pw", "w3": "w3-pw",
+         "w4": "w4-pw", "w5": "w5-pw"}
 
 
 @pytest.fixture(scope="session")
 def broker(tmp_path_factory):
-    """Mosquitto on 127.0.0.1:<free port> (never 1883), started for the session and stopped after."""
+    """Mosquitto on 127.0.0.1:<free port> (never 1883) with the ACL of site "s", started for the session and
+    stopped after."""
     if not Path(MOSQUITTO).exists() or shutil.which("mosquitto_passwd") is None:
         pytest.fail("Debian's mosquitto is required for the bus tests (.ci/run installs it)")
-    with MosquittoBroker(USERS, folder=tmp_path_factory.mktemp("mosquitto")) as running:
+    with MosquittoBroker(USERS, folder=tmp_path_factory.mktemp("mosquitto"), site=SITE, monitors=MONITORS) as running:
         yield running

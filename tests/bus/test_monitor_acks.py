@@ -18,7 +18,7 @@ from pathlib import Path
 from bim2rdt.bus import MqttBus
 from bim2rdt.safety import HavMonitor, MonitorConfig
 monitor = HavMonitor(Path(sys.argv[1]), "secret", [], MonitorConfig(site="s", commit_batches=500, commit_delay_s=10))
-bus = MqttBus("127.0.0.1", int(sys.argv[2]), client_id="hav-monitor-acks", username="monitor",
+bus = MqttBus("127.0.0.1", int(sys.argv[2]), client_id="hav-" + sys.argv[4], username=sys.argv[4],
               password=sys.argv[3], session_expiry_s=600, manual_ack=True)
 monitor.attach(bus)
 bus.connect()
@@ -33,7 +33,7 @@ def test_a_monitor_killed_before_its_group_commit_gets_the_messages_again(broker
     fs, t0 = 5000.0, time.time()
     sent = list(batches("w1", session_signal([("idle", 1), ("grinder", 9)], fs), fs, t0))  # 20 batches
     child = subprocess.Popen([sys.executable, "-c", MONITOR, str(tmp_path), str(broker.port),
-                              broker.users["monitor"]], stdout=subprocess.PIPE, text=True)
+                              broker.users["monitor-acks"], "monitor-acks"], stdout=subprocess.PIPE, text=True)
     try:
         assert child.stdout.readline().strip() == "ready"
         w1 = connect(broker, "w1")
@@ -49,8 +49,8 @@ def test_a_monitor_killed_before_its_group_commit_gets_the_messages_again(broker
     sink = ListSink()
     monitor = HavMonitor(tmp_path, "secret", [sink], MonitorConfig(site="s", commit_delay_s=0.05))
     assert monitor.stream_status("w1") is None  # nothing had been committed ...
-    bus = MqttBus("127.0.0.1", broker.port, client_id="hav-monitor-acks", username="monitor",
-                  password=broker.users["monitor"], session_expiry_s=600, manual_ack=True)
+    bus = MqttBus("127.0.0.1", broker.port, client_id="hav-monitor-acks", username="monitor-acks",
+                  password=broker.users["monitor-acks"], session_expiry_s=600, manual_ack=True)
     monitor.attach(bus)
     bus.connect()
     wait_for(lambda: (monitor.stream_status("w1") or {}).get("next_seq") == len(sent), "redelivery of all 20")
@@ -63,9 +63,9 @@ def test_a_monitor_killed_before_its_group_commit_gets_the_messages_again(broker
 
 def test_without_manual_acks_the_same_kill_loses_the_waiting_group(broker, tmp_path):
     """The counterpart: paho's automatic PUBACK on receipt, as before the group commit's manual acks."""
-    script = MONITOR.replace("manual_ack=True", "manual_ack=False").replace("hav-monitor-acks", "hav-monitor-auto")
-    child = subprocess.Popen([sys.executable, "-c", script, str(tmp_path), str(broker.port), broker.users["monitor"]],
-                             stdout=subprocess.PIPE, text=True)
+    script = MONITOR.replace("manual_ack=True", "manual_ack=False")
+    child = subprocess.Popen([sys.executable, "-c", script, str(tmp_path), str(broker.port),
+                              broker.users["monitor-auto"], "monitor-auto"], stdout=subprocess.PIPE, text=True)
     fs, t0 = 5000.0, time.time()
     sent = list(batches("w2", session_signal([("grinder", 5)], fs), fs, t0))
     try:
@@ -81,8 +81,8 @@ def test_without_manual_acks_the_same_kill_loses_the_waiting_group(broker, tmp_p
         if child.poll() is None:
             child.kill()
     monitor = HavMonitor(tmp_path, "secret", [], MonitorConfig(site="s", commit_delay_s=0.05))
-    bus = MqttBus("127.0.0.1", broker.port, client_id="hav-monitor-auto", username="monitor",
-                  password=broker.users["monitor"], session_expiry_s=600).connect()
+    bus = MqttBus("127.0.0.1", broker.port, client_id="hav-monitor-auto", username="monitor-auto",
+                  password=broker.users["monitor-auto"], session_expiry_s=600).connect()
     monitor.attach(bus)
     time.sleep(1.0)  # nothing is queued for us: there is nothing to wait for
     assert monitor.stream_status("w2") is None

@@ -125,20 +125,20 @@ def test_a_restarted_monitor_gets_what_was_published_while_it_was_away(broker, t
     sink = ListSink()
     fs, t0 = 5000.0, time.time()
     sent = list(batches("w2", session_signal([("idle", 1), ("breaker", 5)], fs), fs, t0))
-    first = HavMonitor(tmp_path, "secret", [sink], MonitorConfig(site="r"))
-    bus = client(broker, "monitor", client_id="hav-monitor-r", session_expiry_s=600)
+    first = HavMonitor(tmp_path, "secret", [sink], MonitorConfig(site="s"))
+    bus = client(broker, "monitor", client_id="hav-monitor-s", session_expiry_s=600)
     first.attach(bus)
     bus.connect()  # returns after the SUBACKs of what attach asked for
     w2 = connect(broker, "w2")
     for item in sent[:4]:
-        w2.publish(accel_topic("r", "w2"), encode_accel(item), qos=1, wait=True)
+        w2.publish(accel_topic("s", "w2"), encode_accel(item), qos=1, wait=True)
     wait_for(lambda: (first.stream_status("w2") or {}).get("next_seq") == 4, "the first monitor taking 4 batches")
     bus.close()  # the monitor stops mid-shift ...
     first.close()
     for item in sent[2:]:  # ... the device keeps publishing (and repeats two batches it was unsure about)
-        w2.publish(accel_topic("r", "w2"), encode_accel(item), qos=1, wait=True)
-    second = HavMonitor(tmp_path, "secret", [sink], MonitorConfig(site="r"))
-    bus = client(broker, "monitor", client_id="hav-monitor-r", session_expiry_s=600)
+        w2.publish(accel_topic("s", "w2"), encode_accel(item), qos=1, wait=True)
+    second = HavMonitor(tmp_path, "secret", [sink], MonitorConfig(site="s"))
+    bus = client(broker, "monitor", client_id="hav-monitor-s", session_expiry_s=600)
     second.attach(bus)
     bus.connect()
     wait_for(lambda: second.stream_status("w2")["next_seq"] == len(sent), "the restarted monitor catching up")
@@ -147,3 +147,98 @@ def test_a_restarted_monitor_gets_what_was_published_while_it_was_away(broker, t
     bus.close()
     w2.close()
     second.close()
+
+
+def test_a_device_claiming_the_monitors_client_id_cannot_knock_it_off(broker):
+    monitor = client(broker, "monitor", client_id="bim2rdt-hav-monitor-s", session_expiry_s=600)
+    got = collect(monitor, "site/s/wearable/+/accel")
+    monitor.connect()
+    intruder = connect(broker, "w3", client_id="bim2rdt-hav-monitor-s")  # its own password, the monitor's id
+    for k in range(16):
+        intruder.publish(accel_topic("s", "w3"), b"%d" % k, qos=1, wait=True)
+    wait_for(lambda: len(got) == 16, "the monitor receiving all 16 messages")
+    assert monitor.disconnects == 0 and monitor.connected  # the broker bound the intruder's id to its username
+    intruder.close()
+    monitor.close()
+
+
+def test_a_device_cannot_publish_on_another_site(broker):
+    w1 = connect(broker, "w1")
+    assert w1.publish(accel_topic("s", "w1"), b"here", qos=1, wait=True) == 0
+    assert w1.publish(accel_topic("OTHER", "w1"), b"elsewhere", qos=1, wait=True) == NOT_AUTHORIZED
+    assert w1.publish(status_topic("OTHER", "w1"), b"elsewhere", qos=1, wait=True) == NOT_AUTHORIZED
+    w1.close()
+
+
+def test_a_handler_that_raises_is_counted_and_the_network_thread_lives_on(broker):
+    bus = connect(broker, "dashboard")
+    got = []
+
+    def handler(topic, payload):
+        got.append(payload)
+        raise ValueError("a bug in a handler")
+
+    bus.subscribe("site/s/wearable/+/status", handler)
+    w1 = connect(broker, "w1")
+    for _ in range(3):
+        w1.publish(status_topic("s", "w1"), b"{}", qos=1, wait=True)
+    wait_for(lambda: len(got) >= 3, "three deliveries despite the raising handler")
+    assert bus.handler_errors >= 3 and bus.alive
+    w1.close()
+    bus.close()
+
+
+@pytest.mark.filterwarnings("ignore::pytest.PytestUnhandledThreadExceptionWarning")
+def test_the_watchdog_sees_a_dead_network_thread(broker):
+    bus = connect(broker, "dashboard")
+
+    def fatal(topic, payload):
+        raise SystemExit("not an Exception: kills paho's thread")
+
+    bus.subscribe("site/s/wearable/+/status", fatal)
+    w1 = connect(broker, "w1")
+    w1.publish(status_topic("s", "w1"), b"{}", qos=1, wait=True)
+    wait_for(lambda: not bus.alive, "the network thread dying")
+    from bim2rdt.cli.hav import watch
+
+    class Idle:
+        failure = None
+
+        def tick(self):
+            return []
+
+    with pytest.raises(BusError, match="network thread died"):
+        watch(Idle(), bus, duration=5.0, max_offline=60.0, period_s=0.05)
+    w1.close()
+    bus.close()
+
+
+def test_a_poison_message_queued_for_a_stopped_monitor_does_not_stop_its_restart(broker, tmp_path):
+    fs, t0 = 5000.0, time.time()
+    good = list(batches("w4", session_signal([("grinder", 2)], fs), fs, t0))
+    config = MonitorConfig(site="s", commit_delay_s=0.05)
+    first = HavMonitor(tmp_path, "secret", [], config)
+    bus = client(broker, "monitor-poison", client_id="monitor-poison", session_expiry_s=600, manual_ack=True)
+    first.attach(bus)
+    bus.connect()
+    bus.close()  # the monitor stops; the broker keeps its session and queues for it
+    first.close()
+    w4 = connect(broker, "w4")
+    header = json.dumps({"device": "w4", "seq": 0, "t_ms": t0 * 1000, "fs": fs, "n": 4, "dtype": "int16",
+                         "scale": 0.06, "full_scale": {}}).encode()  # a logged-in device's poison (issue 10)
+    poison = b"HAV1" + len(header).to_bytes(2, "little") + header + bytes(24)
+    w4.publish(accel_topic("s", "w4"), poison, qos=1, wait=True)
+    for item in good:
+        w4.publish(accel_topic("s", "w4"), encode_accel(item), qos=1, wait=True)
+    for attempt in range(2):  # the restart works, and the poison is not delivered a second time
+        monitor = HavMonitor(tmp_path, "secret", [], config)
+        bus = client(broker, "monitor-poison", client_id="monitor-poison", session_expiry_s=600, manual_ack=True)
+        monitor.attach(bus)
+        bus.connect()  # SUBACK received: the poison delivered first did not stop the network thread
+        if attempt == 0:
+            wait_for(lambda: (monitor.stream_status("w4") or {}).get("next_seq") == len(good), "the good batches")
+        time.sleep(0.5)
+        assert monitor.malformed_messages()["w4"].count == 1 and bus.alive
+        bus.close()
+        monitor.close()
+    w4.close()

@@ -52,3 +52,51 @@ def test_a_header_with_no_samples_or_no_time_is_a_payload_error(field, value, me
     payload = MAGIC + struct.pack("<H", len(head)) + head + np.ones(12, "<f4").tobytes()
     with pytest.raises(PayloadError, match=message):
         decode_accel(payload)
+
+
+def _payload(header: dict | bytes, samples: bytes = b"\0" * 24) -> bytes:
+    head = header if isinstance(header, bytes) else json.dumps(header).encode()
+    return MAGIC + struct.pack("<H", len(head)) + head + samples
+
+
+GOOD = {"device": "w1", "seq": 0, "t_ms": 1.7e12, "fs": 1000.0, "n": 4, "dtype": "int16", "scale": 0.06,
+        "full_scale": 1961.3}
+
+
+def test_the_reference_header_decodes():
+    assert decode_accel(_payload(GOOD)).seq == 0
+
+
+@pytest.mark.parametrize("field, value, message", [
+    ("full_scale", {}, "full scale"), ("full_scale", -1.0, "full scale"), ("t_ms", 1e300, "device time"),
+    ("t_ms", -5.0, "device time"), ("fs", 1e12, "sampling rate"), ("seq", 1e20, "sequence number"),
+    ("seq", 2**53, "sequence number"), ("seq", -1, "sequence number"), ("seq", "7", "sequence number"),
+    ("seq", True, "sequence number"), ("n", 4.0, "sample count"), ("scale", 0, "count scale"),
+    ("scale", "big", "count scale"), ("dtype", "int64", "sample type"), ("device", "w 1", "device id"),
+    ("device", 7, "device id")])
+def test_a_header_field_out_of_type_or_bounds_is_a_payload_error_naming_it(field, value, message):
+    with pytest.raises(PayloadError, match=message):
+        decode_accel(_payload({**GOOD, field: value}))
+
+
+@pytest.mark.parametrize("header", [b"[" * 30000, b"[" * 900 + b"]" * 900, b'{"a":' * 400 + b"1" + b"}" * 400,
+                                    b"\xff\xfe{}", b"[1, 2]", b"null"])
+def test_a_huge_nested_or_non_object_header_is_a_payload_error(header):
+    with pytest.raises(PayloadError):
+        decode_accel(_payload(header))
+
+
+@pytest.mark.parametrize("samples", [b"\0" * 23, b"\0" * 25, b""])
+def test_samples_must_fill_the_payload_exactly(samples):
+    with pytest.raises(PayloadError, match="header says"):
+        decode_accel(_payload(GOOD, samples))
+
+
+def test_a_header_length_beyond_the_payload_is_a_payload_error():
+    with pytest.raises(PayloadError, match="header of"):
+        decode_accel(MAGIC + struct.pack("<H", 500) + b"{}")
+
+
+def test_a_batch_longer_than_a_minute_is_refused():
+    with pytest.raises(PayloadError, match="more than 60 s"):
+        decode_accel(_payload({**GOOD, "n": 70_000, "fs": 1000.0}, b"\0" * 70_000 * 6))

@@ -33,6 +33,7 @@ def test_demo_writes_the_twin_report_plots_and_resolved_config(demo_out):
     assert len(list((out / "registration").glob("*.png"))) == 4
     config = json.loads((out / "config.json").read_text())
     assert config["seed"] == 0 and config["workers"] == 1 and "numpy" in config["versions"]
+    assert config["detector"] == "geometric"  # the default reads frames without weights
     recorded, defaults = config["settings"], settings_record(Settings())
     assert set(recorded) == set(defaults)  # every section, as the run read it (defaults here)
     assert recorded["mission"] == defaults["mission"] and recorded["registration"] == defaults["registration"]
@@ -41,14 +42,15 @@ def test_demo_writes_the_twin_report_plots_and_resolved_config(demo_out):
 
 
 def test_a_setting_changed_through_the_environment_is_what_runs_and_what_config_json_shows(tmp_path):
-    """BIM2RDT_MISSION__MIN_FITNESS=0.99: no fit explains 99 % of its points, so every verdict is unverified."""
-    env = {**os.environ, "BIM2RDT_MISSION__MIN_FITNESS": "0.99"}
+    """BIM2RDT_MISSION__MIN_POINTS=100000: no detection has that many points, so the robot sees nothing. (It was
+    MIN_FITNESS=0.99 until the geometric detector's clean, building-free points made fitness 1.00 common.)"""
+    env = {**os.environ, "BIM2RDT_MISSION__MIN_POINTS": "100000"}
     result = subprocess.run([sys.executable, "-m", "bim2rdt", "demo", "--out", str(tmp_path), "--trials", "1",
                              "--workers", "1", "--minutes", "1"], capture_output=True, text=True, timeout=600, env=env)
     assert result.returncode == 0, result.stderr
-    assert json.loads((tmp_path / "config.json").read_text())["settings"]["mission"]["min_fitness"] == 0.99
-    rows = json.loads((tmp_path / "site_day.json").read_text())["observations"]
-    assert len(rows) == 11 and {r["status"] for r in rows} == {ElementStatus.UNVERIFIED}
+    assert json.loads((tmp_path / "config.json").read_text())["settings"]["mission"]["min_points"] == 100000
+    record = json.loads((tmp_path / "site_day.json").read_text())
+    assert record["observations"] == [] and len(record["not_seen"]) == 10
 
 
 def test_the_robot_finds_the_unplanned_drum_and_flags_what_moved(demo_out):

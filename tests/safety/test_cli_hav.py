@@ -28,6 +28,7 @@ def run_cli(*args: str, env: dict | None = None, timeout: float = 180) -> subpro
 @pytest.fixture
 def cli_env(tmp_path):
     return {"BIM2RDT_DATA_DIR": str(tmp_path / "var"), "BIM2RDT_MQTT__DEVICE_SECRET": "test-devices",
+            "BIM2RDT_HAV__SITE_SECRET": "test-site", "BIM2RDT_MQTT__PASSWORD": "test-monitor",
             "BIM2RDT_MQTT__SITE": "t", "COLUMNS": "160"}
 
 
@@ -165,3 +166,23 @@ def test_analyze_uses_the_live_monitors_settings_from_the_environment(tmp_path):
     assert default.returncode == raised.returncode == 0, default.stderr + raised.stderr
     assert len(json.loads(default.stdout)["activities"]) == 1
     assert json.loads(raised.stdout)["activities"] == []  # a 6 m/s^2 grinder is under an 8 m/s^2 trigger
+
+
+@pytest.mark.parametrize("target", ["folder", "", "/proc/twin.ifc", "under-a-file"])
+def test_a_twin_target_that_cannot_be_written_fails_before_the_simulation(tmp_path, cli_env, target):
+    site = build_site_ifc(tmp_path / "site.ifc")
+    (tmp_path / "folder").mkdir()
+    (tmp_path / "file").write_text("not a folder")
+    out = {"folder": str(tmp_path / "folder"), "under-a-file": str(tmp_path / "file" / "twin.ifc")}.get(target, target)
+    result = run_cli("sim", "wearables", "--workers", "3", "--minutes", "600", "--ifc", str(site), "--out", out,
+                     env=cli_env, timeout=60)  # 10 hours of simulation if the check came after the run
+    assert result.returncode == 1 and len(result.stderr.strip().splitlines()) == 1, result.stderr
+    assert "twin" in result.stderr or "folder" in result.stderr
+    assert "activity_started" not in result.stdout
+
+
+def test_hav_listen_checks_the_twin_target_before_connecting(tmp_path, cli_env):
+    site = build_site_ifc(tmp_path / "site.ifc")
+    result = run_cli("hav", "listen", "--mqtt", "127.0.0.1:1", "--ifc", str(site), "--out", str(tmp_path),
+                     env=cli_env)  # nothing listens on port 1: had it connected first, that would be the error
+    assert result.returncode == 1 and "is a folder" in result.stderr

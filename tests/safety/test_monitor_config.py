@@ -40,3 +40,26 @@ def test_a_runs_record_holds_the_hav_section_with_its_secret_masked(monkeypatch)
     record = settings_record(get_settings())
     assert record["hav"]["start_threshold"] == 1.5 and record["hav"]["site"] == record["mqtt"]["site"]
     assert record["hav"]["site_secret"] == "***" and "a-real-secret" not in str(record)
+
+
+@pytest.mark.parametrize("variable, value, message", [
+    ("BIM2RDT_HAV__START_THRESHOLD", "nan", "finite number"), ("BIM2RDT_HAV__MAX_REORDER", "-5", "greater than"),
+    ("BIM2RDT_HAV__SITE_SECRET", "", "at least 1 character"), ("BIM2RDT_HAV__STOP_THRESHOLD", "3", "stop_threshold"),
+    ("BIM2RDT_MQTT__SITE", "a/#", "pattern"), ("BIM2RDT_MQTT__PASSWORD", "", "at least 1 character")])
+def test_a_hav_setting_out_of_range_is_a_config_error_naming_it(monkeypatch, variable, value, message):
+    monkeypatch.setenv(variable, value)
+    with pytest.raises(ConfigError, match=message):
+        get_settings()
+
+
+def test_the_cli_refuses_a_nan_threshold_in_one_line(tmp_path):
+    import subprocess
+    import sys
+
+    result = subprocess.run([sys.executable, "-m", "bim2rdt", "sim", "wearables", "--dev", "--minutes", "1"],
+                            capture_output=True, text=True, timeout=120,
+                            env={**__import__("os").environ, "BIM2RDT_HAV__START_THRESHOLD": "nan",
+                                 "BIM2RDT_DATA_DIR": str(tmp_path)})
+    assert result.returncode == 1
+    assert result.stderr.strip().splitlines() == ["error: BIM2RDT_HAV__START_THRESHOLD: Input should be a finite "
+                                                  "number (got 'nan')"]

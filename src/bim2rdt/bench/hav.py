@@ -103,7 +103,7 @@ def run_latency(messages: int = 200, rate_hz: float = 20.0, fs: float = 5000.0, 
 
     users = {"monitor": "bench-monitor", "w1": "bench-w1"}
     done, produced, finished = [], [], threading.Event()
-    with tempfile.TemporaryDirectory(prefix="bim2rdt-bench-") as folder, MosquittoBroker(users) as broker:
+    with tempfile.TemporaryDirectory(prefix="bim2rdt-bench-") as folder, MosquittoBroker(users, site="bench") as broker:
         config = MonitorConfig(site="bench", predict_every_s=1.0, commit_delay_s=0.0)  # events on many messages
         monitor = HavMonitor(Path(folder), "bench", [], config)
 

@@ -8,9 +8,10 @@
 3. replanning after one new obstacle dropped on the path: ``with_obstacles`` + ``plan_path`` against rebuilding
    the grid from scratch with the obstacle + ``plan_path``.
 
-Contenders run in pairs, back to back (alternating which goes first), and each ratio is the median over pairs
-of ours / peer: on a machine shared with other jobs, two runs a few milliseconds apart see the same load, while
-the best-of of each alone may come from different quiet moments. Times shown are the best of each. Path
+Contenders run in pairs, back to back (alternating which goes first), all single-threaded in this process.
+Each ratio is the median over pairs of ours / peer on process CPU time: on a machine shared with other jobs,
+wall time counts the time another job held the core (wall-time ratios of the same code ranged 1.04-1.37 in
+runs under a load average of 10), CPU time does not. Best wall and CPU times of each are shown too. Path
 planning, the fastest, runs ``PATH_ROUNDS`` pairs per repeat.
 """
 
@@ -40,11 +41,13 @@ MAZE_SIZE, MAZE_RESOLUTION, ROBOT_RADIUS = 1000, 0.05, 0.35
 
 @dataclass
 class PlanningBenchResult:
-    """Best wall times (s) of each contender, and what each run worked on."""
+    """Best wall and CPU times (s) of each contender, the ratios (median over pairs, CPU time), and what each
+    run worked on."""
 
     file: str
     repeat: int
     times: dict[str, float] = field(default_factory=dict)
+    cpu: dict[str, float] = field(default_factory=dict)
     facts: dict[str, object] = field(default_factory=dict)
 
     ratios: dict[str, float] = field(default_factory=dict)
@@ -54,7 +57,7 @@ class PlanningBenchResult:
         return self.ratios["path"]
 
     def to_dict(self) -> dict:
-        return {"file": self.file, "repeat": self.repeat, "times_s": self.times, **self.facts,
+        return {"file": self.file, "repeat": self.repeat, "times_s": self.times, "cpu_s": self.cpu, **self.facts,
                 "grid_vs_cold_load": self.ratios["grid_vs_cold_load"],
                 "grid_vs_section_floor": self.ratios["grid_vs_section_floor"],
                 "path_ratio": self.path_ratio, "path_target": PATH_TARGET, "path_ok": self.path_ratio <= PATH_TARGET,
@@ -114,7 +117,7 @@ def _grid_build(result: PlanningBenchResult, ifc_path: Path, repeat: int, step: 
             z = find_floor(model).z + sum(grid.height_band) / 2
             _timed(floor, lambda: section_floor(model, z, grid.frame))
             step("one-section floor")
-    result.times.update(load_cold=min(cold), grid_build=min(built), section_floor=min(floor))
+    _record(result, load_cold=cold, grid_build=built, section_floor=floor)
     result.ratios.update(grid_vs_cold_load=_paired(built, cold), grid_vs_section_floor=_paired(built, floor))
     result.facts["grid"] = {"storey": grid.storey, "floor": grid.floor_source, "cells": list(grid.frame.shape),
                             "footprints": len(grid.footprints), "open_doors": len(grid.open_doors)}
@@ -140,7 +143,7 @@ def _path_and_replan(result: PlanningBenchResult, repeat: int, step: Callable[[s
         detour, _ = _pair(replan, lambda: plan_path(grid.with_obstacles(obstacle), start, goal),
                           rebuild, lambda: plan_path(_rebuilt(with_drum), start, goal), swap=k % 2 == 1)
         step("with_obstacles + plan_path vs rebuild + plan_path")
-    result.times.update(plan_path=min(ours), pyastar2d=min(bare), replan=min(replan), rebuild_and_plan=min(rebuild))
+    _record(result, plan_path=ours, pyastar2d=bare, replan=replan, rebuild_and_plan=rebuild)
     result.ratios.update(path=_paired(ours, bare), replan_vs_rebuild=_paired(replan, rebuild))
     result.facts["maze"] = {"cells": list(grid.frame.shape), "grid_path_cells": int(len(cells)),
                             "waypoints": int(len(path)), "path_m": path_length(path),
@@ -179,13 +182,20 @@ def _pair(ours: list[float], our_work: Callable, peers: list[float], peer_work: 
     return mine, _timed(peers, peer_work)
 
 
-def _paired(ours: list[float], peer: list[float]) -> float:
-    """Median over runs of ours / peer (run k of each ran back to back)."""
-    return float(np.median(np.asarray(ours) / np.asarray(peer)))
+def _paired(ours: list[tuple[float, float]], peer: list[tuple[float, float]]) -> float:
+    """Median over runs of ours / peer on CPU time (run k of each ran back to back)."""
+    return float(np.median(np.array([t[1] for t in ours]) / np.array([t[1] for t in peer])))
 
 
-def _timed(times: list[float], work: Callable):
-    start = time.perf_counter()
+def _record(result: PlanningBenchResult, **runs: list[tuple[float, float]]) -> None:
+    for name, timings in runs.items():
+        result.times[name] = min(t[0] for t in timings)
+        result.cpu[name] = min(t[1] for t in timings)
+
+
+def _timed(times: list[tuple[float, float]], work: Callable):
+    """Run ``work``; append its (wall, CPU) seconds to ``times``; return what it returned."""
+    wall, cpu = time.perf_counter(), time.process_time()
     out = work()
-    times.append(time.perf_counter() - start)
+    times.append((time.perf_counter() - wall, time.process_time() - cpu))
     return out

@@ -3,10 +3,10 @@ and world-metre meshes; ``TwinWriter`` writes the twin (moves, observed objects,
 
 from bim2rdt.bim.errors import BimError
 from bim2rdt.bim.model import BimModel, load_ifc
-from bim2rdt.bim.records import BimElement, BimProcess, BimStorey, BimZone, GeometryFailure
+from bim2rdt.bim.records import BimElement, BimProcess, BimStorey, BimWarning, BimZone, GeometryFailure
 from bim2rdt.bim.site_frame import SiteFrame
 
-__all__ = ["BimError", "BimModel", "BimElement", "BimProcess", "BimStorey", "BimZone", "GeometryFailure",
+__all__ = ["BimError", "BimModel", "BimElement", "BimProcess", "BimStorey", "BimWarning", "BimZone", "GeometryFailure",
            "SiteFrame", "TwinWriter", "load_ifc"]
 
 

@@ -15,12 +15,13 @@ from bim2rdt.bim.errors import BimError
 from bim2rdt.bim.source import STEP_TRAILER
 
 
-def atomic_write_ifc(ifc: ifcopenshell.file, path: Path) -> Path:
-    """Write ``ifc`` to ``path`` atomically; returns the path."""
+def atomic_write_ifc(ifc: ifcopenshell.file, path: Path, *, replace_special: bool = False) -> Path:
+    """Write ``ifc`` to ``path`` atomically; returns the path. OS errors (full disk, read-only folder, a folder
+    or a device at ``path``) raise ``atomic.WriteError`` with one line, and the previous file is kept."""
     path = Path(path)
     if not path.parent.is_dir():
         raise BimError(f"{path}: the folder {path.parent} does not exist")
     data = ifc.to_string().encode("utf-8")
     if not data.rstrip().endswith(STEP_TRAILER):
         raise BimError(f"{path.name}: ifcopenshell serialised an incomplete file; nothing was written")
-    return write_bytes_atomic(path, data)
+    return write_bytes_atomic(path, data, replace_special=replace_special)

@@ -19,11 +19,11 @@ import numpy as np
 
 from bim2rdt.atomic import write_bytes_atomic
 from bim2rdt.bim.processes import parse_ifc_datetime
-from bim2rdt.bim.records import BimElement, BimProcess, BimStorey, BimZone, GeometryFailure
+from bim2rdt.bim.records import BimElement, BimProcess, BimStorey, BimWarning, BimZone, GeometryFailure
 from bim2rdt.bim.site_frame import SiteFrame
 from bim2rdt.bim.tessellation import MeshSet
 
-CACHE_FORMAT = 2
+CACHE_FORMAT = 3
 
 
 def cache_file(cache_dir: Path, digest: str) -> Path:
@@ -79,6 +79,11 @@ def load_zones(items: list[dict]) -> list[BimZone]:
 
 def load_failures(items: list[dict]) -> list[GeometryFailure]:
     return [GeometryFailure(**item) for item in items]
+
+
+def load_warnings(items: list[dict]) -> list[BimWarning]:
+    return [BimWarning(**{**item, "instances": tuple(item["instances"]), "elements": tuple(item["elements"])})
+            for item in items]
 
 
 def load_site_frame(item: dict) -> SiteFrame:

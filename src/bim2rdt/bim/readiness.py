@@ -3,7 +3,9 @@
 The paper asks for a quick conditioning pass: consistent categories (every element has a family and a storey),
 true elevations (every storey has one), families the detector/prior table understands, off-limits areas
 tagged, stray elements purged (geometry that does not tessellate), and a geo-reference tying the twin to the
-site. Each check here reports pass / warn (with the offending items) or unavailable.
+site. A map must also be whole: references to entities the file does not declare (a wall whose placement is
+missing loads at the origin) are reported. Each check here reports pass / warn (with the offending items) or
+unavailable.
 """
 
 from __future__ import annotations
@@ -12,6 +14,7 @@ from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import Protocol
 
+from bim2rdt.bim.integrity import DANGLING
 from bim2rdt.bim.model import BimModel
 
 PASS, WARN, UNAVAILABLE = "pass", "warn", "unavailable"
@@ -43,7 +46,7 @@ class ReadinessCheck:
 def check_readiness(model: BimModel, priors: PriorTable | None) -> list[ReadinessCheck]:
     """All checks on a read model; ``priors`` None reports the prior-table check as unavailable."""
     return [_no_family(model), _no_storey(model), _storeys_without_elevation(model), _unknown_families(model, priors),
-            _off_limits_zones(model), _geometry_failures(model), _geo_reference(model)]
+            _off_limits_zones(model), _geometry_failures(model), _dangling_references(model), _geo_reference(model)]
 
 
 def _check(name: str, offenders: list[str], what: str, total: int) -> ReadinessCheck:
@@ -99,6 +102,14 @@ def _geometry_failures(model: BimModel) -> ReadinessCheck:
         return ReadinessCheck("elements whose geometry fails", UNAVAILABLE, "not tessellated (--no-geometry)")
     failed = [f"{f.ifc_class} {f.global_id}: {f.reason}" for f in model.geometry_failures]
     return _check("elements whose geometry fails", failed, "elements", len(model.elements))
+
+
+def _dangling_references(model: BimModel) -> ReadinessCheck:
+    dangling = [w for w in model.warnings if w.kind == DANGLING]
+    affected = {g for w in dangling for g in w.elements}
+    return ReadinessCheck("references to missing entities", PASS if not dangling else WARN,
+                          f"{len(dangling)} dangling references, {len(affected)} elements affected", len(dangling),
+                          tuple(w.message for w in dangling[:EXAMPLES]))
 
 
 def _geo_reference(model: BimModel) -> ReadinessCheck:

@@ -90,3 +90,14 @@ class GeometryFailure:
     global_id: str
     ifc_class: str
     reason: str
+
+
+@dataclass(frozen=True)
+class BimWarning:
+    """Something wrong in the file that the reader read past: ``kind`` ("dangling reference", "parser",
+    "schema"), a one-line ``message``, the STEP ids involved, and the GlobalIds of the products it affects."""
+
+    kind: str
+    message: str
+    instances: tuple[int, ...] = ()
+    elements: tuple[str, ...] = ()

@@ -181,7 +181,7 @@ class TwinWriter:
         return process.GlobalId
 
     def _adopt_geometry(self) -> None:
-        """Before the first move of a model read without geometry: read it with geometry (cached), since
+        """Before the first move of a model read without geometry: read it with geometry, since
         identity-placed Revit elements only get their true placement from their tessellated body."""
         model = load_ifc(self.model.path)
         if model.digest != self.model.digest:

@@ -43,7 +43,7 @@ class MqttBus:
                  password: str | None = None, will: tuple[str, bytes] | None = None, timeout_s: float = 10.0,
                  session_expiry_s: int = 0, manual_ack: bool = False):
         self.host, self.port, self.timeout_s, self.session_expiry_s = host, port, timeout_s, session_expiry_s
-        self.manual_ack, self.handler_errors = manual_ack, 0
+        self.manual_ack, self.handler_errors, self.disconnects = manual_ack, 0, 0
         self._client = mqtt.Client(mqtt.CallbackAPIVersion.VERSION2, protocol=mqtt.MQTTv5, manual_ack=manual_ack,
                                    client_id=client_id or f"bim2rdt-{uuid.uuid4().hex[:8]}")
         if username is not None:
@@ -61,6 +61,7 @@ class MqttBus:
         self._client.on_message = self._on_message
         self._client.on_publish = self._on_publish
         self._client.on_subscribe = self._on_subscribe
+        self._client.on_disconnect = self._on_disconnect
         self._client.max_inflight_messages_set(1000)
 
     def connect(self) -> MqttBus:
@@ -113,6 +114,16 @@ class MqttBus:
             self._acks.pop(mid, None)
             return self._ack_codes.pop(mid, 0)
 
+    @property
+    def alive(self) -> bool:
+        """Whether paho's network thread still runs (it may be reconnecting): a watchdog reads this."""
+        thread = getattr(self._client, "_thread", None)  # paho 2.x keeps its loop_start thread here
+        return thread is not None and thread.is_alive()
+
+    @property
+    def connected(self) -> bool:
+        return self._client.is_connected()
+
     def close(self) -> None:
         """Disconnect cleanly (a clean disconnect does not fire the last will)."""
         self._client.disconnect()
@@ -145,6 +156,11 @@ class MqttBus:
                 log.exception("handler for %s failed; message dropped", message.topic)
         if ack is not None and not handed_over:
             ack()
+
+    def _on_disconnect(self, client, userdata, flags, reason_code, properties) -> None:
+        if reason_code.is_failure:  # not our own clean disconnect: paho reconnects; count it for watchdogs
+            self.disconnects += 1
+            log.warning("disconnected from %s:%s: %s", self.host, self.port, reason_code)
 
     def _on_subscribe(self, client, userdata, mid, reason_codes, properties) -> None:
         self._on_publish(client, userdata, mid, reason_codes[0], properties)

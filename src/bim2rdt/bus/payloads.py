@@ -11,16 +11,29 @@ Layout: b"HAV1", uint16 header length, UTF-8 JSON header, samples.
 from __future__ import annotations
 
 import json
-import math
 import struct
 from dataclasses import dataclass, replace
+from typing import Annotated, Literal
 
 import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, Strict, ValidationError, model_validator
 
 from bim2rdt.errors import Bim2RdtError
 
 MAGIC = b"HAV1"
 _DTYPES = {"int16": np.dtype("<i2"), "float32": np.dtype("<f4")}
+MAX_HEADER_BYTES = 1024
+"""A header is a small flat object (~150 bytes); longer ones (or nesting) are refused before parsing."""
+MAX_SEQ = 2**53 - 1
+"""Sequence numbers are integers JSON and float64 hold exactly (and SQLite's INTEGER far beyond)."""
+MAX_T_MS = 4_102_444_800_000.0
+"""Device time bound: 2100-01-01 UTC in ms since the epoch (0 allows devices that count from boot)."""
+MAX_RATE_HZ = 100_000.0
+"""No wearable accelerometer samples faster (ISO 5349 needs up to ~2.5 kHz; MEMS parts stop at ~32 kHz)."""
+MAX_BATCH_S = 60.0
+"""A batch covers at most a minute of samples (a wearable sends a few per second)."""
+
+StrictNumber = Annotated[float, Strict()]  # a JSON number, never a string; ints are numbers too
 
 
 class PayloadError(Bim2RdtError):
@@ -53,6 +66,28 @@ class AccelBatch:
         return replace(self, received_time=when)
 
 
+class AccelHeader(BaseModel):
+    """The JSON header of an accel batch: every field typed (no strings for numbers, no floats for integers)
+    and bounded, NaN and infinities refused; unknown extra fields are ignored."""
+
+    model_config = ConfigDict(extra="ignore", allow_inf_nan=False, frozen=True)
+
+    device: str = Field(pattern=r"^[A-Za-z0-9_.-]{1,64}$", strict=True)
+    seq: int = Field(ge=0, le=MAX_SEQ, strict=True)
+    t_ms: StrictNumber = Field(ge=0.0, le=MAX_T_MS)
+    fs: StrictNumber = Field(gt=0.0, le=MAX_RATE_HZ)
+    n: int = Field(ge=1, strict=True)
+    dtype: Literal["int16", "float32"]
+    scale: StrictNumber = Field(1.0, gt=0.0)
+    full_scale: StrictNumber | None = Field(None, gt=0.0)
+
+    @model_validator(mode="after")
+    def _short_enough(self) -> AccelHeader:
+        if self.n > self.fs * MAX_BATCH_S:
+            raise ValueError(f"{self.n} samples at {self.fs:g} Hz is more than {MAX_BATCH_S:g} s in one batch")
+        return self
+
+
 def encode_accel(batch: AccelBatch, dtype: str = "int16") -> bytes:
     """Pack a batch; int16 quantises to the batch's full scale (default 16 g) over 32767 counts."""
     scale = (batch.full_scale or 16 * 9.80665) / 32767.0 if dtype == "int16" else 1.0
@@ -70,28 +105,64 @@ def encode_accel(batch: AccelBatch, dtype: str = "int16") -> bytes:
 
 
 def decode_accel(payload: bytes) -> AccelBatch:
-    """Unpack a batch; PayloadError with the reason if it is not one."""
+    """Unpack a batch; PayloadError with the reason if it is not one. Nothing a payload holds gets past
+    this unchecked: the header is one small flat JSON object whose every field is typed and bounded
+    (:class:`AccelHeader`), and the samples fill the rest of the payload exactly."""
     if len(payload) < 6 or payload[:4] != MAGIC:
         raise PayloadError("accel payload does not start with the HAV1 magic")
     (head_len,) = struct.unpack("<H", payload[4:6])
+    if head_len > MAX_HEADER_BYTES or 6 + head_len > len(payload):
+        raise PayloadError(f"accel header of {head_len} bytes: at most {MAX_HEADER_BYTES}, within the payload")
+    header = _header(payload[6:6 + head_len])
+    dtype = _DTYPES[header.dtype]
+    expected = 6 + head_len + 3 * header.n * dtype.itemsize
+    if len(payload) != expected:
+        raise PayloadError(f"accel payload is {len(payload)} bytes; its header says {expected} ({header.n} samples)")
+    samples = np.frombuffer(payload, dtype=dtype, offset=6 + head_len, count=3 * header.n).reshape(header.n, 3)
+    counts = dtype.kind == "i"
+    xyz = samples.astype(np.float32) * np.float32(header.scale) if counts else samples.copy()
+    return AccelBatch(header.device, header.seq, header.t_ms / 1000.0, header.fs, xyz, header.full_scale,
+                      scale=header.scale if counts else None)
+
+
+def _header(head: bytes) -> AccelHeader:
     try:
-        header = json.loads(payload[6:6 + head_len])
-        fs, n, t_ms = float(header["fs"]), int(header["n"]), float(header["t_ms"])
-        _check_header(fs, n, t_ms)
-        dtype = _DTYPES[header["dtype"]]
-        samples = np.frombuffer(payload, dtype=dtype, offset=6 + head_len, count=3 * n).reshape(n, 3)
-        xyz = (samples.astype(np.float32) * np.float32(header["scale"])) if dtype.kind == "i" else samples.copy()
-        return AccelBatch(str(header["device"]), int(header["seq"]), t_ms / 1000.0, fs, xyz,
-                          header.get("full_scale"), scale=float(header["scale"]) if dtype.kind == "i" else None)
-    except (ValueError, KeyError, TypeError) as error:
-        raise PayloadError(f"malformed accel payload: {error}") from error
+        return AccelHeader.model_validate_json(head)
+    except ValidationError as error:
+        first = error.errors()[0]
+        field = ".".join(str(part) for part in first["loc"]) or "header"
+        label = _LABELS.get(field, field)
+        got = "" if first["type"] == "json_invalid" else f", got {str(first.get('input'))[:40]!r}"
+        raise PayloadError(f"malformed accel header: {label}: {first['msg']}{got}") from None
 
 
-def _check_header(fs: float, n: int, t_ms: float) -> None:
-    """ValueError for a header no stream can use: no positive finite rate, no samples, no device time."""
-    if not (math.isfinite(fs) and fs > 0):
-        raise ValueError(f"sampling rate must be a positive number of Hz, got {fs!r}")
-    if n < 1:
-        raise ValueError(f"sample count must be at least 1, got {n}")
-    if not math.isfinite(t_ms):
-        raise ValueError(f"device time must be a finite epoch in ms, got {t_ms!r}")
+_LABELS = {"device": "device id", "seq": "sequence number", "t_ms": "device time", "fs": "sampling rate",
+           "n": "sample count", "dtype": "sample type", "scale": "count scale", "full_scale": "full scale"}
+
+
+MAX_STATUS_BYTES = 4096
+
+
+class WearableStatus(BaseModel):
+    """A wearable's retained status message: ``online`` with who wears it on which tool, or offline."""
+
+    model_config = ConfigDict(extra="ignore", frozen=True)
+
+    online: bool = Field(strict=True)
+    worker: str | None = Field(None, min_length=1, max_length=128, strict=True)
+    tool: str = Field("unknown", min_length=1, max_length=64, strict=True)
+    position: str = Field("handle", min_length=1, max_length=32, strict=True)
+    zone: str | None = Field(None, max_length=128, strict=True)
+    hand: Literal["", "left", "right"] = ""
+
+
+def decode_status(payload: bytes) -> WearableStatus:
+    """A status message; PayloadError with the reason if it is not one."""
+    if len(payload) > MAX_STATUS_BYTES:
+        raise PayloadError(f"status message of {len(payload)} bytes: at most {MAX_STATUS_BYTES}")
+    try:
+        return WearableStatus.model_validate_json(payload)
+    except ValidationError as error:
+        first = error.errors()[0]
+        field = ".".join(str(part) for part in first["loc"]) or "message"
+        raise PayloadError(f"malformed status: {field}: {first['msg']}") from None

@@ -2,13 +2,15 @@
 
 Each module in this package owns the commands of one domain and exposes ``register(app, bench_app)``; they are
 discovered here, so adding a command never means editing this file. Library errors (``Bim2RdtError``) become
-a one-line message on stderr and exit code 1; usage errors exit 2 (typer's convention).
+a one-line message on stderr and exit code 1; so do errors of the machine (an ``OSError`` such as a full disk,
+a SQLite "database or disk is full") that reach the edge; usage errors exit 2 (typer's convention).
 """
 
 from __future__ import annotations
 
 import importlib
 import pkgutil
+import sqlite3
 import sys
 
 import typer
@@ -65,6 +67,9 @@ def main() -> None:
     except typer.Abort:
         typer.echo("aborted", err=True)
         sys.exit(130)
+    except (OSError, sqlite3.OperationalError) as error:  # the machine, not the code: say it in one line
+        typer.secho(f"error: {_system_reason(error)}", err=True, fg=typer.colors.RED)
+        sys.exit(1)
     except Exception as error:  # click usage errors; typer >= 0.29 vendors click as typer._click
         import click
 
@@ -72,3 +77,10 @@ def main() -> None:
             error.show()
             sys.exit(error.exit_code)
         raise
+
+
+def _system_reason(error: OSError | sqlite3.OperationalError) -> str:
+    if isinstance(error, sqlite3.OperationalError):
+        return f"SQLite: {error}"
+    where = f"{error.filename}: " if error.filename else ""
+    return f"{where}{error.strerror or error}"

@@ -8,11 +8,12 @@ import typer
 
 from rich.console import Console
 
-from bim2rdt.cli.common import console, print_json, print_table
+from bim2rdt.cli.common import console, out_path, print_json, print_table
 
 _status = Console(stderr=True)  # progress bars go to stderr so stdout (tables or --json) stays clean
 
 FAMILY_ROWS = 25
+WARNING_ROWS = 20
 BENCH_FILE = "Office_A_20110811.ifc"
 
 
@@ -29,26 +30,40 @@ def info_command(
     geometry: bool = typer.Option(True, "--geometry/--no-geometry", help="Tessellate (cached by file hash) to find "
                                   "elements whose geometry fails and locate identity-placed elements."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON document instead of tables."),
+    strict: bool = typer.Option(False, "--strict", help="Also check every attribute value's type against the "
+                                "schema, and exit 1 after the report if the reader had to read past anything "
+                                "(dangling references, malformed entities, geometry that fails)."),
 ) -> None:
-    """Print schema, length unit, storeys with elevations (m), element counts by class and the families found."""
-    model = _load(ifc_file, geometry)
+    """Print schema, length unit, storeys with elevations (m), element counts by class and the families found,
+    and what the reader had to read past (warnings, with the elements they affect)."""
+    model = _load(ifc_file, geometry, strict)
     checks = _readiness(model) if readiness else None
     if as_json:
         print_json(_info_payload(model, checks))
-        return
-    _print_info(model)
-    if checks is not None:
-        print_table("BIM readiness (model conditioning)", ["check", "status", "result", "examples"],
-                    [(c.name, c.status, c.summary, "; ".join(c.examples[:3])) for c in checks])
+    else:
+        _print_info(model)
+        if checks is not None:
+            print_table("BIM readiness (model conditioning)", ["check", "status", "result", "examples"],
+                        [(c.name, c.status, c.summary, "; ".join(c.examples[:3])) for c in checks])
+    if strict:
+        _fail_if_doubtful(model)
 
 
 def site_command(
-    out: Path = typer.Argument(Path("site.ifc"), help="Where to write the IFC4 file."),
+    out: Path = typer.Argument(Path("site.ifc"), parser=out_path, metavar="OUT", help="Where to write the IFC4 file "
+                               "(written atomically; an existing file keeps its permissions)."),
+    force: bool = typer.Option(False, "--force", help="Replace a symlink, device node, FIFO or socket at OUT with a "
+                               "regular file (refused without it)."),
 ) -> None:
     """Write the embedded construction site (the default site of the demo) as an IFC4 file."""
+    from bim2rdt.atomic import NotRegularFileError, WriteError, check_writable_file
     from bim2rdt.sim.site import build_site_ifc
 
-    path = build_site_ifc(out)
+    try:
+        check_writable_file(out, replace_special=force)
+    except NotRegularFileError as error:
+        raise WriteError(f"{error} (--force replaces it)") from None
+    path = build_site_ifc(out, replace_special=force)
     console.print(f"wrote {path} ({path.stat().st_size} bytes)")
 
 
@@ -85,15 +100,28 @@ def bench_ifc_command(
                 ["contender", "wall s", "CPU s", "CPU vs bare loop", "target", "met"], rows)
 
 
-def _load(path: Path, geometry: bool):
+def _load(path: Path, geometry: bool, validate: bool = False):
     from rich.progress import Progress
 
     from bim2rdt.bim import load_ifc
+    from bim2rdt.config import get_settings, ifc_cache_dir
 
+    cache_dir = ifc_cache_dir(get_settings()) if geometry else None
     with Progress(console=_status, transient=True, disable=not _status.is_terminal) as progress:
         task = progress.add_task(f"reading {path.name}", total=100)
-        return load_ifc(path, geometry=geometry,
+        return load_ifc(path, geometry=geometry, validate=validate, cache_dir=cache_dir,
                         progress=lambda done, total: progress.update(task, completed=done, total=total))
+
+
+def _fail_if_doubtful(model) -> None:
+    """--strict: any reader warning or geometry failure is an error (after the report was printed)."""
+    from bim2rdt.bim import BimError
+
+    doubts = [w.message for w in model.warnings]
+    doubts += [f"{f.ifc_class} {f.global_id}: geometry fails ({f.reason})" for f in model.geometry_failures]
+    if doubts:
+        more = f" (and {len(doubts) - 1} more)" if len(doubts) > 1 else ""
+        raise BimError(f"{model.path.name}: --strict: {doubts[0]}{more}")
 
 
 def _readiness(model):
@@ -120,6 +148,11 @@ def _print_info(model) -> None:
                 families[:FAMILY_ROWS] + ([(f"... and {more} more (--json lists all)", "")] if more > 0 else []))
     if model.geometry_failures:
         console.print(f"[yellow]{len(model.geometry_failures)} elements whose geometry failed (skipped)[/yellow]")
+    if model.warnings:
+        print_table(f"Reader warnings ({len(model.warnings)}): read past, the elements affected may be wrong",
+                    ["kind", "warning"], [(w.kind, w.message) for w in model.warnings[:WARNING_ROWS]]
+                    + ([(f"... and {len(model.warnings) - WARNING_ROWS} more (--json lists all)", "")]
+                       if len(model.warnings) > WARNING_ROWS else []))
 
 
 def _info_payload(model, checks) -> dict:
@@ -135,6 +168,7 @@ def _info_payload(model, checks) -> dict:
                        "longitude_deg": frame.longitude_deg, "elevation_m": frame.elevation_m,
                        "true_north_deg": frame.true_north_deg, "T_map_world": frame.T_map_world},
         "geometry_failures": [f.__dict__ for f in model.geometry_failures],
+        "warnings": [w.__dict__ for w in model.warnings],
     }
     if checks is not None:
         payload["readiness"] = [c.__dict__ for c in checks]

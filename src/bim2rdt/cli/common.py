@@ -17,9 +17,21 @@ console = Console(width=None if sys.stdout.isatty() else 140)
 """Rich console; piped output (CI logs, files) gets 140 columns instead of rich's 80 so tables do not fold."""
 
 
+def out_path(value: str | Path) -> Path:
+    """Parser of output path options: an empty string (an unset shell variable) is refused, where a Path would
+    silently become the current folder."""
+    if isinstance(value, Path):
+        return value
+    if not value.strip():
+        raise typer.BadParameter("an empty path")
+    return Path(value)
+
+
 def writable_folder(path: Path) -> Path:
     """Callback of ``--out`` folder options: create the folder and probe it with a temporary file now, so a path
     that cannot take files fails in one line before a run of minutes, not with a traceback after it."""
+    if path.exists() and not path.is_dir():
+        raise typer.BadParameter(f"cannot write into {path}: it is a file, not a folder")
     try:
         path.mkdir(parents=True, exist_ok=True)
         tempfile.TemporaryFile(dir=path).close()

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import typer
 
-from bim2rdt.cli.common import console, print_table, writable_folder
+from bim2rdt.cli.common import console, out_path, print_table, writable_folder
 
 
 def register(app: typer.Typer, bench_app: typer.Typer) -> None:
@@ -14,12 +14,19 @@ def register(app: typer.Typer, bench_app: typer.Typer) -> None:
 
 
 def demo_command(
-    out: Path = typer.Option(Path("out/demo"), "--out", callback=writable_folder,
+    out: Path = typer.Option(Path("out/demo"), "--out", parser=out_path, callback=writable_folder,
                               help="Output folder (twin IFC, report, plots, JSON)."),
     trials: int = typer.Option(6, "--trials", min=1, help="Seeded trials per registration scenario."),
     workers: int = typer.Option(2, "--workers", min=1, help="Workers with vibration wearables."),
     minutes: float = typer.Option(60.0, "--minutes", min=1.0, help="Minutes of tool work per worker."),
     seed: int = typer.Option(0, "--seed", min=0, help="Seed of the simulated site changes, sensor noise and trials."),
+    detector: str | None = typer.Option(None, "--detector",
+                                        help="What reads the robot's frames on the embedded site: geometric (the "
+                                             "default: scan-vs-BIM, no weights), yoloe (local weights) or ideal (the "
+                                             "renderer's masks: an upper bound). Not with --ifc yet."),
+    yoloe_weights: Path | None = typer.Option(None, "--yoloe-weights", help="Local YOLOE .pt, for --detector yoloe."),
+    yoloe_embeddings: Path | None = typer.Option(None, "--yoloe-embeddings",
+                                                 help="Local .npz prompt embeddings, for --detector yoloe."),
     ifc: Path | None = typer.Option(None, "--ifc", exists=True, dir_okay=False,
                                     help="Run the loop on this building instead (IFC4; IFC2X3 runs without IFC "
                                          "write-back): site objects are placed on its ground floor."),
@@ -30,10 +37,22 @@ def demo_command(
     from rich.progress import Progress
 
     from bim2rdt.cli.registration import show_run
+    from bim2rdt.demo.perceivers import DETECTORS
     from bim2rdt.demo.run import run_demo
 
-    stages = {"bim": "site model read", "site": "site objects placed", "station": "robot station", "twin": "twin updated",
-              "hav": "vibration day monitored", "trial": "registration trial"}
+    if ifc is not None and detector is not None:
+        raise typer.BadParameter("--detector applies to the embedded site; demo --ifc still reads its frames with the "
+                                 "simulator's ideal detector")
+    detector = detector or "geometric"
+    if detector not in DETECTORS:
+        raise typer.BadParameter(f"--detector must be one of {', '.join(DETECTORS)}, not {detector!r}")
+    if detector == "yoloe" and (yoloe_weights is None or yoloe_embeddings is None):
+        raise typer.BadParameter("--detector yoloe needs --yoloe-weights and --yoloe-embeddings (local files: "
+                                 "nothing is downloaded)")
+    yoloe = (yoloe_weights, yoloe_embeddings) if detector == "yoloe" else None
+
+    stages = {"bim": "site model read", "site": "site objects placed", "station": "robot station",
+              "twin": "twin updated", "hav": "vibration day monitored", "trial": "registration trial"}
     with Progress(console=console, transient=True) as bar:
         task = bar.add_task("site day", total=None)
 
@@ -45,7 +64,8 @@ def demo_command(
 
             result = run_ifc_demo(ifc, out, seed=seed, workers=workers, minutes=minutes, tick=tick)
         else:
-            result = run_demo(out, trials=trials, seed=seed, workers=workers, minutes=minutes, tick=tick)
+            result = run_demo(out, trials=trials, seed=seed, workers=workers, minutes=minutes, tick=tick,
+                              detector=detector, yoloe=yoloe)
     _show_site_day(result)
     if result.registration is not None:
         show_run(result.registration, targets=False)

@@ -9,7 +9,8 @@ from pathlib import Path
 import typer
 
 from bim2rdt.cli.common import console, print_json, print_table
-from bim2rdt.cli.hav_output import event_line, open_monitor, print_summary, progress, twin_sink
+from bim2rdt.cli.hav_output import (DEV_HELP, event_line, open_monitor, print_malformed, print_summary, progress,
+                                    require_own_secrets, twin_sink)
 
 hav_app = typer.Typer(help="Hand-arm vibration (ISO 5349-1): live monitor, recorded files, a dev broker.",
                       no_args_is_help=True)
@@ -41,8 +42,12 @@ def hav_listen(
     duration: float = typer.Option(0.0, "--duration", min=0.0, help="Stop after this many seconds (0: Ctrl-C)."),
     ifc: Path | None = typer.Option(None, "--ifc", help="Site IFC to write IfcEvent/IfcTask records into."),
     out: Path | None = typer.Option(None, "--out", help="Where the twin IFC goes (default: <ifc>_hav.ifc)."),
+    max_offline: float = typer.Option(300.0, "--max-offline", min=1.0, help="Exit non-zero after this many seconds "
+                                      "without the broker (a supervisor restarts the monitor; nothing is lost)."),
+    dev: bool = typer.Option(False, "--dev", help=DEV_HELP),
 ) -> None:
-    """Run the HAV monitor against a broker: print events, publish them on site/<site>/safety/events."""
+    """Run the HAV monitor against a broker: print events, publish them on site/<site>/safety/events. Exits non-zero
+    if the network thread dies, the broker stays away for --max-offline seconds, or the store fails."""
     from bim2rdt.bus.credentials import parse_address
     from bim2rdt.bus.mqtt import MqttBus
     from bim2rdt.config import get_settings
@@ -50,52 +55,82 @@ def hav_listen(
 
     settings = get_settings()
     host, port = parse_address(mqtt or _configured_broker(settings))
-    bus = MqttBus(host, port, client_id=f"bim2rdt-hav-monitor-{settings.mqtt.site}", username=settings.mqtt.username,
+    require_own_secrets(settings, dev, "site", "monitor")
+    bus = MqttBus(host, port, client_id=settings.mqtt.username, username=settings.mqtt.username,
                   password=_password(settings, settings.mqtt.username), session_expiry_s=settings.mqtt.session_expiry_s,
                   manual_ack=True)
-    with twin_sink(ifc, out) as ifc_sink:
+    with twin_sink(ifc, out) as ifc_sink:  # the twin's target is checked here, before the run
         sinks = [CallbackSink(event_line), BusSink(bus, settings.mqtt.site)] + ([ifc_sink] if ifc_sink else [])
         monitor = open_monitor(settings, sinks)
         monitor.attach(bus)  # before connecting: the broker may deliver what it queued for us at once
         bus.connect()
         console.print(f"listening on {host}:{port} site {settings.mqtt.site!r}; state in {settings.data_dir / 'hav'}")
-        deadline = time.monotonic() + duration if duration else float("inf")
         try:
-            while time.monotonic() < deadline:
-                time.sleep(min(1.0, max(deadline - time.monotonic(), 0.0)))
-                monitor.tick()
-        except KeyboardInterrupt:
-            pass
-        monitor.flush()  # commit (and acknowledge) what waits before leaving the broker
-        bus.close()
-        print_summary(monitor, monitor.devices())
-        monitor.close()
+            watch(monitor, bus, duration, max_offline)
+        finally:
+            _leave(monitor, bus)
+
+
+def watch(monitor, bus, duration: float, max_offline: float, period_s: float = 1.0) -> None:
+    """Tick the monitor until ``duration`` (0: Ctrl-C); BusError (exit 1) when paho's network thread died, the
+    broker has been away ``max_offline`` seconds, or the monitor failed (its store)."""
+    from bim2rdt.bus.mqtt import BusError
+
+    deadline = time.monotonic() + duration if duration else float("inf")
+    offline_since = None
+    try:
+        while time.monotonic() < deadline:
+            time.sleep(min(period_s, max(deadline - time.monotonic(), 0.0)))
+            monitor.tick()
+            if monitor.failure:
+                raise BusError(f"the monitor stopped: {monitor.failure}")
+            if not bus.alive:
+                raise BusError("the MQTT network thread died; exiting so that a supervisor restarts the monitor "
+                               "(unacknowledged messages wait at the broker)")
+            offline_since = None if bus.connected else offline_since or time.monotonic()
+            if offline_since is not None and time.monotonic() - offline_since >= max_offline:
+                raise BusError(f"no broker for {max_offline:g} s; exiting so that a supervisor restarts the monitor")
+    except KeyboardInterrupt:
+        pass
+
+
+def _leave(monitor, bus) -> None:
+    """Commit (and acknowledge) what waits, leave the broker, show the day and the refused messages."""
+    if not monitor.failure:
+        monitor.flush()
+    bus.close()
+    print_summary(monitor, monitor.devices())
+    print_malformed(monitor)
+    monitor.close()
 
 
 @hav_app.command("analyze")
 def hav_analyze(
-    file: Path = typer.Argument(..., help="CSV with a time column t (s) and ax, ay, az (m/s²)."),
+    file: Path = typer.Argument(..., help="CSV with a time column t (s) and ax, ay, az."),
     out: Path = typer.Option(Path("out/hav"), "--out", help="Folder for the plot (PNG)."),
     tool: str = typer.Option("unknown", "--tool", help="Tool label for the report."),
     position: str = typer.Option("handle", "--position", help="Where the sensor sat (handle = ISO 5349-1)."),
+    units: str = typer.Option("auto", "--units", help="auto (checked by gravity), m/s2 or g."),
     as_json: bool = typer.Option(False, "--json", help="Print JSON instead of tables."),
 ) -> None:
-    """Exposure of a recorded file: activities, A(8), HSE points, time to EAV/ELV, and a plot of the day."""
+    """Exposure of a recorded file: activities, A(8), HSE points, time to EAV/ELV, and a plot of the day. The
+    monitor's settings are the live monitor's (BIM2RDT_HAV__*)."""
     from bim2rdt.config import get_settings
     from bim2rdt.safety.analysis import analyze_recording, plot_day
     from bim2rdt.safety.recording import read_accel_csv
 
     config = get_settings().hav.monitor_config()  # the live monitor's trigger and artefact limits
-    recording = read_accel_csv(file)
+    recording = read_accel_csv(file, units)
     with console.status(f"weighing {recording.xyz.shape[0] / recording.fs / 60:.1f} min at {recording.fs:g} Hz"):
         report = analyze_recording(recording, tool, position, config=config)
     plot = plot_day(report, out / f"{file.stem}_a8.png", title=f"Daily vibration exposure: {file.name}")
-    summary = {"file": str(file), "fs": recording.fs, "a8": report.a8, "points": report.points,
-               "trigger_s": report.trigger_s, "seconds_to_eav": report.seconds_to_eav,
+    summary = {"file": str(file), "fs": recording.fs, "units": recording.units, "a8": report.a8,
+               "points": report.points, "trigger_s": report.trigger_s, "seconds_to_eav": report.seconds_to_eav,
                "seconds_to_elv": report.seconds_to_elv, "band_hz": [report.band.low_hz, report.band.high_hz],
                "band_limited": not report.band.complete, "estimate": position != "handle",
                "rejected_s": report.rejected_s, "rejected_kinds": report.rejected_kinds,
-               "activities": report.activities, "plot": str(plot)}
+               "untriggered_s": report.untriggered_s, "untriggered_a8": report.untriggered_a8,
+               "notes": report.notes, "activities": report.activities, "plot": str(plot)}
     if as_json:
         print_json(summary)
         return
@@ -115,6 +150,8 @@ def _print_day(report, name: str, fs: float, plot: Path) -> None:
     if not report.band.complete:
         console.print(f"[yellow]band-limited: {fs:g} Hz covers {report.band.low_hz:.1f}-"
                       f"{report.band.high_hz:.0f} Hz of the 8-1000 Hz range[/yellow]")
+    for note in report.notes:
+        console.print(f"[yellow]note: {note}[/yellow]")
 
 
 @hav_app.command("broker")
@@ -122,8 +159,10 @@ def hav_broker(
     port: int = typer.Option(18830, "--port", help="Loopback port (never 1883: a system broker may own it)."),
     devices: int = typer.Option(3, "--devices", min=1, help="Provision devices w1..wN (dev passwords)."),
     duration: float = typer.Option(0.0, "--duration", min=0.0, help="Stop after this many seconds (0: Ctrl-C)."),
+    dev: bool = typer.Option(False, "--dev", help=DEV_HELP),
 ) -> None:
-    """Run the shipped Mosquitto config (password per device, per-device ACL) on 127.0.0.1 for local runs."""
+    """Run the shipped Mosquitto config (password per device, per-device ACL pinned to the site) on 127.0.0.1 for
+    local runs; exits non-zero if mosquitto does not start or dies."""
     import signal
 
     from bim2rdt.bus.broker import MosquittoBroker
@@ -131,22 +170,23 @@ def hav_broker(
 
     signal.signal(signal.SIGTERM, _interrupt)  # a terminated command stops its mosquitto instead of orphaning it
     settings = get_settings()
+    require_own_secrets(settings, dev, "devices", "monitor")
     names = [settings.mqtt.username, "dashboard"] + [f"w{i + 1}" for i in range(devices)]
-    with MosquittoBroker({name: _password(settings, name) for name in names}, port=port) as broker:
-        console.print(f"mosquitto on 127.0.0.1:{broker.port}; users {', '.join(names)}; config in {broker.folder}")
+    with MosquittoBroker({name: _password(settings, name) for name in names}, port=port, site=settings.mqtt.site,
+                         monitors=(settings.mqtt.username,)) as broker:
+        console.print(f"mosquitto on 127.0.0.1:{broker.port} for site {settings.mqtt.site!r}; users "
+                      f"{', '.join(names)}")
+        deadline = time.monotonic() + duration if duration else float("inf")
         try:
-            time.sleep(duration) if duration else _wait_forever()
+            while time.monotonic() < deadline:
+                time.sleep(min(0.5, max(deadline - time.monotonic(), 0.0)))
+                broker.check()
         except KeyboardInterrupt:
             pass
 
 
 def _interrupt(signum, frame) -> None:
     raise KeyboardInterrupt
-
-
-def _wait_forever() -> None:
-    while True:
-        time.sleep(3600)
 
 
 def bench_hav(

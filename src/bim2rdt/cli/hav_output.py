@@ -33,6 +33,59 @@ def print_summary(monitor, devices) -> None:
     print_table("Daily exposure", ["worker (pseudonym)", "device", "A(8) m/s²", "points", "trigger min", "risk"], rows)
 
 
+DEV_HELP = "Allow the shipped default secrets (a local trial only; never on a site)."
+
+
+def require_own_secrets(settings, dev: bool, *needs: str) -> None:
+    """Refuse the shipped default secrets outside ``--dev``, in one line saying how to set them. ``needs``:
+    'site' (worker pseudonyms), 'devices' (dev-provisioned device passwords), 'monitor' (the monitor's own
+    broker password)."""
+    from bim2rdt.bus.credentials import CredentialError
+    from bim2rdt.config import HavSettings, MqttSettings
+
+    if dev:
+        return
+    how = "to a secret of your own (e.g. $(openssl rand -hex 32)), or pass --dev for a local trial"
+    if "site" in needs and settings.hav.site_secret == HavSettings.model_fields["site_secret"].default:
+        raise CredentialError(f"BIM2RDT_HAV__SITE_SECRET is the shipped default: anyone could derive every "
+                              f"worker's pseudonym; set it {how}")
+    if "devices" in needs and settings.mqtt.device_secret == MqttSettings.model_fields["device_secret"].default:
+        raise CredentialError(f"BIM2RDT_MQTT__DEVICE_SECRET is the shipped default: anyone could derive every "
+                              f"device's broker password; set it {how}")
+    if "monitor" in needs and not settings.mqtt.password:
+        raise CredentialError(f"the monitor has no broker password of its own: set BIM2RDT_MQTT__PASSWORD {how}")
+
+
+def check_twin_target(ifc: Path | None, out: Path | None) -> Path | None:
+    """Where the twin goes (``out``, default <ifc>_hav.ifc), checked before a run that ends by writing it: not a
+    folder, in a folder that takes a new file. HavError in one line otherwise (so no run is lost)."""
+    import tempfile
+
+    from bim2rdt.safety import HavError
+
+    if ifc is None:
+        if out is not None:
+            raise HavError("--out names where the twin goes: give the site IFC with --ifc too")
+        return None
+    target = out if out is not None else ifc.with_name(ifc.stem + "_hav.ifc")
+    if str(target) in ("", ".") or target.is_dir():
+        raise HavError(f"--out {str(target)!r} is a folder, not an IFC file to write")
+    try:
+        target.parent.mkdir(parents=True, exist_ok=True)
+        tempfile.TemporaryFile(dir=target.parent).close()
+    except OSError as error:
+        raise HavError(f"cannot write the twin into {target.parent}: {error.strerror or error}") from None
+    return target
+
+
+def print_malformed(monitor) -> None:
+    """Refused messages per device (what a device sending garbage looks like), if there were any."""
+    rows = [(device, m.count, m.last_reason) for device, m in monitor.malformed_messages().items()]
+    if rows:
+        print_table("Refused messages (dead-lettered, never counted as exposure)",
+                    ["device", "messages", "last reason"], rows)
+
+
 def open_monitor(settings, sinks=(), data_dir: Path | None = None, **overrides):
     """The HAV monitor as configured: state under ``data_dir`` (default ``settings.data_dir/hav``), the
     ``settings.hav`` section (site = ``settings.mqtt.site``) with ``overrides``."""
@@ -44,8 +97,10 @@ def open_monitor(settings, sinks=(), data_dir: Path | None = None, **overrides):
 
 @contextmanager
 def twin_sink(ifc: Path | None, out: Path | None) -> Iterator:
-    """An IfcSink writing into ``out`` (default <ifc>_hav.ifc) from ``ifc``; None when no IFC is asked for."""
-    if ifc is None:
+    """An IfcSink writing into ``out`` (default <ifc>_hav.ifc) from ``ifc``; None when no IFC is asked for. The
+    target is checked before the run (:func:`check_twin_target`), the twin written after it."""
+    target = check_twin_target(ifc, out)
+    if target is None:
         yield None
         return
     from bim2rdt.bim import TwinWriter, load_ifc
@@ -54,7 +109,6 @@ def twin_sink(ifc: Path | None, out: Path | None) -> Iterator:
     model = load_ifc(ifc, geometry=False)
     writer = TwinWriter(model)
     yield IfcSink(writer, model)
-    target = out or ifc.with_name(ifc.stem + "_hav.ifc")
     writer.save(target)
     console.print(f"twin written to {target}")
 

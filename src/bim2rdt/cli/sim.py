@@ -7,7 +7,8 @@ from pathlib import Path
 import typer
 
 from bim2rdt.cli.common import console
-from bim2rdt.cli.hav_output import event_line, open_monitor, print_summary, progress, twin_sink
+from bim2rdt.cli.hav_output import (DEV_HELP, check_twin_target, event_line, open_monitor, print_summary, progress,
+                                    require_own_secrets, twin_sink)
 
 sim_app = typer.Typer(help="Simulators: wearables on the site bus.", no_args_is_help=True)
 
@@ -28,10 +29,16 @@ def sim_wearables(
     csv: Path | None = typer.Option(None, "--csv", help="Also write worker 1's samples as CSV (for hav analyze)."),
     ifc: Path | None = typer.Option(None, "--ifc", help="In-process mode: site IFC to write the twin records into."),
     out: Path | None = typer.Option(None, "--out", help="Where the twin IFC goes (default: <ifc>_hav.ifc)."),
+    dev: bool = typer.Option(False, "--dev", help=DEV_HELP),
 ) -> None:
     """Publish simulated hammer drill / grinder / breaker sessions (realistic spectra and magnitudes)."""
+    from bim2rdt.config import get_settings
     from bim2rdt.sim.wearables import default_plans, plan_seconds
 
+    require_own_secrets(get_settings(), dev, "devices" if mqtt else "site")
+    if mqtt is not None and ifc is not None:
+        raise typer.BadParameter("--ifc is for the in-process mode: with --mqtt, `hav listen --ifc` writes the twin")
+    check_twin_target(ifc, out)  # before minutes of simulation, not after
     plans = default_plans(workers, minutes, zone)
     if csv is not None:
         _write_csv(plans[0], fs, csv)

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import typer
 
-from bim2rdt.cli.common import console, print_json, print_table, writable_folder
+from bim2rdt.cli.common import console, out_path, print_json, print_table, writable_folder
 
 twin_app = typer.Typer(help="The site's digital twin: its state (now or at a past time), an element's history, "
                        "and exports to IFC, BCF and JSON.", no_args_is_help=True)
@@ -62,7 +62,7 @@ def history_command(
 def export_command(
     ifc_file: Path = typer.Argument(..., help="The BIM the twin is kept over."),
     url: str | None = typer.Option(None, "--url", help=URL_HELP),
-    out: Path = typer.Option(Path("out/twin"), "--out", callback=writable_folder,
+    out: Path = typer.Option(Path("out/twin"), "--out", parser=out_path, callback=writable_folder,
                              help="Folder for twin.ifc, issues.bcf and twin.json."),
 ) -> None:
     """Write the twin as IFC (IFC4/IFC4X3 models), BCF issues (one topic per deviating, missing or new element)
@@ -80,11 +80,11 @@ def export_command(
 
 def _open(ifc_file: Path, url: str | None):
     from bim2rdt.bim import load_ifc
-    from bim2rdt.config import get_settings
+    from bim2rdt.config import get_settings, ifc_cache_dir
     from bim2rdt.twin import DigitalTwin
 
     settings = get_settings()
-    model = load_ifc(ifc_file)
+    model = load_ifc(ifc_file, cache_dir=ifc_cache_dir(settings))
     return DigitalTwin.open(url or settings.twin.resolved_url(settings.data_dir), model,
                             tolerances=settings.twin.tolerance_policy(), min_fitness=settings.twin.min_fitness,
                             create=False)

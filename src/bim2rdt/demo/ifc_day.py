@@ -19,7 +19,7 @@ from pathlib import Path
 
 from bim2rdt.bim import load_ifc
 from bim2rdt.demo.routes import plan_day_route
-from bim2rdt.demo.site_day import SiteDay, _hav_day, _shift_start, objects_of_interest
+from bim2rdt.demo.site_day import SiteDay, _hav_day, _model_cache, _shift_start, objects_of_interest
 from bim2rdt.demo.site_twin import export_day_twin, ifc_records, open_day_twin, record_mission
 from bim2rdt.mission import MissionConfig, run_mission
 from bim2rdt.planning import OccupancyGrid, PlanningError
@@ -42,13 +42,13 @@ def run_ifc_day(ifc_path: Path, out_dir: Path, seed: int = 0, workers: int = 1, 
     the day's twin and its exports (``site_twin.ifc`` only for IFC4), and the monitor's state under ``state/``.
     The mission's standoff is capped at ``IFC_DAY_STANDOFF``."""
     out_dir.mkdir(parents=True, exist_ok=True)
-    source = load_ifc(ifc_path)
+    source = load_ifc(ifc_path, cache_dir=_model_cache())
     tick("bim")
     layout = furnish(source, OccupancyGrid.from_bim(source).with_zones(source.zones), workers, seed)
     if not layout.objects:
         raise PlanningError(f"{source.path.name}: no free floor reachable from the dock on storey "
                             f"{layout.storey!r} to place site objects on")
-    model = load_ifc(write_furnished(source, layout, out_dir / "site.ifc"))
+    model = load_ifc(write_furnished(source, layout, out_dir / "site.ifc"), cache_dir=_model_cache())
     tick("site")
     targets = objects_of_interest(model)
     reality = simulate_reality(model, [t.global_id for t in targets], seed=seed, unplanned_at=layout.unplanned_xy)

@@ -62,9 +62,9 @@ class DayRoute:
 
 def plan_day_route(model: BimModel, targets: Sequence[Target], start_xy, config: MissionConfig, hav_events,
                    shift_start: float, spots: dict[str, tuple[float, float]] | None = None) -> DayRoute:
-    """The route for a day: stations planned on the BIM's ground floor with its off-limits zones and the workers
-    where they stand at departure, the navigator on the shift's clock with the workers' zones from the HAV
-    events (``spots`` default to ``WORKER_SPOTS``)."""
+    """The route for a day: stations planned on the BIM's ground floor with its off-limits zones (people move:
+    their zones are the navigator's business), the navigator on the shift's clock with the workers' zones from
+    the HAV events (``spots`` default to ``WORKER_SPOTS``)."""
     workers = WorkerZones(WORKER_SPOTS if spots is None else spots, activity_windows(hav_events))
     grid = OccupancyGrid.from_bim(model)
     leaves = shift_start - LEAVES_BEFORE_S
@@ -72,7 +72,7 @@ def plan_day_route(model: BimModel, targets: Sequence[Target], start_xy, config:
     def zones_at(time: float) -> list:
         return [*model.zones, *workers(time)]
 
-    plan = plan_route(targets, start_xy, grid.with_zones(zones_at(leaves)), config)
+    plan = plan_route(targets, start_xy, grid.with_zones(model.zones), config)
     navigator = Navigator(grid, np.asarray(start_xy, float), time=leaves, zones_at=zones_at,
                           zone_changes=workers.changes)
     return DayRoute(grid, plan, PlannedRoute(plan, navigator, config.camera_height), workers,

@@ -33,22 +33,26 @@ class DemoResult:
 
 
 def run_demo(out_dir: Path, trials: int = DEMO_TRIALS, seed: int = DEMO_SEED, workers: int = 2,
-             minutes: float = 60.0, tick: Callable[[str], None] = lambda stage: None) -> DemoResult:
+             minutes: float = 60.0, tick: Callable[[str], None] = lambda stage: None, detector: str = "geometric",
+             yoloe: tuple[Path, Path] | None = None) -> DemoResult:
     """Run the site day and the registration scenarios into ``out_dir`` (created), with the settings read once
-    from the environment; ``config.json`` records those settings (secrets masked), the seed and the versions."""
+    from the environment; the robot reads its frames with ``detector`` (``yoloe``: local weights and prompt
+    embeddings). ``config.json`` records those settings (secrets masked), the detector, the seed and the versions."""
     from bim2rdt.config import get_settings, settings_record
     from bim2rdt.demo.site_report import write_site_report
 
     out_dir = Path(out_dir)
     settings = get_settings()
     day = run_site_day(out_dir, seed=seed, workers=workers, minutes=minutes, mission_config=settings.mission,
-                       icp=settings.registration, twin_config=settings.twin, tick=tick)
+                       icp=settings.registration, twin_config=settings.twin, tick=tick, detector=detector,
+                       yoloe=yoloe)
     report = write_site_report(day, out_dir)
     run = run_registration_scenarios(out_dir / "registration", trials, seed, settings.registration, peers=False,
                                      tick=lambda: tick("trial"))
     save_run(run, out_dir / "registration", settings_record(settings))
     resolved = {"settings": settings_record(settings), "trials": trials, "seed": seed, "workers": workers,
-                "minutes": minutes, "versions": versions()}
+                "minutes": minutes, "detector": detector, "yoloe": [str(p) for p in yoloe] if yoloe else None,
+                "versions": versions()}
     write_bytes_atomic(out_dir / "config.json", json.dumps(resolved, indent=2).encode("utf-8"))
     report["html"] = _html(day, run, out_dir)
     return DemoResult(day, report, run)

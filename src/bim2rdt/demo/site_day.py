@@ -29,7 +29,8 @@ from bim2rdt.mission import MissionConfig, MissionResult, Target, run_mission
 from bim2rdt.registration import IcpConfig
 from bim2rdt.semantics import KnowledgeBasePriors, UprightPrior
 from bim2rdt.sim.meshes import mesh_for_family
-from bim2rdt.sim.reality import Reality, SimulatedPerception, body_mesh, simulate_reality
+from bim2rdt.demo.perceivers import DemoPerception
+from bim2rdt.sim.reality import Reality, body_mesh, simulate_reality
 from bim2rdt.sim.site import ZONES, build_site_ifc
 from bim2rdt.twin import DigitalTwin, TwinConfig
 
@@ -64,24 +65,28 @@ def objects_of_interest(model: BimModel) -> list[Target]:
 def run_site_day(out_dir: Path, seed: int = 0, workers: int = 2, minutes: float = 60.0, fs: float = 5000.0,
                  mission_config: MissionConfig = MissionConfig(), icp: IcpConfig = IcpConfig(),
                  twin_config: TwinConfig = TwinConfig(),
-                 tick: Callable[[str], None] = lambda stage: None) -> SiteDay:
+                 tick: Callable[[str], None] = lambda stage: None, detector: str = "geometric",
+                 yoloe: tuple[Path, Path] | None = None) -> SiteDay:
     """Run the day into ``out_dir``: ``site.ifc`` (as designed), the day's twin (``twin.db``) and its exports
     (``site_twin.ifc`` as built with safety records, ``site_issues.bcf``, ``twin.json``), and the monitor's state
     under ``state/`` (both started afresh: the demo simulates a new day). The mission runs with
     ``mission_config`` and registers with ``icp``; the twin judges with ``twin_config``'s presets (the demo passes
-    ``Settings.mission``, ``Settings.registration`` and ``Settings.twin``)."""
+    ``Settings.mission``, ``Settings.registration`` and ``Settings.twin``). The robot's camera sees the building
+    and reads its frames with ``detector`` (:mod:`bim2rdt.demo.perceivers`)."""
     out_dir.mkdir(parents=True, exist_ok=True)
-    model = load_ifc(build_site_ifc(out_dir / "site.ifc"))
+    model = load_ifc(build_site_ifc(out_dir / "site.ifc"), cache_dir=_model_cache())
     tick("bim")
     targets = objects_of_interest(model)
-    reality = simulate_reality(model, [t.global_id for t in targets], seed=seed, unplanned_at=UNPLANNED_DRUM_XY)
+    reality = simulate_reality(model, [t.global_id for t in targets], seed=seed, unplanned_at=UNPLANNED_DRUM_XY,
+                               building=True)
     priors = KnowledgeBasePriors().priors(sorted({t.family for t in reality.truth}))
     twin = open_day_twin(out_dir, model, priors, twin_config)
     events, timeline = _hav_day(twin, out_dir / "state", workers, minutes, fs)
     tick("hav")
     route = plan_day_route(model, targets, ROBOT_START_XY, mission_config, events, _shift_start())
-    mission = run_mission(targets, route.plan.stations, SimulatedPerception(reality, seed=seed), priors,
-                          mesh_for_family, route.config, icp, tick=lambda: tick("station"), route=route.route)
+    perceive = DemoPerception(detector, model, reality, priors, seed, yoloe)
+    mission = run_mission(targets, route.plan.stations, perceive, priors, mesh_for_family, route.config, icp,
+                          tick=lambda: tick("station"), route=route.route)
     record_mission(twin, mission.observations, mission.stations, times=route.route.arrivals)
     tick("twin")
     files = export_day_twin(twin, out_dir)
@@ -110,6 +115,13 @@ def _hav_day(twin: DigitalTwin, state_dir: Path, workers: int, minutes: float, f
                   t0=_shift_start())
     monitor.close()
     return events.events, list(monitor.timeline)
+
+
+def _model_cache() -> Path | None:
+    """The settings' model cache folder: the site is rebuilt byte-identical each run, so its meshes are cached."""
+    from bim2rdt.config import get_settings, ifc_cache_dir
+
+    return ifc_cache_dir(get_settings())
 
 
 def _shift_start() -> float:

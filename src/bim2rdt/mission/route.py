@@ -10,8 +10,9 @@
   it sees that the map does not explain (an unplanned drum, a crate pushed into the aisle) is located at once
   (``locate``: the mission's own SG-ICP fit) and goes into the map, so the legs are checked against it and
   replanned if blocked; workers' keep-out zones change on the navigator's clock. Look-ahead frames only steer
-  the robot: the verdicts come from the stations' frames. A station the robot can no longer reach is swapped for another viewpoint of the same object
-  if one is reachable now, else skipped with the reason.
+  the robot: the verdicts come from the stations' frames. A station it cannot reach is moved to another viewpoint
+  of its object; failing that the robot waits (up to ``MAX_WAIT_S``) for a zone to clear; failing that it is
+  skipped with the reason.
 
 ``DirectRoute`` is the stand-in without a map: stations as given, no walking.
 """
@@ -24,6 +25,7 @@ from typing import Protocol
 
 import numpy as np
 import trimesh
+from scipy import ndimage
 
 from bim2rdt.mission.config import MissionConfig
 from bim2rdt.mission.records import Observation, Target
@@ -40,6 +42,8 @@ EXPLAINED_MARGIN = 0.2
 """A detection's points within this of the map's occupied cells are explained by the map, m."""
 DWELL_S = 15.0
 """Seconds the robot stands at a station to capture."""
+MAX_WAIT_S = 120.0
+"""Longest the robot waits for a worker's zone to clear from a station it cannot reach, s."""
 LOOK_AHEAD = 3.0
 """Before each leg the robot looks this far along it (m), at the height objects stand."""
 
@@ -153,6 +157,9 @@ class PlannedRoute:
             taken = T_world_camera
         except PlanningError as error:
             taken = self._another_viewpoint(index, str(error))
+            taken = taken if taken is not None else self._wait_for_zones(index, T_world_camera, str(error))
+            if taken is None:
+                self.skipped[index] = str(error)
         if taken is not None:
             self.arrivals[index] = self.navigator.time
             self.navigator.wait(self.dwell_s)
@@ -184,17 +191,30 @@ class PlannedRoute:
         pick = pick_viewpoint(navigator.grid, target.placement[:2, 3], [T[:2, 3] for T in others],
                               reachable(navigator.grid, navigator.position), ignore=[target.global_id])
         if pick is None:
-            self.skipped[index] = why
             return None
         navigator.replans.append(Replan(navigator.time, tuple(map(float, navigator.position)),
                                         f"station {index + 1} moved to another viewpoint: {why}"))
         self.walked[index] = navigator.go(others[pick][:2, 3])
         return others[pick]
 
+    def _wait_for_zones(self, index: int, T_world_camera: np.ndarray, why: str) -> np.ndarray | None:
+        """Wait (up to ``MAX_WAIT_S``) for a zone change that lets the robot reach the station: a worker pausing."""
+        navigator = self.navigator
+        start = navigator.time
+        for change in navigator.changes_within(MAX_WAIT_S):
+            navigator.wait(change - navigator.time)
+            try:
+                self.walked[index] = navigator.go(T_world_camera[:2, 3])
+            except PlanningError:
+                continue
+            navigator.replans.append(Replan(change, tuple(map(float, self.walked[index][0])),
+                                            f"station {index + 1}: waited {change - start:.0f} s for a zone to "
+                                            f"clear ({why})"))
+            return T_world_camera
+        return None
+
     def _explained(self) -> np.ndarray:
         """Cells the map already accounts for: occupied, grown by ``EXPLAINED_MARGIN``."""
-        from scipy import ndimage
-
         grid = self.navigator.grid
         return ndimage.distance_transform_edt(~grid.occupied) * grid.resolution <= EXPLAINED_MARGIN
 

@@ -1,10 +1,19 @@
-"""The perception front end: camera model, frames, detections, corners and back-projection."""
+"""The perception front end: camera model, frames, detectors, corners, back-projection and registration.
+
+``perceive_frame(frame, model, priors, detector=GeometricDetector(model))`` turns one RGB-D frame into
+observations (one per object found); ``perceive_frames`` fuses several views of one place."""
 
 from bim2rdt.perception.camera import CameraError, Intrinsics, look_at
 from bim2rdt.perception.detection import Detection
+from bim2rdt.perception.detector import Detector
+from bim2rdt.perception.edges import EdgeFilter
 from bim2rdt.perception.errors import PerceptionError
 from bim2rdt.perception.frame import Frame
+from bim2rdt.perception.geometric import GeometricConfig, GeometricDetector
 from bim2rdt.perception.observation import UNKNOWN_FAMILY, Observation
+from bim2rdt.perception.perceive import PerceiveConfig, locate_detections, perceive_frame, perceive_frames
+from bim2rdt.perception.yoloe import YoloeDetector
 
-__all__ = ["UNKNOWN_FAMILY", "CameraError", "Detection", "Frame", "Intrinsics", "Observation", "PerceptionError",
-           "look_at"]
+__all__ = ["UNKNOWN_FAMILY", "CameraError", "Detection", "Detector", "EdgeFilter", "Frame", "GeometricConfig",
+           "GeometricDetector", "Intrinsics", "Observation", "PerceiveConfig", "PerceptionError", "YoloeDetector",
+           "locate_detections", "look_at", "perceive_frame", "perceive_frames"]

@@ -12,11 +12,14 @@ import numpy as np
 
 
 def shi_tomasi(gray: np.ndarray, roi: tuple[int, int, int, int], max_corners: int = 600,
-               quality: float = 0.01, min_distance: float = 3.0) -> np.ndarray:
-    """Corner pixels (N, 2) as float (u, v) inside ``roi`` = (u0, v0, u1, v1) (exclusive ends) of a uint8 image."""
+               quality: float = 0.01, min_distance: float = 3.0, within: np.ndarray | None = None) -> np.ndarray:
+    """Corner pixels (N, 2) as float (u, v) inside ``roi`` = (u0, v0, u1, v1) (exclusive ends) of a uint8 image,
+    and inside the bool mask ``within`` (the image's size) when one is given."""
     u0, v0, u1, v1 = roi
     mask = np.zeros(gray.shape, dtype=np.uint8)
     mask[v0:v1, u0:u1] = 255
+    if within is not None:
+        mask[~within] = 0
     corners = cv2.goodFeaturesToTrack(gray, maxCorners=max_corners, qualityLevel=quality,
                                       minDistance=min_distance, mask=mask)
     return np.zeros((0, 2)) if corners is None else corners.reshape(-1, 2).astype(np.float64)

@@ -72,6 +72,10 @@ class Navigator:
         self._observed = twin_state
         self.grid = self._current_grid()
 
+    def changes_within(self, seconds: float) -> list[float]:
+        """The times the keep-out zones change in the next ``seconds``."""
+        return sorted(t for t in self.zone_changes if self.time < t <= self.time + seconds)
+
     def wait(self, seconds: float) -> None:
         """Stand still (capturing at a station); a zone that switches on around the robot meanwhile makes it
         step out at once."""

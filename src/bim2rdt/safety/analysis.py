@@ -6,24 +6,30 @@ The recording goes through the same :class:`HavMonitor` as live data, configured
 
 from __future__ import annotations
 
-import tempfile
+import io
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from bim2rdt.atomic import WriteError, write_bytes_atomic
 from bim2rdt.bus.event import Event
 from bim2rdt.bus.payloads import AccelBatch
 from bim2rdt.safety.activity import ACTIVITY_ENDED, ARTEFACT
 from bim2rdt.safety.config import MonitorConfig
 from bim2rdt.safety.errors import HavError
-from bim2rdt.safety.exposure import EAV, ELV, time_to_limit
+from bim2rdt.safety.exposure import EAV, ELV, a8_from_energy, time_to_limit
 from bim2rdt.safety.monitor import HavMonitor
 from bim2rdt.safety.recording import Recording, read_accel_csv
 from bim2rdt.safety.sinks import ListSink
 from bim2rdt.safety.weighting import BandCoverage, covered_band
 
 __all__ = ["DayReport", "Recording", "analyze_recording", "plot_day", "read_accel_csv"]
+
+GROUP = 64
+"""Batches of a recording ingested together."""
+UNTRIGGERED_NOTE_A8 = 0.01
+"""m/s^2: vibration under the trigger worth a note (it would show at the report's two decimals)."""
 
 
 @dataclass
@@ -40,6 +46,17 @@ class DayReport:
     events: list[Event] = field(default_factory=list)
     rejected_s: float = 0.0
     rejected_kinds: list[str] = field(default_factory=list)
+    untriggered_s: float = 0.0
+    """Seconds of clean blocks under the activity trigger (not counted as exposure)."""
+    untriggered_energy: float = 0.0
+    """Their weighted energy, m^2/s^3."""
+    notes: list[str] = field(default_factory=list)
+    """What limits the figures: the recording's units or gaps, exposure left under the trigger."""
+
+    @property
+    def untriggered_a8(self) -> float:
+        """The A(8) the vibration under the trigger would add, on its own."""
+        return a8_from_energy(self.untriggered_energy)
 
     @property
     def seconds_to_eav(self) -> float | None:
@@ -62,24 +79,32 @@ def analyze_recording(recording: Recording, tool: str = "unknown", position: str
     """Run a recording through a throw-away monitor configured like the live one (``config``) and collect the
     day."""
     sink = ListSink()
-    config = config.model_copy(update={"keep_timeline": True})
-    with tempfile.TemporaryDirectory(prefix="bim2rdt-hav-") as folder:
-        monitor = HavMonitor(Path(folder), "analysis", [sink], config, clock=lambda: recording.t0)
-        subject = monitor.start_session("file", "recording", tool, position)
-        step = max(1, int(round(batch_s * recording.fs)))
-        for seq, start in enumerate(range(0, recording.xyz.shape[0], step)):
-            monitor.ingest(AccelBatch("file", seq, recording.t0 + start / recording.fs, recording.fs,
-                                      recording.xyz[start:start + step].astype(np.float32), None))
-        monitor.end_session("file")
-        days = monitor.days_of(subject)
-        day = monitor.day(subject, days[-1] if days else None)
-        timeline = [(t, a8) for t, _, a8 in monitor.timeline]
-        monitor.close()
+    config = config.model_copy(update={"keep_timeline": True, "raw_retention_s": 0.0})  # the file is the raw data
+    monitor = HavMonitor(None, "analysis", [sink], config, clock=lambda: recording.t0)  # in memory: writes nothing
+    subject = monitor.start_session("file", "recording", tool, position)
+    step = max(1, int(round(batch_s * recording.fs)))
+    batches = [AccelBatch("file", seq, recording.t0 + start / recording.fs, recording.fs,
+                          recording.xyz[start:start + step].astype(np.float32), None)
+               for seq, start in enumerate(range(0, recording.xyz.shape[0], step))]
+    for first in range(0, len(batches), GROUP):  # groups, as on the bus: one filtering pass per group
+        monitor.ingest_many(batches[first:first + GROUP])
+    monitor.end_session("file")
+    days = monitor.days_of(subject)
+    day = monitor.day(subject, days[-1] if days else None)
+    timeline = [(t, a8) for t, _, a8 in monitor.timeline]
+    status = monitor.stream_status("file") or {}
+    monitor.close()
     ended = [e.data for e in sink.events if e.kind == ACTIVITY_ENDED]
     artefacts = [e.data for e in sink.events if e.kind == ARTEFACT]
     kinds = sorted({kind for data in artefacts for kind in data["kinds"]})
-    return DayReport(day.a8, day.points, day.seconds, covered_band(recording.fs), ended, timeline, sink.events,
-                     sum(data["seconds"] for data in artefacts), kinds)
+    report = DayReport(day.a8, day.points, day.seconds, covered_band(recording.fs), ended, timeline, sink.events,
+                       sum(data["seconds"] for data in artefacts), kinds, status.get("untriggered_s", 0.0),
+                       status.get("untriggered_energy", 0.0), list(recording.notes))
+    if report.untriggered_a8 >= UNTRIGGERED_NOTE_A8:
+        report.notes.append(f"{report.untriggered_s / 60:.1f} min of vibration stayed under the "
+                            f"{config.start_threshold:g} m/s² activity trigger: A(8) {report.untriggered_a8:.3f} "
+                            f"m/s² on its own, not counted (lower BIM2RDT_HAV__START_THRESHOLD to count it)")
+    return report
 
 
 def plot_day(report: DayReport, path: Path, title: str = "Daily vibration exposure") -> Path:
@@ -100,11 +125,10 @@ def plot_day(report: DayReport, path: Path, title: str = "Daily vibration exposu
     ax.legend(loc="upper left")
     ax.grid(alpha=0.3)
     fig.tight_layout()
-    try:
-        Path(path).parent.mkdir(parents=True, exist_ok=True)
-        fig.savefig(path, dpi=120)
-    except OSError as error:
-        raise HavError(f"cannot write the plot {path}: {error.strerror or error}") from None
-    finally:
-        plt.close(fig)
-    return Path(path)
+    image = io.BytesIO()
+    fig.savefig(image, format="png", dpi=120)
+    plt.close(fig)
+    try:  # atomically: a full disk leaves the old plot (or none), never a truncated or empty PNG
+        return write_bytes_atomic(Path(path), image.getvalue())
+    except WriteError as error:  # its message names the path and the system's reason
+        raise HavError(str(error).replace("cannot write ", "cannot write the plot ", 1)) from None

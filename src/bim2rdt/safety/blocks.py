@@ -2,9 +2,12 @@
 
 Each batch is cut into blocks of about ``BLOCK_S`` seconds (a 1 s batch at 5 kHz gives two 0.5 s blocks, a
 0.2 s batch one block); blocks are what the activity tracker sees. A block is rejected (and flagged) when it
-holds NaN samples, reaches ``saturation_ratio`` of the sensor range, or shows a shock: a crest factor above
-``crest_limit`` with a centred peak over ``shock_min_peak`` m/s^2 (a knock on the sensor, not tool
-vibration). The block after a rejected one is rejected too (``settling``) while the weighting filter rings down.
+holds NaN samples, reaches ``saturation_ratio`` of the sensor range, shows a shock (a crest factor above
+``crest_limit`` with a centred peak over ``shock_min_peak`` m/s^2: a knock on the sensor, not tool vibration),
+or holds an impossible sample (beyond the sensor's full scale, or beyond ``physical_limit``, 5000 m/s^2: a wrong
+scale or a corrupted batch, never exposure; such samples are replaced before filtering, see
+:func:`replace_bad_samples`). The block after a rejected one is rejected too (``settling``) while the weighting
+filter rings down.
 """
 
 from __future__ import annotations
@@ -15,9 +18,10 @@ from bim2rdt.safety.config import ArtefactLimits
 
 BLOCK_S = 0.5
 """Analysis block length, seconds: the time resolution of activity start/stop and limit crossings."""
-NAN, SATURATION, SHOCK, SETTLING = 1, 2, 4, 8
-ARTEFACT_NAMES = {NAN: "nan", SATURATION: "saturation", SHOCK: "shock", SETTLING: "settling"}
-REJECTED_BEFORE_SETTLING = NAN | SATURATION | SHOCK
+NAN, SATURATION, SHOCK, SETTLING, IMPOSSIBLE = 1, 2, 4, 8, 16
+ARTEFACT_NAMES = {NAN: "nan", SATURATION: "saturation", SHOCK: "shock", SETTLING: "settling",
+                  IMPOSSIBLE: "impossible"}
+REJECTED_BEFORE_SETTLING = NAN | SATURATION | SHOCK | IMPOSSIBLE
 
 
 def block_starts(n: int, fs: float) -> np.ndarray:
@@ -50,12 +54,13 @@ def block_extremes(values: np.ndarray, starts: np.ndarray) -> tuple[np.ndarray, 
     return np.maximum.reduceat(values, starts, axis=1), np.minimum.reduceat(values, starts, axis=1)
 
 
-def block_flags(raw: np.ndarray, starts: np.ndarray, sums: np.ndarray, full_scale: np.ndarray,
-                limits: ArtefactLimits) -> np.ndarray:
+def block_flags(raw: np.ndarray, starts: np.ndarray, sums: np.ndarray, extremes: tuple[np.ndarray, np.ndarray],
+                full_scale: np.ndarray, limits: ArtefactLimits) -> np.ndarray:
     """Saturation and shock flags (m, k) of ``raw`` (3m, n) samples of m streams cut at ``starts``, given their
-    per-block ``sums`` (3m, k); ``full_scale`` (m,) is each stream's sensor range in m/s^2 (inf if unknown)."""
+    per-block ``sums`` and ``extremes`` (3m, k) each; ``full_scale`` (m,) is each stream's sensor range in m/s^2
+    (inf if unknown)."""
     lengths = np.diff(np.append(starts, raw.shape[1]))
-    top, bottom = block_extremes(raw, starts)
+    top, bottom = extremes
     mean, square = sums / lengths, block_sums(raw, starts, square=True) / lengths
     per_stream = (-1, 3, starts.size)
     peak = np.maximum(top, -bottom).reshape(per_stream).max(axis=1)
@@ -64,6 +69,36 @@ def block_flags(raw: np.ndarray, starts: np.ndarray, sums: np.ndarray, full_scal
     rms = np.sqrt(np.maximum(square - mean**2, 1e-12))
     shock = ((centred > limits.crest_limit * rms) & (centred > limits.shock_min_peak)).reshape(per_stream).any(axis=1)
     return flags | np.where(shock, SHOCK, 0)
+
+
+def sample_limits(full_scale: np.ndarray, physical_limit: float) -> np.ndarray:
+    """Per-stream bound (m,) on a possible sample, m/s^2: the sensor cannot report beyond its full scale (1 %
+    margin), no tool beyond ``physical_limit``."""
+    return np.minimum(1.01 * full_scale, physical_limit)
+
+
+def has_bad_samples(sums: np.ndarray, extremes: tuple[np.ndarray, np.ndarray], limits: np.ndarray) -> bool:
+    """Whether :func:`replace_bad_samples` has work: a non-finite block sum, or an extreme (of per-block
+    ``extremes``, (3m, k) each) beyond its stream's limit (``limits`` (m,))."""
+    if not np.isfinite(sums).all():
+        return True
+    top, bottom = extremes
+    peak = np.maximum(top.max(axis=1), -bottom.min(axis=1)).reshape(-1, 3).max(axis=1)
+    return bool((peak > limits).any())
+
+
+def replace_bad_samples(raw: np.ndarray, limits: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Replace NaN/inf and impossible samples (beyond their stream's limit, ``limits`` (m,)) in ``raw`` (3m, n) by
+    each row's mean of its good samples, in place, so the weighting filter never carries them into later
+    blocks; returns the (m, n) masks of the samples that held a non-finite value and of those that held an
+    impossible one."""
+    finite = np.isfinite(raw)
+    with np.errstate(invalid="ignore"):
+        good = finite & (np.abs(raw) <= np.repeat(limits, 3)[:, None])
+    for row in np.flatnonzero(~good.all(axis=1)):
+        raw[row, ~good[row]] = raw[row, good[row]].mean() if good[row].any() else 0.0
+    per_stream = (-1, 3, raw.shape[1])
+    return ~finite.reshape(per_stream).all(axis=1), (finite & ~good).reshape(per_stream).any(axis=1)
 
 
 def describe_flags(flags: int) -> list[str]:

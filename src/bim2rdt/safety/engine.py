@@ -88,7 +88,7 @@ class ExposureEngine:
             result = stream.buffer.push(batch, now)
             outcome.events += self._note_push(stream, batch, result)
             if result.duplicates == result.late == 0:
-                outcome.accepted.append(batch)
+                outcome.accepted.append(result.renumbered or batch)
             outcome.streams[stream.device] = stream
             ordered += [(stream, piece, new_segment) for piece, new_segment in result.pieces]
         outcome.events += self._process(ordered)
@@ -141,6 +141,8 @@ class ExposureEngine:
             if getattr(result, name):
                 stream.count(name, getattr(result, name))
                 self.count(name, getattr(result, name))
+        if result.renumberings:
+            stream.count("renumbered", result.renumberings)
         if result.duplicates == result.late == 0:
             stream.clock.observe(batch.received_time, batch.device_time + batch.duration_s)
         return self._note_gaps(stream, result)
@@ -177,31 +179,45 @@ class ExposureEngine:
         return self._track(weighed)
 
     def _track(self, weighed: dict[str, list[Blocks]]) -> list[Event]:
-        """Feed blocks to the trackers, all streams merged by block end time (each stream's own order kept), so
-        two devices of one worker reach a limit in the order their samples were taken."""
-        streams = [_stream_blocks(self.streams[device], blocks) for device, blocks in weighed.items()]
+        """Feed blocks to the trackers; the streams of one worker merged by block end time (each stream's own order
+        kept), so two devices of one worker reach a limit in the order their samples were taken."""
+        by_subject: dict[str, list[str]] = {}
+        for device in weighed:
+            by_subject.setdefault(self.streams[device].session.subject, []).append(device)
         events = []
-        for end, _, device, seconds, energy, flags in heapq.merge(*streams):
-            events += self._frame(self.streams[device], end, seconds, energy, flags)
+        for subject, devices in by_subject.items():
+            day_of = self._day_lookup(subject)
+            blocks = heapq.merge(*(_stream_blocks(weighed[d], d) for d in devices)) if len(devices) > 1 else \
+                _stream_blocks(weighed[devices[0]], devices[0])
+            for end, _, device, seconds, energy, flags in blocks:
+                events += self._frame(self.streams[device], day_of, end, seconds, energy, flags)
         return events
 
-    def _frame(self, stream: Stream, end: float, seconds: float, energy: float, flags: int) -> list[Event]:
-        tracker, subject = stream.tracker, stream.session.subject
+    def _frame(self, stream: Stream, day_of: Callable[[str], DayState], end: float, seconds: float, energy: float,
+               flags: int) -> list[Event]:
+        tracker = stream.tracker
         if flags:
             tracker.reject(seconds)
             stream.count("rejected_s", seconds)
             return [self.event(stream, (ARTEFACT, end - seconds, {"seconds": seconds,
                                                                   "kinds": describe_flags(flags)}))]
-        day_of = self._day_lookup(subject)
+        idle = tracker.state.id is None
         notices = tracker.frame(end, seconds, energy, day_of)
+        if idle and tracker.state.id is None:  # vibration under the trigger: not exposure, but not nothing either
+            stream.count("untriggered_s", seconds)
+            stream.count("untriggered_energy", energy)
         if self.config.keep_timeline and tracker.state.id is not None:
-            self.timeline.append((end, subject, day_of(tracker.state.day).a8))
-        return [self.event(stream, notice) for notice in notices]
+            self.timeline.append((end, stream.session.subject, day_of(tracker.state.day).a8))
+        return [self.event(stream, notice) for notice in notices] if notices else []
 
     def _day_lookup(self, subject: str) -> Callable[[str], DayState]:
         def day_of(day: str) -> DayState:
-            self.touched_days.add((subject, day))
-            return self.days.setdefault((subject, day), DayState())
+            key = (subject, day)
+            self.touched_days.add(key)
+            state = self.days.get(key)
+            if state is None:
+                state = self.days[key] = DayState()
+            return state
 
         return day_of
 
@@ -238,12 +254,12 @@ def _continues(piece: Piece, batch: AccelBatch) -> bool:
     return batch.fs == last.fs and batch.full_scale == last.full_scale
 
 
-def _stream_blocks(stream: Stream, runs: list[Blocks]):
+def _stream_blocks(runs: list[Blocks], device: str):
     """(end, order, device, seconds, energy, flags) of a stream's blocks, in its own order."""
     order = 0
     for blocks in runs:
         for end, seconds, energy, flags in zip(blocks.end, blocks.seconds, blocks.energy, blocks.flags):
-            yield end, order, stream.device, seconds, energy, flags
+            yield end, order, device, seconds, energy, flags
             order += 1
 
 

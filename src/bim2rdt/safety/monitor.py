@@ -13,17 +13,17 @@ Events go to the sinks after their commit.
 
 from __future__ import annotations
 
-import json
 import threading
 import time
 from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 
 from bim2rdt.bus.event import Event
-from bim2rdt.bus.payloads import AccelBatch
+from bim2rdt.bus.payloads import AccelBatch, PayloadError, decode_status
 from bim2rdt.bus.topics import device_of
 from bim2rdt.safety.activity import ActivityState, DayState, utc_day
 from bim2rdt.safety.config import MonitorConfig
+from bim2rdt.safety.deadletters import DeadLetters, MalformedMessages
 from bim2rdt.safety.engine import ExposureEngine, Outcome
 from bim2rdt.safety.mounting import MountingCorrection
 from bim2rdt.safety.persistence import MonitorJournal
@@ -34,21 +34,27 @@ from bim2rdt.safety.store import ExposureStore
 from bim2rdt.safety.subscriber import BusSubscriber
 from bim2rdt.safety.weighting import require_weighable_rate
 
-__all__ = ["ISO_POSITIONS", "HavMonitor", "MonitorConfig", "Session"]
+__all__ = ["ISO_POSITIONS", "HavMonitor", "MalformedMessages", "MonitorConfig", "Session"]
 
 
 class HavMonitor:
     """Streaming ISO 5349-1 exposure for many wearables; thread-safe (one lock around each call)."""
 
-    def __init__(self, data_dir: Path, site_secret: str, sinks: Sequence[EventSink] = (),
+    def __init__(self, data_dir: Path | None, site_secret: str, sinks: Sequence[EventSink] = (),
                  config: MonitorConfig = MonitorConfig(), clock: Callable[[], float] = time.time):
+        """State under ``data_dir`` (``hav.sqlite``, ``private/identity.sqlite``); None keeps it in memory, for a
+        throw-away monitor that must write nothing (``hav analyze``)."""
         self.config, self.sinks, self.clock = config, list(sinks), clock
-        self.store = ExposureStore(Path(data_dir) / "hav.sqlite")
-        self.identity = IdentityMap(Path(data_dir) / "private" / "identity.sqlite", role="monitor")
+        folder = Path(data_dir) if data_dir is not None else None
+        self.store = ExposureStore(folder / "hav.sqlite" if folder else None)
+        self.identity = IdentityMap(folder / "private" / "identity.sqlite" if folder else None, role="monitor")
         self._journal = MonitorJournal(self.store, config.raw_retention_s)
         self._sessions = SessionBook(site_secret, self.identity, self._journal.corrections())
         self._engine = ExposureEngine(config, self._sessions, clock)
         self._journal.restore(self._engine)
+        self._dead = DeadLetters({d: MalformedMessages(*row) for d, row in self.store.malformed().items()})
+        self.failure: str | None = None
+        """Why the monitor cannot go on (its store failed), else None: ``hav listen`` exits non-zero on it."""
         self._lock = threading.RLock()
         self._subscriber = BusSubscriber(self, config.commit_batches, config.commit_delay_s, self._lock)
 
@@ -112,20 +118,18 @@ class HavMonitor:
             return self.ingest_many([batch]) if batch is not None else []
 
     def on_status(self, topic: str, payload: bytes) -> list[Event]:
-        """A wearable's retained status: online with a worker starts a session, offline ends it."""
-        device = device_of(topic)
+        """A wearable's retained status: online with a worker starts a session, offline ends it; a malformed
+        one is dead-lettered."""
+        device = device_of(topic) or "?"
         try:
-            status = json.loads(payload)
-        except ValueError:
-            self.count("malformed")
+            status = decode_status(payload)
+        except PayloadError as error:
+            self.refuse(device, str(error), self.clock())
             return []
-        if device is None or not isinstance(status, dict):
+        if status.online and status.worker:
+            self.start_session(device, status.worker, status.tool, status.position, status.zone, status.hand)
             return []
-        if status.get("online") and status.get("worker"):
-            self.start_session(device, str(status["worker"]), str(status.get("tool", "unknown")),
-                               str(status.get("position", "handle")), status.get("zone"), str(status.get("hand", "")))
-            return []
-        return self.end_session(device) if status.get("online") is False else []
+        return self.end_session(device) if not status.online else []
 
     def tick(self, now: float | None = None) -> list[Event]:
         """Commit a bus group that waited long enough; declare overdue gaps on streams whose missing batches
@@ -150,6 +154,45 @@ class HavMonitor:
     def count(self, name: str, amount: float = 1) -> None:
         with self._lock:
             self._engine.count(name, amount)
+
+    # --- refused messages and failures --------------------------------------------------------------------
+    def refuse(self, device: str, reason: str, received: float, kind: str = "malformed") -> None:
+        """Dead-letter a message from ``device``: counted (``stats[kind]`` and per device), logged, persisted
+        with the next commit."""
+        with self._lock:
+            self._engine.count(kind)
+            self._dead.record(device, reason, received)
+
+    def malformed_messages(self) -> dict[str, MalformedMessages]:
+        """Refused (dead-lettered) messages per device since the store was created: count, last reason, when
+        the last one arrived. For the dashboard: a device sending garbage shows here, never as exposure."""
+        with self._lock:
+            return {device: MalformedMessages(m.count, m.last_reason, m.last_received)
+                    for device, m in sorted(self._dead.by_device.items())}
+
+    def save_dead_letters(self) -> None:
+        """Persist the refused-message counts that changed since the last commit."""
+        with self._lock:
+            rows = self._dead.take_dirty()
+            if rows:
+                with self.store.transaction():
+                    self.store.save_malformed(rows)
+
+    def fail(self, reason: str) -> None:
+        """Record that the monitor cannot go on (see :attr:`failure`)."""
+        self.failure = self.failure or reason
+
+    def recover(self, batches: list[AccelBatch], reason: str) -> None:
+        """The engine failed on ``batches``: dead-letter them and reload the engine from the store, so memory
+        holds exactly what was committed."""
+        with self._lock:
+            for batch in batches:
+                self.refuse(batch.device, reason, self.clock())
+            stats, timeline = self._engine.stats, self._engine.timeline
+            self._engine = ExposureEngine(self.config, self._sessions, self.clock)
+            self._engine.stats.update(stats)
+            self._engine.timeline.extend(timeline)
+            self._journal.restore(self._engine)
 
     # --- reading -----------------------------------------------------------------------------------------
     def day(self, subject: str, day: str | None = None) -> DayState:
@@ -193,6 +236,7 @@ class HavMonitor:
         self._subscriber.stop()
         with self._lock:
             self.flush()
+            self.save_dead_letters()
             self.store.close()
             self.identity.close()
 
@@ -200,7 +244,8 @@ class HavMonitor:
     def _commit(self, outcome: Outcome, now: float | None = None, sessions: dict[str, Session] | None = None) -> None:
         """Persist what a call changed in one transaction, then hand its events to the sinks."""
         now = self.clock() if now is None else now
-        self._journal.commit(self._engine, outcome.accepted, outcome.streams.values(), outcome.events, now, sessions)
+        self._journal.commit(self._engine, outcome.accepted, outcome.streams.values(), outcome.events, now, sessions,
+                             self._dead.take_dirty())
         for event in outcome.events:
             for sink in self.sinks:
                 sink.emit(event)

@@ -46,8 +46,10 @@ class MonitorJournal:
             self._raw_devices.add(device)
 
     def commit(self, engine: ExposureEngine, batches: list[AccelBatch], streams: Iterable[Stream],
-               events: list[Event], now: float, sessions: dict[str, Session] | None = None) -> None:
-        """One transaction: raw batches, stream states, touched days, events, activities (and sessions)."""
+               events: list[Event], now: float, sessions: dict[str, Session] | None = None,
+               malformed: list[tuple[str, int, str, float | None]] = ()) -> None:
+        """One transaction: raw batches, stream states, touched days, events, activities (and sessions, counts
+        of refused messages)."""
         streams = list(streams)
         if self.raw_retention_s <= 0:
             batches = [b for b in batches if b.seq in engine.streams[b.device].buffer.pending]
@@ -65,6 +67,7 @@ class MonitorJournal:
                                         for e in events if e.kind == ACTIVITY_ENDED])
             for device, session in (sessions or {}).items():
                 self.store.save_session(device, vars(session))
+            self.store.save_malformed(malformed)
         engine.touched_days.clear()
 
     def save_correction(self, correction: MountingCorrection) -> None:

@@ -29,12 +29,16 @@ def pseudonym(worker_id: str, secret: str) -> str:
 class IdentityMap:
     """The pseudonym -> worker id map, readable only by the safety role."""
 
-    def __init__(self, path: Path, role: str):
-        self.path, self.role = Path(path), role
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        os.chmod(self.path.parent, 0o700)
-        self._db = sqlite3.connect(self.path, check_same_thread=False)
-        os.chmod(self.path, 0o600)
+    def __init__(self, path: Path | None, role: str):
+        """``path`` None keeps the map in memory (a throw-away monitor, e.g. analysing a file)."""
+        self.path, self.role = (Path(path) if path is not None else None), role
+        if self.path is None:
+            self._db = sqlite3.connect(":memory:", check_same_thread=False)
+        else:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            os.chmod(self.path.parent, 0o700)
+            self._db = sqlite3.connect(self.path, check_same_thread=False)
+            os.chmod(self.path, 0o600)
         self._db.execute("CREATE TABLE IF NOT EXISTS identity (pseudonym TEXT PRIMARY KEY, worker TEXT NOT NULL)")
         self._db.commit()
 

@@ -40,16 +40,19 @@ CREATE TABLE IF NOT EXISTS activities (id TEXT PRIMARY KEY, subject TEXT, day TE
 CREATE TABLE IF NOT EXISTS events (id INTEGER PRIMARY KEY AUTOINCREMENT, kind TEXT, time REAL, subject TEXT,
     source TEXT, data TEXT, received REAL);
 CREATE TABLE IF NOT EXISTS corrections (subject TEXT, position TEXT, fit TEXT, PRIMARY KEY (subject, position));
+CREATE TABLE IF NOT EXISTS malformed (device TEXT PRIMARY KEY, count INTEGER, last_reason TEXT, last_received REAL);
 """
 
 
 class ExposureStore:
     """The monitor's SQLite file (WAL, synchronous=NORMAL: a committed ingest survives a process crash)."""
 
-    def __init__(self, path: Path):
-        self.path = Path(path)
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        self._db = sqlite3.connect(self.path, check_same_thread=False, isolation_level=None)
+    def __init__(self, path: Path | None):
+        """``path`` None keeps the store in memory (a throw-away monitor, e.g. analysing a file)."""
+        self.path = Path(path) if path is not None else None
+        if self.path is not None:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+        self._db = sqlite3.connect(self.path or ":memory:", check_same_thread=False, isolation_level=None)
         self._db.execute(f"PRAGMA page_size={PAGE_SIZE}")  # a new file only; an existing one keeps its own
         self._db.execute("PRAGMA journal_mode=WAL")
         self._db.execute("PRAGMA synchronous=NORMAL")
@@ -105,6 +108,15 @@ class ExposureStore:
     def raw_count(self) -> int:
         return self._db.execute("SELECT COUNT(*) FROM raw").fetchone()[0]
 
+    def raw_window(self, device: str, start: float, end: float) -> list[AccelBatch]:
+        """The device's kept batches with samples in device time [start, end), in seq order (the dashboard's
+        raw sensor window; what retention already dropped is not there)."""
+        rows = self._db.execute("SELECT device, seq, device_time, received_time, fs, full_scale, n, samples, scale "
+                                "FROM raw WHERE device = ? AND device_time < ? AND device_time + n / fs > ? "
+                                "ORDER BY seq", (device, end, start)).fetchall()
+        return [AccelBatch(d, s, t, fs, _xyz(blob, n, scale), fsc, rt, scale)
+                for d, s, t, rt, fs, fsc, n, blob, scale in rows]
+
     # JSON state rows -----------------------------------------------------------------------------------
     def save_streams(self, states: Iterable[tuple[str, Any, bytes]]) -> None:
         """(device, JSON-able state, filter-state blob) rows."""
@@ -152,6 +164,13 @@ class ExposureStore:
 
     def corrections(self) -> list[str]:
         return [row[0] for row in self._db.execute("SELECT fit FROM corrections")]
+
+    def save_malformed(self, rows: Iterable[tuple[str, int, str, float | None]]) -> None:
+        """(device, count, last reason, last received) of refused messages."""
+        self._db.executemany("INSERT OR REPLACE INTO malformed VALUES (?, ?, ?, ?)", list(rows))
+
+    def malformed(self) -> dict[str, tuple[int, str, float | None]]:
+        return {d: (c, r, t) for d, c, r, t in self._db.execute("SELECT * FROM malformed")}
 
     # events --------------------------------------------------------------------------------------------
     def add_events(self, events: Iterable[Event]) -> None:

@@ -5,17 +5,29 @@ holds out-of-order batches until the missing seq arrives or ``max_reorder`` late
 seconds) have queued, then declares a gap. A new stream starts at seq 0 at once, otherwise after the reorder
 wait. A gap (missing seqs, a jump in device time, a change of rate) ends a *segment*: exposure counts sampled
 time only, and the weighting filter restarts settled on the next sample.
+
+Sequence numbers are checked against device time, which says what is new:
+- a batch whose first sample time was seen among the last ``RECENT`` batches is a duplicate, whatever its seq;
+- a seq already taken (or waiting) whose samples start at or after everything seen is a *new numbering* (the
+  device rebooted and counts from 0 again): what waits is flushed and the stream goes on from this batch;
+- a seq far ahead whose samples continue the open segment without a pause is the next batch under a wrong
+  number (one corrupted seq must not make every later batch 'late').
+Batches keep their place under an *effective* seq (the device's seq plus an offset kept since its last
+renumbering), so reordering, gaps and duplicates work as before within each numbering.
 """
 
 from __future__ import annotations
 
 from collections import deque
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from bim2rdt.bus.payloads import AccelBatch
 
 TIME_JUMP_S = 0.05
 """A device-time jump larger than this between consecutive batches is a pause in sampling (a gap)."""
+RECENT = 32
+"""Batches whose first-sample device times are remembered for duplicate detection (16 s of 0.5 s batches; older
+redeliveries are caught by their seq, as long as the numbering has not changed since)."""
 
 
 @dataclass
@@ -36,6 +48,10 @@ class PushResult:
     duplicates: int = 0
     late: int = 0
     gaps: list[Gap] = field(default_factory=list)
+    renumbered: AccelBatch | None = None
+    """The pushed batch under its effective seq, when that differs from the device's (store this one)."""
+    renumberings: int = 0
+    """1 when this batch started a new numbering or had its wrong seq replaced."""
 
 
 class StreamBuffer:
@@ -48,18 +64,50 @@ class StreamBuffer:
         self.fs = 0.0
         self.end_time: float | None = None
         """Device time just after the last sample of the current segment (None: no open segment)."""
+        self.last_end: float | None = None
+        """Device time just after the last sample of the last batch taken, across segments."""
+        self.offset = 0
+        """Added to the device's seq to place a batch (changes when the device starts a new numbering)."""
         self._skipped: deque[tuple[int, int]] = deque(maxlen=64)
+        self._recent: deque[int] = deque(maxlen=RECENT)
 
     def push(self, batch: AccelBatch, now: float) -> PushResult:
         """Accept one batch (any order); returns the batches that are now next in line."""
         result = PushResult()
-        if self.next_seq is not None and (batch.seq < self.next_seq or batch.seq in self.pending):
-            late = any(lo <= batch.seq < hi for lo, hi in self._skipped)
-            result.late, result.duplicates = int(late), int(not late)
-            return result
-        self.pending[batch.seq] = batch
+        seq = batch.seq + self.offset
+        if self.next_seq is not None:
+            if _ms(batch.device_time) in self._recent:
+                result.duplicates = 1
+                return result
+            if seq < self.next_seq or seq in self.pending:
+                if not self._newer_than_all(batch):
+                    late = any(lo <= seq < hi for lo, hi in self._skipped)
+                    result.late, result.duplicates = int(late), int(not late)
+                    return result
+                self._flush(result)  # a new numbering: what waits came before it
+                self.offset, seq, result.renumberings = self.next_seq - batch.seq, self.next_seq, 1
+            elif seq > self.next_seq and self._continues(batch):
+                seq, result.renumberings = self.next_seq, 1  # a wrong number on the batch that continues the segment
+        if seq != batch.seq:
+            batch = result.renumbered = replace(batch, seq=seq)
+        self.pending[seq] = batch
         self._drain(result, now)
         return result
+
+    def _newer_than_all(self, batch: AccelBatch) -> bool:
+        """Whether ``batch``'s samples start at or after every sample taken or waiting (a redelivery cannot)."""
+        newest = max([b.device_time + b.duration_s for b in self.pending.values()] +
+                     ([self.last_end] if self.last_end is not None else []), default=None)
+        return newest is not None and batch.device_time >= newest - _tolerance(batch)
+
+    def _continues(self, batch: AccelBatch) -> bool:
+        """Whether ``batch`` starts where the open segment ends, nothing waiting in between."""
+        return (self.end_time is not None and not self.pending and batch.fs == self.fs
+                and abs(batch.device_time - self.end_time) <= _tolerance(batch))
+
+    def _flush(self, result: PushResult) -> None:
+        while self.pending:
+            self._drain(result, float("inf"))
 
     def expire(self, now: float, result: PushResult) -> None:
         """Declare a gap if the oldest waiting batch has waited longer than ``reorder_s``."""
@@ -102,14 +150,32 @@ class StreamBuffer:
         elif self.end_time is not None and batch.fs != self.fs:
             result.gaps.append(Gap(self.end_time, batch.device_time, "sampling rate changed"))
         self.fs, self.next_seq = batch.fs, batch.seq + 1
-        self.end_time = batch.device_time + batch.duration_s
+        self.end_time = self.last_end = batch.device_time + batch.duration_s
+        self._recent.append(_ms(batch.device_time))
         result.pieces.append((batch, new_segment))
 
     def to_list(self) -> list:
-        """[next seq, rate, segment end time, skipped seq ranges]: compact, saved with every ingest."""
-        return [self.next_seq, self.fs, self.end_time, list(self._skipped)]
+        """[next seq, rate, segment end time, skipped seq ranges, last end, seq offset, recent first-sample times
+        (ms)]: compact, saved with every ingest."""
+        last_ms = _ms(self.last_end) if self.last_end is not None else 0
+        return [self.next_seq, self.fs, self.end_time, list(self._skipped), self.last_end, self.offset,
+                [last_ms - ms for ms in self._recent]]  # ms before the last end: short numbers in the saved state
 
     def load(self, state: list, pending: list[AccelBatch]) -> None:
-        self.next_seq, self.fs, self.end_time, skipped = state
+        """Restore :meth:`to_list`'s state (a 4-item state from before renumbering works too) and the waiting
+        batches (stored under their effective seqs)."""
+        self.next_seq, self.fs, self.end_time, skipped = state[:4]
+        self.last_end, self.offset, recent = state[4:] or [self.end_time, 0, []]
         self._skipped.extend(tuple(pair) for pair in skipped)
+        last_ms = _ms(self.last_end) if self.last_end is not None else 0
+        self._recent.extend(last_ms - ago for ago in recent)
         self.pending = {b.seq: b for b in pending if self.next_seq is None or b.seq >= self.next_seq}
+
+
+def _ms(device_time: float) -> int:
+    return round(device_time * 1000.0)
+
+
+def _tolerance(batch: AccelBatch) -> float:
+    """How far a batch's start may sit from where the stream stands and still be 'at' it: under half a batch."""
+    return min(TIME_JUMP_S, 0.5 * batch.duration_s)

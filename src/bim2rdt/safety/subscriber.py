@@ -1,20 +1,29 @@
 """The monitor on the site bus: wearable accel and status messages in, group commits out.
 
-Accel messages are decoded and checked (a handler must never raise: it would stop an MQTT client's network
-thread), then held until ``commit_batches`` of them are waiting or the oldest has waited ``commit_delay_s``;
-then they are ingested together: one SQLite transaction and one filtering pass per stream instead of one per
-message. A background thread commits a group that waited ``commit_delay_s`` when no further message comes. A status message (a session starts or ends) first commits what is waiting, so every batch counts under
-the session it was sent in.
+Accel messages are decoded and checked, then held until ``commit_batches`` of them are waiting or the oldest has
+waited ``commit_delay_s``; then they are ingested together: one SQLite transaction and one filtering pass per
+stream instead of one per message. A background thread commits a group that waited ``commit_delay_s`` when no
+further message comes. A status message (a session starts or ends) first commits what is waiting, so every
+batch counts under the session it was sent in.
+
+No message raises out of a handler (it would stop an MQTT client's network thread): one that fails its checks
+is dead-lettered (:mod:`~bim2rdt.safety.deadletters`: counted per device, logged, acknowledged, never
+redelivered). If the engine itself fails on a group, the group is dead-lettered and the engine reloaded from
+the store, so memory never disagrees with what was committed. A store that cannot be written (disk full, I/O
+error) is a failure the monitor reports (``HavMonitor.failure``): ``hav listen`` then exits non-zero, the
+messages stay unacknowledged and the broker keeps them for the next start.
 
 Loss window: over MQTT with manual acknowledgement (``MqttBus(manual_ack=True)``) a message is acknowledged
 only after its commit, so a crash loses nothing: the broker redelivers what was not acknowledged and the
 monitor drops what it had already committed as duplicates. On a bus that cannot redeliver (the in-process
 ``LocalBus``), a crash loses at most the batches waiting for their commit: ``commit_batches`` messages, received
-within the last ``commit_delay_s`` seconds (plus the time until the next message or ``tick``).
+within the last ``commit_delay_s`` seconds.
 """
 
 from __future__ import annotations
 
+import logging
+import sqlite3
 import threading
 from collections.abc import Callable
 from typing import TYPE_CHECKING
@@ -29,6 +38,7 @@ if TYPE_CHECKING:
     from bim2rdt.safety.monitor import HavMonitor
 
 Ack = Callable[[], None]
+log = logging.getLogger("bim2rdt.safety")
 
 
 class BusSubscriber:
@@ -60,21 +70,19 @@ class BusSubscriber:
         if self._flusher is not None and self._flusher is not threading.current_thread():
             self._flusher.join()
 
-    def _flush_when_due(self) -> None:
-        while not self._stop.wait(max(self.commit_delay_s / 2, 0.01)):
-            self.tick(self.monitor.clock())
-
     def accept(self, topic: str, payload: bytes, received: float) -> AccelBatch | None:
-        """The message's batch, stamped ``received``; None (counted) if it is malformed, too slowly sampled to
-        weigh, or its device id is not the topic's."""
+        """The message's batch, stamped ``received``; None (dead-lettered) if it is malformed, too slowly sampled
+        to weigh, or its device id is not the topic's."""
+        device = device_of(topic) or "?"
         try:
             batch = decode_accel(payload)
             require_weighable_rate(batch.fs)
-        except (PayloadError, HavError):
-            self.monitor.count("malformed")
+        except (PayloadError, HavError) as error:
+            self.monitor.refuse(device, str(error), received)
             return None
-        if batch.device != device_of(topic):
-            self.monitor.count("mismatched")
+        if batch.device != device:
+            self.monitor.refuse(device, f"payload device id {batch.device!r} is not the topic's", received,
+                                kind="mismatched")
             return None
         return batch.received_at(received)
 
@@ -84,8 +92,7 @@ class BusSubscriber:
             now = self.monitor.clock()
             batch = self.accept(topic, payload, now)
             if batch is None and not self._waiting:
-                if ack is not None:  # dead-lettered: counted, acknowledged, never redelivered
-                    ack()
+                _call(ack)  # dead-lettered: acknowledged, never redelivered
                 return []
             if batch is not None:
                 self._waiting.append(batch)
@@ -99,8 +106,7 @@ class BusSubscriber:
         with self._lock:
             events = self.flush()
             events += self.monitor.on_status(topic, payload)
-            if ack is not None:
-                ack()
+            _call(ack)
             return events
 
     def tick(self, now: float) -> list[Event]:
@@ -113,11 +119,35 @@ class BusSubscriber:
         with self._lock:
             batches, acks = self._waiting, self._acks
             self._waiting, self._acks, self._oldest = [], [], None
-            events = self.monitor.ingest_many(batches, now=now) if batches else []
+            events = self._ingest(batches, now) if batches else []
             for ack in acks:
                 ack()
             return events
 
+    def _ingest(self, batches: list[AccelBatch], now: float | None) -> list[Event]:
+        try:
+            return self.monitor.ingest_many(batches, now=now)
+        except (sqlite3.Error, OSError) as error:  # the store failed: keep the messages unacknowledged
+            self.monitor.fail(f"the exposure store failed: {error}")  # unacknowledged: redelivered after a restart
+            raise
+        except Exception as error:  # an engine failure on input that passed its checks: never stop for it
+            log.exception("the engine failed on a group of %d batches; dead-lettered", len(batches))
+            self.monitor.recover(batches, f"internal error: {type(error).__name__}: {error}")
+            return []
+
     def _due(self, now: float) -> bool:
         return max(len(self._waiting), len(self._acks)) >= self.commit_batches or (
             self._oldest is not None and now - self._oldest >= self.commit_delay_s)
+
+    def _flush_when_due(self) -> None:
+        while not self._stop.wait(max(self.commit_delay_s / 2, 0.01)):
+            try:
+                self.tick(self.monitor.clock())
+                self.monitor.save_dead_letters()
+            except Exception:  # reported through HavMonitor.failure; this thread must not die silently
+                log.exception("background commit failed")
+
+
+def _call(ack: Ack | None) -> None:
+    if ack is not None:
+        ack()

@@ -5,7 +5,8 @@ previous run), so a round of N devices' runs is a single (3N, n) filtering pass 
 close to the cost of the bare ``sosfilt`` floor, whether N is large (many wearables) or the runs are long (a
 group commit of one wearable's batches). The fitted Wh IIR (:mod:`bim2rdt.safety.filters`) keeps its state across
 batches, so a block's weighted energy does not depend on how the stream was cut. NaN samples are replaced by
-the axis mean before filtering (their blocks are rejected); a mounting correction runs first as a
+the axis mean before filtering (their blocks are rejected), and so are impossible ones (beyond the sensor's
+full scale or 5000 m/s^2), so the filter never carries them on; a mounting correction runs first as a
 linear-phase FIR. A new segment (after a gap) restarts the filters settled on its first sample.
 """
 
@@ -19,8 +20,9 @@ import numpy as np
 import scipy.signal
 
 from bim2rdt.bus.payloads import AccelBatch
-from bim2rdt.safety.blocks import (NAN, REJECTED_BEFORE_SETTLING, SETTLING, ArtefactLimits, block_flags,
-                                   block_starts, block_sums)
+from bim2rdt.safety.blocks import (IMPOSSIBLE, NAN, REJECTED_BEFORE_SETTLING, SETTLING, ArtefactLimits,
+                                   block_extremes, block_flags, block_starts, block_sums, has_bad_samples,
+                                   replace_bad_samples, sample_limits)
 from bim2rdt.safety.filters import design_weighting
 from bim2rdt.safety.mounting import MountingCorrection
 
@@ -134,9 +136,12 @@ def _weigh_group(pieces: list[Piece], fs: float, layout: _Layout, correction: Mo
     raw = _stack(pieces)  # (3m, n)
     starts = layout.starts
     sums = block_sums(raw, starts)
-    nan_samples = None if np.isfinite(sums).all() else _replace_nan(raw)
-    if nan_samples is not None:
-        sums = block_sums(raw, starts)
+    full_scale = np.array([p.full_scale for p in pieces])
+    possible = sample_limits(full_scale, limits.physical_limit)
+    extremes = block_extremes(raw, starts)
+    bad = replace_bad_samples(raw, possible) if has_bad_samples(sums, extremes, possible) else None
+    if bad is not None:
+        sums, extremes = block_sums(raw, starts), block_extremes(raw, starts)
     for piece, first in zip(pieces, raw[:, 0].reshape(-1, 3).astype(np.float64)):
         if piece.new_segment or piece.state.zi is None:
             _settle(piece, first, correction)
@@ -147,9 +152,10 @@ def _weigh_group(pieces: list[Piece], fs: float, layout: _Layout, correction: Mo
     zi = np.concatenate([p.state.zi for p in pieces], axis=1)
     weighted, zf = scipy.signal.sosfilt(design_weighting(fs).sos, signal, axis=-1, zi=zi)
     energy = block_sums(weighted, starts, square=True).reshape(len(pieces), 3, -1).sum(axis=1) / fs
-    flags = block_flags(raw, starts, sums, np.array([p.full_scale for p in pieces]), limits)
-    if nan_samples is not None:
-        flags |= np.where(np.logical_or.reduceat(nan_samples, starts, axis=1), NAN, 0)
+    flags = block_flags(raw, starts, sums, extremes, full_scale, limits)
+    if bad is not None:
+        flags |= np.where(np.logical_or.reduceat(bad[0], starts, axis=1), NAN, 0)
+        flags |= np.where(np.logical_or.reduceat(bad[1], starts, axis=1), IMPOSSIBLE, 0)
     for j, piece in enumerate(pieces):
         piece.state.zi = zf[:, 3 * j:3 * j + 3]
         if correction is not None:
@@ -195,13 +201,3 @@ def _settle(piece: Piece, first: np.ndarray, correction: MountingCorrection | No
 @lru_cache(maxsize=64)
 def _fir(correction: MountingCorrection, fs: float) -> np.ndarray:
     return correction.fir(fs)
-
-
-def _replace_nan(raw: np.ndarray) -> np.ndarray:
-    """Replace NaN/inf in ``raw`` (3m, n) by each row's mean of finite samples, in place; returns the (m, n)
-    mask of the samples that held any."""
-    finite = np.isfinite(raw)
-    for row in np.flatnonzero(~finite.all(axis=1)):
-        good = finite[row]
-        raw[row, ~good] = raw[row, good].mean() if good.any() else 0.0
-    return ~finite.reshape(-1, 3, raw.shape[1]).all(axis=1)

@@ -6,7 +6,8 @@ free with room to spare (the object's own radius plus ``CLEARANCE``, so no objec
 corridor), and reachable from the robot's dock. The dock is the roomiest spot of the largest room; then each
 of the storey's rooms (its spaces; without spaces, the free area is treated as one) gets one object, rooms far from
 the dock first, so the robot walks room to room through the doors. The drum nobody planned and the workers go
-to further free spots. Everything is seeded.
+to further free spots, well away from the objects (or nowhere, where the floor is too small). Everything is
+seeded.
 
 The copy adds each object as an ``IfcBuildingElementProxy`` on the storey (type named after its family, a body
 mesh, a ``BIM2RDT_SiteObject`` pset), with GlobalIds derived from the file's own digest and the header time
@@ -43,6 +44,12 @@ FAMILIES = ("Steel_Drum_55gal", "Wooden_Crate_1200x800x600", "Traffic_Cone_Orang
 """Families placed, one per room, in this order."""
 CLEARANCE = 0.6
 """Free space kept around an object beyond its own radius, m: a robot (0.7 m across) passes beside it."""
+UNPLANNED_APART = 3.5
+"""The unplanned drum stands at least this far from the planned objects and the dock, m: not on the spot the
+robot will want to look at them from."""
+WORKER_APART = 4.0
+"""A worker stands at least this far from the objects and the dock, m, or (in a small building) nowhere on the
+robot's floor: their idle keep-out circle must not sit on the robot's stations all day."""
 _NAMESPACE = uuid.UUID("0f6a3c52-7d1e-4b7a-9c0e-5d2b8e4f6a11")
 FIXED_TIME = 1767225600
 """2026-01-01T00:00:00Z: the time stamp of the owner histories the copy adds."""
@@ -80,11 +87,12 @@ def furnish(model: BimModel, grid: OccupancyGrid, workers: int = 1, seed: int = 
             taken.append(spot)
         if len(objects) == len(FAMILIES):
             break
-    unplanned = _spot(grid, clearance, free, _radius("Steel_Drum_55gal") + CLEARANCE, taken, rng)
+    unplanned = _spot(grid, clearance, free, _radius("Steel_Drum_55gal") + CLEARANCE, taken, rng,
+                      apart=UNPLANNED_APART)
     taken += [] if unplanned is None else [unplanned]
     spots = {}
     for k in range(workers):
-        spot = _spot(grid, clearance, free, 1.0, taken, rng, farthest=True)
+        spot = _spot(grid, clearance, free, 1.0, taken, rng, farthest=True, apart=WORKER_APART)
         if spot is not None:
             spots[f"w{k + 1}"] = (float(spot[0]), float(spot[1]))
             taken.append(spot)
@@ -122,18 +130,19 @@ def _rooms(model: BimModel, grid: OccupancyGrid, free: np.ndarray) -> list[np.nd
 
 
 def _spot(grid: OccupancyGrid, clearance: np.ndarray, where: np.ndarray, room_needed: float, taken, rng,
-          farthest: bool = False) -> np.ndarray | None:
-    """A free cell centre in ``where`` with ``room_needed`` m of clearance, at least 2.5 m from spots taken:
-    seeded at random among them, or the farthest from all taken (``farthest``)."""
+          farthest: bool = False, apart: float = 2.5) -> np.ndarray | None:
+    """A free cell centre in ``where`` with ``room_needed`` m of clearance, at least ``apart`` m from spots
+    taken: seeded at random among them, or the farthest from all taken (``farthest``)."""
     rows, cols = np.nonzero(where & (clearance >= room_needed))
     if not len(rows):
         return None
     centres = grid.frame.centres(rows, cols)
     gaps = np.min(np.linalg.norm(centres[:, None, :] - np.asarray(taken)[None], axis=2), axis=1)
     if farthest:
-        return centres[int(np.argmax(gaps))]
-    apart = np.flatnonzero(gaps >= 2.5)
-    return centres[int(rng.choice(apart))] if len(apart) else None
+        best = int(np.argmax(gaps))
+        return centres[best] if gaps[best] >= apart else None
+    far_enough = np.flatnonzero(gaps >= apart)
+    return centres[int(rng.choice(far_enough))] if len(far_enough) else None
 
 
 def _distance(grid: OccupancyGrid, room: np.ndarray, xy: np.ndarray) -> float:

@@ -129,6 +129,21 @@ def steel_i_beam(length: float = 3.0, depth: float = 0.31, flange_width: float =
     return _join([bottom, web, top])
 
 
+def worker(height: float = 1.78) -> trimesh.Trimesh:
+    """A site worker standing (not a BIM family: nobody models people): legs, torso, arms, head and hard hat,
+    1.78 m tall and 0.55 m across the shoulders, facing +x."""
+    scale = height / 1.78
+    parts = [_box((0.16, 0.15, 0.84), (0.0, y, 0.42)) for y in (-0.1, 0.1)]  # legs
+    parts.append(_box((0.26, 0.42, 0.62), (0.0, 0.0, 1.15)))  # torso
+    parts += [_box((0.1, 0.09, 0.62), (0.02, y, 1.13)) for y in (-0.255, 0.255)]  # arms
+    parts.append(trimesh.creation.icosphere(subdivisions=2, radius=0.11).apply_translation((0.0, 0.0, 1.57)))
+    parts.append(trimesh.creation.cylinder(radius=0.14, height=0.08, sections=_ROUND_SECTIONS,
+                                           transform=trimesh.transformations.translation_matrix((0.0, 0.0, 1.70))))
+    mesh = _join(parts)
+    mesh.apply_scale(scale)
+    return mesh
+
+
 MESH_LIBRARY: dict[str, Callable[[], trimesh.Trimesh]] = {
     "Traffic_Cone_Orange_70cm": traffic_cone,
     "Steel_Drum_55gal": steel_drum,

@@ -17,10 +17,13 @@ import trimesh
 from bim2rdt.bim import BimModel
 from bim2rdt.perception.detection import Detection
 from bim2rdt.perception.camera import Intrinsics
+from bim2rdt.perception.library import element_body_mesh
 from bim2rdt.registration.so3 import axis_angle
+from bim2rdt.sim.building import DEFAULT_COLOUR, building_scene, element_colours
 from bim2rdt.sim.meshes import mesh_for_family
 from bim2rdt.sim.render import RgbdFrame, render_rgbd
 from bim2rdt.sim.scene import PlacedObject, SiteScene, ground_pose
+from bim2rdt.sim.site import SURFACE_COLOURS
 from bim2rdt.sim.views import object_scene_points
 
 UNPLANNED_FAMILY = "Steel_Drum_55gal"
@@ -45,27 +48,35 @@ class Reality:
     truth: list[TrueObject]
 
 
-def body_mesh(model: BimModel, global_id: str) -> trimesh.Trimesh:
-    """An element's tessellated body in its own frame (world mesh mapped through the inverse placement)."""
-    vertices_world, faces = model.mesh(global_id)
-    T_model_world = np.linalg.inv(model.element(global_id).placement)
-    vertices_body = vertices_world @ T_model_world[:3, :3].T + T_model_world[:3, 3]
-    return trimesh.Trimesh(vertices_body, faces, process=False)
+body_mesh = element_body_mesh
+"""An element's tessellated body in its own frame (perception's, which registers against the same mesh)."""
 
 
 def simulate_reality(model: BimModel, global_ids: list[str], seed: int = 0, move_fraction: float = 0.5,
-                     unplanned_at: tuple[float, float] | None = (5.0, 4.0)) -> Reality:
+                     unplanned_at: tuple[float, float] | None = (5.0, 4.0), building: bool = False) -> Reality:
     """Draw site changes for the objects ``global_ids``: about ``move_fraction`` of them moved by 0.15-0.6 m and
     turned by up to 40 degrees, one cone (if any) knocked 12 degrees off upright, and an unplanned drum at
-    ``unplanned_at`` (x, y metres; None for none). Deterministic for a seed."""
+    ``unplanned_at`` (x, y metres; None for none). Deterministic for a seed. With ``building`` the scene is the
+    model's building (walls occlude, the slab is the floor) with the objects in their IFC colours; without, the
+    objects stand grey on an open ground plane. The truth is the same either way."""
     rng = np.random.default_rng(seed)
     truth = [_changed(model, gid, rng, move_fraction) for gid in global_ids]
     truth = _knock_one_cone(truth)
     if unplanned_at is not None:
         truth.append(TrueObject(None, UNPLANNED_FAMILY, ground_pose(*unplanned_at, yaw_rad=np.deg2rad(25.0)), "unplanned"))
-    objects = [PlacedObject(t.family, _mesh(model, t), t.T_world_model, albedo=0.35 + 0.3 * rng.random())
-               for t in truth]
-    return Reality(SiteScene(objects, ground_size=60.0), truth)
+    albedos = [0.35 + 0.3 * rng.random() for _ in truth]
+    if not building:
+        objects = [PlacedObject(t.family, _mesh(model, t), t.T_world_model, albedo=a) for t, a in zip(truth, albedos)]
+        return Reality(SiteScene(objects, ground_size=60.0), truth)
+    colours = element_colours(model, global_ids)
+    objects = [PlacedObject(t.family, _mesh(model, t), t.T_world_model, a, _colour(t, colours))
+               for t, a in zip(truth, albedos)]
+    return Reality(building_scene(model, objects), truth)
+
+
+def _colour(obj: TrueObject, colours: dict) -> tuple[float, float, float]:
+    """The element's IFC colour; for an object the BIM lacks (or an unstyled one) its family's usual colour."""
+    return colours.get(obj.global_id) or SURFACE_COLOURS.get(obj.family, DEFAULT_COLOUR)
 
 
 def _changed(model: BimModel, global_id: str, rng: np.random.Generator, move_fraction: float) -> TrueObject:

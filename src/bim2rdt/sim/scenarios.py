@@ -30,6 +30,7 @@ import numpy as np
 
 from bim2rdt.errors import Bim2RdtError
 from bim2rdt.perception.camera import Intrinsics, look_at
+from bim2rdt.perception.edges import EdgeFilter
 from bim2rdt.perception.slab import off_the_slab
 from bim2rdt.registration.sampling import sample_model
 from bim2rdt.registration.validation import MIN_SCENE_POINTS
@@ -37,6 +38,7 @@ from bim2rdt.registration.so3 import axis_angle
 from bim2rdt.sim.meshes import mesh_for_family
 from bim2rdt.sim.render import RgbdFrame, add_sensor_noise, cast_frame
 from bim2rdt.sim.scene import PlacedObject, SiteScene, ground_pose
+from bim2rdt.sim.tof import TofEffects
 from bim2rdt.sim.views import object_scene_points
 
 CONE, DRUM, CRATE = "Traffic_Cone_Orange_70cm", "Steel_Drum_55gal", "Wooden_Crate_1200x800x600"
@@ -102,10 +104,13 @@ class Scenario:
 
 
 def scenario(name: str, trials: int = 50, seed: int = 0, sample_count: int = 2000, views: int = 5,
-             intrinsics: Intrinsics = Intrinsics(), spec: ScenarioSpec | None = None) -> Scenario:
+             intrinsics: Intrinsics = Intrinsics(), spec: ScenarioSpec | None = None,
+             tof: TofEffects | None = None, edge_filter: EdgeFilter | None = None) -> Scenario:
     """Build scenario ``name`` (S1-S4) with ``trials`` seeded trials; ``views`` jittered camera poses are ray
     cast once and shared by the trials (each trial draws its own sensor noise, corners and perturbations).
-    ``spec`` replaces the named spec (e.g. a variant with every cone leaning). Raises :class:`ScenarioError`."""
+    ``spec`` replaces the named spec (e.g. a variant with every cone leaning). ``tof`` renders time-of-flight
+    artefacts and ``edge_filter`` drops flying pixels before corners get their depth (both off by default: the
+    registration benchmark's figures stay comparable). Raises :class:`ScenarioError`."""
     _check_arguments(name, trials, views, sample_count, seed)
     spec = spec or SCENARIOS[name]
     site = SiteScene([PlacedObject(family, mesh_for_family(family), ground_pose(x, y, yaw), albedo)
@@ -121,9 +126,9 @@ def scenario(name: str, trials: int = 50, seed: int = 0, sample_count: int = 200
         kind = "knocked" if rng.random() < spec.knocked_fraction else "upright"
         views_of_kind = knocked if kind == "knocked" else upright
         if not frames[kind]:  # ray cast lazily: a short run never pays for views it does not use
-            frames[kind] = [cast_frame(s, intrinsics, T) for s, T in views_of_kind]
+            frames[kind] = [cast_frame(s, intrinsics, T, tof) for s, T in views_of_kind]
         view = t % views
-        out.append(_trial(spec, views_of_kind[view][0], frames[kind][view], intrinsics, rng))
+        out.append(_trial(spec, views_of_kind[view][0], frames[kind][view], intrinsics, rng, edge_filter))
     return Scenario(spec, site, models, out)
 
 
@@ -138,11 +143,12 @@ def _check_arguments(name: str, trials: int, views: int, sample_count: int, seed
 
 
 def _trial(spec: ScenarioSpec, site: SiteScene, clean: RgbdFrame, intrinsics: Intrinsics,
-           rng: np.random.Generator) -> list[ObjectTrial]:
+           rng: np.random.Generator, edge_filter: EdgeFilter | None = None) -> list[ObjectTrial]:
     frame = add_sensor_noise(clean, rng)
     out = []
     for index, placed in enumerate(site.objects):
-        points = off_the_slab(object_scene_points(frame, intrinsics, index, rng), least=MIN_SCENE_POINTS)
+        points = off_the_slab(object_scene_points(frame, intrinsics, index, rng, edge_filter=edge_filter),
+                              least=MIN_SCENE_POINTS)
         if len(points) >= MIN_SCENE_POINTS:
             tilted = not np.isclose(placed.T_world_model[2, 2], 1.0)
             out.append(ObjectTrial(placed.family, placed.T_world_model,

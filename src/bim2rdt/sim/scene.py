@@ -1,8 +1,13 @@
-"""A synthetic site: BIM objects (meshes in their body frames) placed on a tiled ground plane.
+"""A synthetic site: BIM objects (meshes in their body frames) placed on a tiled ground plane, and optionally the
+building itself (the IFC's walls, slabs, columns and doors, in world coordinates) and workers walking through.
 
 Objects are upright along +z in their body frames (see :mod:`bim2rdt.sim.meshes`); ``T_world_model`` places
 them. Surfaces carry a procedural texture (grime, stencils, plank joints: 8 cm cells of varying albedo, fixed
-to the body) so a corner detector finds corners ON the surfaces, as it does on real, dirty site objects.
+to the body) so a corner detector finds corners ON the surfaces, as it does on real, dirty site objects. The
+building's surfaces carry their own (block joints, formwork ties, slab bays; see :mod:`bim2rdt.sim.surfaces`).
+
+A scene with neither building, workers nor colours renders exactly as it always has (grey, the registration
+scenarios S1-S4 depend on that); colour and building make the renderer produce RGB as well.
 """
 
 from __future__ import annotations
@@ -17,36 +22,80 @@ from bim2rdt.registration.so3 import axis_angle
 GROUND = -2
 """Label of ground pixels in a rendered frame (misses are -1, objects their index)."""
 MISS = -1
+STRUCTURE = -3
+"""Label of pixels on the building's permanent elements (``RgbdFrame.part`` says which one)."""
+WORKER = -4
+"""Label of pixels on a worker (``RgbdFrame.part`` says which one)."""
+
+Colour = tuple[float, float, float]
+"""Diffuse RGB reflectance, each 0-1."""
 
 
 @dataclass(frozen=True)
 class PlacedObject:
-    """One BIM object on site: its family, body-frame mesh, true pose (4x4, metres) and base albedo (0-1)."""
+    """One BIM object on site: its family, body-frame mesh, true pose (4x4, metres) and base albedo (0-1);
+    ``colour`` (RGB 0-1) tints it when given (None: grey of ``albedo``)."""
 
     family: str
     mesh: trimesh.Trimesh
     T_world_model: np.ndarray
     albedo: float = 0.5
+    colour: Colour | None = None
+
+
+@dataclass(frozen=True)
+class BuildingPart:
+    """A permanent element of the building as the IFC models it: GlobalId, IFC class, world mesh (metres), its
+    surface colour (RGB 0-1) and the surface ``finish`` that textures it (see :mod:`bim2rdt.sim.surfaces`)."""
+
+    global_id: str
+    ifc_class: str
+    mesh: trimesh.Trimesh
+    colour: Colour
+    finish: str = "concrete"
 
 
 @dataclass
 class SiteScene:
-    """Objects on a square ground plane of ``ground_size`` metres at z = 0, as one ray-castable mesh."""
+    """Objects on a square ground plane of ``ground_size`` metres at z = 0 (0 = no ground plane: the building's
+    slab is the floor), the ``building``'s parts and ``workers`` (placed meshes), as one ray-castable mesh."""
 
     objects: list[PlacedObject]
     ground_size: float = 30.0
+    building: list[BuildingPart] = field(default_factory=list)
+    workers: list[PlacedObject] = field(default_factory=list)
     _mesh: trimesh.Trimesh | None = field(default=None, init=False, repr=False)
     _face_owner: np.ndarray | None = field(default=None, init=False, repr=False)
+    _face_part: np.ndarray | None = field(default=None, init=False, repr=False)
+
+    @property
+    def coloured(self) -> bool:
+        """Whether frames of this scene carry RGB (a building, workers or a tinted object), not only grey."""
+        return bool(self.building or self.workers or any(o.colour is not None for o in self.objects))
 
     def mesh(self) -> tuple[trimesh.Trimesh, np.ndarray]:
-        """The world mesh and, per face, the index of the object it belongs to (``GROUND`` for the ground)."""
+        """The world mesh and, per face, its owner: the object index, ``GROUND``, ``STRUCTURE`` or ``WORKER``."""
         if self._mesh is None:
-            parts = [_ground(self.ground_size)] + [o.mesh.copy().apply_transform(o.T_world_model)
-                                                    for o in self.objects]
-            owners = [np.full(len(p.faces), owner) for owner, p in zip([GROUND, *range(len(self.objects))], parts)]
-            self._mesh = trimesh.util.concatenate(parts)
-            self._face_owner = np.concatenate(owners)
+            self._build()
         return self._mesh, self._face_owner
+
+    def face_parts(self) -> np.ndarray:
+        """Per face of :meth:`mesh`, the index of its owner within its kind (object, building part or worker;
+        -1 for the ground)."""
+        if self._mesh is None:
+            self._build()
+        return self._face_part
+
+    def _build(self) -> None:
+        parts: list[tuple[trimesh.Trimesh, int, int]] = []
+        if self.ground_size > 0:
+            parts.append((_ground(self.ground_size), GROUND, -1))
+        parts += [(o.mesh.copy().apply_transform(o.T_world_model), i, i) for i, o in enumerate(self.objects)]
+        parts += [(b.mesh, STRUCTURE, k) for k, b in enumerate(self.building)]
+        parts += [(w.mesh.copy().apply_transform(w.T_world_model), WORKER, k) for k, w in enumerate(self.workers)]
+        self._mesh = trimesh.util.concatenate([p for p, _, _ in parts])
+        self._face_owner = np.concatenate([np.full(len(p.faces), owner) for p, owner, _ in parts])
+        self._face_part = np.concatenate([np.full(len(p.faces), part) for p, _, part in parts])
 
 
 def ground_pose(x: float, y: float, yaw_rad: float) -> np.ndarray:

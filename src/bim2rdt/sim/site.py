@@ -5,6 +5,7 @@ walls and two 150 mm interior walls (3 m high), a 2 x 3 grid of 400 mm columns, 
 interior wall, a work zone and an off-limits exclusion zone (IfcSpace tagged with ``BIM2RDT_Zone``), and site
 objects as ``IfcBuildingElementProxy`` with the family names and meshes of ``bim2rdt.sim.meshes.MESH_LIBRARY``.
 The site is geo-referenced with an ``IfcMapConversion`` (ETRS89 / UTM 32N) so the site frame is exercised.
+Every body carries an ``IfcSurfaceStyle`` colour (:data:`SURFACE_COLOURS`), which the simulated camera reads.
 
 The build is deterministic: GlobalIds derive from a fixed namespace and the header time stamp is fixed, so the
 same code writes the same bytes (and the tessellation cache, keyed by file hash, stays warm).
@@ -25,6 +26,7 @@ import ifcopenshell.api.geometry
 import ifcopenshell.api.project
 import ifcopenshell.api.root
 import ifcopenshell.api.spatial
+import ifcopenshell.api.style
 import ifcopenshell.api.type
 import ifcopenshell.api.unit
 import ifcopenshell.guid
@@ -64,6 +66,22 @@ SITE_OBJECTS: tuple[SiteObject, ...] = (
 )
 """Where the default site's objects stand (the west part of the slab is the work area)."""
 
+SURFACE_COLOURS: dict[str, tuple[float, float, float]] = {
+    "Traffic_Cone_Orange_70cm": (0.95, 0.38, 0.06),
+    "Steel_Drum_55gal": (0.12, 0.27, 0.62),
+    "Wooden_Crate_1200x800x600": (0.62, 0.46, 0.28),
+    "Pallet_Wood_EUR": (0.74, 0.62, 0.44),
+    "Survey_Tripod_Aluminium": (0.88, 0.76, 0.12),
+    "Scaffold_Frame_1000x2000": (0.66, 0.68, 0.70),
+    "Steel_I-Beam_W12x26_A992": (0.56, 0.24, 0.16),
+    "Concrete": (0.68, 0.67, 0.64),
+    "Blockwork": (0.62, 0.61, 0.58),
+    "Slab": (0.58, 0.57, 0.55),
+    "Door": (0.52, 0.36, 0.21),
+}
+"""Surface colours (RGB 0-1) the site's IFC carries as IfcSurfaceStyle on each body, as authoring tools write
+them: per site-object family and per building material. The simulated camera reads them back from the IFC."""
+
 ZONES = (
     # name, (x0, y0, x1, y1), off-limits, kind
     ("Work Zone A - Drilling", (2.0, 1.0, 8.0, 5.0), False, "work"),
@@ -71,11 +89,12 @@ ZONES = (
 )
 
 
-def build_site_ifc(path: str | Path, schema: str = "IFC4") -> Path:
-    """Write the default construction site (IFC4 by default; IFC4X3 also works) atomically; returns the path."""
+def build_site_ifc(path: str | Path, schema: str = "IFC4", *, replace_special: bool = False) -> Path:
+    """Write the default construction site (IFC4 by default; IFC4X3 also works) atomically; returns the path.
+    ``replace_special`` lets it replace a symlink or device node at ``path`` (see ``atomic.write_bytes_atomic``)."""
     builder = _SiteBuilder(schema)
     builder.build()
-    return atomic_write_ifc(builder.ifc, Path(path))
+    return atomic_write_ifc(builder.ifc, Path(path), replace_special=replace_special)
 
 
 def yaw_pose(x: float, y: float, z: float, yaw_deg: float) -> np.ndarray:
@@ -92,6 +111,7 @@ class _SiteBuilder:
 
     def __init__(self, schema: str) -> None:
         self.ifc = ifcopenshell.api.project.create_file(version=schema)
+        self._styles: dict[str, ifcopenshell.entity_instance] = {}
 
     def build(self) -> None:
         self._project()
@@ -132,7 +152,8 @@ class _SiteBuilder:
 
     def _slab(self) -> None:
         slab = self._element("IfcSlab", "Ground Slab 250mm", "FLOOR")
-        self._body(slab, _box(self.ifc, (SITE_LENGTH, SITE_WIDTH, SLAB_DEPTH), (SITE_LENGTH / 2, SITE_WIDTH / 2, 0)))
+        self._body(slab, _box(self.ifc, (SITE_LENGTH, SITE_WIDTH, SLAB_DEPTH), (SITE_LENGTH / 2, SITE_WIDTH / 2, 0)),
+                   "Slab")
         self._place(slab, yaw_pose(0.0, 0.0, -SLAB_DEPTH, 0.0))
 
     def _walls(self) -> dict[str, ifcopenshell.entity_instance]:
@@ -149,7 +170,8 @@ class _SiteBuilder:
         for name, (x, y, yaw, length, thickness) in runs.items():
             family = "Basic Wall:Exterior - Concrete 300mm" if thickness > 0.2 else "Basic Wall:Interior - Blockwork 150mm"
             wall = self._element("IfcWall", name, "SOLIDWALL", family=family, type_class="IfcWallType")
-            self._body(wall, _box(self.ifc, (length, thickness, WALL_HEIGHT), (length / 2, thickness / 2, 0)))
+            self._body(wall, _box(self.ifc, (length, thickness, WALL_HEIGHT), (length / 2, thickness / 2, 0)),
+                       "Concrete" if thickness > 0.2 else "Blockwork")
             self._place(wall, yaw_pose(x, y, 0.0, yaw))
             walls[name] = wall
         return walls
@@ -163,7 +185,7 @@ class _SiteBuilder:
         ifcopenshell.api.feature.add_feature(self.ifc, feature=opening, element=wall)
         door = self._element("IfcDoor", "Door D01", "DOOR", family="Single Flush 1000x2100", type_class="IfcDoorType")
         door.OverallHeight, door.OverallWidth = 2.1, 1.0
-        self._body(door, _box(self.ifc, (1.0, 0.05, 2.1), (0.5, 0.075, 0.0)))
+        self._body(door, _box(self.ifc, (1.0, 0.05, 2.1), (0.5, 0.075, 0.0)), "Door")
         self._place(door, yaw_pose(12.0, 8.0, 0.0, 90.0))
         ifcopenshell.api.feature.add_filling(self.ifc, opening=opening, element=door)
 
@@ -172,7 +194,7 @@ class _SiteBuilder:
             for j, y in enumerate((5.0, 10.0)):
                 column = self._element("IfcColumn", f"Column C{j + 1}{i + 1}", "COLUMN",
                                        family="Concrete Column 400x400", type_class="IfcColumnType")
-                self._body(column, _box(self.ifc, (0.4, 0.4, WALL_HEIGHT), (0.0, 0.0, 0.0)))
+                self._body(column, _box(self.ifc, (0.4, 0.4, WALL_HEIGHT), (0.0, 0.0, 0.0)), "Concrete")
                 self._place(column, yaw_pose(x, y, 0.0, 0.0))
 
     def _zones(self) -> None:
@@ -192,6 +214,7 @@ class _SiteBuilder:
             body = ifcopenshell.api.geometry.add_mesh_representation(
                 self.ifc, context=self.body, vertices=[mesh.vertices.tolist()], faces=[mesh.faces.tolist()])
             ifcopenshell.api.geometry.assign_representation(self.ifc, product=proxy, representation=body)
+            self._paint(body, item.family)
             self._place(proxy, yaw_pose(item.x, item.y, 0.0, item.yaw_deg))
             add_typed_pset(self.ifc, proxy, "BIM2RDT_SiteObject", {"Movable": True, "Layout": "default"})
 
@@ -214,11 +237,27 @@ class _SiteBuilder:
                 return existing
         return ifcopenshell.api.root.create_entity(self.ifc, type_class, name=family, predefined_type="NOTDEFINED")
 
-    def _body(self, product: ifcopenshell.entity_instance, solid: ifcopenshell.entity_instance) -> None:
+    def _body(self, product: ifcopenshell.entity_instance, solid: ifcopenshell.entity_instance,
+              colour: str | None = None) -> None:
         representation = self.ifc.create_entity("IfcShapeRepresentation", ContextOfItems=self.body,
                                                 RepresentationIdentifier="Body", RepresentationType="SweptSolid",
                                                 Items=[solid])
         ifcopenshell.api.geometry.assign_representation(self.ifc, product=product, representation=representation)
+        if colour is not None:
+            self._paint(representation, colour)
+
+    def _paint(self, representation: ifcopenshell.entity_instance, name: str) -> None:
+        """Style every item of ``representation`` with the surface colour ``SURFACE_COLOURS[name]`` (one
+        IfcSurfaceStyle per name, shared)."""
+        styles = self._styles
+        if name not in styles:
+            styles[name] = ifcopenshell.api.style.add_style(self.ifc, name=name)
+            red, green, blue = SURFACE_COLOURS[name]
+            ifcopenshell.api.style.add_surface_style(
+                self.ifc, style=styles[name], ifc_class="IfcSurfaceStyleShading",
+                attributes={"SurfaceColour": {"Name": None, "Red": red, "Green": green, "Blue": blue}})
+        ifcopenshell.api.style.assign_representation_styles(self.ifc, shape_representation=representation,
+                                                            styles=[styles[name]])
 
     def _place(self, product: ifcopenshell.entity_instance, pose: np.ndarray) -> None:
         ifcopenshell.api.geometry.edit_object_placement(self.ifc, product=product, matrix=pose, is_si=True)

@@ -12,6 +12,7 @@ import numpy as np
 
 from bim2rdt.perception.camera import Intrinsics
 from bim2rdt.perception.corners import shi_tomasi
+from bim2rdt.perception.edges import EdgeFilter, depth_at
 from bim2rdt.sim.render import RgbdFrame
 
 
@@ -27,15 +28,20 @@ def object_roi(labels: np.ndarray, index: int, pad: float = 0.1) -> tuple[int, i
 
 
 def object_scene_points(frame: RgbdFrame, intrinsics: Intrinsics, index: int, rng: np.random.Generator,
-                        max_corners: int = 600, clutter_fraction: float = 0.05) -> np.ndarray:
-    """World points (N, 3) for object ``index``: ROI corners with valid depth plus spurious returns.
-    Empty (0, 3) when the object is not visible."""
+                        max_corners: int = 600, clutter_fraction: float = 0.05,
+                        edge_filter: EdgeFilter | None = None) -> np.ndarray:
+    """World points (N, 3) for object ``index``: ROI corners with valid depth plus spurious returns; with
+    ``edge_filter``, a corner on a flying pixel takes the nearest surface's depth beside it
+    (:func:`~bim2rdt.perception.edges.depth_at`). Empty (0, 3) when the object is not visible."""
     roi = object_roi(frame.labels, index)
     if roi is None:
         return np.zeros((0, 3))
     uv = shi_tomasi(frame.gray, roi, max_corners=max_corners)
     pixels = np.round(uv).astype(int)
-    depth = frame.depth[pixels[:, 1], pixels[:, 0]]
+    if edge_filter is None:
+        depth = frame.depth[pixels[:, 1], pixels[:, 0]]
+    else:
+        depth = depth_at(edge_filter.apply(frame.depth), uv)
     seen = np.isfinite(depth)
     points_cam = intrinsics.backproject(uv[seen], depth[seen])
     points_cam = np.vstack([points_cam, _spurious(roi, depth[seen], intrinsics, rng, clutter_fraction)])

@@ -1,0 +1,86 @@
+"""The demo robot's eyes: the simulated RGB-D camera inside the building, and the detector that reads its frames.
+
+Each station's frame is rendered as a robot would send it (the IFC's building around the objects, RGB, time-of-
+flight flying pixels and dropouts, a worker walking through some frames), then handed to the chosen detector:
+
+- ``geometric`` (default): scan-vs-BIM, no weights (:class:`~bim2rdt.perception.GeometricDetector`);
+- ``yoloe``: YOLOE on local weights and prompt embeddings (extra ``yoloe``);
+- ``ideal``: the renderer's own masks with the true families: the upper bound, for comparison only.
+
+Objects perception cannot name ("unknown": a worker, clutter) are not registered against the BIM: they are not
+site objects the BIM could have, and must not become phantom proxies in the twin.
+"""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+
+import numpy as np
+
+from bim2rdt.bim import BimModel
+from bim2rdt.perception import UNKNOWN_FAMILY, Detection, GeometricDetector, Intrinsics, YoloeDetector, \
+    locate_detections
+from bim2rdt.semantics import UprightPrior
+from bim2rdt.sim.ideal import IdealDetector
+from bim2rdt.sim.reality import Reality
+from bim2rdt.sim.render import render_rgbd
+from bim2rdt.sim.scene import SiteScene
+from bim2rdt.sim.tof import TofEffects
+from bim2rdt.sim.workers import worker_in_view
+
+DETECTORS = ("geometric", "yoloe", "ideal")
+WORKER_FRACTION = 0.3
+"""Share of the demo's frames a worker walks through."""
+log = logging.getLogger(__name__)
+
+
+class DemoPerception:
+    """``perceive(station, T_world_camera) -> detections with world points``, the mission's callback: renders
+    the station's frame and runs the detector on it. ``frames`` keeps every rendered frame, ``unknown`` counts
+    the detections left unnamed (workers among them)."""
+
+    def __init__(self, detector: str, model: BimModel, reality: Reality, priors: dict[str, UprightPrior],
+                 seed: int = 0, yoloe: tuple[Path, Path] | None = None, intrinsics: Intrinsics = Intrinsics()):
+        self.model, self.reality, self.intrinsics = model, reality, intrinsics
+        self.detector = _detector(detector, model, reality, priors, yoloe)
+        self.rng = np.random.default_rng([seed, 5])
+        self.frames: list = []
+        self.unknown = 0
+        building = reality.scene.building
+        self._footprints = [p.mesh.bounds[:, :2].ravel() for p in building if p.ifc_class != "IfcSlab"]
+
+    def __call__(self, station: int, T_world_camera: np.ndarray) -> list[Detection]:
+        rendered = render_rgbd(self._scene(T_world_camera), self.intrinsics, T_world_camera, self.rng,
+                               tof=TofEffects())
+        self.frames.append(rendered)
+        if isinstance(self.detector, IdealDetector):
+            self.detector.bind(rendered)
+        found = locate_detections(rendered.as_frame(self.intrinsics), self.model, self.detector, station)
+        named = [d for d in found if d.family != UNKNOWN_FAMILY]
+        self.unknown += len(found) - len(named)
+        return named
+
+    def _scene(self, T_world_camera: np.ndarray) -> SiteScene:
+        scene = self.reality.scene
+        if self.rng.random() >= WORKER_FRACTION:
+            return scene
+        clear = [o.T_world_model[:3, 3] for o in scene.objects]
+        person = worker_in_view(T_world_camera, self.rng, clear, self._footprints)
+        return SiteScene(scene.objects, scene.ground_size, scene.building, [person] if person else [])
+
+
+def _detector(name: str, model: BimModel, reality: Reality, priors: dict[str, UprightPrior],
+              yoloe: tuple[Path, Path] | None):
+    if name == "geometric":
+        return GeometricDetector(model, priors)
+    if name == "ideal":
+        return IdealDetector([t.family for t in reality.truth])
+    if name == "yoloe":
+        if yoloe is None:
+            from bim2rdt.perception import PerceptionError
+
+            raise PerceptionError("demo --detector yoloe needs --yoloe-weights and --yoloe-embeddings (local files)")
+        return YoloeDetector(yoloe[0], yoloe[1], sorted(priors))
+    raise ValueError(f"unknown detector {name!r}; choose one of {', '.join(DETECTORS)}")
+

@@ -1,0 +1,85 @@
+"""What the BIM explains in a depth frame: scan-vs-BIM against the building's permanent elements.
+
+Every pixel's ray is cast into the BIM's walls, slabs, columns and doors (their own IFC meshes, with embree): a
+measured point within ``tolerance`` of the surface the BIM puts on that ray (distance along the surface normal,
+so a floor at grazing incidence is judged as fairly as a wall ahead) is explained; a point in front of it is
+something the BIM does not have; a point behind it (through a door the BIM shows shut) is not an object either.
+Points on the storey's slab, whose height comes from the BIM's slabs (not a constant), are explained too.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import trimesh
+
+from bim2rdt.bim import BimModel
+from bim2rdt.perception.structure import permanent_elements
+
+SLAB_CLASSES = ("IfcSlab", "IfcSlabStandardCase", "IfcSlabElementedCase")
+
+
+class BimStructure:
+    """The model's permanent elements as one ray-castable world mesh, and the tops of its slabs."""
+
+    def __init__(self, model: BimModel) -> None:
+        elements = permanent_elements(model)
+        meshes = [trimesh.Trimesh(*model.mesh(el.global_id), process=False) for el in elements]
+        self.mesh = trimesh.util.concatenate(meshes) if meshes else None
+        self.slabs = [_footprint_and_top(mesh) for el, mesh in zip(elements, meshes) if el.ifc_class in SLAB_CLASSES]
+        self.storey_elevations = sorted(s.elevation for s in model.storeys if s.elevation is not None)
+
+    def slab_height(self, position_world: np.ndarray) -> float:
+        """Height (m) of the floor under ``position_world`` (the camera, an object): the top of the highest
+        slab whose plan covers it and lies below it; else the highest storey elevation below it; else 0."""
+        x, y, z = np.asarray(position_world, dtype=float)[:3]
+        tops = [top for x0, y0, x1, y1, top in self.slabs if x0 <= x <= x1 and y0 <= y <= y1 and top <= z + 0.05]
+        if tops:
+            return max(tops)
+        below = [e for e in self.storey_elevations if e <= z]
+        return below[-1] if below else 0.0
+
+    def cast(self, origin: np.ndarray, directions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Ray parameters (N,) of the first BIM surface along each ray (NaN: none) and its unit normals (N, 3)."""
+        t = np.full(len(directions), np.nan)
+        normals = np.zeros((len(directions), 3))
+        if self.mesh is None or len(directions) == 0:
+            return t, normals
+        face = self.mesh.ray.intersects_first(np.broadcast_to(origin, directions.shape), directions)
+        hit = face >= 0
+        normals[hit] = self.mesh.face_normals[face[hit]]
+        v0 = self.mesh.vertices[self.mesh.faces[face[hit], 0]]
+        t[hit] = np.einsum("ni,ni->n", normals[hit], v0 - origin) / np.einsum("ni,ni->n", normals[hit],
+                                                                               directions[hit])
+        return t, normals
+
+
+_STRUCTURES: dict[tuple[int, str], BimStructure] = {}
+
+
+def structure_for(model: BimModel) -> BimStructure:
+    """The :class:`BimStructure` of ``model``, built once (its mesh and the ray caster's scene are kept)."""
+    key = (id(model), model.digest)
+    if key not in _STRUCTURES:
+        if len(_STRUCTURES) >= 4:
+            _STRUCTURES.pop(next(iter(_STRUCTURES)))
+        _STRUCTURES[key] = BimStructure(model)
+    return _STRUCTURES[key]
+
+
+def explained(structure: BimStructure, origin: np.ndarray, directions: np.ndarray, measured: np.ndarray,
+              tolerance: float, sigma: np.ndarray, slab_height: float, slab_clearance: float) -> np.ndarray:
+    """(N,) bool: rays whose measured point (ray parameter ``measured``, the camera z for pixel rays) the BIM
+    explains: on a permanent surface (within ``tolerance`` m plus 3 x the depth noise ``sigma`` (N,) seen
+    along the surface normal, so a floor at grazing incidence is not given the tolerance of a wall ahead),
+    behind one, or on the slab (below ``slab_height`` + ``slab_clearance``)."""
+    t, normals = structure.cast(origin, directions)
+    points = origin + directions * measured[:, None]
+    along_normal = np.abs(np.einsum("ni,ni->n", directions, normals))
+    with np.errstate(invalid="ignore"):
+        on_or_behind = (measured - t) * along_normal > -(tolerance + 3.0 * sigma * along_normal)
+    return np.where(np.isfinite(t), on_or_behind, False) | (points[:, 2] < slab_height + slab_clearance)
+
+
+def _footprint_and_top(mesh: trimesh.Trimesh) -> tuple[float, float, float, float, float]:
+    (x0, y0, _), (x1, y1, top) = mesh.bounds
+    return float(x0), float(y0), float(x1), float(y1), float(top)

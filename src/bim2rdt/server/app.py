@@ -1,0 +1,95 @@
+"""``create_app``: the FastAPI application of the dashboard and its API.
+
+```python
+app = create_app(twin, monitor, identity=IdentityMap(path, role="safety"), config=ServerConfig(tokens=[...]),
+                 audit_log=Path("var/server/audit.jsonl"))
+uvicorn.run(app, host=config.host, port=config.port)
+```
+
+``twin`` is a ``DigitalTwin`` (or None), ``monitor`` a ``HavMonitor`` (or None): the app adds a sink to the
+monitor so its events reach the live stream as they are committed. The page is the bundle in ``static/``
+(built by ``make web`` from ``web/``); it loads nothing from elsewhere, and its Content-Security-Policy says so.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+from pathlib import Path
+
+from fastapi import FastAPI
+from fastapi.responses import FileResponse, HTMLResponse
+from fastapi.staticfiles import StaticFiles
+
+from bim2rdt import __version__
+from bim2rdt.server.audit import AuditLog
+from bim2rdt.server.auth import TokenBook
+from bim2rdt.server.config import ServerConfig
+from bim2rdt.server.guard import BearerMiddleware
+from bim2rdt.server.hub import Hub, HubSink
+from bim2rdt.server.limits import BodyLimitMiddleware, RateLimiter
+
+STATIC = Path(__file__).parent / "static"
+CSP = ("default-src 'self'; script-src 'self'; style-src 'self'; img-src 'self' data: blob:; "
+       "connect-src 'self'; worker-src 'self' blob:; object-src 'none'; base-uri 'none'; frame-ancestors 'none'")
+"""The page may load and connect to this server only."""
+
+
+def create_app(twin=None, monitor=None, *, identity=None, config: ServerConfig = ServerConfig(),
+               audit_log: Path | None = None, hub: Hub | None = None, record_safety: bool = False) -> FastAPI:
+    """The app over a twin and/or a HAV monitor; ``identity`` (an IdentityMap with role 'safety') enables
+    revealing identities; ``audit_log`` defaults to ``config.audit_log`` (required one way or the other). With
+    ``record_safety`` the monitor's events also go into the twin's history (through the view's lock, so the
+    server's reads never interleave with the monitor thread's writes)."""
+    from bim2rdt.server.safety_view import SafetyView
+    from bim2rdt.server.stream import poll_twin, running, tick_exposure
+    from bim2rdt.server.twin_view import TwinView
+
+    hub = hub or Hub(backlog=config.stream_backlog)
+    twin_view = TwinView(twin) if twin is not None else None
+    safety_view = SafetyView(monitor, identity) if monitor is not None else None
+    if monitor is not None:
+        monitor.sinks.append(HubSink(hub))  # first: the stream hears of an event before anything slower runs
+        if record_safety and twin_view is not None:
+            monitor.sinks.append(twin_view.safety_sink())
+    path = audit_log or config.audit_log
+    if path is None:
+        raise ValueError("create_app needs an audit log path (audit_log= or config.audit_log)")
+
+    @contextlib.asynccontextmanager
+    async def lifespan(app: FastAPI):
+        hub.bind(asyncio.get_running_loop())
+        loops = [poll_twin(twin_view, hub, config.twin_poll_s)] if twin_view else []
+        loops += [tick_exposure(safety_view, hub, config.exposure_period_s)] if safety_view else []
+        async with running(loops):
+            yield
+        if safety_view is not None:
+            safety_view.close()
+
+    app = FastAPI(title="bim2rdt", version=__version__, lifespan=lifespan,
+                  description="The live digital twin of the site and hand-arm vibration exposure. Every /api path "
+                  "but /api/health needs a bearer token (roles: viewer, safety, admin).")
+    app.state.twin, app.state.safety, app.state.hub, app.state.config = twin_view, safety_view, hub, config
+    app.state.audit = AuditLog(path)
+    app.state.limiter = RateLimiter(config.write_rate_per_minute)
+    _add_routes(app)
+    app.add_middleware(BearerMiddleware, tokens=TokenBook((t.name, t.role, t.sha256) for t in config.tokens))
+    app.add_middleware(BodyLimitMiddleware, max_bytes=config.max_body_bytes)
+    return app
+
+
+def _add_routes(app: FastAPI) -> None:
+    from bim2rdt.server import stream  # noqa: F401  (registers /api/stream on the router)
+    from bim2rdt.server.routes import open_router, router
+
+    app.include_router(open_router)
+    app.include_router(router)
+    if (STATIC / "assets").is_dir():
+        app.mount("/assets", StaticFiles(directory=STATIC / "assets"), name="assets")
+
+    @app.get("/", include_in_schema=False)
+    def index():
+        page = STATIC / "index.html"
+        if not page.is_file():
+            return HTMLResponse("<p>The dashboard is not built: run <code>make web</code>.</p>", 503)
+        return FileResponse(page, headers={"Content-Security-Policy": CSP, "Cache-Control": "no-cache"})
