@@ -129,3 +129,19 @@ def test_the_model_index_is_built_once_per_content_and_a_changed_model_gets_its_
     moved = points + [0.0, 0.0, 0.01]
     assert matching.ModelIndex.cached(moved, normals) is not first
     assert np.array_equal(matching.ModelIndex.cached(moved, normals).points, moved)
+
+
+def test_the_lowest_sample_along_any_direction_is_one_of_the_hull_samples():
+    """The resting contact searches only the convex hull's samples; along any direction the lowest of those is
+    the lowest of all. Flat samples span no volume: then every sample is kept."""
+    from bim2rdt.registration.matching import hull_vertices
+
+    rng = np.random.default_rng(0)
+    points = rng.normal(size=(5000, 3)) * (0.6, 0.4, 0.2)
+    hull = hull_vertices(points)
+    assert len(hull) < len(points) // 10
+    directions = rng.normal(size=(200, 3))
+    assert np.array_equal(np.argmin(points @ directions.T, axis=0), hull[np.argmin(points[hull] @ directions.T, axis=0)])
+    flat = points.copy()
+    flat[:, 2] = 0.0
+    assert len(hull_vertices(flat)) == len(flat)

@@ -173,20 +173,23 @@ def _iterate(restarts: _Restarts, active: np.ndarray, problem: Problem, model: m
     up_body = np.einsum("kji,j->ki", T[:, :3, :3], problem.up_world)
     lam = gravity_weight(dst, w, problem.upright_bias * cfg.gravity_gamma0)
     if problem.support_height is not None:
-        scene_body, dst, normals, w = _with_contact_pair(T, up_body, problem, cfg.support_weight,
+        scene_body, dst, normals, w = _with_contact_pair(T, up_body, problem, model.extremes, cfg.support_weight,
                                                          (scene_body, dst, normals, w))
     dR, dt = SOLVERS[cfg.method].step(scene_body, dst, normals, w, up_body, BODY_UP, lam, yaw_only)
     _advance(restarts, active, dR, dt, matching.truncated_score(pairs, cfg.score_distance), cfg, annealing)
 
 
-def _with_contact_pair(T: np.ndarray, up_body: np.ndarray, problem: Problem, support_weight: float, pairs: tuple):
+def _with_contact_pair(T: np.ndarray, up_body: np.ndarray, problem: Problem, extremes: np.ndarray,
+                       support_weight: float, pairs: tuple):
     """Append the contact correspondence to the (scene, model, normal, weight) pair arrays: each restart's lowest
     model point along the world up should touch the slab. Its scene partner is that point dropped onto the slab
     plane and its normal the slab's, so the step sees one point-to-plane residual, the gap between the object
     and its support (a tilted object touches with its lowest edge, so a leaning cone still rests on the slab).
-    Its weight is ``support_weight`` x the data's total weight, the same meaning for 40 points or 400."""
+    Its weight is ``support_weight`` x the data's total weight, the same meaning for 40 points or 400.
+    ``extremes`` are the model samples that can be lowest (its convex hull's)."""
     scene_body, dst, normals, w = pairs
-    contact = problem.model_pts_body[np.argmin(problem.model_pts_body @ up_body.T, axis=0)]  # (k, 3) body
+    hull = problem.model_pts_body[extremes]
+    contact = hull[np.argmin(hull @ up_body.T, axis=0)]  # (k, 3) body
     slab_in_body = problem.support_height - T[:, :3, 3] @ problem.up_world
     gap = np.einsum("ki,ki->k", up_body, contact) - slab_in_body
     on_slab = contact - gap[:, None] * up_body

@@ -14,7 +14,7 @@ from collections import OrderedDict
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import cKDTree
+from scipy.spatial import ConvexHull, QhullError, cKDTree
 
 
 @dataclass
@@ -44,13 +44,16 @@ leg (30 degrees) count, flat faces never do."""
 @dataclass(frozen=True)
 class ModelIndex:
     """The model's surface samples (body frame) with normals, a k-d tree over them, their spacing (m: median
-    nearest-sample distance) and the radius of the surface patch each sample stands for (m)."""
+    nearest-sample distance), the radius of the surface patch each sample stands for (m) and the samples on the
+    convex hull (the lowest sample along any direction is one of them: the resting contact searches those only,
+    ~1 % of 10,000 samples, where a search of all of them cost a tenth of a registration)."""
 
     points: np.ndarray
     normals: np.ndarray
     tree: cKDTree
     spacing: float
     surfel_radius: float
+    extremes: np.ndarray  # indices of the samples on the convex hull (all of them when the samples are flat)
 
     @classmethod
     def cached(cls, points: np.ndarray, normals: np.ndarray) -> ModelIndex:
@@ -74,7 +77,15 @@ class ModelIndex:
         tree = cKDTree(points)
         spacing, _ = tree.query(points[:: max(1, len(points) // 256)], k=2)
         spacing = float(np.median(spacing[:, 1]))
-        return cls(points, normals, tree, spacing, surfel_radius * spacing)
+        return cls(points, normals, tree, spacing, surfel_radius * spacing, hull_vertices(points))
+
+
+def hull_vertices(points: np.ndarray) -> np.ndarray:
+    """Indices of the points on their convex hull; every index when the points span no volume."""
+    try:
+        return np.sort(ConvexHull(points).vertices)
+    except (QhullError, ValueError):
+        return np.arange(len(points))
 
 
 INDEX_CACHE_SIZE = 64
