@@ -141,7 +141,8 @@ def test_the_lowest_sample_along_any_direction_is_one_of_the_hull_samples():
     hull = hull_vertices(points)
     assert len(hull) < len(points) // 10
     directions = rng.normal(size=(200, 3))
-    assert np.array_equal(np.argmin(points @ directions.T, axis=0), hull[np.argmin(points[hull] @ directions.T, axis=0)])
+    lowest_of_hull = hull[np.argmin(points[hull] @ directions.T, axis=0)]
+    assert np.array_equal(np.argmin(points @ directions.T, axis=0), lowest_of_hull)
     flat = points.copy()
     flat[:, 2] = 0.0
     assert len(hull_vertices(flat)) == len(flat)

@@ -69,9 +69,9 @@ def solve_point_to_plane(src, dst, normals, w, g_src, g_dst, lam, yaw_only=False
     Returns dR = exp(omega) (k, 3, 3), dt (k, 3). Degenerate views (one visible plane) are solved by solution
     remapping (X-ICP, Zhang et al. 2016): the step is taken only along eigen-directions of the normal matrix
     (rotation scaled by its lever arm, :func:`_unit_scales`) whose stiffness is at least
-    :data:`DEGENERATE_RATIO` of the stiffest; the others do not move. A ridge alone is not enough: a pallet deck seen from above (all normals
-    up) plus the resting-contact pair leaves in-plane directions with ~1e-7 of the stiffness, and the contact
-    pair's mismatch along them sent the pose 1.4 m away in one step.
+    :data:`DEGENERATE_RATIO` of the stiffest; the others do not move. A ridge alone is not enough: a pallet
+    deck seen from above (all normals up) plus the resting-contact pair leaves in-plane directions with ~1e-7
+    of the stiffness, and the contact pair's mismatch along them sent the pose 1.4 m away in one step.
     """
     r = np.einsum("kni,kni->kn", normals, src - dst)
     J = np.concatenate([np.cross(src, normals), normals], axis=2)  # (k, N, 6)
