@@ -28,9 +28,10 @@ bench: $(STAMP)
 	$(VENV)/bin/bim2rdt bench server
 	$(VENV)/bin/bim2rdt bench perception
 
-# The dashboard's page (web/ -> src/bim2rdt/server/static, committed): needs node 20 and npm from the npm registry.
+# The dashboard's page and the API docs' Swagger UI (web/ -> src/bim2rdt/server/static, committed): needs node 20
+# and npm from the npm registry. --ignore-scripts: swagger-ui-dist's dependency @scarf/scarf would report the install.
 web:
-	cd web && npm ci --no-audit --no-fund && npm run build
+	cd web && npm ci --no-audit --no-fund --ignore-scripts && npm run build
 
 clean:
 	rm -rf $(VENV) out .pytest_cache

@@ -13,6 +13,7 @@ import pytest
 
 from bim2rdt.bim import load_ifc
 from bim2rdt.config import Settings, settings_record
+from bim2rdt.sim.wearables import default_plans, timed_messages
 from bim2rdt.twin import ElementStatus
 
 
@@ -38,19 +39,33 @@ def test_demo_writes_the_twin_report_plots_and_resolved_config(demo_out):
     assert set(recorded) == set(defaults)  # every section, as the run read it (defaults here)
     assert recorded["mission"] == defaults["mission"] and recorded["registration"] == defaults["registration"]
     assert config["settings"]["hav"]["site_secret"] == "***"  # and no secret in a file that travels with results
+    assert config["settings"]["hav"]["raw_retention_s"] == 0.0  # the demo's default, and what its HAV day ran with:
+    assert _raw_rows(out / "state" / "hav.sqlite") == 0  # no raw batch kept once framed
     assert "Robot mission" in stdout and "Hand-arm vibration events" in stdout
 
 
 def test_a_setting_changed_through_the_environment_is_what_runs_and_what_config_json_shows(tmp_path):
     """BIM2RDT_MISSION__MIN_POINTS=100000: no detection has that many points, so the robot sees nothing. (It was
     MIN_FITNESS=0.99 until the geometric detector's clean, building-free points made fitness 1.00 common.)"""
-    env = {**os.environ, "BIM2RDT_MISSION__MIN_POINTS": "100000"}
+    env = {**os.environ, "BIM2RDT_MISSION__MIN_POINTS": "100000", "BIM2RDT_HAV__RAW_RETENTION_S": "3600"}
     result = subprocess.run([sys.executable, "-m", "bim2rdt", "demo", "--out", str(tmp_path), "--trials", "1",
                              "--workers", "1", "--minutes", "1"], capture_output=True, text=True, timeout=600, env=env)
     assert result.returncode == 0, result.stderr
-    assert json.loads((tmp_path / "config.json").read_text())["settings"]["mission"]["min_points"] == 100000
+    settings = json.loads((tmp_path / "config.json").read_text())["settings"]
+    assert settings["mission"]["min_points"] == 100000
+    assert settings["hav"]["raw_retention_s"] == 3600.0  # the user's retention overrides the demo's
+    messages = timed_messages(default_plans(1, 1.0), "demo", 5000.0, 0.0)
+    sent = sum(topic.endswith("/accel") for _, _, topic, _, _ in messages)
+    assert _raw_rows(tmp_path / "state" / "hav.sqlite") == sent  # every batch the wearable sent, kept
     record = json.loads((tmp_path / "site_day.json").read_text())
     assert record["observations"] == [] and len(record["not_seen"]) == 10
+
+
+def _raw_rows(store) -> int:
+    import sqlite3
+
+    with sqlite3.connect(store) as db:
+        return db.execute("SELECT COUNT(*) FROM raw").fetchone()[0]
 
 
 def test_the_robot_finds_the_unplanned_drum_and_flags_what_moved(demo_out):

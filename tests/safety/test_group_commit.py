@@ -57,3 +57,41 @@ def test_a_crash_on_the_in_process_bus_loses_at_most_the_waiting_group(make_moni
     assert lost == pytest.approx(7 * 0.5)
     energy_lost = reference.day(subject, DAY).energy - second.day(subject, DAY).energy
     assert 0 < energy_lost < 10 * 0.5 * 12.0**2  # at most commit_batches x 0.5 s at the drill's a_hv (10 m/s^2)
+
+
+class GroupSink:
+    """A sink that takes groups: each ``emit_many`` call's events, and each lone ``emit`` as a group of one."""
+
+    def __init__(self) -> None:
+        self.groups: list[list] = []
+
+    def emit(self, event) -> None:
+        self.groups.append([event])
+
+    def emit_many(self, events) -> None:
+        self.groups.append(list(events))
+
+
+class EventsPerCommit:
+    """A sink that takes events one by one: how many came after each commit of ``monitor``'s store."""
+
+    def __init__(self, monitor) -> None:
+        self.monitor, self.counts = monitor, {}
+
+    def emit(self, event) -> None:
+        commit = self.monitor.store.commits
+        self.counts[commit] = self.counts.get(commit, 0) + 1
+
+
+def test_a_sink_that_takes_groups_gets_each_commits_events_in_one_call(make_monitor, clock):
+    monitor, events = make_monitor(commit_batches=16, commit_delay_s=10.0, predict_every_s=2.0)
+    groups, per_commit = GroupSink(), EventsPerCommit(monitor)
+    monitor.sinks += [groups, per_commit]
+    monitor.start_session("dev-1", "ana", "hammer_drill")
+    bus = LocalBus().connect()
+    monitor.attach(bus)
+    _publish(bus, plan_batches("dev-1", PLAN))
+    monitor.flush()
+    assert [e for group in groups.groups for e in group] == events.events  # every event, in order
+    assert [len(group) for group in groups.groups] == list(per_commit.counts.values())  # one call per commit
+    assert max(len(group) for group in groups.groups) >= 2, groups.groups  # (else this test shows nothing)

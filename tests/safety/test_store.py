@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from bim2rdt.bus import AccelBatch
 
@@ -48,3 +49,55 @@ def test_raw_int16_batches_are_stored_as_counts_and_restored_bit_for_bit(tmp_pat
     assert back.xyz.dtype == np.float32 and np.array_equal(back.xyz, sent.xyz) and back.scale == sent.scale
     assert np.array_equal(store.raw_batches("w2", 0)[0].xyz, xyz)
     store.close()
+
+
+def _plan(db, sql: str, **params) -> list[str]:
+    return [row[3] for row in db.execute(f"EXPLAIN QUERY PLAN {sql}", params)]
+
+
+def test_a_raw_window_is_a_two_sided_range_on_the_device_time_index(tmp_path):
+    import sqlite3
+
+    from bim2rdt.safety.store import RAW_WINDOW_SQL, ExposureStore
+
+    path = tmp_path / "hav.sqlite"
+    old = sqlite3.connect(path)  # a store made before the index: the raw table, no raw_window index
+    old.execute("CREATE TABLE raw (device TEXT, seq INTEGER, device_time REAL, received_time REAL, fs REAL, "
+                "full_scale REAL, n INTEGER, samples BLOB, scale REAL, PRIMARY KEY (device, seq))")
+    old.close()
+    ExposureStore(path).close()  # opening it migrates it
+    db = sqlite3.connect(path)
+    plan = _plan(db, RAW_WINDOW_SQL, device="w1", start=T0, end=T0 + 10, lookback=61.0)
+    db.close()
+    # without the index: "SEARCH raw USING INDEX sqlite_autoindex_raw_1 (device=?)", every row of the device
+    assert any("USING INDEX raw_window (device=? AND device_time>? AND device_time<?)" in step for step in plan), plan
+    assert not any(step.startswith("SCAN raw") for step in plan), plan
+
+
+def test_a_raw_window_holds_exactly_the_batches_with_samples_in_it(tmp_path):
+    from bim2rdt.safety.store import ExposureStore
+
+    one = np.zeros((2500, 3), np.float32)  # 0.5 s at 5 kHz
+    longest = np.zeros((300_000, 3), np.float32)  # 60 s: the longest batch the bus and the monitor take
+    batches = [AccelBatch("w1", 0, T0 - 100.0, 5000.0, longest, None, T0)]
+    batches += [AccelBatch("w1", k, T0 - 40.0 + 0.5 * (k - 1), 5000.0, one, None, T0) for k in range(1, 200)]
+    batches += [AccelBatch("w2", 0, T0, 5000.0, one, None, T0)]
+    store = ExposureStore(tmp_path / "hav.sqlite")
+    with store.transaction():
+        store.save_raw(batches)
+    expected = [b.seq for b in batches if b.device == "w1" and b.device_time < T0 - 30 and
+                b.device_time + b.duration_s > T0 - 41.5]
+    assert [b.seq for b in store.raw_window("w1", T0 - 41.5, T0 - 30)] == expected == [0, *range(1, 21)]
+    assert [b.seq for b in store.raw_window("w1", T0 - 40.0, T0 - 39.0)] == [1, 2]  # 0 ends at T0 - 40
+    assert [b.seq for b in store.raw_window("w1", T0 - 40.1, T0 - 40.05)] == [0]  # 0 began 59.9 s before
+    store.close()
+
+
+def test_the_monitor_refuses_a_batch_longer_than_the_bus_allows(make_monitor):
+    from bim2rdt.safety import HavError
+
+    monitor, _ = make_monitor()
+    too_long = AccelBatch("dev-1", 0, T0, 100.0, np.zeros((6001, 3), np.float32), 2000.0, T0)  # 60.01 s
+    with pytest.raises(HavError, match="60.01 s of samples: at most 60 s"):
+        monitor.ingest_many([too_long])
+    assert monitor.store.raw_count() == 0

@@ -3,12 +3,14 @@ port (real HTTP), and a token per role."""
 
 from __future__ import annotations
 
+import os
 import time
+from pathlib import Path
 
 import httpx
 import pytest
 
-from server_helpers import SITE_SECRET, config_with_tokens, family_mesh, feed, record_day, vibration
+from server_helpers import CHROMIUM, SITE_SECRET, config_with_tokens, family_mesh, feed, record_day, vibration
 
 
 @pytest.fixture
@@ -52,3 +54,12 @@ def client(served):
     with httpx.Client(base_url=url, timeout=30) as http:
         http.tokens = tokens
         yield http
+
+
+@pytest.fixture
+def chromium() -> str:
+    """Debian's Chromium; in CI (where .ci/run installs it) its absence fails the test instead of skipping it."""
+    if not Path(CHROMIUM).exists():
+        message = f"{CHROMIUM} is absent (apt-get install chromium; .ci/run does)"
+        pytest.fail(message) if os.environ.get("CI") else pytest.skip(message)
+    return CHROMIUM

@@ -16,6 +16,9 @@ FS = 800.0
 """Hz: enough for the Wh weighting's lower bands, cheap to weigh."""
 SITE_SECRET = "test-site-secret"
 T_TWIN = 1_780_000_000.0
+CHROMIUM = "/usr/bin/chromium"
+CHROMIUM_FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
+                  "--disable-component-update", "--disable-sync", "--no-first-run"]
 
 
 def family_mesh(family: str):

@@ -13,23 +13,11 @@ import pytest
 
 import httpx
 
-from server_helpers import SITE_SECRET, T_TWIN, auth, config_with_tokens, feed, vibration
+from server_helpers import CHROMIUM_FLAGS, SITE_SECRET, T_TWIN, auth, config_with_tokens, feed, vibration
 
-CHROMIUM = "/usr/bin/chromium"
-FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
-         "--disable-component-update", "--disable-sync", "--no-first-run"]
 A_HV = 30.0
 """m/s^2: a heavy breaker, so the EAV (180,000 m^2/s^3 of energy) comes after 200 s of samples."""
 
-
-
-@pytest.fixture
-def chromium() -> str:
-    """Debian's Chromium; in CI (where .ci/run installs it) its absence fails the test instead of skipping it."""
-    if not Path(CHROMIUM).exists():
-        message = f"{CHROMIUM} is absent (apt-get install chromium; .ci/run does)"
-        pytest.fail(message) if os.environ.get("CI") else pytest.skip(message)
-    return CHROMIUM
 
 
 @pytest.fixture
@@ -58,7 +46,7 @@ def test_the_page_shows_the_twin_and_warns_the_moment_a_worker_crosses_the_eav(p
     url, tokens, monitor, start = page_server
     shots = []
     with sync_playwright() as playwright:
-        browser = playwright.chromium.launch(executable_path=chromium, args=FLAGS)
+        browser = playwright.chromium.launch(executable_path=chromium, args=CHROMIUM_FLAGS)
         page = browser.new_page(viewport={"width": 1400, "height": 1250})
         requested, errors = [], []
         page.on("request", lambda request: requested.append(request.url))

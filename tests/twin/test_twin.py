@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import signal
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -17,6 +19,7 @@ from bim2rdt.sim.site import ZONES, yaw_pose
 from bim2rdt.twin import MISSING, OBSERVATION, SAFETY, STATUS, DigitalTwin, ElementStatus, TwinError, TwinSink
 
 from twin_helpers import SYMMETRY, T0, family_mesh
+from twin_workers import safety_group
 
 
 @pytest.fixture
@@ -228,6 +231,36 @@ def test_safety_events_join_the_history_of_their_work_zone(twin, site_model):
     assert history[1].data["data"]["day_a8"] == 2.5 and history[1].source == "dev-1"
     assert [e.data["kind"] for e in twin.events(kinds=[SAFETY])] == ["hav.activity_started", "hav.eav_reached",
                                                                      "hav.gap"]
+
+
+def test_a_group_of_safety_events_is_one_transaction_recorded_whole_or_not_at_all(twin, site_model, monkeypatch):
+    zone = next(z for z in site_model.zones if z.name == ZONES[0][0])
+    group = safety_group(zone.name)
+    with pytest.raises(TwinError, match="finite"):
+        TwinSink(twin).emit_many([*group, Event("hav.eav_reached", math.nan, "worker-a1", "dev-1", {})])
+    assert twin.events(kinds=[SAFETY]) == []  # none of the group, not even the good events before the bad one
+    writes, writing = [], twin.store.writing
+    monkeypatch.setattr(twin.store, "writing", lambda: writes.append(1) or writing())
+    TwinSink(twin).emit_many(group)
+    stored = twin.events(kinds=[SAFETY])
+    assert len(writes) == 1 and [e.data["kind"] for e in stored] == [e.kind for e in group]
+    assert [e.seq for e in stored] == [stored[0].seq + k for k in range(len(group))]
+    assert [e.data["kind"] for e in twin.history(zone.global_id)] == ["hav.activity_started", "hav.eav_predicted"]
+
+
+def test_a_group_is_in_the_history_once_the_sink_returns_even_if_the_process_dies_then(site_ifc, site_model,
+                                                                                        tmp_path):
+    import subprocess
+    import sys
+
+    url, zone = f"sqlite:///{tmp_path / 'twin.db'}", ZONES[0][0]
+    code = ("import sys; sys.path[:0] = sys.argv[1:2]; from twin_workers import record_group_and_die; "
+            "record_group_and_die(*sys.argv[2:])")
+    died = subprocess.run([sys.executable, "-c", code, str(Path(__file__).parent), url, str(site_ifc),
+                           str(tmp_path / "cache"), zone], capture_output=True, text=True, timeout=240)
+    assert died.returncode == -signal.SIGKILL and died.stdout == "recorded\n", died.stderr
+    with DigitalTwin.open(url, site_model) as reopened:
+        assert [e.data["kind"] for e in reopened.events(kinds=[SAFETY])] == [e.kind for e in safety_group(zone)]
 
 
 def test_events_serve_a_poller_by_seq_and_a_reader_by_time(twin, site_model):

@@ -1,10 +1,15 @@
-"""A robot process for the concurrency test: opens the shared twin and records a burst of observations."""
+"""Processes of the twin tests: a robot recording a burst of observations into the shared twin (concurrency), and
+a monitor process that records a group of safety events and dies at once (crash)."""
 
 from __future__ import annotations
 
+import os
+import signal
+import sys
 from pathlib import Path
 
 from bim2rdt.bim import load_ifc
+from bim2rdt.bus import Event
 from bim2rdt.perception.observation import Observation
 from bim2rdt.sim.site import yaw_pose
 from bim2rdt.twin import DigitalTwin
@@ -29,3 +34,21 @@ def record_burst(url: str, ifc_path: str, cache_dir: str, robot: int, count: int
             pose[0, 3] += 0.2 * ((step // len(proxies) + robot) % 2)
             twin.record(Observation(el.family, el.global_id, pose, 0.005, 0.9, 100, station=robot,
                                     frames=(step,)), T0 + step + 0.25 * robot)
+
+
+def safety_group(zone: str | None) -> list[Event]:
+    return [Event("hav.activity_started", T0, "worker-a1", "dev-1", {"zone": zone, "tool": "breaker"}),
+            Event("hav.eav_predicted", T0 + 60, "worker-a1", "dev-1", {"zone": zone, "seconds_to_eav": 840.0}),
+            Event("hav.gap", T0 + 61, "worker-b2", "dev-2", {})]
+
+
+def record_group_and_die(url: str, ifc_path: str, cache_dir: str, zone: str) -> None:
+    """Record :func:`safety_group` through the twin's sink in one call, say so, then die without closing anything
+    (SIGKILL: no handler, no flush, no clean close runs)."""
+    from bim2rdt.twin import TwinSink
+
+    twin = DigitalTwin.open(url, load_ifc(Path(ifc_path), cache_dir=Path(cache_dir)))
+    TwinSink(twin).emit_many(safety_group(zone))
+    print("recorded", flush=True)
+    sys.stdout.flush()
+    os.kill(os.getpid(), signal.SIGKILL)

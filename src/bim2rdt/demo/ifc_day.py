@@ -75,11 +75,12 @@ def run_ifc_demo(ifc_path: Path, out_dir: Path, seed: int = 0, workers: int = 1,
 
     from bim2rdt.atomic import write_bytes_atomic
     from bim2rdt.bench.registration.runs import versions
-    from bim2rdt.config import get_settings, settings_record
+    from bim2rdt.config import settings_record
     from bim2rdt.demo.run import DemoResult, _html
+    from bim2rdt.demo.settings import demo_settings
     from bim2rdt.demo.site_report import write_site_report
 
-    out_dir, settings = Path(out_dir), get_settings()
+    out_dir, settings = Path(out_dir), demo_settings()
     day = run_ifc_day(Path(ifc_path), out_dir, seed=seed, workers=workers, minutes=minutes,
                       mission_config=settings.mission, icp=settings.registration, twin_config=settings.twin, tick=tick)
     report = write_site_report(day, out_dir)

@@ -5,7 +5,8 @@
    exposure plot, ``site_day.json`` and ``report.md``;
 2. the paper's four registration scenarios (ICP vs SG-ICP, a few trials) with a before/after plot each, in
    ``registration/``;
-3. the settings that ran (``Settings``: every section, secrets masked), seed and versions in ``config.json``;
+3. the settings that ran (``Settings`` with the demo's defaults, :mod:`bim2rdt.demo.settings`: every section,
+   secrets masked), seed and versions in ``config.json``;
 4. ``report.html``: the self-contained report (plan map, deviations with tolerances, ICP vs SG-ICP, A(8) per
    worker, links to the twin IFC, BCF issues and maps).
 """
@@ -38,11 +39,12 @@ def run_demo(out_dir: Path, trials: int = DEMO_TRIALS, seed: int = DEMO_SEED, wo
     """Run the site day and the registration scenarios into ``out_dir`` (created), with the settings read once
     from the environment; the robot reads its frames with ``detector`` (``yoloe``: local weights and prompt
     embeddings). ``config.json`` records those settings (secrets masked), the detector, the seed and the versions."""
-    from bim2rdt.config import get_settings, settings_record
+    from bim2rdt.config import settings_record
+    from bim2rdt.demo.settings import demo_settings
     from bim2rdt.demo.site_report import write_site_report
 
     out_dir = Path(out_dir)
-    settings = get_settings()
+    settings = demo_settings()
     day = run_site_day(out_dir, seed=seed, workers=workers, minutes=minutes, mission_config=settings.mission,
                        icp=settings.registration, twin_config=settings.twin, tick=tick, detector=detector,
                        yoloe=yoloe)

@@ -99,13 +99,13 @@ def _hav_day(twin: DigitalTwin, state_dir: Path, workers: int, minutes: float, f
     """Simulated wearables -> in-process bus -> monitor -> events into the twin's history; the workers work in
     ``zone`` (a zone name of the model, or None)."""
     from bim2rdt.bus import LocalBus
-    from bim2rdt.config import get_settings
+    from bim2rdt.demo.settings import demo_settings
     from bim2rdt.safety import HavMonitor, ListSink
     from bim2rdt.sim.wearables import default_plans, publish_plans
     from bim2rdt.twin import TwinSink
 
     shutil.rmtree(state_dir, ignore_errors=True)
-    settings = get_settings()
+    settings = demo_settings()  # what config.json records: the demo's raw retention unless the environment sets one
     events = ListSink()
     monitor = HavMonitor(state_dir, settings.hav.site_secret, [events, TwinSink(twin)],
                          settings.hav.monitor_config(keep_timeline=True))

@@ -19,17 +19,18 @@ from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 
 from bim2rdt.bus.event import Event
-from bim2rdt.bus.payloads import AccelBatch, PayloadError, decode_status
+from bim2rdt.bus.payloads import MAX_BATCH_S, AccelBatch, PayloadError, decode_status
 from bim2rdt.bus.topics import device_of
 from bim2rdt.safety.activity import ActivityState, DayState, utc_day
 from bim2rdt.safety.config import MonitorConfig
 from bim2rdt.safety.deadletters import DeadLetters, MalformedMessages
 from bim2rdt.safety.engine import ExposureEngine, Outcome
+from bim2rdt.safety.errors import HavError
 from bim2rdt.safety.mounting import MountingCorrection
 from bim2rdt.safety.persistence import MonitorJournal
 from bim2rdt.safety.privacy import IdentityMap
 from bim2rdt.safety.sessions import ISO_POSITIONS, Session, SessionBook
-from bim2rdt.safety.sinks import EventSink
+from bim2rdt.safety.sinks import EventSink, emit_all
 from bim2rdt.safety.store import ExposureStore
 from bim2rdt.safety.subscriber import BusSubscriber
 from bim2rdt.safety.weighting import require_weighable_rate
@@ -100,10 +101,14 @@ class HavMonitor:
 
     def ingest_many(self, batches: Iterable[AccelBatch], now: float | None = None) -> list[Event]:
         """Take batches from any devices in any order; returns (and emits) the events they caused. HavError,
-        before any state changes, if a batch's rate is too low to weigh."""
+        before any state changes, if a batch's rate is too low to weigh or it holds more than ``MAX_BATCH_S``
+        of samples (as the bus refuses: the store finds a raw window's batches within that reach)."""
         batches = list(batches)
         for batch in batches:
             require_weighable_rate(batch.fs)
+            if not batch.duration_s <= MAX_BATCH_S:
+                raise HavError(f"batch {batch.seq} of {batch.device} holds {batch.duration_s:g} s of samples: at "
+                               f"most {MAX_BATCH_S:g} s")
         with self._lock:
             now = self.clock() if now is None else now
             outcome = self._engine.push(batches, now)
@@ -242,10 +247,9 @@ class HavMonitor:
 
     # --- internals ---------------------------------------------------------------------------------------
     def _commit(self, outcome: Outcome, now: float | None = None, sessions: dict[str, Session] | None = None) -> None:
-        """Persist what a call changed in one transaction, then hand its events to the sinks."""
+        """Persist what a call changed in one transaction, then hand its events to the sinks (as one group to a
+        sink that takes groups: see :func:`~bim2rdt.safety.sinks.emit_all`)."""
         now = self.clock() if now is None else now
         self._journal.commit(self._engine, outcome.accepted, outcome.streams.values(), outcome.events, now, sessions,
                              self._dead.take_dirty())
-        for event in outcome.events:
-            for sink in self.sinks:
-                sink.emit(event)
+        emit_all(self.sinks, outcome.events)

@@ -1,4 +1,6 @@
 """Where the monitor's events go: strategies with one method, ``emit(event)``; the monitor loop has no ifs.
+A sink that gains from groups also has ``emit_many(events)``: :func:`emit_all` hands it each commit's events in one
+call (the twin's sink records them in one transaction), and every other sink one event at a time.
 
 ``ListSink`` keeps them (tests, the analyze command), ``BusSink`` publishes them as JSON on
 ``site/{site}/safety/events``, ``CallbackSink`` hands them to a function (the CLI's live table). The IFC sink
@@ -7,7 +9,7 @@ that turns them into IfcEvent/IfcTask records lives in :mod:`bim2rdt.safety.ifc_
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterable, Sequence
 from typing import Protocol
 
 from bim2rdt.bus.event import Event
@@ -16,6 +18,20 @@ from bim2rdt.bus.topics import events_topic
 
 class EventSink(Protocol):
     def emit(self, event: Event) -> None: ...
+
+
+def emit_all(sinks: Iterable[EventSink], events: Sequence[Event]) -> None:
+    """Hand one commit's events to each sink in turn, in order: in one ``emit_many`` call to a sink that has it,
+    else one ``emit`` per event."""
+    if not events:
+        return
+    for sink in sinks:
+        many = getattr(sink, "emit_many", None)
+        if many is not None:
+            many(events)
+            continue
+        for event in events:
+            sink.emit(event)
 
 
 class ListSink:

@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from bim2rdt.bus.event import Event
-from bim2rdt.bus.payloads import AccelBatch
+from bim2rdt.bus.payloads import MAX_BATCH_S, AccelBatch
 
 PAGE_SIZE = 16384
 """Bytes per SQLite page. A 0.5 s int16 batch at 5 kHz is 15 kB: on 4 kB pages it spans an overflow chain of
@@ -32,6 +32,7 @@ CREATE TABLE IF NOT EXISTS raw (device TEXT, seq INTEGER, device_time REAL, rece
     full_scale REAL, n INTEGER, samples BLOB, scale REAL, PRIMARY KEY (device, seq));
 DROP INDEX IF EXISTS raw_received;
 CREATE INDEX IF NOT EXISTS raw_expiry ON raw (received_time, device, seq);
+CREATE INDEX IF NOT EXISTS raw_window ON raw (device, device_time);
 CREATE TABLE IF NOT EXISTS streams (device TEXT PRIMARY KEY, state TEXT, filter BLOB);
 CREATE TABLE IF NOT EXISTS days (subject TEXT, day TEXT, energy REAL, seconds REAL, eav_at REAL, elv_at REAL,
     hands TEXT, PRIMARY KEY (subject, day));
@@ -42,6 +43,16 @@ CREATE TABLE IF NOT EXISTS events (id INTEGER PRIMARY KEY AUTOINCREMENT, kind TE
 CREATE TABLE IF NOT EXISTS corrections (subject TEXT, position TEXT, fit TEXT, PRIMARY KEY (subject, position));
 CREATE TABLE IF NOT EXISTS malformed (device TEXT PRIMARY KEY, count INTEGER, last_reason TEXT, last_received REAL);
 """
+
+
+WINDOW_LOOKBACK_S = MAX_BATCH_S + 1.0
+"""Seconds before a window's start where a batch reaching into the window may begin: batches hold at most
+``MAX_BATCH_S`` of samples (the bus refuses longer ones, ``HavMonitor.ingest_many`` too), plus rounding."""
+RAW_WINDOW_SQL = ("SELECT device, seq, device_time, received_time, fs, full_scale, n, samples, scale FROM raw "
+                  "WHERE device = :device AND device_time > :start - :lookback AND device_time < :end "
+                  "AND device_time + n / fs > :start ORDER BY seq")
+"""A device's batches with samples in device time [start, end): a range on the ``raw_window`` index (device,
+device_time) bounded on both sides, never a scan of the device's whole raw history."""
 
 
 class ExposureStore:
@@ -111,9 +122,8 @@ class ExposureStore:
     def raw_window(self, device: str, start: float, end: float) -> list[AccelBatch]:
         """The device's kept batches with samples in device time [start, end), in seq order (the dashboard's
         raw sensor window; what retention already dropped is not there)."""
-        rows = self._db.execute("SELECT device, seq, device_time, received_time, fs, full_scale, n, samples, scale "
-                                "FROM raw WHERE device = ? AND device_time < ? AND device_time + n / fs > ? "
-                                "ORDER BY seq", (device, end, start)).fetchall()
+        rows = self._db.execute(RAW_WINDOW_SQL, {"device": device, "start": start, "end": end,
+                                                 "lookback": WINDOW_LOOKBACK_S}).fetchall()
         return [AccelBatch(d, s, t, fs, _xyz(blob, n, scale), fsc, rt, scale)
                 for d, s, t, rt, fs, fsc, n, blob, scale in rows]
 

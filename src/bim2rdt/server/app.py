@@ -9,12 +9,15 @@ uvicorn.run(app, host=config.host, port=config.port)
 ``twin`` is a ``DigitalTwin`` (or None), ``monitor`` a ``HavMonitor`` (or None): the app adds a sink to the
 monitor so its events reach the live stream as they are committed. The page is the bundle in ``static/``
 (built by ``make web`` from ``web/``); it loads nothing from elsewhere, and its Content-Security-Policy says so.
+The API docs at ``/docs`` are Swagger UI from the same bundle (``static/swagger``: the npm package swagger-ui-dist),
+under a policy as strict; FastAPI's own docs pages (Swagger UI and ReDoc from a CDN) are off.
 """
 
 from __future__ import annotations
 
 import asyncio
 import contextlib
+import html
 from pathlib import Path
 
 from fastapi import FastAPI
@@ -33,6 +36,17 @@ STATIC = Path(__file__).parent / "static"
 CSP = ("default-src 'self'; script-src 'self'; style-src 'self'; img-src 'self' data: blob:; "
        "connect-src 'self'; worker-src 'self' blob:; object-src 'none'; base-uri 'none'; frame-ancestors 'none'")
 """The page may load and connect to this server only."""
+DOCS_CSP = ("default-src 'self'; script-src 'self'; style-src 'self'; img-src 'self' data:; connect-src 'self'; "
+            "object-src 'none'; base-uri 'none'; frame-ancestors 'none'")
+"""The API docs page (Swagger UI) may load and connect to this server only (its CSS draws icons as data: SVG)."""
+DOCS_PAGE = """<!doctype html>
+<html lang="en">
+<head><meta charset="utf-8"><title>{title} API</title><link rel="icon" href="data:,">
+<link rel="stylesheet" href="/swagger/swagger-ui.css"></head>
+<body><div id="swagger-ui" data-spec="{spec}"></div>
+<script src="/swagger/swagger-ui-bundle.js"></script><script src="/swagger/swagger-init.js"></script></body>
+</html>
+"""
 
 
 def create_app(twin=None, monitor=None, *, identity=None, config: ServerConfig = ServerConfig(),
@@ -66,7 +80,7 @@ def create_app(twin=None, monitor=None, *, identity=None, config: ServerConfig =
         if safety_view is not None:
             safety_view.close()
 
-    app = FastAPI(title="bim2rdt", version=__version__, lifespan=lifespan,
+    app = FastAPI(title="bim2rdt", version=__version__, lifespan=lifespan, docs_url=None, redoc_url=None,
                   description="The live digital twin of the site and hand-arm vibration exposure. Every /api path "
                   "but /api/health needs a bearer token (roles: viewer, safety, admin).")
     app.state.twin, app.state.safety, app.state.hub, app.state.config = twin_view, safety_view, hub, config
@@ -93,3 +107,13 @@ def _add_routes(app: FastAPI) -> None:
         if not page.is_file():
             return HTMLResponse("<p>The dashboard is not built: run <code>make web</code>.</p>", 503)
         return FileResponse(page, headers={"Content-Security-Policy": CSP, "Cache-Control": "no-cache"})
+
+    if (STATIC / "swagger").is_dir():
+        app.mount("/swagger", StaticFiles(directory=STATIC / "swagger"), name="swagger")
+
+    @app.get("/docs", include_in_schema=False)
+    def docs():
+        if not (STATIC / "swagger").is_dir():
+            return HTMLResponse("<p>The API docs are not built: run <code>make web</code>.</p>", 503)
+        page = DOCS_PAGE.format(title=html.escape(app.title), spec=html.escape(app.openapi_url))
+        return HTMLResponse(page, headers={"Content-Security-Policy": DOCS_CSP, "Cache-Control": "no-cache"})

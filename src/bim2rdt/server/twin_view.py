@@ -80,13 +80,17 @@ class TwinView:
                 for e in wanted]
 
     def safety_sink(self):
-        """A monitor sink that appends each safety event to the twin's history, under this view's lock."""
+        """A monitor sink that appends each safety event to the twin's history, under this view's lock (a monitor
+        commit's events in one transaction)."""
         view = self
 
         class LockedTwinSink:
             def emit(self, event) -> None:
+                self.emit_many([event])
+
+            def emit_many(self, events) -> None:
                 with view._lock:
-                    view.twin.record_event(event)
+                    view.twin.record_events(events)
 
         return LockedTwinSink()
 

@@ -5,6 +5,7 @@ twin = DigitalTwin.open("sqlite:///out/twin.db", model)   # or postgresql+psycop
 twin.record(observation, time)        # a perception Observation; judged against the BIM and appended
 twin.mark_missing(global_id, time)    # its place was seen empty
 twin.record_event(event)              # a safety event (bus.Event) of the HAV monitor
+twin.record_events(events)            # several (one monitor commit's) in one transaction
 twin.state(at=None)                   # {global_id: ElementState}: the present, or as it was at time `at`
 twin.history(global_id)               # every recorded change of one element, oldest first
 twin.events(since=None, after=0)      # the history as a feed (``after`` a seq: for pollers)
@@ -146,11 +147,13 @@ class DigitalTwin:
     def record_event(self, event: Event) -> TwinEvent:
         """Append a safety event of the HAV monitor; it joins the history of the work zone (or element) its
         ``data["zone"]`` names, if the BIM has it."""
-        when = _checked_time(event.time)
-        body = json.loads(event.to_json())
-        related = self._zone_of(event.data.get("zone"))
-        return self._write(lambda writer: [writer.append(
-            NewEvent(SAFETY, when, related, event.source or "hav-monitor", body))])[0]
+        return self.record_events([event])[0]
+
+    def record_events(self, events: Iterable[Event]) -> list[TwinEvent]:
+        """Append safety events (as :meth:`record_event`) in one transaction, in order: the events of one monitor
+        commit cost one synced write, and they are recorded all together or, on any error, none of them."""
+        new = [self._safety_event(event) for event in events]
+        return self._write(lambda writer: writer.append_all(new)) if new else []
 
     # ---- reading ------------------------------------------------------------------------------------------
 
@@ -257,6 +260,11 @@ class DigitalTwin:
             change = {"from": previous.value, "to": status.value, "event": appended[0].seq}
             appended.append(writer.append(NewEvent(STATUS, event.time, event.global_id, event.source, change)))
         return appended
+
+    def _safety_event(self, event: Event) -> NewEvent:
+        when = _checked_time(event.time)
+        related = self._zone_of(event.data.get("zone"))
+        return NewEvent(SAFETY, when, related, event.source or "hav-monitor", json.loads(event.to_json()))
 
     def _known(self, global_id: str) -> BimElement | None:
         """The BIM element, or None for an object the twin found that the BIM lacks; TwinError otherwise."""
