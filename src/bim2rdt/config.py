@@ -21,6 +21,7 @@ from pydantic_settings import BaseSettings, SettingsConfigDict
 from pydantic_settings.exceptions import SettingsError
 
 from bim2rdt.errors import Bim2RdtError
+from bim2rdt.localization.config import LocalizationConfig
 from bim2rdt.mission.config import MissionConfig
 from bim2rdt.registration.config import IcpConfig
 from bim2rdt.safety.config import MonitorConfig
@@ -89,6 +90,7 @@ class Settings(BaseSettings):
     hav: HavSettings = HavSettings()
     mqtt: MqttSettings = MqttSettings()
     registration: IcpConfig = IcpConfig()
+    localization: LocalizationConfig = LocalizationConfig()
     mission: MissionConfig = MissionConfig()
     twin: TwinConfig = TwinConfig()
     server: ServerConfig = ServerConfig()

@@ -16,6 +16,7 @@ from typing import Protocol
 
 from bim2rdt.bim.integrity import DANGLING
 from bim2rdt.bim.model import BimModel
+from bim2rdt.bim.map_classes import in_map, map_elements
 
 PASS, WARN, UNAVAILABLE = "pass", "warn", "unavailable"
 EXAMPLES = 10
@@ -46,7 +47,8 @@ class ReadinessCheck:
 def check_readiness(model: BimModel, priors: PriorTable | None) -> list[ReadinessCheck]:
     """All checks on a read model; ``priors`` None reports the prior-table check as unavailable."""
     return [_no_family(model), _no_storey(model), _storeys_without_elevation(model), _unknown_families(model, priors),
-            _off_limits_zones(model), _geometry_failures(model), _dangling_references(model), _geo_reference(model)]
+            _off_limits_zones(model), _geometry_failures(model), _dangling_references(model), _geo_reference(model),
+            _localization_map(model)]
 
 
 def _check(name: str, offenders: list[str], what: str, total: int) -> ReadinessCheck:
@@ -120,3 +122,21 @@ def _geo_reference(model: BimModel) -> ReadinessCheck:
         return ReadinessCheck("geo-reference", PASS, f"IfcSite reference point {frame.latitude_deg:.6f}, "
                               f"{frame.longitude_deg:.6f}, true north {frame.true_north_deg:.1f} deg")
     return ReadinessCheck("geo-reference", WARN, "no IfcMapConversion and no IfcSite reference point")
+
+
+def _localization_map(model: BimModel) -> ReadinessCheck:
+    """The robot localizes on the permanent structure (walls, columns, slabs, stairs, door frames): a model
+    without any gives it no map, and it would run on drifting odometry alone."""
+    name = "permanent elements to localize on"
+    if model.meshes is None:
+        mapped = [el for el in model.elements if in_map(el)]
+        if not mapped:
+            return ReadinessCheck(name, WARN, "no walls, columns, slabs, stairs or doors: the robot has no map to "
+                                  "localize on (odometry only)")
+        return ReadinessCheck(name, UNAVAILABLE, f"{len(mapped)} permanent elements, bodies not checked "
+                              "(--no-geometry)")
+    mapped = map_elements(model)
+    if not mapped:
+        return ReadinessCheck(name, WARN, "no walls, columns, slabs, stairs or doors with a body: the robot has no "
+                              "map to localize on (odometry only)")
+    return ReadinessCheck(name, PASS, f"{len(mapped)} permanent elements with a body")

@@ -87,7 +87,17 @@ def _show_site_day(result) -> None:
         summary = result.site_day.route.summary()
         print_table(f"Robot route: {summary['stations']} stations, {summary['walked_m']} m walked on planned paths; "
                     "replans", ("time (UTC)", "at (x, y) m", "why"), route_rows(result.site_day.route))
+    _show_localization(result.site_day)
     events = [e for e in result.site_day.hav_events if not e.kind.endswith("predicted")]
     print_table("Hand-arm vibration events (written to the twin as IfcEvent/IfcTask)",
                 ("event", "worker", "A(8) m/s²"),
                 [(e.kind, e.subject[:8], f"{e.data.get('day_a8', float('nan')):.2f}") for e in events])
+
+
+def _show_localization(day) -> None:
+    from bim2rdt.demo.localization_report import localization_record, localization_tables
+
+    if day.localization is not None:
+        for title, columns, rows in localization_tables(localization_record(day.localization, day.mission,
+                                                                            day.reality.truth)):
+            print_table(title, columns, rows)

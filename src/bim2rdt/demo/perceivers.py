@@ -14,6 +14,7 @@ site objects the BIM could have, and must not become phantom proxies in the twin
 from __future__ import annotations
 
 import logging
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -24,7 +25,7 @@ from bim2rdt.perception import UNKNOWN_FAMILY, Detection, GeometricDetector, Int
 from bim2rdt.semantics import UprightPrior
 from bim2rdt.sim.ideal import IdealDetector
 from bim2rdt.sim.reality import Reality
-from bim2rdt.sim.render import render_rgbd
+from bim2rdt.sim.render import RgbdFrame, render_rgbd
 from bim2rdt.sim.scene import SiteScene
 from bim2rdt.sim.tof import TofEffects
 from bim2rdt.sim.workers import worker_in_view
@@ -51,12 +52,22 @@ class DemoPerception:
         self._footprints = [p.mesh.bounds[:, :2].ravel() for p in building if p.ifc_class != "IfcSlab"]
 
     def __call__(self, station: int, T_world_camera: np.ndarray) -> list[Detection]:
+        return self.detect(station, self.render(T_world_camera), T_world_camera)
+
+    def render(self, T_world_camera: np.ndarray) -> RgbdFrame:
+        """The frame the camera sends from ``T_world_camera`` (where it truly is)."""
         rendered = render_rgbd(self._scene(T_world_camera), self.intrinsics, T_world_camera, self.rng,
                                tof=TofEffects())
         self.frames.append(rendered)
+        return rendered
+
+    def detect(self, station: int, rendered: RgbdFrame, T_world_camera: np.ndarray) -> list[Detection]:
+        """The named detections in ``rendered``, placed from ``T_world_camera``: where the robot believes the
+        camera was, which on drifting odometry is not where it was rendered (:mod:`bim2rdt.demo.localized`)."""
         if isinstance(self.detector, IdealDetector):
             self.detector.bind(rendered)
-        found = locate_detections(rendered.as_frame(self.intrinsics), self.model, self.detector, station)
+        frame = replace(rendered, T_world_camera=T_world_camera).as_frame(self.intrinsics)
+        found = locate_detections(frame, self.model, self.detector, station)
         named = [d for d in found if d.family != UNKNOWN_FAMILY]
         self.unknown += len(found) - len(named)
         return named

@@ -4,8 +4,9 @@
 2. Semantics: family names -> detector labels and upright priors (offline knowledge base).
 3. Robot: the as-built site (objects moved, one knocked over, one unplanned) is seen from stations that see
    their objects over the walls, toured by path length and walked on planned paths, replanned around what the
-   robot finds and around workers while their tools run (:mod:`bim2rdt.demo.routes`); corners in each detection
-   become points; SG-ICP registers each BIM object; deviations are judged.
+   robot finds and around workers while their tools run (:mod:`bim2rdt.demo.routes`), on drifting odometry with
+   a fix on the BIM after each walk (:mod:`bim2rdt.demo.localized`); corners in each detection become points
+   placed from that estimate; SG-ICP registers each BIM object; deviations are judged.
 4. Twin: every observation is recorded into the day's twin (``twin.db``, :mod:`bim2rdt.demo.site_twin`), which
    judges it against its tolerance preset.
 5. Safety (run first, so the robot's keep-out zones follow the monitor's events): wearables stream hand-arm
@@ -23,9 +24,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from bim2rdt.bim import BimModel, load_ifc
+from bim2rdt.demo.localized import MissionLocalization, localized_mission
 from bim2rdt.demo.routes import UNPLANNED_DRUM_XY, DayRoute, plan_day_route
 from bim2rdt.demo.site_twin import TwinFiles, export_day_twin, ifc_records, open_day_twin, record_mission
-from bim2rdt.mission import MissionConfig, MissionResult, Target, run_mission
+from bim2rdt.mission import MissionConfig, MissionResult, Target
 from bim2rdt.registration import IcpConfig
 from bim2rdt.semantics import KnowledgeBasePriors, UprightPrior
 from bim2rdt.sim.meshes import mesh_for_family
@@ -54,6 +56,7 @@ class SiteDay:
     twin: DigitalTwin | None = None
     twin_files: TwinFiles | None = None
     route: DayRoute | None = None
+    localization: MissionLocalization | None = None  # the robot's fixes, and the dead-reckoning comparison run
 
 
 def objects_of_interest(model: BimModel) -> list[Target]:
@@ -83,15 +86,23 @@ def run_site_day(out_dir: Path, seed: int = 0, workers: int = 2, minutes: float 
     twin = open_day_twin(out_dir, model, priors, twin_config)
     events, timeline = _hav_day(twin, out_dir / "state", workers, minutes, fs)
     tick("hav")
-    route = plan_day_route(model, targets, ROBOT_START_XY, mission_config, events, _shift_start())
-    perceive = DemoPerception(detector, model, reality, priors, seed, yoloe)
-    mission = run_mission(targets, route.plan.stations, perceive, priors, mesh_for_family, route.config, icp,
-                          tick=lambda: tick("station"), route=route.route)
+
+    def route_for_today() -> DayRoute:
+        return plan_day_route(model, targets, ROBOT_START_XY, mission_config, events, _shift_start())
+
+    def perception() -> DemoPerception:
+        return DemoPerception(detector, model, reality, priors, seed, yoloe)
+
+    route = route_for_today()
+    mission, localization = localized_mission(targets, route.plan.stations, model, perception, priors,
+                                              mesh_for_family, route.config, ROBOT_START_XY, seed, icp,
+                                              tick=lambda: tick("station"), route=route.route,
+                                              comparison_route=route_for_today().route)
     record_mission(twin, mission.observations, mission.stations, times=route.route.arrivals)
     tick("twin")
     files = export_day_twin(twin, out_dir)
     return SiteDay(model, priors, reality, mission, files.ifc, events, timeline, ifc_records(files.ifc), twin, files,
-                   route)
+                   route, localization)
 
 
 def _hav_day(twin: DigitalTwin, state_dir: Path, workers: int, minutes: float, fs: float,

@@ -15,6 +15,8 @@ import numpy as np  # noqa: E402
 
 from bim2rdt.atomic import write_bytes_atomic  # noqa: E402
 from bim2rdt.safety import EAV, ELV  # noqa: E402
+from bim2rdt.demo.localization_report import (localization_markdown, localization_record,  # noqa: E402
+                                              plot_localization)
 from bim2rdt.demo.plan_map import outline  # noqa: E402
 from bim2rdt.demo.routes import draw_walk, route_markdown, write_route_files  # noqa: E402
 from bim2rdt.demo.site_day import SiteDay, objects_of_interest  # noqa: E402
@@ -77,10 +79,15 @@ def write_site_report(day: SiteDay, out_dir: Path) -> dict[str, Path]:
               "twin_records": day.twin_records, "route": day.route.summary() if day.route else None}
     if day.route is not None:
         paths.update(write_route_files(day, out_dir))
+    localization = ""
+    if day.localization is not None:
+        record["localization"] = localization_record(day.localization, day.mission, day.reality.truth)
+        paths["localization"] = plot_localization(record["localization"], out_dir / "localization.png")
+        localization = localization_markdown(record["localization"])
     paths["json"] = out_dir / "site_day.json"
     write_bytes_atomic(paths["json"], json.dumps(record, indent=2, default=float).encode("utf-8"))
     paths["report"] = out_dir / "report.md"
-    write_bytes_atomic(paths["report"], _markdown(day, rows, record).encode("utf-8"))
+    write_bytes_atomic(paths["report"], (_markdown(day, rows, record) + localization).encode("utf-8"))
     return paths
 
 

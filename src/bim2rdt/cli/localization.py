@@ -1,0 +1,106 @@
+"""`bim2rdt bench localization`: a 100 m tour on drifting odometry; dead reckoning, BIM fixes and the fused
+estimate against distance walked, time per frame, check shots, and Open3D's point-to-plane ICP as the peer."""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import typer
+
+from bim2rdt.cli.common import console, print_json, print_table, writable_folder
+
+
+def register(app: typer.Typer, bench_app: typer.Typer) -> None:
+    bench_app.command("localization")(bench_localization)
+
+
+def bench_localization(
+    distance: float = typer.Option(100.0, "--distance", min=5.0, help="Metres of tour to walk (laps of the "
+                                                                       "embedded site's stations)."),
+    seed: int = typer.Option(0, "--seed", min=0, help="Seed of the odometry drift, moved site objects and noise."),
+    tolerance: float = typer.Option(0.01, "--tolerance", min=0.0, help="How far the built walls, columns and slab "
+                                    "stand off the BIM (1 sigma per axis, m); 0 = built exactly as modelled."),
+    out: Path = typer.Option(Path("out/bench/localization"), "--out", callback=writable_folder,
+                             help="Folder for the plot, results.json and the site it ran on."),
+    peers: bool | None = typer.Option(None, "--peers/--no-peers",
+                                      help="Run Open3D too (default: when open3d is importable)."),
+    one_core: bool = typer.Option(True, "--one-core/--all-cores",
+                                  help="Pin the process to one CPU: the per-frame target is for one core."),
+    as_json: bool = typer.Option(False, "--json", help="Print JSON instead of tables."),
+) -> None:
+    """Walk the tour, localize every station on the BIM, fuse with odometry, and print errors and targets."""
+    from bim2rdt.atomic import write_bytes_atomic
+    from bim2rdt.bench.localization.peers import Open3dPointToPlane
+    from bim2rdt.bench.localization.run import run_record, run_tour
+    from bim2rdt.bench.localization.summary import plot_errors
+    from bim2rdt.cli.registration import _open3d_available, progress
+    from bim2rdt.config import get_settings
+    from bim2rdt.sim.tour import tour_poses
+
+    if one_core and hasattr(os, "sched_setaffinity"):
+        os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
+    config = get_settings().localization
+    methods = [Open3dPointToPlane(config, visible_only=False), Open3dPointToPlane(config, visible_only=True)] \
+        if (_open3d_available() if peers is None else peers) else []
+    with progress(len(tour_poses(distance)), "localization tour") as tick:
+        run = run_tour(out, seed, distance, config, methods, tick=tick, tolerance=tolerance)
+    record = run_record(run)
+    write_bytes_atomic(out / "results.json", json.dumps(record, indent=2, default=float).encode("utf-8"))
+    plot = plot_errors(run, out / "errors.png")
+    if as_json:
+        print_json(record)
+        return
+    show_record(record)
+    console.print(f"plot {plot}, results.json in {out}")
+
+
+def show_record(record: dict) -> None:
+    """Per-station errors against distance walked, the summary, and the targets."""
+    names = record["peers"]
+    rows = []
+    for s in record["stations"]:
+        fix = s["fix"]
+        rows.append((s["index"], f"{s['walked']:.1f}", _cm(s["dead_reckoning"]), _cm(s["prior"]),
+                     _cm(fix) if fix else f"refused: {s['reason'][:40]}" if s["reason"] else "-",
+                     (s["degenerate"] or "") if s["looks"] == 1 else f"{s['degenerate'] or ''} +{s['looks'] - 1} look",
+                     _cm(s["fused"]), f"{s['fix_seconds']:.3f}",
+                     "-" if not s["check_shots"] else f"{s['check_residual'] * 100:.2f}{' FLAG' if s['check_flagged'] else ''}",
+                     *[_cm(s["peers"][name][0]) for name in names]))
+    print_table("Camera error (position cm / yaw deg) against distance walked",
+                ["#", "walked m", "dead reckoning", "prior", "BIM fix", "free dirs", "fused", "fix s",
+                 "check shot cm", *names], rows)
+    summary = record["summary"]
+    bim, fused, dead = summary["bim"], summary["fused"], summary["dead_reckoning"]
+    lines = [("dead reckoning", f"{dead['final_position'] * 100:.1f} cm / {dead['final_yaw_deg']:.2f} deg at the end",
+              f"worst {dead['worst_position'] * 100:.1f} cm"),
+             ("BIM fix", f"median {bim['median_position'] * 100:.2f} cm / {bim['median_yaw_deg']:.3f} deg "
+                         f"(horizontal {bim['median_horizontal'] * 100:.2f} cm, height {bim['median_abs_height'] * 100:.2f} cm)",
+              f"{bim['fixes']} fixes ({bim['degenerate']} degenerate), {bim['refused']} refused; across constrained "
+              f"directions median {bim['median_position_constrained'] * 100:.2f} cm, worst "
+              f"{bim['worst_position_constrained'] * 100:.2f} cm; {bim['median_seconds']:.3f} s per frame"),
+             ("fused", f"worst {fused['worst_position'] * 100:.2f} cm, median {fused['median_position'] * 100:.2f} cm",
+              f"worst yaw {fused['worst_yaw_deg']:.3f} deg; looked around at {fused['looked_around']} stations "
+              f"(worst {fused['worst_position_first_look'] * 100:.2f} cm after the first look alone)"),
+             ("check shots", f"{summary['check_shots']['stations_checked']} stations saw landmarks",
+              f"flagged (> 3 cm): {summary['check_shots']['flagged'] or 'none'}")]
+    for name, peer in summary["peers"].items():
+        lines.append((name, f"median {peer['median_position'] * 100:.2f} cm / {peer['median_yaw_deg']:.3f} deg",
+                      f"worst {_metres(peer['worst_position'])}, {peer['locked']} stations > 10 cm off, "
+                      f"{peer['median_seconds']:.3f} s per frame"))
+    print_table(f"Summary after {summary['walked']:.0f} m ({summary['stations']} stations, seed {record['seed']}, "
+                f"building {record['as_built_tolerance'] * 100:.1f} cm off its BIM)",
+                ["estimate", "error", "detail"], lines)
+    print_table("Targets", ["target", "result", "detail"],
+                [(t["name"], "PASS" if t["passed"] else "FAIL", t["detail"]) for t in record["targets"]])
+
+
+def _cm(error: dict) -> str:
+    if error["position"] > 10.0:
+        return "lost (> 10 m)"
+    return f"{error['position'] * 100:.2f} / {error['yaw_deg']:+.2f}"
+
+
+def _metres(value: float) -> str:
+    return "lost (> 10 m)" if value > 10.0 else f"{value * 100:.1f} cm"
