@@ -61,3 +61,18 @@ def test_hops_find_the_pallet_the_restarts_left_a_few_degrees_off(s4_pallets):
             return pose_error(o.family, found.pose, o.T_world_model, o.symmetry_order)
         assert not error(IcpConfig(hop_rounds=0)).success()
         assert error(IcpConfig()).success()
+
+
+def test_a_single_restart_never_hops(s4_pallets, monkeypatch):
+    """One start is a local fit from a trusted pose (localization's camera fix, a refit from the last pose): the
+    caller has said where the basin is. With restarts, the same view does hop."""
+    from bim2rdt.registration import icp
+
+    model, pallets, bias = s4_pallets
+    hops = []
+    monkeypatch.setattr(icp, "hop", lambda best, *args: hops.append(best) or best)
+    o = pallets[1]
+    register(*model, o.scene_pts_world, o.T_init, upright_bias=bias, config=IcpConfig(restarts=1))
+    assert hops == []
+    register(*model, o.scene_pts_world, o.T_init, upright_bias=bias, config=IcpConfig())
+    assert len(hops) == 1

@@ -112,7 +112,7 @@ class IcpConfig(BaseModel):
                     "kept pose turned by +-1 and +-2 hop_yaw_deg and shifted +-hop_shift along its own x and y "
                     "axes; a hop replaces the kept pose only when it scores clearly lower (hop_sigmas, hop_gain). "
                     "A pallet's yaw basin (boards 10 cm apart) is ~5 degrees, narrower than any affordable restart "
-                    "spacing: S4's SG-ICP success 69 -> 85 % (50 trials). 0 = off.")
+                    "spacing: S4's SG-ICP success 69 -> 85 % (50 trials). Never with restarts=1 (a local fit). 0 = off.")
     hop_sigmas: float = Field(
         1.0, ge=0.0, description="A hop must score lower than the kept pose by more than this many standard errors "
                                  "of the paired per-point difference (at 2, S4's pallet stayed at 65 %) ...")

@@ -105,7 +105,7 @@ def register(model_points, model_normals, scene_points, init=np.eye(4), up=(0.0,
     restarts = _search(yaw_restarts(start, centroid, problem.up_world, cfg), problem, model, normals_world, cfg,
                        yaw_only)
     best = _keep_best(restarts, problem, model, cfg)
-    if agreeing(restarts, best.pose, centroid) < cfg.hop_unless_agreeing:
+    if cfg.restarts > 1 and agreeing(restarts, best.pose, centroid) < cfg.hop_unless_agreeing:
         best = hop(best, problem, model, normals_world, cfg, yaw_only)
     if 0.0 < problem.upright_bias < 1.0 and not yaw_only and cfg.release_iterations > 0:
         best = _release_if_leaning(best, problem, model, normals_world, cfg)
@@ -136,7 +136,9 @@ def hop(best: RegistrationResult, problem: Problem, model: matching.ModelIndex, 
     On a pallet the restarts' spacing (22 degrees) is far wider than the yaw basin between deck boards (~5
     degrees), so every restart can end a few degrees or one board off (S4: the kept pose scored 103-141 where
     the truth scores 66-86, x 1e-6 m^2); hops of 3-6 degrees and 4 cm step across. ``register`` hops only
-    when fewer than ``hop_unless_agreeing`` surviving restarts ended where the kept one did."""
+    when fewer than ``hop_unless_agreeing`` surviving restarts ended where the kept one did, and never with a
+    single restart: hops widen the restarts' search, and a caller asking for one start (a local fit from a
+    trusted pose, localization's yaw-only camera fix) has said where the basin is."""
     centroid = problem.model_pts_body.mean(axis=0)
     for _ in range(cfg.hop_rounds):
         hops = _search(hop_starts(best.pose, centroid, problem.up_world, cfg), problem, model, normals_world, cfg,
