@@ -69,6 +69,16 @@ def test_an_unusable_cache_dir_is_one_line_before_the_model_is_read(site_ifc_pat
     assert result.stderr.startswith("error: BIM2RDT_CACHE_DIR: cannot write into ")
 
 
+@pytest.mark.parametrize("data", ["{tmp}/a_file/below", "/proc/bim2rdt-data"], ids=["under a file", "in /proc"])
+def test_an_unusable_data_dir_names_the_variable_before_the_hav_run(tmp_path, data):
+    (tmp_path / "a_file").write_text("not a folder")
+    result = _cli("sim", "wearables", "--dev", "--workers", "1", "--minutes", "1",
+                  BIM2RDT_DATA_DIR=data.format(tmp=tmp_path))
+    assert result.returncode == 1 and result.stderr.count("\n") == 1, result.stderr
+    assert result.stderr.startswith("error: BIM2RDT_DATA_DIR: cannot write into ")
+    assert "activity_started" not in result.stdout
+
+
 def test_usable_folder_creates_the_folder_and_leaves_nothing_in_it(tmp_path):
     from bim2rdt.config import usable_folder
 
@@ -79,15 +89,15 @@ def test_usable_folder_creates_the_folder_and_leaves_nothing_in_it(tmp_path):
 def test_the_missions_knobs_are_a_settings_section_read_from_the_environment(monkeypatch):
     from bim2rdt.mission import MissionConfig
 
-    monkeypatch.setenv("BIM2RDT_MISSION__MOVED_TRANSLATION", "0.12")
+    monkeypatch.setenv("BIM2RDT_MISSION__MERGE_DISTANCE", "0.12")
     settings = get_settings()
-    assert isinstance(settings.mission, MissionConfig) and settings.mission.moved_translation == 0.12
+    assert isinstance(settings.mission, MissionConfig) and settings.mission.merge_distance == 0.12
     assert settings.mission.standoff == MissionConfig().standoff
 
 
 def test_a_misspelt_mission_setting_is_refused_naming_it(monkeypatch):
-    monkeypatch.setenv("BIM2RDT_MISSION__MOVED_TRANSLATON", "0.12")
-    with pytest.raises(ConfigError, match=r"^BIM2RDT_MISSION__MOVED_TRANSLATON: Extra inputs are not permitted"):
+    monkeypatch.setenv("BIM2RDT_MISSION__MERGE_DISTANSE", "0.12")
+    with pytest.raises(ConfigError, match=r"^BIM2RDT_MISSION__MERGE_DISTANSE: Extra inputs are not permitted"):
         get_settings()
 
 

@@ -3,9 +3,13 @@
 from __future__ import annotations
 
 import os
+import signal
 import socket
 import subprocess
 import sys
+import time
+
+from pathlib import Path
 
 import pytest
 
@@ -84,3 +88,41 @@ def test_dev_runs_a_broker_with_the_defaults():
     result = run_cli("hav", "broker", "--dev", "--port", str(port), "--duration", "1")
     assert result.returncode == 0, result.stderr
     assert f"mosquitto on 127.0.0.1:{port}" in result.stdout
+
+
+@pytest.mark.parametrize("signum", [signal.SIGHUP, signal.SIGTERM, signal.SIGINT])
+def test_hav_broker_stopped_by_a_signal_leaves_no_mosquitto_and_no_folder(tmp_path, signum):
+    """SIGHUP is what a closed terminal sends: it must stop mosquitto and remove the password file like Ctrl-C."""
+    port, mosquitto = free_port(), None
+    command = subprocess.Popen([sys.executable, "-m", "bim2rdt", "hav", "broker", "--port", str(port)],
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                               env={**os.environ, **ENV, "TMPDIR": str(tmp_path)})
+    try:
+        assert "mosquitto on" in command.stdout.readline()
+        folders = list(tmp_path.glob("bim2rdt-mosquitto-*"))
+        assert len(folders) == 1 and (folders[0] / "passwd").exists()
+        mosquitto = int(Path(f"/proc/{command.pid}/task/{command.pid}/children").read_text().split()[0])
+        command.send_signal(signum)
+        command.wait(timeout=30)
+        deadline = time.monotonic() + 5
+        while _alive(mosquitto) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        orphaned = _alive(mosquitto)
+    finally:
+        if command.poll() is None:
+            command.kill()
+        if _alive(mosquitto):
+            os.kill(mosquitto, signal.SIGTERM)  # the test's own orphan, never left serving the port
+    assert not orphaned, "mosquitto outlived the command"
+    assert command.returncode == 0, command.stderr.read()
+    assert not folders[0].exists()
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", port))  # the port is free again
+
+
+def _alive(pid: int | None) -> bool:
+    """Whether the process runs (a zombie waiting for its reaper counts as gone)."""
+    try:
+        return pid is not None and Path(f"/proc/{pid}/stat").read_text().split(") ")[1][0] != "Z"
+    except (FileNotFoundError, IndexError):
+        return False

@@ -49,11 +49,13 @@ def test_site_onto_a_path_that_cannot_take_a_file_is_one_line(tmp_path, where, e
 
 
 @pytest.mark.parametrize("command", [("site",), ("demo", "--out"), ("bench", "registration", "--out"),
-                                     ("plan", "site.ifc", "--out"), ("twin", "export", "site.ifc", "--out")])
+                                     ("plan", "site.ifc", "--out"), ("twin", "export", "site.ifc", "--out"),
+                                     ("hav", "analyze", "day.csv", "--out")])
 def test_an_empty_output_path_is_a_usage_error_not_the_current_folder(tmp_path, command):
     result = subprocess.run([sys.executable, "-m", "bim2rdt", *command, ""], capture_output=True, text=True,
                             timeout=120, cwd=tmp_path)
     assert result.returncode == 2 and "an empty path" in result.stderr
+    assert result.stderr.startswith("error: ") and len(result.stderr.strip().splitlines()) == 1, result.stderr
     assert os.listdir(tmp_path) == []
 
 

@@ -71,7 +71,8 @@ def _raw_rows(store) -> int:
 def test_the_robot_finds_the_unplanned_drum_and_flags_what_moved(demo_out):
     record = json.loads((demo_out[0] / "site_day.json").read_text())
     rows = record["observations"]
-    assert len(rows) == 11 and record["not_seen"] == []  # 10 BIM objects and the unplanned drum, each once
+    # 9 BIM objects on site, the one taken away (missing) and the unplanned drum, each once
+    assert len(rows) == 11 and record["not_seen"] == []
     assert all(r["truth"] is not None for r in rows)  # and each matches a true object: no phantom, no duplicate
     new = [r for r in rows if r["status"] == ElementStatus.NEW]
     assert len(new) == 1 and new[0]["truth"] == "unplanned" and new[0]["error_translation_m"] < 0.03
@@ -83,6 +84,33 @@ def test_the_robot_finds_the_unplanned_drum_and_flags_what_moved(demo_out):
     # an unchanged object the view cannot pin down (the pallet: its deck boards say nothing about where it lies
     # along them) is unverified along that axis, with the reason, never deviating (issue 13)
     assert all(r["reason"].startswith("along ") for r in unchanged if r["status"] == ElementStatus.UNVERIFIED)
+
+
+def test_the_object_taken_off_the_site_is_missing_and_the_simulators_scoring_agrees(demo_out):
+    """The reality removed one planned object; the robot saw its place empty (its depth, no truth) and reports
+    it missing with its evidence; scored afterwards, that element is the one the simulator took away, and the
+    twin, the BCF and the report say the same."""
+    from bcf.v2.bcfxml import BcfXml
+
+    from bim2rdt.twin import DigitalTwin
+
+    out = demo_out[0]
+    rows = json.loads((out / "site_day.json").read_text())["observations"]
+    missing = [r for r in rows if r["status"] == ElementStatus.MISSING]
+    assert len(missing) == 1 and missing[0]["truth"] == "removed"
+    assert missing[0]["see_through"] >= 0.8 and missing[0]["station"] in missing[0]["frames"]
+    assert all(r["truth"] != "removed" for r in rows if r["status"] != ElementStatus.MISSING)
+    gid = missing[0]["global_id"]
+    with DigitalTwin.open(f"sqlite:///{out / 'twin.db'}", load_ifc(out / "site.ifc", geometry=False)) as twin:
+        state = twin.state()[gid]
+        kinds = [e.kind for e in twin.history(gid)]
+    assert state.status is ElementStatus.MISSING and state.evidence.station == missing[0]["station"]
+    assert state.evidence.camera is not None and kinds == ["missing", "status"]
+    bcf = BcfXml.load(out / "site_issues.bcf")
+    titles = [t.topic.title for t in bcf.topics.values()]
+    bcf.close()
+    assert sum(title.startswith("Missing") for title in titles) == 1
+    assert "| missing | removed |" in (out / "report.md").read_text()
 
 
 def test_the_knocked_cone_keeps_its_tilt_under_its_low_upright_bias(demo_out):
@@ -103,7 +131,7 @@ def test_the_twin_ifc_holds_measured_placements_the_new_proxy_and_safety_records
     moved = [r for r in record["observations"] if r["status"] == ElementStatus.DEVIATING]
     for row in moved:
         before, after = designed.element(row["global_id"]).placement, twin.element(row["global_id"]).placement
-        assert np.linalg.norm(after[:2, 3] - before[:2, 3]) == pytest.approx(row["shift_m"], abs=1e-3)
+        assert np.linalg.norm(after[:3, 3] - before[:3, 3]) == pytest.approx(row["shift_m"], abs=1e-3)
     proxies = lambda m: [e for e in m.elements if e.ifc_class == "IfcBuildingElementProxy"]  # noqa: E731
     assert len(proxies(twin)) == len(proxies(designed)) + 1
     added = next(e for e in proxies(twin) if e.global_id not in {p.global_id for p in proxies(designed)})
@@ -142,7 +170,8 @@ def test_the_day_is_recorded_in_the_twin_and_exported_as_ifc_bcf_json_and_html(d
         if row["global_id"] is not None:
             assert states[row["global_id"]].status.value == row["status"]
     assert sum(s.status.value == "new" for s in states.values()) == sum(r["status"] == "new" for r in rows)
-    assert sum(e.kind == "observation" for e in events) == len(rows)
+    assert sum(e.kind == "observation" for e in events) == sum(r["status"] != "missing" for r in rows)
+    assert sum(e.kind == "missing" for e in events) == sum(r["status"] == "missing" for r in rows) == 1
     assert any(e.kind == "safety" and e.data["kind"] == "hav.eav_reached" for e in events)
     issues = sum(s.status.value in ("deviating", "missing", "new") for s in states.values())
     bcf = BcfXml.load(out / "site_issues.bcf")

@@ -4,6 +4,7 @@ the robot walks room to room through the doors, never through a wall, and the tw
 
 from __future__ import annotations
 
+import json
 import subprocess
 import sys
 
@@ -57,6 +58,25 @@ def test_every_placed_object_is_seen_and_judged(fzk_day):
     assert len(new) <= 1 and all(obs.family == "Steel_Drum_55gal" for obs in new)   # only the unplanned drum
 
 
+def test_the_robot_sees_the_house_through_the_embedded_days_camera_and_detector_and_judges_right(fzk_day):
+    """demo --ifc reads its frames as the embedded day does: the camera inside the building (walls in view),
+    the geometric detector, no ideal masks. Scored afterwards against the simulator: what moved or was knocked
+    is deviating, what did not is as planned."""
+    from bim2rdt.demo.site_report import observation_rows
+
+    day, _ = fzk_day
+    assert day.reality.scene.building
+    rows = observation_rows(day)
+    assert rows and all(r["truth"] is not None for r in rows)
+    assert all(r["status"] == "deviating" for r in rows if r["truth"] in ("moved", "knocked"))
+    assert all(r["status"] == "as planned" for r in rows if r["truth"] == "unchanged")
+
+
+def test_the_ifc_day_takes_the_embedded_days_detectors(samples, tmp_path):
+    with pytest.raises(ValueError, match="unknown detector 'oracle'; choose one of geometric, yoloe, ideal"):
+        run_ifc_day(samples / "AC20-FZK-Haus.ifc", tmp_path, workers=1, minutes=1.0, detector="oracle")
+
+
 def test_an_ifc2x3_building_runs_without_ifc_write_back_and_says_why(samples, tmp_path):
     result = run_cli("demo", "--ifc", str(samples / "Duplex_A_20110907.ifc"), "--out", str(tmp_path),
                      "--workers", "1", "--minutes", "2")
@@ -64,6 +84,7 @@ def test_an_ifc2x3_building_runs_without_ifc_write_back_and_says_why(samples, tm
     assert "not written back (IFC2X3: IFC write-back needs IFC4)" in result.stdout
     assert not (tmp_path / "site_twin.ifc").exists() and (tmp_path / "site.ifc").is_file()
     assert "IFC write-back needs IFC4" in (tmp_path / "report.md").read_text()
+    assert json.loads((tmp_path / "config.json").read_text())["detector"] == "geometric"
 
 
 def test_a_building_with_no_floor_to_stand_on_is_a_one_line_error(samples, tmp_path):

@@ -59,3 +59,26 @@ def test_two_objects_of_one_family_side_by_side_stay_two_observations():
     centres = sorted(obs.pose[0, 3] for obs in result.observations)
     assert centres == pytest.approx([-0.45, 0.45], abs=0.03)
     assert all(obs.frames == (0, 1) for obs in result.observations)
+
+
+def test_a_fit_with_no_inlier_is_unverified_with_the_reason_and_the_twin_takes_it(monkeypatch, site_model, tmp_path):
+    """A partial view behind a wall can leave no point within the inlier radius of the fitted model (the
+    registration says rmse inf, fitness 0). The mission calls that unverified and says why; it never stops the
+    day, and the twin records it."""
+    import dataclasses
+    import math
+
+    from bim2rdt.mission import run as mission_run
+    from bim2rdt.twin import DigitalTwin, ElementStatus
+
+    real_fit = mission_run.best_fit
+
+    def no_inlier(*args, **kwargs):
+        return dataclasses.replace(real_fit(*args, **kwargs), rmse=math.inf, fitness=0.0)
+
+    monkeypatch.setattr(mission_run, "best_fit", no_inlier)
+    result = _mission(_reality((CRATE, 0.0, 0.0, 0.3)), _stations((2.6, -0.6)))
+    observation = result.observations[0]
+    assert observation.status is ElementStatus.UNVERIFIED and observation.reason.startswith("(no inlier")
+    with DigitalTwin.open(f"sqlite:///{tmp_path / 'twin.db'}", site_model) as twin:
+        assert twin.record(observation, 0.0).status is ElementStatus.UNVERIFIED

@@ -131,3 +131,23 @@ def test_a_shift_the_view_does_see_is_a_deviation_even_when_another_direction_is
     assert judge(crate, _fit_seen(pose(0.3, 0.0), ["+x"]), 1, MissionConfig()).status is ElementStatus.DEVIATING
     along_face = judge(crate, _fit_seen(pose(0.0, 0.3), ["+x"]), 1, MissionConfig())
     assert along_face.status is ElementStatus.UNVERIFIED and "along y" in along_face.reason
+
+
+def test_two_moved_drums_of_one_frame_are_assigned_jointly_not_nearest_first():
+    """The demo's seed 5 (ideal detector): drum A moved 30 cm towards drum B's place, drum B moved 57 cm away.
+    Nearest-first gives A's detection B's element and leaves B's detection none in reach (a phantom new drum);
+    the frame's joint assignment gives each its own."""
+    from bim2rdt.mission.association import preferred_targets
+
+    drum = "Steel_Drum_55gal"
+    a, b = target("A", drum, 15.5, 2.5), target("B", drum, 16.4, 2.6)
+    rng = np.random.default_rng(0)
+    seen_a, seen_b = (Detection(drum, rng.normal([x, y, 0.4], [0.05, 0.05, 0.2], (80, 3)), 7)
+                      for x, y in ((15.96, 2.85), (17.22, 2.94)))
+    greedy: set[str] = set()
+    assert associate(seen_a, [a, b], greedy, MissionConfig()).global_id == "B"
+    assert associate(seen_b, [a, b], greedy, MissionConfig()) is None
+    preferred = preferred_targets([seen_a, seen_b], [a, b], MissionConfig())
+    joint: set[str] = set()
+    assert associate(seen_a, [a, b], joint, MissionConfig(), preferred).global_id == "A"
+    assert associate(seen_b, [a, b], joint, MissionConfig(), preferred).global_id == "B"

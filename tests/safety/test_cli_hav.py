@@ -9,6 +9,7 @@ import socket
 import subprocess
 import sys
 import threading
+from pathlib import Path
 
 import pytest
 
@@ -179,6 +180,33 @@ def test_a_twin_target_that_cannot_be_written_fails_before_the_simulation(tmp_pa
     assert result.returncode == 1 and len(result.stderr.strip().splitlines()) == 1, result.stderr
     assert "twin" in result.stderr or "folder" in result.stderr
     assert "activity_started" not in result.stdout
+
+
+def _special(tmp_path, kind: str) -> Path:
+    """A twin target the atomic write would refuse to replace: a symlink, a device node or a FIFO."""
+    if kind == "symlink":
+        (tmp_path / "elsewhere.ifc").write_text("keep me")
+        (tmp_path / "link.ifc").symlink_to(tmp_path / "elsewhere.ifc")
+        return tmp_path / "link.ifc"
+    if kind == "fifo":
+        os.mkfifo(tmp_path / "pipe.ifc")
+        return tmp_path / "pipe.ifc"
+    return Path("/dev/full")
+
+
+@pytest.mark.parametrize("kind", ["symlink", "device", "fifo"])
+def test_a_twin_target_that_is_no_regular_file_fails_before_the_run(tmp_path, cli_env, kind):
+    site = build_site_ifc(tmp_path / "site.ifc")
+    out = str(_special(tmp_path, kind))
+    simulated = run_cli("sim", "wearables", "--workers", "3", "--minutes", "600", "--ifc", str(site), "--out", out,
+                        env=cli_env, timeout=60)  # 10 hours of simulation if the check came after the run
+    listened = run_cli("hav", "listen", "--mqtt", "127.0.0.1:1", "--ifc", str(site), "--out", out, env=cli_env)
+    for result in (simulated, listened):  # listen: nothing listens on port 1, so connecting first would fail there
+        assert result.returncode == 1 and len(result.stderr.strip().splitlines()) == 1, result.stderr
+        assert {"symlink": "symlink", "device": "character device", "fifo": "FIFO"}[kind] in result.stderr
+    assert "activity_started" not in simulated.stdout
+    if kind == "symlink":
+        assert (tmp_path / "elsewhere.ifc").read_text() == "keep me"
 
 
 def test_hav_listen_checks_the_twin_target_before_connecting(tmp_path, cli_env):

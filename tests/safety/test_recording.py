@@ -53,6 +53,15 @@ def test_data_in_g_is_converted_with_a_note(tmp_path, grinding):
     assert read_accel_csv(tmp_path / "g.csv", units="m/s2").units == "m/s2"  # the user may say otherwise
 
 
+def test_explicit_units_that_gravity_contradicts_run_with_a_warning(tmp_path, grinding):
+    in_g = write_accel_csv(tmp_path / "g.csv", grinding / GRAVITY, FS)
+    metres = write_accel_csv(tmp_path / "ms2.csv", grinding, FS)
+    for path, units, looks in ((in_g, "m/s2", "g"), (metres, "g", "m/s2")):
+        notes = read_accel_csv(path, units=units).notes
+        assert len(notes) == 1 and f"--units {units} given" in notes[0] and f"gravity in {looks}" in notes[0]
+    assert read_accel_csv(in_g, units="g").notes == read_accel_csv(metres, units="m/s2").notes == []
+
+
 @pytest.mark.parametrize("factor", [1e19, 1000.0, 0.3])
 def test_values_in_no_known_unit_are_refused(tmp_path, grinding, factor):
     path = write_accel_csv(tmp_path / "odd.csv", grinding * factor, FS)

@@ -9,7 +9,7 @@ import struct
 import numpy as np
 import pytest
 
-from bim2rdt.bus import accel_topic, encode_accel
+from bim2rdt.bus import accel_topic, encode_accel, status_topic
 from bim2rdt.bus.payloads import MAGIC
 from bim2rdt.safety import ELV
 
@@ -108,3 +108,89 @@ def test_an_int16_batch_with_an_impossible_scale_is_an_artefact_not_exposure(mak
     assert "hav.elv_reached" not in sink.kinds()
     kinds = {k for e in sink.events if e.kind == "hav.artefact" for k in e.data["kinds"]}
     assert "impossible" in kinds
+
+
+# --- a restart that resets the device clock (a clock counting from boot) -------------------------------------------
+REBOOT_AT = 28  # the device restarts after 14 s: its seq and its clock start over
+
+
+def _clock_reset(items, boot_offset: float = 0.123):
+    """The batches after REBOOT_AT renumbered from 0, their device time back to ``boot_offset`` after T0."""
+    t_reboot = items[REBOOT_AT].device_time
+    return [dataclasses.replace(b, seq=b.seq - REBOOT_AT, device_time=b.device_time - t_reboot + T0 + boot_offset)
+            for b in items[REBOOT_AT:]]
+
+
+@pytest.fixture
+def halves(make_monitor, clock, items):
+    """Energy and seconds of the two halves counted on two fresh monitors, summed: what the reboot must give."""
+    energy = seconds = 0.0
+    for name, part in (("before", items[:REBOOT_AT]), ("after", _clock_reset(items))):
+        monitor, _ = make_monitor(name)
+        subject = monitor.start_session("dev-1", "rae", "hammer_drill")
+        for batch in part:
+            monitor.ingest_many([batch], now=batch.device_time + 0.6)
+        energy, seconds = energy + monitor.day(subject, DAY).energy, seconds + monitor.day(subject, DAY).seconds
+    return energy, seconds
+
+
+def _ingest(monitor, batches):
+    for batch in batches:
+        monitor.ingest_many([batch], now=batch.device_time + 0.6)
+
+
+def test_a_reboot_that_resets_the_device_clock_counts_both_halves(make_monitor, clock, items, halves):
+    monitor, sink = make_monitor()
+    subject = monitor.start_session("dev-1", "rae", "hammer_drill")
+    _ingest(monitor, items[:REBOOT_AT] + _clock_reset(items))
+    day = monitor.day(subject, DAY)
+    assert day.energy == pytest.approx(halves[0], rel=1e-9) and day.seconds == pytest.approx(halves[1])
+    assert day.seconds == pytest.approx(32.0)
+    status = monitor.stream_status("dev-1")
+    assert status.get("duplicates", 0) == 0 and status.get("late", 0) == 0 and status["restarts"] == 1
+    assert [e.data["reason"] for e in sink.events if e.kind == "hav.gap"] == ["device restarted"]
+
+
+def test_after_a_clock_reset_a_replayed_batch_of_either_epoch_still_counts_once(make_monitor, clock, items, halves):
+    after = _clock_reset(items)
+    replayed = items[:REBOOT_AT] + after[:10] + items[3:6] + after[2:5] + items[REBOOT_AT - 1:REBOOT_AT] + after[10:]
+    monitor, _ = make_monitor()
+    subject = monitor.start_session("dev-1", "rae", "hammer_drill")
+    _ingest(monitor, replayed)
+    assert monitor.day(subject, DAY).energy == pytest.approx(halves[0], rel=1e-9)
+    status = monitor.stream_status("dev-1")
+    assert status["duplicates"] == 7 and status["restarts"] == 1
+
+
+def test_a_clock_reset_onto_the_same_times_counts_when_the_device_announces_its_boot(make_monitor, clock, items):
+    """A boot-relative clock repeats the old epoch's times exactly: only the boot id in the status tells a
+    restart from a replay; without it the repeats stay duplicates (never double-counted)."""
+    same_times = items[:REBOOT_AT] + _clock_reset(items, boot_offset=0.0)
+    counted = {}
+    for boot in (None, "boot-2"):
+        monitor, _ = make_monitor(f"boot-{boot}")
+        online = {"online": True, "worker": "rae", "tool": "hammer_drill"}
+        monitor.on_status(status_topic("demo", "dev-1"), json.dumps({**online, "boot": "boot-1"}).encode())
+        subject = monitor.session("dev-1").subject
+        _ingest(monitor, same_times[:REBOOT_AT])
+        if boot:
+            monitor.on_status(status_topic("demo", "dev-1"), json.dumps({**online, "boot": boot}).encode())
+        _ingest(monitor, same_times[REBOOT_AT:] + items[REBOOT_AT - 2:REBOOT_AT])  # and two replays of the old epoch
+        status = monitor.stream_status("dev-1")
+        counted[boot] = monitor.day(subject, DAY).seconds, status.get("restarts", 0), status["duplicates"]
+    assert counted[None] == (pytest.approx(18.0), 0, 30)  # 28 repeat old times: dropped, never added twice
+    assert counted["boot-2"] == (pytest.approx(32.0), 1, 2)
+
+
+def test_a_monitor_restart_across_a_clock_reset_loses_nothing_and_double_counts_nothing(make_monitor, clock, items,
+                                                                                       halves):
+    stream = items[:REBOOT_AT] + _clock_reset(items)
+    for cut in (REBOOT_AT - 3, REBOOT_AT + 1, REBOOT_AT + 12):  # before, just after and well after the reboot
+        first, _ = make_monitor(f"cut-{cut}")
+        subject = first.start_session("dev-1", "rae", "hammer_drill")
+        _ingest(first, stream[:cut])
+        first.close()  # the process dies: QoS 1 redelivers the last four before the new ones
+        second, _ = make_monitor(f"cut-{cut}")
+        _ingest(second, stream[cut - 4:])
+        assert second.day(subject, DAY).energy == pytest.approx(halves[0], rel=1e-9), cut
+        assert second.stream_status("dev-1")["restarts"] == 1 and second.stats["duplicates"] == 4, cut

@@ -121,6 +121,22 @@ def test_workers_appear_under_pseudonyms_with_exposure_and_live_activity(client)
     assert get(client, f"/api/workers/{worker['subject']}").json()["days"]
 
 
+def test_refused_messages_show_per_device_even_from_a_device_that_sends_only_garbage(client, monitor):
+    from bim2rdt.bus import accel_topic
+
+    assert get(client, "/api/devices/refused").json() == []
+    assert get(client, "/api/workers").json()[0]["devices"][0]["counters"]["malformed"] == 0
+    for device, payload in [("dev-1", b"HAV1 garbage"), ("dev-1", b"not even magic"), ("junk-7", b"\x00" * 40)]:
+        assert monitor.ingest_payload(accel_topic("test", device), payload) == []
+    refused = get(client, "/api/devices/refused").json()
+    assert [(r["device"], r["count"]) for r in refused] == [("dev-1", 2), ("junk-7", 1)]
+    worker = get(client, "/api/workers").json()[0]
+    assert refused[0]["subject"] == worker["subject"] and refused[1]["subject"] is None
+    assert "HAV1 magic" in refused[1]["last_reason"] and refused[1]["last_received"] > 0
+    assert worker["devices"][0]["counters"]["malformed"] == 2
+    assert "junk-7" not in str(get(client, "/api/workers").json())  # garbage is never a worker's exposure
+
+
 def test_safety_events_are_listed(client):
     events = get(client, "/api/events").json()
     assert "hav.activity_started" in [e["kind"] for e in events]

@@ -13,6 +13,8 @@ import pytest
 
 import httpx
 
+from bim2rdt.bus import accel_topic
+
 from server_helpers import CHROMIUM_FLAGS, SITE_SECRET, T_TWIN, auth, config_with_tokens, feed, vibration
 
 A_HV = 30.0
@@ -93,6 +95,11 @@ def test_the_page_shows_the_twin_and_warns_the_moment_a_worker_crosses_the_eav(p
         expect(gauge).to_have_attribute("data-risk", "above_elv")
         shots.append(_shot(page, tmp_path / "page-elv-alarm.png"))
         assert page.locator(".gauge .reveal").count() == 0  # a viewer cannot reveal
+
+        assert gauge.locator(".refused").count() == 0
+        for payload in (b"HAV1 garbage", b"not an accel batch"):  # malformed: refused, counted for the device
+            monitor.ingest_payload(accel_topic("test", "dev-1"), payload)
+        expect(gauge.locator("[data-device='dev-1'] .refused")).to_have_text(" · 2 refused", timeout=5_000)
 
         officer = browser.new_page(viewport={"width": 1400, "height": 900})
         officer.on("dialog", lambda dialog: dialog.accept("HAV health surveillance referral"))

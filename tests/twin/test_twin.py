@@ -113,6 +113,20 @@ def test_an_observation_its_observer_could_not_judge_stays_unverified_with_the_r
     assert twin.record(_seen(pallet), T0 + 1).status is ElementStatus.AS_PLANNED  # a plain record is judged
 
 
+def test_a_fit_with_no_inlier_is_recorded_unverified_without_an_rmse_and_exports(twin, site_model, tmp_path):
+    """A partial view behind a wall can leave no point on the fitted model: rmse inf, fitness 0. That is a
+    sighting the twin keeps (unverified, rmse None in the store), not bad input; an infinite rmse with a
+    fitness above 0 still is."""
+    pallet = _element(site_model, "Pallet_Wood_EUR")
+    blind = Observation(pallet.family, pallet.global_id, pallet.placement, math.inf, 0.0, 40)
+    state = twin.record(blind, T0)
+    assert state.status is ElementStatus.UNVERIFIED and state.fit.rmse is None
+    assert twin.state()[pallet.global_id].fit.rmse is None
+    with pytest.raises(TwinError, match="inf only with fitness 0"):
+        twin.record(Observation(pallet.family, pallet.global_id, pallet.placement, math.inf, 0.4, 40), T0 + 1)
+    assert twin.export_json(tmp_path / "twin.json").is_file() and twin.export_ifc(tmp_path / "twin.ifc").is_file()
+
+
 def test_an_object_the_bim_lacks_is_new_and_seen_again_nearby_it_is_the_same_object(twin, site_model):
     first = twin.record(Observation("Steel_Drum_55gal", None, yaw_pose(10.0, 8.0, 0.0, 0.0), 0.01, 0.9, 120), T0)
     assert first.status is ElementStatus.NEW and not first.in_bim and len(first.global_id) == 22

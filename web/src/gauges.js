@@ -22,8 +22,10 @@ function gauge(worker, canReveal, onReveal, name) {
     tick.style.left = `${(100 * value) / SCALE}%`;
     return tick;
   };
-  const tools = worker.devices.map((d) => el("span", { class: d.active ? "tool active" : "tool" },
-    `${d.tool}${d.active ? ` · ${num(d.a_hv, 1)} m/s²` : " · idle"}${d.estimate ? " (estimate)" : ""}`));
+  const tools = worker.devices.map((d) => el("span", { class: d.active ? "tool active" : "tool", "data-device": d.device },
+    `${d.tool}${d.active ? ` · ${num(d.a_hv, 1)} m/s²` : " · idle"}${d.estimate ? " (estimate)" : ""}`,
+    d.counters?.malformed ? el("span", { class: "refused", title: "messages from this device the monitor refused (malformed): never counted as exposure" },
+      ` · ${d.counters.malformed} refused`) : null));
   const next = worker.risk === "below_eav"
     ? (worker.seconds_to_eav == null ? "EAV: not while idle" : `EAV in ${duration(worker.seconds_to_eav)} of tool time`)
     : worker.risk === "above_eav"

@@ -154,6 +154,9 @@ class WearableStatus(BaseModel):
     position: str = Field("handle", min_length=1, max_length=32, strict=True)
     zone: str | None = Field(None, max_length=128, strict=True)
     hand: Literal["", "left", "right"] = ""
+    boot: str | None = Field(None, min_length=1, max_length=64, strict=True)
+    """Names the device's current boot (a boot counter or a random id drawn at power-up): a new one tells the
+    monitor the device restarted, so its seq and clock may start over (see ``safety.streams``)."""
 
 
 def decode_status(payload: bytes) -> WearableStatus:

@@ -73,6 +73,11 @@ def main() -> None:
     except Exception as error:  # click usage errors; typer >= 0.29 vendors click as typer._click
         import click
 
+        bad_value = isinstance(error, click.BadParameter | typer.BadParameter) and \
+            type(error).__name__ != "MissingParameter"  # click's or typer's vendored click's
+        if bad_value:  # a bad value: say which, in one line (a missing one still shows the usage)
+            typer.secho(f"error: {error.format_message()}", err=True, fg=typer.colors.RED)
+            sys.exit(error.exit_code)
         if isinstance(error, click.ClickException | typer.exceptions.TyperException) and hasattr(error, "show"):
             error.show()
             sys.exit(error.exit_code)

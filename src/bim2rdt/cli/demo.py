@@ -23,7 +23,7 @@ def demo_command(
     detector: str | None = typer.Option(None, "--detector",
                                         help="What reads the robot's frames on the embedded site: geometric (the "
                                              "default: scan-vs-BIM, no weights), yoloe (local weights) or ideal (the "
-                                             "renderer's masks: an upper bound). Not with --ifc yet."),
+                                             "renderer's masks: an upper bound)."),
     yoloe_weights: Path | None = typer.Option(None, "--yoloe-weights", help="Local YOLOE .pt, for --detector yoloe."),
     yoloe_embeddings: Path | None = typer.Option(None, "--yoloe-embeddings",
                                                  help="Local .npz prompt embeddings, for --detector yoloe."),
@@ -40,9 +40,6 @@ def demo_command(
     from bim2rdt.demo.perceivers import DETECTORS
     from bim2rdt.demo.run import run_demo
 
-    if ifc is not None and detector is not None:
-        raise typer.BadParameter("--detector applies to the embedded site; demo --ifc still reads its frames with the "
-                                 "simulator's ideal detector")
     detector = detector or "geometric"
     if detector not in DETECTORS:
         raise typer.BadParameter(f"--detector must be one of {', '.join(DETECTORS)}, not {detector!r}")
@@ -62,7 +59,8 @@ def demo_command(
         if ifc is not None:
             from bim2rdt.demo.ifc_day import run_ifc_demo
 
-            result = run_ifc_demo(ifc, out, seed=seed, workers=workers, minutes=minutes, tick=tick)
+            result = run_ifc_demo(ifc, out, seed=seed, workers=workers, minutes=minutes, tick=tick, detector=detector,
+                                  yoloe=yoloe)
         else:
             result = run_demo(out, trials=trials, seed=seed, workers=workers, minutes=minutes, tick=tick,
                               detector=detector, yoloe=yoloe)

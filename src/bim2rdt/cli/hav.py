@@ -8,7 +8,7 @@ from pathlib import Path
 
 import typer
 
-from bim2rdt.cli.common import console, print_json, print_table
+from bim2rdt.cli.common import console, out_path, print_json, print_table
 from bim2rdt.cli.hav_output import (DEV_HELP, event_line, open_monitor, print_malformed, print_summary, progress,
                                     require_own_secrets, twin_sink)
 
@@ -107,7 +107,7 @@ def _leave(monitor, bus) -> None:
 @hav_app.command("analyze")
 def hav_analyze(
     file: Path = typer.Argument(..., help="CSV with a time column t (s) and ax, ay, az."),
-    out: Path = typer.Option(Path("out/hav"), "--out", help="Folder for the plot (PNG)."),
+    out: Path = typer.Option(Path("out/hav"), "--out", parser=out_path, help="Folder for the plot (PNG)."),
     tool: str = typer.Option("unknown", "--tool", help="Tool label for the report."),
     position: str = typer.Option("handle", "--position", help="Where the sensor sat (handle = ISO 5349-1)."),
     units: str = typer.Option("auto", "--units", help="auto (checked by gravity), m/s2 or g."),
@@ -168,7 +168,8 @@ def hav_broker(
     from bim2rdt.bus.broker import MosquittoBroker
     from bim2rdt.config import get_settings
 
-    signal.signal(signal.SIGTERM, _interrupt)  # a terminated command stops its mosquitto instead of orphaning it
+    for signum in (signal.SIGTERM, signal.SIGHUP):  # terminated, or its terminal closed: stop mosquitto, no orphan
+        signal.signal(signum, _interrupt)
     settings = get_settings()
     require_own_secrets(settings, dev, "devices", "monitor")
     names = [settings.mqtt.username, "dashboard"] + [f"w{i + 1}" for i in range(devices)]

@@ -58,9 +58,11 @@ def require_own_secrets(settings, dev: bool, *needs: str) -> None:
 
 def check_twin_target(ifc: Path | None, out: Path | None) -> Path | None:
     """Where the twin goes (``out``, default <ifc>_hav.ifc), checked before a run that ends by writing it: not a
-    folder, in a folder that takes a new file. HavError in one line otherwise (so no run is lost)."""
+    folder, in a folder that takes a new file, no symlink, device node or FIFO (which the atomic write at the end
+    refuses to replace). HavError or WriteError in one line otherwise (so no run is lost)."""
     import tempfile
 
+    from bim2rdt.atomic import check_writable_file
     from bim2rdt.safety import HavError
 
     if ifc is None:
@@ -75,7 +77,7 @@ def check_twin_target(ifc: Path | None, out: Path | None) -> Path | None:
         tempfile.TemporaryFile(dir=target.parent).close()
     except OSError as error:
         raise HavError(f"cannot write the twin into {target.parent}: {error.strerror or error}") from None
-    return target
+    return check_writable_file(target)
 
 
 def print_malformed(monitor) -> None:
@@ -89,9 +91,10 @@ def print_malformed(monitor) -> None:
 def open_monitor(settings, sinks=(), data_dir: Path | None = None, **overrides):
     """The HAV monitor as configured: state under ``data_dir`` (default ``settings.data_dir/hav``), the
     ``settings.hav`` section (site = ``settings.mqtt.site``) with ``overrides``."""
+    from bim2rdt.config import usable_folder
     from bim2rdt.safety import HavMonitor
 
-    folder = data_dir if data_dir is not None else settings.data_dir / "hav"
+    folder = data_dir if data_dir is not None else usable_folder(settings.data_dir / "hav", "BIM2RDT_DATA_DIR")
     return HavMonitor(folder, settings.hav.site_secret, list(sinks), settings.hav.monitor_config(**overrides))
 
 

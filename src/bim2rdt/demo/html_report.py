@@ -87,7 +87,7 @@ def _deviation_row(state: ElementState) -> list[str]:
             _badge(state.status),
             _num(d and 100 * d.translation, 1), _num(d and d.tilt_deg, 1), _num(d and d.yaw_deg, 1),
             _e(f"{t.name} ({100 * t.translation:g} cm / {t.rotation_deg:g}°)") if t else "-",
-            _num(f and f.fitness, 2), _num(f and 100 * f.rmse, 2), _e(state.robot or "-"),
+            _num(f and f.fitness, 2), _num(100 * f.rmse if f and f.rmse is not None else None, 2), _e(state.robot or "-"),
             _e("-" if e is None or e.station is None else str(e.station)),
             _e(datetime.fromtimestamp(e.time, timezone.utc).strftime("%H:%M:%S") if e else "-")]
 

@@ -3,7 +3,8 @@
 1. BIM: read the file; slice its ground floor into the robot's map (its own slab height, its doors open).
 2. Site: place site objects in free space on that slab, one per room, far rooms first (``sim.furnish``), and
    write them into a copy (``site.ifc``) as proxies: the as-designed site.
-3. Reality: the simulator moves some of them, knocks a cone, and leaves a drum nobody planned.
+3. Reality: the simulator moves some of them, knocks a cone, and leaves a drum nobody planned; the robot's
+   camera sees them inside the building (walls occlude) and reads its frames with the day's detector.
 4. Safety: the workers' wearables stream through the HAV monitor (their activity windows shape the robot's
    keep-out zones).
 5. Robot: stations that see each object over the walls, toured by path length, walked on planned paths room to
@@ -18,6 +19,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from bim2rdt.bim import load_ifc
+from bim2rdt.demo.perceivers import DemoPerception
 from bim2rdt.demo.routes import plan_day_route
 from bim2rdt.demo.site_day import SiteDay, _hav_day, _model_cache, _shift_start, objects_of_interest
 from bim2rdt.demo.site_twin import export_day_twin, ifc_records, open_day_twin, record_mission
@@ -27,7 +29,7 @@ from bim2rdt.registration import IcpConfig
 from bim2rdt.semantics import KnowledgeBasePriors
 from bim2rdt.sim.furnish import furnish, write_furnished
 from bim2rdt.sim.meshes import mesh_for_family
-from bim2rdt.sim.reality import SimulatedPerception, simulate_reality
+from bim2rdt.sim.reality import simulate_reality
 from bim2rdt.twin import TwinConfig
 
 IFC_DAY_STANDOFF = 2.0
@@ -37,10 +39,12 @@ whole pallet at that distance)."""
 
 def run_ifc_day(ifc_path: Path, out_dir: Path, seed: int = 0, workers: int = 1, minutes: float = 10.0,
                 fs: float = 5000.0, mission_config: MissionConfig = MissionConfig(), icp: IcpConfig = IcpConfig(),
-                twin_config: TwinConfig = TwinConfig(), tick: Callable[[str], None] = lambda stage: None) -> SiteDay:
+                twin_config: TwinConfig = TwinConfig(), tick: Callable[[str], None] = lambda stage: None,
+                detector: str = "geometric", yoloe: tuple[Path, Path] | None = None) -> SiteDay:
     """Run the day on ``ifc_path`` into ``out_dir``: ``site.ifc`` (the building with its planned site objects),
     the day's twin and its exports (``site_twin.ifc`` only for IFC4), and the monitor's state under ``state/``.
-    The mission's standoff is capped at ``IFC_DAY_STANDOFF``."""
+    The mission's standoff is capped at ``IFC_DAY_STANDOFF``. The robot's camera sees the building and reads
+    its frames with ``detector``, as on the embedded day (:mod:`bim2rdt.demo.perceivers`)."""
     out_dir.mkdir(parents=True, exist_ok=True)
     source = load_ifc(ifc_path, cache_dir=_model_cache())
     tick("bim")
@@ -51,16 +55,19 @@ def run_ifc_day(ifc_path: Path, out_dir: Path, seed: int = 0, workers: int = 1, 
     model = load_ifc(write_furnished(source, layout, out_dir / "site.ifc"), cache_dir=_model_cache())
     tick("site")
     targets = objects_of_interest(model)
-    reality = simulate_reality(model, [t.global_id for t in targets], seed=seed, unplanned_at=layout.unplanned_xy)
-    priors = KnowledgeBasePriors().priors(sorted({t.family for t in reality.truth}))
+    reality = simulate_reality(model, [t.global_id for t in targets], seed=seed, unplanned_at=layout.unplanned_xy,
+                               building=True)
+    priors = KnowledgeBasePriors().priors(sorted({t.family for t in targets} | {t.family for t in reality.truth}))
     twin = open_day_twin(out_dir, model, priors, twin_config)
     events, timeline = _hav_day(twin, out_dir / "state", workers, minutes, fs, zone=None)
     tick("hav")
     config = mission_config.model_copy(update={"standoff": min(mission_config.standoff, IFC_DAY_STANDOFF)})
     route = plan_day_route(model, targets, layout.dock_xy, config, events, _shift_start(), spots=layout.worker_spots)
-    mission = run_mission(targets, route.plan.stations, SimulatedPerception(reality, seed=seed), priors,
-                          mesh_for_family, route.config, icp, tick=lambda: tick("station"), route=route.route)
-    record_mission(twin, mission.observations, mission.stations, times=route.route.arrivals)
+    perceive = DemoPerception(detector, model, reality, priors, seed, yoloe)
+    mission = run_mission(targets, route.plan.stations, perceive, priors, mesh_for_family, route.config, icp,
+                          tick=lambda: tick("station"), route=route.route, frame_of=perceive.station_frame,
+                          tolerances=twin_config.tolerance_policy())
+    record_mission(twin, mission.observations, mission.stations, times=route.route.arrivals, missing=mission.missing)
     tick("twin")
     files = export_day_twin(twin, out_dir)
     return SiteDay(model, priors, reality, mission, files.ifc, events, timeline, ifc_records(files.ifc), twin, files,
@@ -68,7 +75,8 @@ def run_ifc_day(ifc_path: Path, out_dir: Path, seed: int = 0, workers: int = 1, 
 
 
 def run_ifc_demo(ifc_path: Path, out_dir: Path, seed: int = 0, workers: int = 1, minutes: float = 10.0,
-                 tick: Callable[[str], None] = lambda stage: None):
+                 tick: Callable[[str], None] = lambda stage: None, detector: str = "geometric",
+                 yoloe: tuple[Path, Path] | None = None):
     """The ``demo --ifc`` job: the IFC day, its reports (``report.md``, ``report.html``) and the settings that ran
     in ``config.json`` (no registration scenarios: they do not depend on the building)."""
     import json
@@ -82,10 +90,12 @@ def run_ifc_demo(ifc_path: Path, out_dir: Path, seed: int = 0, workers: int = 1,
 
     out_dir, settings = Path(out_dir), demo_settings()
     day = run_ifc_day(Path(ifc_path), out_dir, seed=seed, workers=workers, minutes=minutes,
-                      mission_config=settings.mission, icp=settings.registration, twin_config=settings.twin, tick=tick)
+                      mission_config=settings.mission, icp=settings.registration, twin_config=settings.twin, tick=tick,
+                      detector=detector, yoloe=yoloe)
     report = write_site_report(day, out_dir)
     resolved = {"settings": settings_record(settings), "ifc": str(Path(ifc_path).resolve()),
-                "schema": day.model.schema, "seed": seed, "workers": workers, "minutes": minutes,
+                "schema": day.model.schema, "seed": seed, "workers": workers, "minutes": minutes, "detector": detector,
+                "yoloe": [str(p) for p in yoloe] if yoloe else None,
                 "mission": day.route.config.model_dump(), "versions": versions()}
     write_bytes_atomic(out_dir / "config.json", json.dumps(resolved, indent=2).encode("utf-8"))
     report["html"] = _html(day, None, out_dir)

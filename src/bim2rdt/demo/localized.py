@@ -28,7 +28,9 @@ from bim2rdt.mission.records import MissionResult
 from bim2rdt.mission.route import Route
 from bim2rdt.perception.camera import Intrinsics, look_at
 from bim2rdt.perception.detection import Detection
+from bim2rdt.perception.frame import Frame
 from bim2rdt.registration import IcpConfig
+from bim2rdt.twin import TolerancePolicy
 from bim2rdt.sim.render import RgbdFrame
 from bim2rdt.sim.robot import SimulatedRobot
 
@@ -47,6 +49,8 @@ class Eyes(Protocol):
     def render(self, T_world_camera: np.ndarray) -> RgbdFrame: ...
 
     def detect(self, station: int, rendered: RgbdFrame, T_world_camera: np.ndarray) -> list[Detection]: ...
+
+    def station_frame(self, station: int) -> Frame | None: ...
 
 
 @dataclass
@@ -149,17 +153,20 @@ def dock_pose(stations: list[np.ndarray], start_xy, camera_height: float) -> np.
 def localized_mission(targets, stations, model: BimModel, eyes: Callable[[], Eyes], priors, new_object_mesh,
                       mission_config, start_xy, seed: int = 0, icp: IcpConfig | None = None, tick=lambda: None,
                       route: Route | None = None,
-                      comparison_route: Route | None = None) -> tuple[MissionResult, MissionLocalization]:
+                      comparison_route: Route | None = None,
+                      tolerances: TolerancePolicy | None = None) -> tuple[MissionResult, MissionLocalization]:
     """Run the mission on odometry + BIM localization (its verdicts go to the twin), then again on dead
     reckoning alone (for comparison only). ``eyes()`` makes each run's camera and detector; ``route`` walks the
     first run and ``comparison_route`` (a fresh one: a route keeps what it walked) the second; None walks
-    straight to each station."""
+    straight to each station. Each run reads the frames its ``eyes`` detected in (``station_frame``) for
+    missing elements, and judges by ``tolerances`` (the twin's presets)."""
     icp = icp or IcpConfig()
     dock = dock_pose(stations, start_xy, mission_config.camera_height)
     anchored = LocalizedRobot(eyes(), model, dock, seed, anchored=True, route=route)
     mission = run_mission(targets, stations, anchored, priors, new_object_mesh, mission_config, icp, tick=tick,
-                          route=route or DirectRoute())
+                          route=route or DirectRoute(), frame_of=anchored.eyes.station_frame, tolerances=tolerances)
     drifting = LocalizedRobot(eyes(), model, dock, seed, anchored=False, route=comparison_route)
     dead = run_mission(targets, stations, drifting, priors, new_object_mesh, mission_config, icp,
-                       route=comparison_route or DirectRoute())
+                       route=comparison_route or DirectRoute(), frame_of=drifting.eyes.station_frame,
+                       tolerances=tolerances)
     return mission, MissionLocalization(anchored.stations, dead, drifting.stations)

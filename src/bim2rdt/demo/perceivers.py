@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from bim2rdt.bim import BimModel
-from bim2rdt.perception import UNKNOWN_FAMILY, Detection, GeometricDetector, Intrinsics, YoloeDetector, \
+from bim2rdt.perception import UNKNOWN_FAMILY, Detection, Frame, GeometricDetector, Intrinsics, YoloeDetector, \
     locate_detections
 from bim2rdt.semantics import UprightPrior
 from bim2rdt.sim.ideal import IdealDetector
@@ -48,6 +48,7 @@ class DemoPerception:
         self.rng = np.random.default_rng([seed, 5])
         self.frames: list = []
         self.unknown = 0
+        self._latest: dict[int, Frame] = {}
         building = reality.scene.building
         self._footprints = [p.mesh.bounds[:, :2].ravel() for p in building if p.ifc_class != "IfcSlab"]
 
@@ -67,10 +68,15 @@ class DemoPerception:
         if isinstance(self.detector, IdealDetector):
             self.detector.bind(rendered)
         frame = replace(rendered, T_world_camera=T_world_camera).as_frame(self.intrinsics)
+        self._latest[station] = frame
         found = locate_detections(frame, self.model, self.detector, station)
         named = [d for d in found if d.family != UNKNOWN_FAMILY]
         self.unknown += len(found) - len(named)
         return named
+
+    def station_frame(self, station: int) -> Frame | None:
+        """The last frame read for ``station`` (what the robot sent: no labels): the mission's ``frame_of``."""
+        return self._latest.get(station)
 
     def _scene(self, T_world_camera: np.ndarray) -> SiteScene:
         scene = self.reality.scene

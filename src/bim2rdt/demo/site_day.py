@@ -2,11 +2,12 @@
 
 1. BIM: build the default site (IFC4) and read it; its proxies are the objects of interest.
 2. Semantics: family names -> detector labels and upright priors (offline knowledge base).
-3. Robot: the as-built site (objects moved, one knocked over, one unplanned) is seen from stations that see
-   their objects over the walls, toured by path length and walked on planned paths, replanned around what the
-   robot finds and around workers while their tools run (:mod:`bim2rdt.demo.routes`), on drifting odometry with
-   a fix on the BIM after each walk (:mod:`bim2rdt.demo.localized`); corners in each detection become points
-   placed from that estimate; SG-ICP registers each BIM object; deviations are judged.
+3. Robot: the as-built site (objects moved, one knocked over, one taken away, one unplanned) is seen from
+   stations that see their objects over the walls, toured by path length and walked on planned paths,
+   replanned around what the robot finds and around workers while their tools run (:mod:`bim2rdt.demo.routes`),
+   on drifting odometry with a fix on the BIM after each walk (:mod:`bim2rdt.demo.localized`); corners in each
+   detection become points placed from that estimate; SG-ICP registers each BIM object; deviations are judged;
+   a planned object whose place a station's depth shows empty is missing.
 4. Twin: every observation is recorded into the day's twin (``twin.db``, :mod:`bim2rdt.demo.site_twin`), which
    judges it against its tolerance preset.
 5. Safety (run first, so the robot's keep-out zones follow the monitor's events): wearables stream hand-arm
@@ -39,6 +40,9 @@ from bim2rdt.twin import DigitalTwin, TwinConfig
 ROBOT_START_XY = (1.0, 1.0)
 """Where the robot's dock is on the default site, metres."""
 WORK_ZONE = ZONES[0][0]
+REMOVED_OBJECTS = 1
+"""Planned objects the day's reality takes off the site (the last unchanged one: the tripod at seed 0): the
+robot must see their places empty and report them missing."""
 
 
 @dataclass
@@ -61,7 +65,8 @@ class SiteDay:
 
 def objects_of_interest(model: BimModel) -> list[Target]:
     """The site objects the robot verifies: proxies (temporary works, materials, equipment) with a body."""
-    return [Target(el.global_id, el.family or el.name or el.ifc_class, el.placement, body_mesh(model, el.global_id))
+    return [Target(el.global_id, el.family or el.name or el.ifc_class, el.placement, body_mesh(model, el.global_id),
+                   el.ifc_class)
             for el in model.elements if el.ifc_class == "IfcBuildingElementProxy" and model.has_mesh(el.global_id)]
 
 
@@ -81,8 +86,8 @@ def run_site_day(out_dir: Path, seed: int = 0, workers: int = 2, minutes: float 
     tick("bim")
     targets = objects_of_interest(model)
     reality = simulate_reality(model, [t.global_id for t in targets], seed=seed, unplanned_at=UNPLANNED_DRUM_XY,
-                               building=True)
-    priors = KnowledgeBasePriors().priors(sorted({t.family for t in reality.truth}))
+                               building=True, removed=REMOVED_OBJECTS)
+    priors = KnowledgeBasePriors().priors(sorted({t.family for t in targets} | {t.family for t in reality.truth}))
     twin = open_day_twin(out_dir, model, priors, twin_config)
     events, timeline = _hav_day(twin, out_dir / "state", workers, minutes, fs)
     tick("hav")
@@ -97,8 +102,9 @@ def run_site_day(out_dir: Path, seed: int = 0, workers: int = 2, minutes: float 
     mission, localization = localized_mission(targets, route.plan.stations, model, perception, priors,
                                               mesh_for_family, route.config, ROBOT_START_XY, seed, icp,
                                               tick=lambda: tick("station"), route=route.route,
-                                              comparison_route=route_for_today().route)
-    record_mission(twin, mission.observations, mission.stations, times=route.route.arrivals)
+                                              comparison_route=route_for_today().route,
+                                              tolerances=twin_config.tolerance_policy())
+    record_mission(twin, mission.observations, mission.stations, times=route.route.arrivals, missing=mission.missing)
     tick("twin")
     files = export_day_twin(twin, out_dir)
     return SiteDay(model, priors, reality, mission, files.ifc, events, timeline, ifc_records(files.ifc), twin, files,

@@ -26,7 +26,8 @@ from bim2rdt.sim.truth import match_truth, pose_error  # noqa: E402
 from bim2rdt.twin import ElementStatus  # noqa: E402
 
 STATUS_COLOURS = {ElementStatus.AS_PLANNED: "tab:green", ElementStatus.DEVIATING: "tab:orange",
-                  ElementStatus.NEW: "tab:red", ElementStatus.UNVERIFIED: "tab:grey"}
+                  ElementStatus.NEW: "tab:red", ElementStatus.UNVERIFIED: "tab:grey",
+                  ElementStatus.MISSING: "tab:purple"}
 OBSERVATION_COLUMNS = ("object", "verdict", "truth", "bias", "shift m", "yaw °", "tilt °", "fitness", "err cm",
                        "err °")
 """Headers of :func:`observation_cells`, shared by the terminal table and report.md."""
@@ -54,19 +55,38 @@ def observation_rows(day: SiteDay) -> list[dict]:
             "error_rotation_deg": error.rotation_deg if error else None,
             "error_translation_m": error.translation if error else None,
             "error_tilt_deg": error.tilt_deg if error else None})
-    return rows
+    return rows + [missing_row(day, gone) for gone in day.mission.missing]
+
+
+def missing_row(day: SiteDay, gone) -> dict:
+    """The row of an element whose place the robot saw empty: no pose, no fit; the evidence (station, frames,
+    share of its place seen through) and what the simulated truth says (``removed``, or a false alarm)."""
+    return {"family": gone.family, "label": day.priors[gone.family].label if gone.family in day.priors else gone.family,
+            "global_id": gone.global_id, "status": ElementStatus.MISSING.value,
+            "truth": missing_truth(day, gone.global_id), "upright_bias": None, "shift_m": None, "yaw_deg": None,
+            "tilt_deg": None, "points": gone.cells, "fitness": None, "rmse_m": None, "frames": list(gone.frames),
+            "station": gone.station, "see_through": gone.see_through, "error_rotation_deg": None,
+            "error_translation_m": None, "error_tilt_deg": None}
+
+
+def missing_truth(day: SiteDay, global_id: str) -> str | None:
+    """Scoring after the mission: what the simulated truth did to an element reported missing ("removed", or
+    its other change: a false alarm)."""
+    return next((t.change for t in [*day.reality.removed, *day.reality.truth] if t.global_id == global_id), None)
 
 
 def observation_cells(row: dict) -> tuple[str, ...]:
     """One row of :func:`observation_rows` as table cells (see :data:`OBSERVATION_COLUMNS`); truth and errors
-    are '-' for an object with no simulated truth to score against (a real robot's observations)."""
-    def maybe(value, scale: float = 1.0) -> str:
-        return "-" if value is None else f"{scale * value:.1f}"
+    are '-' for an object with no simulated truth to score against (a real robot's observations), pose and fit
+    '-' for a missing element (nothing was there to fit)."""
+    def number(value, digits: int, scale: float = 1.0) -> str:
+        return "-" if value is None else f"{scale * value:.{digits}f}"
 
     status = f"{row['status']} {row['reason']}" if row.get("reason") else row["status"]
-    return (row["label"], status, row["truth"] or "-", f"{row['upright_bias']:.2f}", f"{row['shift_m']:.2f}",
-            f"{row['yaw_deg']:.1f}", f"{row['tilt_deg']:.1f}", f"{row['fitness']:.2f}",
-            maybe(row["error_translation_m"], 100.0), maybe(row["error_rotation_deg"]))
+    return (row["label"], status, row["truth"] or "-", number(row["upright_bias"], 2),
+            number(row["shift_m"], 2), number(row["yaw_deg"], 1), number(row["tilt_deg"], 1),
+            number(row["fitness"], 2), number(row["error_translation_m"], 1, 100.0),
+            number(row["error_rotation_deg"], 1))
 
 
 def write_site_report(day: SiteDay, out_dir: Path) -> dict[str, Path]:
@@ -101,6 +121,10 @@ def plot_plan(day: SiteDay, path: Path) -> Path:
     targets = {t.global_id: t for t in objects_of_interest(day.model)}
     for obs, truth in zip(day.mission.observations, true_objects(day)):
         _draw_observation(ax, obs, targets.get(obs.global_id), truth)
+    for gone in day.mission.missing:
+        target = targets[gone.global_id]
+        ax.fill(*_footprint(target.mesh_body.vertices, target.placement).T, color=STATUS_COLOURS[ElementStatus.MISSING],
+                alpha=0.35, hatch="xx")
     if day.route is not None:
         draw_walk(ax, day.route, day.mission.stations)
     else:

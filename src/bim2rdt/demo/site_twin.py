@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from bim2rdt.bim import BimModel, load_ifc
+from bim2rdt.mission import MissingElement
 from bim2rdt.perception.observation import Observation
 from bim2rdt.semantics import UprightPrior
 from bim2rdt.sim.meshes import UnknownFamilyError, mesh_for_family
@@ -50,14 +51,20 @@ def open_day_twin(out_dir: Path, model: BimModel, priors: Mapping[str, UprightPr
 
 
 def record_mission(twin: DigitalTwin, observations: Iterable[Observation], stations: list[np.ndarray],
-                   start: float = 0.0, times: Mapping[int, float] | None = None) -> None:
+                   start: float = 0.0, times: Mapping[int, float] | None = None,
+                   missing: Iterable[MissingElement] = ()) -> None:
     """Record each observation at the time its station was reached (``times[station]`` when the robot's route
     logged it, else ``start`` + ``STATION_SECONDS`` per station), with that station's camera as the view it was
-    seen from."""
+    seen from; and each element whose place was seen empty as missing, with the station that saw it so."""
+    def when(station: int | None) -> float:
+        return times[station] if times else start + STATION_SECONDS * (station or 0)
+
     for obs in observations:
         camera = stations[obs.station] if obs.station is not None else None
-        when = times[obs.station] if times else start + STATION_SECONDS * (obs.station or 0)
-        twin.record(obs, when, camera=camera)
+        twin.record(obs, when(obs.station), camera=camera)
+    for gone in missing:
+        twin.mark_missing(gone.global_id, when(gone.station), station=gone.station, frames=gone.frames,
+                          camera=stations[gone.station])
 
 
 def export_day_twin(twin: DigitalTwin, out_dir: Path) -> TwinFiles:

@@ -5,11 +5,11 @@ order and how it walks there, ``association`` ties detections to BIM elements, `
 with SG-ICP, ``verdict`` judges it against the BIM, and ``run`` is the loop."""
 
 from bim2rdt.mission.config import MissionConfig
-from bim2rdt.mission.records import MissionResult, Observation, Target
+from bim2rdt.mission.records import MissingElement, MissionResult, Observation, Target
 from bim2rdt.mission.route import DirectRoute, PlannedRoute, RoutePlan, plan_route
 from bim2rdt.mission.run import run_mission
 from bim2rdt.mission.stations import plan_stations
 from bim2rdt.mission.verdict import pose_delta
 
-__all__ = ["DirectRoute", "MissionConfig", "MissionResult", "Observation", "PlannedRoute", "RoutePlan", "Target",
+__all__ = ["DirectRoute", "MissingElement", "MissionConfig", "MissionResult", "Observation", "PlannedRoute", "RoutePlan", "Target",
            "plan_route", "plan_stations", "pose_delta", "run_mission"]

@@ -1,6 +1,8 @@
 """The mission's knobs (lengths in metres, angles in degrees): ``Settings.mission`` (``BIM2RDT_MISSION__*``).
 
-How densely models are sampled is the registration's ``IcpConfig.sample_count``, one field for both."""
+How densely models are sampled is the registration's ``IcpConfig.sample_count``, one field for both. How far an
+element may sit from its BIM pose and still be as planned is the twin's tolerance preset (``Settings.twin``), the
+one judge the mission, the twin and the reports share."""
 
 from __future__ import annotations
 
@@ -23,8 +25,6 @@ class MissionConfig(BaseModel):
                                                           "slab stands on it (registration pulls it onto the slab).")
     ground_clearance: float = Field(SLAB_CLEARANCE, ge=0.0, description="ROI points below this height are slab, not object.")
     association_radius: float = Field(1.5, gt=0.0, description="Farthest a detection may be from its BIM element.")
-    moved_translation: float = Field(0.05, gt=0.0, description="A shift beyond this is a deviation.")
-    moved_rotation_deg: float = Field(5.0, gt=0.0, description="A yaw or tilt change beyond this is a deviation.")
     min_fitness: float = Field(0.5, ge=0.0, le=1.0, description="Below this inlier fraction (of the points above the slab) the fit is unverified.")
     tie_ratio: float = Field(1.15, ge=1.0, description="A fit from the BIM pose within this factor of the best "
                                                         "score wins (the BIM is the prior).")
@@ -32,3 +32,12 @@ class MissionConfig(BaseModel):
                                                            "is explained by it (merging views, no truth needed).")
     merge_fraction: float = Field(0.5, gt=0.0, le=1.0, description="A detection whose points above the slab are "
                                   "at least this much explained by registered objects is another view of them.")
+    max_see_through: float = Field(0.1, ge=0.0, le=1.0, description="A fit whose camera-facing surface stands "
+                                   "where the station's camera saw through at more than this share of its cells is "
+                                   "implausible (free space, as perception.visibility tests it).")
+    missing_margin: float = Field(0.10, gt=0.0, description="A depth this much beyond a planned element's surface "
+                                  "means the camera saw through its place, m.")
+    missing_fraction: float = Field(0.8, gt=0.0, le=1.0, description="An element is missing when the camera saw "
+                                    "through at least this share of its place's cells in one frame.")
+    missing_in_view: float = Field(0.5, gt=0.0, le=1.0, description="Share of an element's camera-facing surface "
+                                   "that must be in the image for its place to count as looked at.")

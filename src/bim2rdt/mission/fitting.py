@@ -3,6 +3,8 @@ kept (the BIM pose wins a near-tie)."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from bim2rdt.mission.config import MissionConfig
@@ -17,7 +19,8 @@ def initial_poses(detection: Detection, target: Target | None, model_pts: np.nda
                   config: MissionConfig) -> list[np.ndarray]:
     """Where to start: the BIM pose as it is (most objects have not moved), and the BIM pose slid in the plane
     so the model's box centre stands on the detection's (for moved ones); a new object starts upright at zero
-    yaw on the detection. The registration's yaw restarts cover the rest."""
+    yaw on the detection; then the detector's own pose (``Detection.pose``), when it gives one. The
+    registration's yaw restarts cover the rest."""
     T = target.placement.copy() if target else np.eye(4)
     axes = T[:2, :2]  # the object's body x and y, in the world plane
     model_world = model_pts @ T[:3, :3].T + T[:3, 3]
@@ -25,7 +28,8 @@ def initial_poses(detection: Detection, target: Target | None, model_pts: np.nda
     slid[:2, 3] += axes @ (box_centre(detection.points_world, axes, config)
                            - box_centre(model_world, axes, config))
     starts = [T, slid] if target else [slid]
-    return starts + _along_long_axis(slid, model_pts)
+    detector = [detection.pose] if detection.pose is not None else []  # the detector's own guess, if it has one
+    return starts + detector + _along_long_axis(slid, model_pts)
 
 
 def _along_long_axis(T: np.ndarray, model_pts: np.ndarray, slender: float = 3.0) -> list[np.ndarray]:
@@ -55,17 +59,22 @@ def rests_on_slab(target: Target | None, model_pts: np.ndarray, config: MissionC
 
 def best_fit(model_pts: np.ndarray, model_normals: np.ndarray, object_pts: np.ndarray, inits: list[np.ndarray],
              prior: UprightPrior, config: MissionConfig, icp: IcpConfig, local_first: bool,
-             support_height: float | None = None) -> RegistrationResult:
-    """Register from every start (yaw restarts each) and keep the lowest score. With ``local_first`` the first
-    start (the BIM pose) is also refined without restarts, and that local fit wins any near-tie: when two yaws
-    explain the points equally well (a tripod's three legs), the BIM's is the likelier."""
+             support_height: float | None = None,
+             plausible: Callable[[RegistrationResult], bool] = lambda fit: True) -> RegistrationResult:
+    """Register from every start (yaw restarts each) and keep the lowest score among the ``plausible`` fits (all
+    of them when none is). With ``local_first`` the first start (the BIM pose) is also refined without
+    restarts, and that local fit wins any near-tie if plausible: when two yaws explain the points equally well
+    (a tripod's three legs), the BIM's is the likelier. ``plausible`` is the free-space test: a drum fitted to
+    a small arc of its near side with its body on the camera's side of the arc (the mirror solution, as good by
+    ICP's distances) stands where the camera saw through."""
     def fit_from(init: np.ndarray, cfg: IcpConfig) -> RegistrationResult:
         return register(model_pts, model_normals, object_pts, init=init, up=UP_WORLD,
                         upright_bias=prior.upright_bias, yaw_only=prior.yaw_only, config=cfg,
                         support_height=support_height)
 
-    best = min((fit_from(init, icp) for init in inits), key=lambda f: f.score)
+    fits = [fit_from(init, icp) for init in inits]
+    best = min([f for f in fits if plausible(f)] or fits, key=lambda f: f.score)
     if not local_first:
         return best
     local = fit_from(inits[0], icp.model_copy(update={"restarts": 1, "yaw_jitter_deg": 0.0}))
-    return local if local.score <= config.tie_ratio * best.score else best
+    return local if local.score <= config.tie_ratio * best.score and plausible(local) else best

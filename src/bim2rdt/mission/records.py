@@ -13,12 +13,14 @@ from bim2rdt.twin.status import ElementStatus
 
 @dataclass(frozen=True)
 class Target:
-    """An object the mission looks for: a BIM element (GlobalId, family, placement, body mesh)."""
+    """An object the mission looks for: a BIM element (GlobalId, family, placement, body mesh, and its IFC class,
+    which with the family picks its tolerance preset)."""
 
     global_id: str
     family: str
     placement: np.ndarray
     mesh_body: trimesh.Trimesh
+    ifc_class: str | None = None
 
 
 @dataclass(kw_only=True)
@@ -38,10 +40,26 @@ class Observation(PerceivedObject):
     reason: str = ""
 
 
+@dataclass(frozen=True)
+class MissingElement:
+    """A planned element whose place was seen empty: its GlobalId and family, the ``station`` whose frame shows
+    it best (most cells seen through), every station whose frame showed it empty (``frames``), and that best
+    view's ``cells`` seen and not occluded, and the ``see_through`` fraction of them."""
+
+    global_id: str
+    family: str
+    station: int
+    frames: tuple[int, ...]
+    see_through: float
+    cells: int
+
+
 @dataclass
 class MissionResult:
-    """Stations (T_world_camera each), the observations, and the BIM targets never seen."""
+    """Stations (T_world_camera each), the observations, the BIM targets whose place was seen empty
+    (``missing``), and the BIM targets never seen (``not_seen``: not looked at, or their place occluded)."""
 
     stations: list[np.ndarray]
     observations: list[Observation] = field(default_factory=list)
     not_seen: list[str] = field(default_factory=list)
+    missing: list[MissingElement] = field(default_factory=list)

@@ -7,52 +7,72 @@ The steps, per the paper's loop (Fig. 1):
 2. capture: a frame per station (``capture(T_world_camera)``: the RGB-D simulator here, a robot driver on site);
 3. perceive: detections (an ROI and a family label each) -> Shi-Tomasi corners in the ROI -> depth -> world points;
    a detection whose points lie on objects already registered is another view of them, not a new object;
-4. associate: a detection belongs to the nearest unclaimed BIM element of its family within ``association_radius``;
-   none means an object the BIM does not have;
+4. associate: a detection belongs to the BIM element of its family the frame's joint assignment gives it, else
+   the nearest unclaimed one within ``association_radius``; none means an object the BIM does not have;
 5. register: SG-ICP from the BIM pose moved onto the detection (BIM yaw, the detection's centroid), with the
    family's upright prior;
 6. decide: as planned / deviating (moved or turned) / new / unverified (fit too poor to trust), with
-   translation, yaw and tilt deltas modulo the family's symmetry.
+   translation, yaw and tilt deltas modulo the family's symmetry;
+7. absence: a planned element no detection claimed, whose place a station's frame shows empty (the camera saw
+   through it: :mod:`bim2rdt.mission.absence`), is missing; one never in view, or occluded, stays not seen.
 """
 
 from __future__ import annotations
 
+import dataclasses
+import logging
+import math
 from collections.abc import Callable, Sequence
 
 import numpy as np
 import trimesh
 
-from bim2rdt.mission.association import associate
+from bim2rdt.mission.absence import depth_view, seen_empty
+from bim2rdt.mission.association import associate, preferred_targets
 from bim2rdt.mission.config import MissionConfig
 from bim2rdt.mission.fitting import best_fit, initial_poses, rests_on_slab
 from bim2rdt.mission.ground import off_slab
 from bim2rdt.mission.merging import RegisteredObject, repeated_view
 from bim2rdt.mission.records import MissionResult, Observation, Target
 from bim2rdt.mission.route import DirectRoute, Locate, Route
-from bim2rdt.mission.verdict import judge
+from bim2rdt.mission.verdict import judge, tolerance_of
 from bim2rdt.perception.detection import Detection
-from bim2rdt.registration import IcpConfig, sample_model
+from bim2rdt.perception.frame import Frame
+from bim2rdt.perception.visibility import DepthView, see_through_fraction
+from bim2rdt.registration import IcpConfig, RegistrationResult, sample_model
 from bim2rdt.semantics import UprightPrior
+from bim2rdt.twin.status import ElementStatus
+from bim2rdt.twin.tolerance import TolerancePolicy
+
+log = logging.getLogger(__name__)
 
 
 def run_mission(targets: Sequence[Target], stations: Sequence[np.ndarray],
                 perceive: Callable[[int, np.ndarray], list[Detection]],
                 priors: dict[str, UprightPrior], new_object_mesh: Callable[[str], trimesh.Trimesh],
                 config: MissionConfig = MissionConfig(), icp: IcpConfig = IcpConfig(),
-                tick: Callable[[], None] = lambda: None, route: Route = DirectRoute()) -> MissionResult:
+                tick: Callable[[], None] = lambda: None, route: Route = DirectRoute(),
+                frame_of: Callable[[int], Frame | None] | None = None,
+                tolerances: TolerancePolicy | None = None) -> MissionResult:
     """Visit ``stations``; ``perceive(station_index, T_world_camera)`` returns that frame's detections. Each
     object is registered once, from its detection with the most points; a detection its registered neighbours
     already explain is another view of them (:mod:`bim2rdt.mission.merging`). Returns every verdict.
-    ``route`` gets the robot to each station and hears what it saw (:mod:`bim2rdt.mission.route`)."""
+    ``route`` gets the robot to each station and hears what it saw (:mod:`bim2rdt.mission.route`).
+    ``frame_of(station_index)``, when given, is the frame (depth, intrinsics, camera pose) the station's
+    detections were read from: with it, a planned element whose place a frame shows empty is missing.
+    ``tolerances`` judges as planned vs deviating (the twin's presets: pass ``Settings.twin.tolerance_policy()``
+    so the mission and the twin agree; default ``TwinConfig()``'s)."""
     result = MissionResult(list(stations))
+    views: dict[int, DepthView] = {}
 
     def locate(detection: Detection) -> tuple[Observation, trimesh.Trimesh]:
         target = associate(detection, targets, set(), config)
         mesh = target.mesh_body if target else new_object_mesh(detection.family)
-        return _observe(detection, target, mesh, priors, config, icp)[0], mesh
+        return _observe(detection, target, mesh, priors, config, icp, tolerances)[0], mesh
 
-    detections = _capture(result, perceive, config, tick, route, locate)
+    detections = _capture(result, perceive, config, tick, route, locate, frame_of, views)
     claimed: set[str] = set()
+    preferred = preferred_targets(detections, targets, config)
     registered: list[RegisteredObject] = []
     for detection in sorted(detections, key=lambda d: -len(d.points_world)):
         seen_before = repeated_view(detection, registered, config)
@@ -60,29 +80,46 @@ def run_mission(targets: Sequence[Target], stations: Sequence[np.ndarray],
             if seen_before.family == detection.family:
                 seen_before.seen_from(detection.station)
             continue
-        target = associate(detection, targets, claimed, config)
+        target = associate(detection, targets, claimed, config, preferred)
         mesh = target.mesh_body if target else new_object_mesh(detection.family)
-        observation, model_pts = _observe(detection, target, mesh, priors, config, icp)
+        observation, model_pts = _observe(detection, target, mesh, priors, config, icp, tolerances,
+                                          views.get(detection.station))
         registered.append(RegisteredObject.of(observation, model_pts))
         result.observations.append(observation)
-    result.not_seen = [t.global_id for t in targets if t.global_id not in claimed]
+    unclaimed = [t for t in targets if t.global_id not in claimed]
+    result.missing = [gone for gone in (seen_empty(t, views, config, icp) for t in unclaimed) if gone is not None]
+    gone_ids = {gone.global_id for gone in result.missing}
+    result.not_seen = [t.global_id for t in unclaimed if t.global_id not in gone_ids]
     return result
 
 
 def _capture(result: MissionResult, perceive: Callable[[int, np.ndarray], list[Detection]], config: MissionConfig,
-             tick: Callable[[], None], route: Route, locate: Locate) -> list[Detection]:
+             tick: Callable[[], None], route: Route, locate: Locate, frame_of: Callable[[int], Frame | None] | None,
+             views: dict[int, DepthView]) -> list[Detection]:
     """Every reached station's detections with at least ``min_points`` points (fewer: the object is not seen
-    there); ``result.stations`` keeps the poses the route actually took."""
+    there); ``result.stations`` keeps the poses the route actually took, ``views`` each reached station's depth
+    (with ``frame_of``)."""
     found = []
     for index, planned in enumerate(result.stations):
         T_world_camera = route.reach(index, planned, lambda T: _seen(perceive(index, T), config), locate)
         if T_world_camera is not None:
             result.stations[index] = T_world_camera
             seen = _seen(perceive(index, T_world_camera), config)
+            frame = frame_of(index) if frame_of is not None else None
+            if frame is not None:
+                views[index] = depth_view(frame)
             route.seen(index, seen, locate)
             found += seen
         tick()
     return found
+
+
+def _free_space(model_pts: np.ndarray, model_normals: np.ndarray, view: DepthView | None,
+                config: MissionConfig) -> Callable[[RegistrationResult], bool]:
+    """The free-space test of a fit in ``view`` (every fit passes without a view)."""
+    if view is None:
+        return lambda fit: True
+    return lambda fit: see_through_fraction(fit.pose, model_pts, model_normals, view) <= config.max_see_through
 
 
 def _seen(detections: list[Detection], config: MissionConfig) -> list[Detection]:
@@ -90,18 +127,33 @@ def _seen(detections: list[Detection], config: MissionConfig) -> list[Detection]
 
 
 def _observe(detection: Detection, target: Target | None, mesh: trimesh.Trimesh, priors: dict[str, UprightPrior],
-             config: MissionConfig, icp: IcpConfig) -> tuple[Observation, np.ndarray]:
-    """Register one object and judge it; also returns the model's surface samples (body frame)."""
+             config: MissionConfig, icp: IcpConfig,
+             tolerances: TolerancePolicy | None = None,
+             view: DepthView | None = None) -> tuple[Observation, np.ndarray]:
+    """Register one object and judge it (against its tolerance preset under ``tolerances``); also returns the
+    model's surface samples (body frame). With ``view`` (the depth of the detection's station) a fit that
+    stands where the camera saw through is set aside for a consistent one."""
     prior = priors[detection.family]
     model_pts, model_normals = sample_model(mesh, icp.sample_count, seed=icp.seed)
     object_pts = off_slab(detection.points_world, config)
     fit = best_fit(model_pts, model_normals, object_pts, initial_poses(detection, target, model_pts, config),
                    prior, config, icp, local_first=target is not None,
-                   support_height=config.slab_height if rests_on_slab(target, model_pts, config) else None)
-    judged = judge(target, fit, prior.symmetry, config)
+                   support_height=config.slab_height if rests_on_slab(target, model_pts, config) else None,
+                   plausible=_free_space(model_pts, model_normals, view, config))
+    judged = judge(target, fit, prior.symmetry, config, tolerance_of(target, tolerances) if target else None)
+    reason = judged.reason  # the verdict's own: too few points explained, or a direction the view cannot see
+    if not math.isfinite(fit.rmse):  # a partial view behind a wall: no point lies on the fitted model
+        reason = (f"(no inlier: none of its {len(object_pts)} points lies within {100 * icp.score_distance:.0f} cm "
+                  "of the fitted model)")
+    elif view is not None and (seen_through := see_through_fraction(fit.pose, model_pts, model_normals, view)) \
+            > config.max_see_through:  # every start ended where the camera saw through
+        reason = f"(the fit stands where the camera saw through, at {seen_through:.0%} of its visible surface)"
+    if reason:
+        judged = dataclasses.replace(judged, status=ElementStatus.UNVERIFIED)
+        log.info("%s at station %s: unverified %s", detection.family, detection.station, reason)
     observation = Observation(family=detection.family, global_id=target.global_id if target else None,
                               pose=fit.pose, rmse=fit.rmse, fitness=fit.fitness, points=len(object_pts),
                               station=detection.station, frames=(detection.station,), fit=fit,
                               status=judged.status, shift=judged.shift, yaw_deg=judged.yaw_deg,
-                              tilt_deg=judged.tilt_deg, upright_bias=prior.upright_bias, reason=judged.reason)
+                              tilt_deg=judged.tilt_deg, upright_bias=prior.upright_bias, reason=reason)
     return observation, model_pts

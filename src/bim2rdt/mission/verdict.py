@@ -1,5 +1,9 @@
 """The verdict on a registered object against its BIM placement: as planned, deviating (moved or turned), new
-or unverified (:class:`~bim2rdt.twin.ElementStatus`)."""
+or unverified (:class:`~bim2rdt.twin.ElementStatus`).
+
+The mission measures the deviation the way the twin does and leaves as planned vs deviating to the twin's
+tolerance presets (``Settings.twin``: temporary site objects 5 cm / 5 degrees, columns and walls 1 cm / 0.5
+degrees), so the report, the twin's state and its BCF issues never disagree."""
 
 from __future__ import annotations
 
@@ -10,8 +14,11 @@ import numpy as np
 from bim2rdt.mission.config import MissionConfig
 from bim2rdt.mission.records import Target
 from bim2rdt.registration import RegistrationResult
-from bim2rdt.registration.symmetry import closest_equivalent
+from bim2rdt.twin.config import TwinConfig
+from bim2rdt.twin.deviation import Deviation, pose_deviation
 from bim2rdt.twin.status import ElementStatus
+from bim2rdt.twin.tolerance import Tolerance, TolerancePolicy
+from bim2rdt.twin.verdict import against_tolerance
 
 
 def pose_delta(T_ref: np.ndarray, T: np.ndarray) -> tuple[float, float, float]:
@@ -24,10 +31,11 @@ def pose_delta(T_ref: np.ndarray, T: np.ndarray) -> tuple[float, float, float]:
 
 @dataclass(frozen=True)
 class Verdict:
-    """The status of one registered object and the deltas behind it, against its BIM placement modulo the
-    family's symmetry: ``shift`` (m, horizontal), ``yaw_deg`` (wrapped to +-180), ``tilt_deg`` (from world z),
-    and ``reason``, what follows "unverified" in a report: "along x (the view does not pin ...)" or "(the fit
-    explains 40 % of its points, ...)"; empty for the other statuses."""
+    """The status of one registered object and the deviation behind it, against its BIM placement modulo the
+    family's symmetry, measured as the twin measures it (:func:`bim2rdt.twin.pose_deviation`): ``shift`` (m,
+    between the origins), ``yaw_deg`` (about the element's up axis, within +-180/n), ``tilt_deg`` (between the
+    up axes), and ``reason``, what follows "unverified" in a report: "along x (the view does not pin ...)" or
+    "(the fit explains 40 % of its points, ...)"; empty for the other statuses."""
 
     status: ElementStatus
     shift: float
@@ -36,41 +44,50 @@ class Verdict:
     reason: str = ""
 
 
-def judge(target: Target | None, fit: RegistrationResult, symmetry: float, config: MissionConfig) -> Verdict:
+def judge(target: Target | None, fit: RegistrationResult, symmetry: float, config: MissionConfig,
+          tolerance: Tolerance | None = None) -> Verdict:
     """The verdict on ``fit`` against ``target``'s placement (its own pose for a new object). The fit is first
     turned by the symmetry (the prior's rotational order about up) that brings it closest to the BIM, so a drum
-    turned about its own axis, or a pallet turned end for end, has not deviated."""
+    turned about its own axis, or a pallet turned end for end, has not deviated. As planned or deviating is the
+    twin's call: ``tolerance`` is the element's preset (default: ``TwinConfig()``'s for its class and family)."""
     reference = target.placement if target else fit.pose
-    shown = closest_equivalent(fit.pose, reference, symmetry)
-    shift, yaw, tilt = pose_delta(reference, shown)
-    status, reason = verdict(target, fit, shown[:3, 3] - reference[:3, 3], yaw, tilt, symmetry, config)
-    return Verdict(status, shift, yaw, tilt, reason)
+    deviation = pose_deviation(reference, fit.pose, symmetry)
+    status, reason = verdict(target, fit, deviation, config, tolerance, symmetry)
+    return Verdict(status, deviation.translation, deviation.yaw_deg, deviation.tilt_deg, reason)
 
 
-def verdict(target: Target | None, fit: RegistrationResult, moved: np.ndarray, yaw: float, tilt: float,
-            symmetry: float, config: MissionConfig) -> tuple[ElementStatus, str]:
+def verdict(target: Target | None, fit: RegistrationResult, deviation: Deviation, config: MissionConfig,
+            tolerance: Tolerance | None = None, symmetry: float = 1.0) -> tuple[ElementStatus, str]:
     """(status, reason). UNVERIFIED when the fit explains too few points to trust; NEW for an object the BIM
-    lacks; DEVIATING when moved (``moved`` (3,) m, world) or turned beyond the tolerances (``moved_translation``
-    m, ``moved_rotation_deg``) in directions the view pins down; UNVERIFIED when the view leaves a direction
-    unconstrained that could hide such a deviation (the registration's unobservable directions: a box seen on
-    one face may have slid along it, and an estimate along that face is the start, not evidence); else
-    AS_PLANNED."""
+    lacks; else the twin's judgement (:func:`bim2rdt.twin.verdict.against_tolerance`, the element's tolerance
+    preset) of the part of ``deviation`` the view pins down: DEVIATING when that is beyond the preset,
+    UNVERIFIED when the view leaves a horizontal direction (or the yaw of a body without symmetry) unconstrained
+    that could hide a deviation (the registration's unobservable directions: a box seen on one face may have
+    slid along it, and an estimate along that face is the start, not evidence), else AS_PLANNED."""
     if fit.fitness < config.min_fitness:
         return ElementStatus.UNVERIFIED, (f"(the fit explains {fit.fitness:.0%} of its points, under "
                                           f"{config.min_fitness:.0%})")
     if target is None:
         return ElementStatus.NEW, ""
     free, free_yaw = unconstrained_motion(fit, symmetry)
-    seen_shift = float(np.linalg.norm(_horizontal(moved - free.T @ (free @ moved))))
-    turned = abs(yaw) > config.moved_rotation_deg and not free_yaw
-    if seen_shift > config.moved_translation or turned or tilt > config.moved_rotation_deg:
-        return ElementStatus.DEVIATING, ""
+    moved = fit.pose[:3, 3] - target.placement[:3, 3]
+    seen = Deviation(float(np.linalg.norm(moved - free.T @ (free @ moved))), deviation.tilt_deg,
+                     0.0 if free_yaw else deviation.yaw_deg)
+    status = against_tolerance(seen, tolerance or tolerance_of(target))
     blind = [axis for axis in free if np.linalg.norm(axis[:2]) > 0.5]  # the slab pins the height anyway
-    if blind or free_yaw:
-        parts = [f"along {axis_name(axis)}" for axis in blind] + (["in yaw"] if free_yaw else [])
-        return ElementStatus.UNVERIFIED, (f"{' and '.join(parts)} (the view does not pin the pose down there, so "
-                                          "the fit cannot tell whether it moved)")
-    return ElementStatus.AS_PLANNED, ""
+    if status is ElementStatus.DEVIATING or not (blind or free_yaw):
+        return status, ""
+    parts = [f"along {axis_name(axis)}" for axis in blind] + (["in yaw"] if free_yaw else [])
+    return ElementStatus.UNVERIFIED, (f"{' and '.join(parts)} (the view does not pin the pose down there, so the "
+                                      "fit cannot tell whether it moved)")
+
+
+def tolerance_of(target: Target, policy: TolerancePolicy | None = None) -> Tolerance:
+    """The target's tolerance preset under ``policy`` (default: ``TwinConfig()``'s), by family, else IFC class."""
+    return (policy or _DEFAULT_POLICY).for_element(target.ifc_class, target.family)
+
+
+_DEFAULT_POLICY = TwinConfig().tolerance_policy()
 
 
 def unconstrained_motion(fit: RegistrationResult, symmetry: float) -> tuple[np.ndarray, bool]:
@@ -93,7 +110,3 @@ def axis_name(direction: np.ndarray) -> str:
     if abs(direction[dominant]) >= np.cos(np.deg2rad(25.0)):
         return "xyz"[dominant]
     return "(" + ", ".join(f"{c:.2f}" for c in direction) + ")"
-
-
-def _horizontal(vector: np.ndarray) -> np.ndarray:
-    return np.asarray(vector)[:2]

@@ -47,6 +47,28 @@ def see_through_fraction(T_world_model: np.ndarray, model_pts: np.ndarray, model
     """Fraction (0-1) of the posed model's visible samples (facing the camera, nearest in their pixel, with a
     depth return there) behind which the camera measured a farther surface by more than ``tolerance`` m.
     0 when none of the model is in view."""
+    look = look_at_place(T_world_model, model_pts, model_normals, view, tolerance)
+    return look.through / look.seen if look.seen else 0.0
+
+
+@dataclass(frozen=True)
+class PlaceLook:
+    """How one frame saw the place of a posed model: ``facing`` samples face the camera in front of it,
+    ``in_frame`` of them project into the image; of the cells they cover (the nearest sample per
+    :data:`STRIDE` cell), ``seen`` have a depth return around them, ``through`` are where the camera measured a
+    surface farther than the model's by more than the tolerance (it looked through the place), ``blocked``
+    where it measured one nearer by more than the tolerance (something stands in front: a wall, a worker)."""
+
+    facing: int
+    in_frame: int
+    seen: int
+    through: int
+    blocked: int
+
+
+def look_at_place(T_world_model: np.ndarray, model_pts: np.ndarray, model_normals: np.ndarray, view: DepthView,
+                  tolerance: float) -> PlaceLook:
+    """Compare the posed model's camera-facing surface samples (body frame) with the frame's measured depth."""
     T_camera_world = np.linalg.inv(view.T_world_camera)
     R = T_camera_world[:3, :3] @ T_world_model[:3, :3]
     t = T_camera_world[:3, :3] @ T_world_model[:3, 3] + T_camera_world[:3, 3]
@@ -59,13 +81,14 @@ def see_through_fraction(T_world_model: np.ndarray, model_pts: np.ndarray, model
     width, height = -(-k.width // stride), -(-k.height // stride)
     inside = (u >= 0) & (u < width) & (v >= 0) & (v < height)
     if not inside.any():
-        return 0.0
+        return PlaceLook(len(points), 0, 0, 0, 0)
     u, v, z = u[inside], v[inside], points[inside, 2]
     nearest = np.full(width * height, np.inf)
     np.minimum.at(nearest, v * width + u, z)
     cells = np.flatnonzero(np.isfinite(nearest))
     measured = view.nearest_around.ravel()[cells]
     seen = np.isfinite(measured)
-    if not seen.any():
-        return 0.0
-    return float(np.mean(measured[seen] > nearest[cells][seen] + tolerance))
+    expected = nearest[cells][seen]
+    return PlaceLook(len(points), int(inside.sum()), int(seen.sum()),
+                     int(np.sum(measured[seen] > expected + tolerance)),
+                     int(np.sum(measured[seen] < expected - tolerance)))

@@ -143,6 +143,9 @@ class ExposureEngine:
                 self.count(name, getattr(result, name))
         if result.renumberings:
             stream.count("renumbered", result.renumberings)
+        if result.restarts:  # a new epoch on a reset device clock: the old lag says nothing about the new clock
+            stream.count("restarts", result.restarts)
+            stream.clock = DeviceClock()
         if result.duplicates == result.late == 0:
             stream.clock.observe(batch.received_time, batch.device_time + batch.duration_s)
         return self._note_gaps(stream, result)

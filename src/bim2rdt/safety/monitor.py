@@ -131,10 +131,23 @@ class HavMonitor:
         except PayloadError as error:
             self.refuse(device, str(error), self.clock())
             return []
+        if status.online and status.boot is not None:  # a device coming online says which boot it is in
+            self.announce_boot(device, status.boot)
         if status.online and status.worker:
             self.start_session(device, status.worker, status.tool, status.position, status.zone, status.hand)
             return []
         return self.end_session(device) if not status.online else []
+
+    def announce_boot(self, device: str, boot: str) -> bool:
+        """The device names its boot (status ``boot``); True when it differs from the last one: it restarted, and
+        its next batch whose seq goes back starts a new epoch that counts (persisted)."""
+        with self._lock:
+            stream = self._engine.stream(device)
+            previous = stream.buffer.boot
+            changed = stream.buffer.announce_boot(boot)
+            if boot != previous:
+                self._commit(Outcome([], {device: stream}, []))
+            return changed
 
     def tick(self, now: float | None = None) -> list[Event]:
         """Commit a bus group that waited long enough; declare overdue gaps on streams whose missing batches

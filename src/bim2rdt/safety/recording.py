@@ -8,6 +8,7 @@ Units are checked, not assumed: a body-worn or tool-mounted sensor always sees g
 acceleration (the median over one-second windows of the magnitude of the mean vector) is ~9.81 in m/s^2 and ~1 in
 g. Data in g is converted with a note; anything else (say, counts or a wrong scale) is refused unless the units are
 given; data without any gravity (already high-passed) is read as m/s^2 with a note that it could not be checked.
+Units given that gravity contradicts (``--units m/s2`` on data in g, or the reverse) are used, with a note.
 """
 
 from __future__ import annotations
@@ -90,11 +91,21 @@ def static_acceleration(xyz: np.ndarray, fs: float) -> float:
     return float(np.median(np.linalg.norm(means, axis=1)))
 
 
+def _contradicted(units: str, gravity: float, notes: list[str]) -> None:
+    """A note when gravity says the other unit than the one given (the user's word stands, with a warning)."""
+    looks = "g" if G_RANGE[0] <= gravity <= G_RANGE[1] else "m/s2" if METRES_RANGE[0] <= gravity <= METRES_RANGE[1] \
+        else None
+    if looks is not None and looks != units:
+        notes.append(f"--units {units} given, but the static acceleration is {gravity:.2f}, which is gravity in "
+                     f"{looks}: if the file holds {looks}, A(8) is off by a factor of {GRAVITY:.2f}")
+
+
 def _in_metres(path: Path, xyz: np.ndarray, fs: float, units: str, notes: list[str]) -> tuple[np.ndarray, str]:
     """``xyz`` in m/s^2 and what the file held ('m/s2' or 'g'), checked by gravity when ``units`` is 'auto'."""
-    if units != "auto":
-        return (xyz * GRAVITY, "g") if units == "g" else (xyz, "m/s2")
     gravity = static_acceleration(xyz, fs)
+    if units != "auto":
+        _contradicted(units, gravity, notes)
+        return (xyz * GRAVITY, "g") if units == "g" else (xyz, "m/s2")
     if METRES_RANGE[0] <= gravity <= METRES_RANGE[1]:
         return xyz, "m/s2"
     if G_RANGE[0] <= gravity <= G_RANGE[1]:

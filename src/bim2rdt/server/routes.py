@@ -10,7 +10,8 @@ from bim2rdt import __version__
 from bim2rdt.server.auth import ADMIN, READERS, SAFETY
 from bim2rdt.server.guard import RoleRoute
 from bim2rdt.server.schemas import (AuditEntry, Element, ElementDetail, Health, Identity, Me, RawRequest,
-                                    RawWindows, RevealRequest, SafetyEvent, TwinRecord, TwinState, Worker)
+                                    RawWindows, RefusedMessages, RevealRequest, SafetyEvent, TwinRecord, TwinState,
+                                    Worker)
 
 bearer_scheme = HTTPBearer(auto_error=False, description="A token from the server's settings (or the viewer token "
                            "`bim2rdt serve` prints).")
@@ -119,6 +120,12 @@ async def worker(request: Request, subject: str = SUBJECT) -> dict:
     if found is None:
         raise HTTPException(404, "no such worker")
     return found
+
+
+@router.get("/devices/refused", response_model=list[RefusedMessages], openapi_extra=READ, responses=UNAVAILABLE,
+            summary="Messages the HAV monitor refused, per device (malformed, wrong device id): never exposure")
+async def refused_messages(request: Request) -> list[dict]:
+    return await run_in_threadpool(_safety(request).refused)
 
 
 @router.get("/events", response_model=list[SafetyEvent], openapi_extra=READ, responses=UNAVAILABLE,

@@ -48,10 +48,11 @@ class SafetyView:
     def workers(self) -> list[dict]:
         """Every worker on a device today: A(8), points, risk, time to EAV/ELV and what each device does now."""
         by_subject: dict[str, list[dict]] = {}
+        refused = self.monitor.malformed_messages()
         for device in sorted(self.monitor.devices()):
             session = self.monitor.session(device)
             if session is not None:
-                by_subject.setdefault(session.subject, []).append(self._device(device, session))
+                by_subject.setdefault(session.subject, []).append(self._device(device, session, refused))
         return [self._worker(subject, devices) for subject, devices in sorted(by_subject.items())]
 
     def worker(self, subject: str) -> dict | None:
@@ -59,6 +60,16 @@ class SafetyView:
         if found is not None:
             found["days"] = self.monitor.days_of(subject)
         return found
+
+    def refused(self) -> list[dict]:
+        """Per device, the messages the monitor refused (dead-lettered), most first; with the wearer's pseudonym
+        where the device has a session (a device sending only garbage has none)."""
+        rows = []
+        for device, refused in self.monitor.malformed_messages().items():
+            session = self.monitor.session(device)
+            rows.append({"device": device, "count": refused.count, "last_reason": refused.last_reason,
+                         "last_received": refused.last_received, "subject": session.subject if session else None})
+        return sorted(rows, key=lambda row: (-row["count"], row["device"]))
 
     def subjects(self) -> set[str]:
         return {w["subject"] for w in self.workers()}
@@ -93,12 +104,13 @@ class SafetyView:
         return windows
 
     # ---- helpers ----------------------------------------------------------------------------------------
-    def _device(self, device: str, session) -> dict:
+    def _device(self, device: str, session, refused: dict) -> dict:
         activity = self.monitor.activity(device)
         running = activity is not None and activity.id is not None
         status = self.monitor.stream_status(device) or {}
         counters = {k: v for k, v in status.items() if isinstance(v, int | float) and not isinstance(v, bool)
                     and k not in ("next_seq", "clock_offset_s")}
+        counters["malformed"] = refused[device].count if device in refused else 0
         return {"device": device, "tool": session.tool, "position": session.position, "zone": session.zone,
                 "hand": session.hand, "estimate": session.estimate, "active": running,
                 "a_hv": _finite(activity.a_hv) if running else 0.0,

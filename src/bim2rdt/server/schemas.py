@@ -71,7 +71,8 @@ class Device(BaseModel):
     active: bool = Field(description="A tool is running on this device now.")
     a_hv: float | None = Field(description="The running activity's vibration total value, m/s^2 (0 when idle).")
     activity_started: float | None = None
-    counters: dict[str, float] = Field(description="Stream counters: duplicates, late, gaps, malformed, ...")
+    counters: dict[str, float] = Field(description="Stream counters: duplicates, late, gaps, malformed (messages "
+                                       "refused from this device), restarts, ...")
 
 
 class Worker(BaseModel):
@@ -93,6 +94,17 @@ class Worker(BaseModel):
     seconds_to_elv: float | None
     devices: list[Device]
     days: list[str] | None = None
+
+
+class RefusedMessages(BaseModel):
+    """A device's messages the monitor refused (malformed, a device id not the topic's, too slowly sampled):
+    counted, never exposure. A device that sends only garbage shows here and nowhere else."""
+
+    device: str
+    count: int = Field(description="Messages refused since the monitor's store began.")
+    last_reason: str = Field(description="Why the last one was refused.")
+    last_received: float | None = Field(description="When the last one arrived (UTC s, the monitor's clock).")
+    subject: str | None = Field(description="The pseudonym of who wears the device; None: no worker on it.")
 
 
 class SafetyEvent(BaseModel):

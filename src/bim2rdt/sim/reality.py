@@ -9,7 +9,7 @@ frame), so the simulation works for any IFC element with a body, not only the pr
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import trimesh
@@ -17,6 +17,7 @@ import trimesh
 from bim2rdt.bim import BimModel
 from bim2rdt.perception.detection import Detection
 from bim2rdt.perception.camera import Intrinsics
+from bim2rdt.perception.frame import Frame
 from bim2rdt.perception.library import element_body_mesh
 from bim2rdt.registration.so3 import axis_angle
 from bim2rdt.sim.building import DEFAULT_COLOUR, building_scene, element_colours
@@ -37,15 +38,17 @@ class TrueObject:
     global_id: str | None
     family: str
     T_world_model: np.ndarray
-    change: str  # "unchanged" | "moved" | "knocked" | "unplanned"
+    change: str  # "unchanged" | "moved" | "knocked" | "unplanned" | "removed"
 
 
 @dataclass(frozen=True)
 class Reality:
-    """The ray-castable site as built, and the truth for each of its objects (same order as ``scene.objects``)."""
+    """The ray-castable site as built, and the truth for each of its objects (same order as ``scene.objects``);
+    ``removed``: planned objects taken off the site (not in the scene; their BIM placement, change "removed")."""
 
     scene: SiteScene
     truth: list[TrueObject]
+    removed: list[TrueObject] = field(default_factory=list)
 
 
 body_mesh = element_body_mesh
@@ -53,18 +56,37 @@ body_mesh = element_body_mesh
 
 
 def simulate_reality(model: BimModel, global_ids: list[str], seed: int = 0, move_fraction: float = 0.5,
-                     unplanned_at: tuple[float, float] | None = (5.0, 4.0), building: bool = False) -> Reality:
+                     unplanned_at: tuple[float, float] | None = (5.0, 4.0), building: bool = False,
+                     removed: int = 0) -> Reality:
     """Draw site changes for the objects ``global_ids``: about ``move_fraction`` of them moved by 0.15-0.6 m and
-    turned by up to 40 degrees, one cone (if any) knocked 12 degrees off upright, and an unplanned drum at
-    ``unplanned_at`` (x, y metres; None for none). Deterministic for a seed. With ``building`` the scene is the
-    model's building (walls occlude, the slab is the floor) with the objects in their IFC colours; without, the
-    objects stand grey on an open ground plane. The truth is the same either way."""
+    turned by up to 40 degrees, one cone (if any) knocked 12 degrees off upright, ``removed`` of the unchanged
+    ones taken off the site (the last ones in ``global_ids``' order), and an unplanned drum at ``unplanned_at``
+    (x, y metres; None for none). Deterministic for a seed (``removed`` leaves every other draw as it was). With
+    ``building`` the scene is the model's building (walls occlude, the slab is the floor) with the objects in
+    their IFC colours; without, the objects stand grey on an open ground plane. The truth is the same either way."""
     rng = np.random.default_rng(seed)
     truth = [_changed(model, gid, rng, move_fraction) for gid in global_ids]
     truth = _knock_one_cone(truth)
     if unplanned_at is not None:
         truth.append(TrueObject(None, UNPLANNED_FAMILY, ground_pose(*unplanned_at, yaw_rad=np.deg2rad(25.0)), "unplanned"))
     albedos = [0.35 + 0.3 * rng.random() for _ in truth]
+    truth, albedos, gone = _take_away(truth, albedos, removed)
+    return replace(_placed(model, global_ids, truth, albedos, building), removed=gone)
+
+
+def _take_away(truth: list[TrueObject], albedos: list[float], count: int):
+    """Take the last ``count`` unchanged objects off the site: (truth, albedos) left, the removed truth."""
+    unchanged = [k for k, t in enumerate(truth) if t.change == "unchanged"]
+    if count > len(unchanged):
+        raise ValueError(f"cannot remove {count} objects: only {len(unchanged)} are unchanged")
+    chosen = set(unchanged[len(unchanged) - count:]) if count else set()
+    gone = [TrueObject(t.global_id, t.family, t.T_world_model, "removed") for k, t in enumerate(truth) if k in chosen]
+    return ([t for k, t in enumerate(truth) if k not in chosen], [a for k, a in enumerate(albedos) if k not in chosen],
+            gone)
+
+
+def _placed(model: BimModel, global_ids: list[str], truth: list[TrueObject], albedos: list[float],
+            building: bool) -> Reality:
     if not building:
         objects = [PlacedObject(t.family, _mesh(model, t), t.T_world_model, albedo=a) for t, a in zip(truth, albedos)]
         return Reality(SiteScene(objects, ground_size=60.0), truth)
@@ -124,11 +146,18 @@ class SimulatedPerception:
         self.reality, self.intrinsics, self.min_pixels = reality, intrinsics, min_pixels
         self.rng = np.random.default_rng(seed)
         self.frames: list[RgbdFrame] = []
+        self._latest: dict[int, RgbdFrame] = {}
 
     def __call__(self, station: int, T_world_camera: np.ndarray) -> list[Detection]:
         frame = render_rgbd(self.reality.scene, self.intrinsics, T_world_camera, self.rng)
         self.frames.append(frame)
+        self._latest[station] = frame
         seen, pixels = np.unique(frame.labels[frame.labels >= 0], return_counts=True)
         return [Detection(self.reality.truth[index].family,
                           object_scene_points(frame, self.intrinsics, int(index), self.rng), station)
                 for index, count in zip(seen, pixels) if count >= self.min_pixels]
+
+    def station_frame(self, station: int) -> Frame | None:
+        """The last frame taken for ``station`` as a robot sends it (no labels): the mission's ``frame_of``."""
+        frame = self._latest.get(station)
+        return None if frame is None else frame.as_frame(self.intrinsics)

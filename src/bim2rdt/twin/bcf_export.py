@@ -80,7 +80,8 @@ def description(state: ElementState) -> str:
         lines.append(f"Measured at ({x:.2f}, {y:.2f}, {z:.2f}) m.")
     if state.fit is not None:
         f = state.fit
-        lines.append(f"Fit: rmse {100 * f.rmse:.1f} cm, fitness {f.fitness:.2f}, {f.points} points, "
+        rmse = "none (no inlier)" if f.rmse is None else f"{100 * f.rmse:.1f} cm"
+        lines.append(f"Fit: rmse {rmse}, fitness {f.fitness:.2f}, {f.points} points, "
                      f"detector {f.detector or '-'} score {f.score:.2f}.")
     if state.evidence is not None:
         e = state.evidence

@@ -27,10 +27,10 @@ EVENT_KINDS = (OBSERVATION, MISSING, STATUS, SAFETY)
 
 @dataclass(frozen=True)
 class Fit:
-    """How well the registration explained the points: ``rmse`` (m), ``fitness`` (0-1), scene ``points``, the
-    detector's ``score`` (0-1) and name."""
+    """How well the registration explained the points: ``rmse`` (m; None for a fit with no inlier), ``fitness``
+    (0-1), scene ``points``, the detector's ``score`` (0-1) and name."""
 
-    rmse: float
+    rmse: float | None
     fitness: float
     points: int
     score: float

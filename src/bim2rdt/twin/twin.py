@@ -3,6 +3,7 @@
 ```python
 twin = DigitalTwin.open("sqlite:///out/twin.db", model)   # or postgresql+psycopg://user:password@host/db
 twin.record(observation, time)        # a perception Observation; judged against the BIM and appended
+                                      # (rmse inf with fitness 0, a fit with no inlier: unverified, rmse None)
 twin.mark_missing(global_id, time)    # its place was seen empty
 twin.record_event(event)              # a safety event (bus.Event) of the HAV monitor
 twin.record_events(events)            # several (one monitor commit's) in one transaction
@@ -101,9 +102,11 @@ class DigitalTwin:
         when = _checked_time(time)
         pose = _checked_pose(observation.pose, "the observation's pose")
         camera = None if camera is None else _checked_pose(camera, "the camera pose")
-        if not (0.0 <= observation.fitness <= 1.0 and math.isfinite(observation.rmse) and observation.rmse >= 0):
-            raise TwinError(f"an observation needs fitness in [0, 1] and a finite rmse >= 0, got "
-                            f"{observation.fitness} and {observation.rmse}")
+        no_inlier = math.isinf(observation.rmse) and observation.fitness == 0.0
+        if not (0.0 <= observation.fitness <= 1.0 and (no_inlier or math.isfinite(observation.rmse))
+                and observation.rmse >= 0):
+            raise TwinError(f"an observation needs fitness in [0, 1] and a finite rmse >= 0 (inf only with fitness "
+                            f"0: no inlier), got {observation.fitness} and {observation.rmse}")
         source = robot or self.robot
 
         def build(writer: Writer) -> list[TwinEvent]:
@@ -115,7 +118,9 @@ class DigitalTwin:
             tolerance = self.tolerances.for_element(element.ifc_class, element.family) if element else None
             status, deviation = judge(pose, observation.fitness, element, tolerance,
                                       self.symmetry.get(observation.family, 1), self.min_fitness)
-            if getattr(observation, "status", None) is ElementStatus.UNVERIFIED:
+            if no_inlier:
+                status = ElementStatus.UNVERIFIED  # nothing of the view lies on the fitted model: nothing measured
+            elif getattr(observation, "status", None) is ElementStatus.UNVERIFIED:
                 status = ElementStatus.UNVERIFIED  # its observer could not judge it (a view blind along an axis)
             data = {"family": observation.family, "status": status.value, "pose": pose.tolist(),
                     "reason": getattr(observation, "reason", ""),
@@ -288,7 +293,8 @@ class DigitalTwin:
 
 
 def _fit(observation: Observation) -> dict:
-    return {"rmse": float(observation.rmse), "fitness": float(observation.fitness), "points": int(observation.points),
+    rmse = float(observation.rmse)
+    return {"rmse": rmse if math.isfinite(rmse) else None, "fitness": float(observation.fitness), "points": int(observation.points),
             "score": float(observation.score), "detector": observation.detector}
 
 

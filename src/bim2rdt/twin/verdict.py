@@ -23,5 +23,11 @@ def judge(pose: np.ndarray, fitness: float, element: BimElement | None, toleranc
         return ElementStatus.UNVERIFIED, deviation
     if element is None:
         return ElementStatus.NEW, None
+    return against_tolerance(deviation, tolerance), deviation
+
+
+def against_tolerance(deviation: Deviation, tolerance: Tolerance) -> ElementStatus:
+    """AS_PLANNED when translation, tilt and yaw are all within the preset, else DEVIATING: the one judge of
+    both, used by the twin and by the mission (which supplies the deviation), so their verdicts agree."""
     within = deviation.within(tolerance.translation, tolerance.rotation_deg)
-    return (ElementStatus.AS_PLANNED if within else ElementStatus.DEVIATING), deviation
+    return ElementStatus.AS_PLANNED if within else ElementStatus.DEVIATING
