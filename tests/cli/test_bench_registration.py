@@ -23,7 +23,10 @@ def test_bench_registration_json_has_every_scenario_method_and_target(tmp_path):
     assert all(0.0 <= m["success"] <= 1.0 and m["rmse"] > 0.0 for m in methods.values())
     assert all(sum(m["modes"].values()) == m["registrations"] for m in methods.values())
     assert all(m["knocked_tilt_deg"] is None or m["knocked_tilt_deg"] >= 0.0 for m in methods.values())
-    assert len(report["targets"]) == 4
+    assert len(report["targets"]) == 8  # S1-S4's four, S4 success, the families' two, the covariance calibration
+    assert set(report["families"]) == {f"F{i}" for i in range(1, 10)}
+    assert {"ICP", "SG-ICP", "Open3D pt-plane"} == set(report["families"]["F1"]["methods"])
+    assert report["worst_family"] in report["families"]
     assert report["priors"]["Survey_Tripod_Aluminium"]["upright_bias"] < report["priors"][
         "Wooden_Crate_1200x800x600"]["upright_bias"]
     assert sorted(p.name for p in tmp_path.glob("*.png")) == [f"registration_S{i}.png" for i in range(1, 5)]
@@ -37,10 +40,20 @@ def test_bench_registration_prints_the_table_with_pass_or_fail(tmp_path):
     assert "SG-ICP" in result.stdout and "Targets" in result.stdout
     assert "fails t/f/y/s" in result.stdout and "leaning tilt" in result.stdout
     verdicts = [line for line in result.stdout.splitlines() if " PASS " in line or " FAIL " in line]
-    assert len(verdicts) == 2  # without peers: the RMSE-cut and the no-worse-than-ICP targets
+    assert len(verdicts) == 6  # no peers: RMSE cut, no worse than ICP, S4 success, the families' two, calibration
+    assert "covariance: in 95 %" in result.stdout
+    assert "worst family" in result.stdout and "Scene families" in result.stdout
     results = json.loads((tmp_path / "results.json").read_text())
     assert results["config"]["restarts"] == 12  # what the methods ran with ...
     assert results["settings"]["registration"]["restarts"] == 12  # ... is what the record shows
+
+
+def test_bench_registration_can_leave_the_families_out(tmp_path):
+    result = run_cli("bench", "registration", "--trials", "1", "--no-peers", "--no-families", "--json",
+                     "--out", str(tmp_path))
+    assert result.returncode == 0, result.stderr
+    report = json.loads(result.stdout)
+    assert report["families"] == {} and report["worst_family"] is None and len(report["targets"]) == 4
 
 
 def test_bench_registration_rejects_zero_trials(tmp_path):

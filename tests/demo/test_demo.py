@@ -79,7 +79,11 @@ def test_the_robot_finds_the_unplanned_drum_and_flags_what_moved(demo_out):
     moved_truth = [r for r in rows if r["truth"] in ("moved", "knocked")]
     assert moved_truth and all(r["status"] == ElementStatus.DEVIATING for r in moved_truth)
     unchanged = [r for r in rows if r["truth"] == "unchanged"]
-    assert unchanged and all(r["status"] == ElementStatus.AS_PLANNED for r in unchanged)
+    judged = [r for r in unchanged if r["status"] != ElementStatus.UNVERIFIED]
+    assert len(judged) >= len(unchanged) - 1 and all(r["status"] == ElementStatus.AS_PLANNED for r in judged)
+    # an unchanged object the view cannot pin down (the pallet: its deck boards say nothing about where it lies
+    # along them) is unverified along that axis, with the reason, never deviating (issue 13)
+    assert all(r["reason"].startswith("along ") for r in unchanged if r["status"] == ElementStatus.UNVERIFIED)
 
 
 def test_the_object_taken_off_the_site_is_missing_and_the_simulators_scoring_agrees(demo_out):

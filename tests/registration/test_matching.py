@@ -2,9 +2,15 @@
 
 from __future__ import annotations
 
-import numpy as np
+import dataclasses
 
-from bim2rdt.registration import matching
+import numpy as np
+import pytest
+import trimesh
+
+from bim2rdt.registration import matching, sample_model
+from bim2rdt.sim.families import FAMILIES, cone_on_plate, sparse_view
+from bim2rdt.sim.meshes import wooden_crate
 
 
 def _index(points, normals=None):
@@ -70,3 +76,73 @@ def test_scene_normals_of_a_plane_point_along_its_normal():
     plane = np.c_[rng.uniform(-1, 1, (200, 2)), np.zeros(200)]
     normals = matching.scene_normals(plane, 8)
     assert np.allclose(np.abs(normals[:, 2]), 1.0, atol=1e-9)
+
+
+def _box_index(count=2000, extents=(0.6, 0.4, 0.5)):
+    box = trimesh.creation.box(extents=extents)
+    return matching.ModelIndex.build(*sample_model(box, count, seed=1, drop_resting_face=False))
+
+
+@pytest.mark.parametrize("count, bound", [(2000, 0.0035), (10000, 0.0026)])
+def test_a_crate_seen_at_its_true_pose_is_as_far_from_the_surface_as_the_sensor_noise(count, bound):
+    """Issue 13: the nearest sample's plane reported ~10 mm for 2 mm noise; the surface distance ~2-3 mm."""
+    crate = wooden_crate()
+    model = matching.ModelIndex.build(*sample_model(crate, count, seed=1))
+    pool = sample_model(crate, 20000, seed=5, drop_resting_face=False)
+    spec = dataclasses.replace(FAMILIES["F1"], noise=0.002, occluded_fraction=0.0, elevation_deg=(20.0, 40.0))
+    surface, plane = [], []
+    for seed in range(4):
+        view = sparse_view(crate, pool, 400, spec, np.random.default_rng(seed))
+        surface.append(matching.surface_distances(model, view, 0.03))
+        plane.append(matching.match_pairs(model, view[None], 0.25).residual[0])
+    rms = lambda d: np.sqrt(np.mean(np.concatenate(d)[np.concatenate(d) < 0.03] ** 2))  # noqa: E731
+    assert rms(surface) < bound < 1.5 * rms(plane)
+
+
+def test_a_point_past_a_convex_edge_is_as_far_from_the_surface_as_it_is_past_the_edge():
+    model = _box_index()
+    beyond = np.array([[0.3 + gap, 0.0, 0.25] for gap in (0.01, 0.02, 0.04)])  # in the top face's plane
+    on_top, inside_edge = np.array([[0.1, 0.05, 0.25]]), np.array([[0.29, 0.0, 0.25]])
+    distances = matching.surface_distances(model, np.vstack([beyond, on_top, inside_edge]))
+    assert distances[:3] == pytest.approx([0.01, 0.02, 0.04], abs=0.002)
+    assert distances[3:] == pytest.approx([0.0, 0.0], abs=1e-9)
+
+
+def test_a_thin_tube_is_not_fattened_by_its_samples_patches():
+    tube = trimesh.creation.cylinder(radius=0.0125, height=1.0, sections=12)
+    model = matching.ModelIndex.build(*sample_model(tube, 4000, seed=2, drop_resting_face=False))
+    beside = np.array([[0.0125 + gap, 0.0, 0.1] for gap in (0.0, 0.01, 0.02)])
+    assert matching.surface_distances(model, beside) == pytest.approx([0.0, 0.01, 0.02], abs=0.003)
+
+
+def test_a_concave_crease_leaves_the_plate_next_to_a_cone_on_the_surface():
+    model = matching.ModelIndex.build(*sample_model(cone_on_plate(0.17, 0.68, 0.36)(), 2000, seed=3,
+                                                    drop_resting_face=False))
+    on_plate = np.array([[0.175, 0.0, 0.03], [0.0, -0.172, 0.03]])  # just outside the cone's foot
+    assert matching.surface_distances(model, on_plate) == pytest.approx([0.0, 0.0], abs=0.002)
+
+
+def test_the_model_index_is_built_once_per_content_and_a_changed_model_gets_its_own():
+    points, normals = sample_model(trimesh.creation.box(extents=(0.4, 0.3, 0.2)), 500, seed=4)
+    first = matching.ModelIndex.cached(points, normals)
+    assert matching.ModelIndex.cached(points.copy(), normals.copy()) is first  # same content, new arrays
+    moved = points + [0.0, 0.0, 0.01]
+    assert matching.ModelIndex.cached(moved, normals) is not first
+    assert np.array_equal(matching.ModelIndex.cached(moved, normals).points, moved)
+
+
+def test_the_lowest_sample_along_any_direction_is_one_of_the_hull_samples():
+    """The resting contact searches only the convex hull's samples; along any direction the lowest of those is
+    the lowest of all. Flat samples span no volume: then every sample is kept."""
+    from bim2rdt.registration.matching import hull_vertices
+
+    rng = np.random.default_rng(0)
+    points = rng.normal(size=(5000, 3)) * (0.6, 0.4, 0.2)
+    hull = hull_vertices(points)
+    assert len(hull) < len(points) // 10
+    directions = rng.normal(size=(200, 3))
+    lowest_of_hull = hull[np.argmin(points[hull] @ directions.T, axis=0)]
+    assert np.array_equal(np.argmin(points @ directions.T, axis=0), lowest_of_hull)
+    flat = points.copy()
+    flat[:, 2] = 0.0
+    assert len(hull_vertices(flat)) == len(flat)

@@ -46,9 +46,11 @@ def test_initial_poses_are_perturbed_within_the_scenario_bounds():
 
 def test_sg_icp_beats_icp_on_tilted_partial_views_of_poorly_featured_families():
     """Upright scaffold, tripod and pallet from starts up to 45 degrees tilted: where gravity is right and the
-    start is far off, ICP sometimes ends tilted and SG-ICP does not."""
+    start is far off, ICP sometimes ends tilted and SG-ICP does not. Six trials: since the hops rescue many of
+    ICP's tilted ends, one pallet yaw miss decides the RMSE of three (SG-ICP 11.1 vs ICP 10.3 mm); over six
+    it is 10.1 vs 14.9 mm, over ten 10.0 vs 16.5 mm."""
     upright = dataclasses.replace(SCENARIOS["S4"], knocked_fraction=0.0, max_tilt_deg=45.0)
-    built = scenario("S4", trials=3, seed=0, spec=upright)
+    built = scenario("S4", trials=6, seed=0, spec=upright)
     priors = upright_priors([family for family, *_ in built.spec.layout])
     config = IcpConfig()
     result = run_scenario(built, [SgIcp(config, use_prior=False), SgIcp(config, use_prior=True)], priors)

@@ -27,18 +27,25 @@ def bench_registration(
     one_core: bool = typer.Option(True, "--one-core/--all-cores",
                                   help="Pin the process to one CPU so Open3D's TBB threads and our numpy "
                                        "compete on equal terms."),
+    families: bool = typer.Option(True, "--families/--no-families",
+                                  help="Also run the scene families F1-F9 (sparse half-occluded single views "
+                                       "built outside S1-S4; bim2rdt.sim.families)."),
     as_json: bool = typer.Option(False, "--json", help="Print JSON instead of tables."),
 ) -> None:
-    """Run S1-S4 with ICP, SG-ICP (priors from the knowledge base) and Open3D; print the table and targets."""
+    """Run S1-S4 with ICP, SG-ICP (priors from the knowledge base) and Open3D, then the scene families F1-F9;
+    print the tables and targets."""
     from bim2rdt.bench.registration.runs import run_registration_scenarios, run_record, save_run
     from bim2rdt.config import get_settings, settings_record
+    from bim2rdt.sim.families import FAMILIES
 
     if one_core and hasattr(os, "sched_setaffinity"):
         os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
     use_peers = _open3d_available() if peers is None else peers
     settings = get_settings()
-    with progress(4 * trials, "registration scenarios") as tick:
-        run = run_registration_scenarios(out, trials, seed, settings.registration, use_peers, tick=tick)
+    names = tuple(FAMILIES) if families else ()
+    with progress((4 + len(names)) * trials, "registration scenarios and families") as tick:
+        run = run_registration_scenarios(out, trials, seed, settings.registration, use_peers, families=names,
+                                         tick=tick)
     save_run(run, out, settings_record(settings))
     if as_json:
         print_json(run_record(run, settings_record(settings)))
@@ -63,16 +70,60 @@ def show_run(run, targets: bool = True) -> None:
                          *[f"{getattr(s[p], key) * scale:.6f}" for p in peers]))
         for label, key, fmt in (("success", "success", "{:.0%}"), ("tilt err (deg)", "tilt_deg", "{:.2f}"),
                                 (f"leaning tilt (n={s['ICP'].knocked})", "knocked_tilt_deg", _degrees),
-                                ("fails t/f/y/s", "modes", _modes), ("time (ms)", "time_ms", "{:.1f}")):
+                                ("fails t/f/y/s", "modes", _modes), ("time (ms)", "time_ms", "{:.1f}"),
+                                ("covariance: in 95 % (n)", "calibration", None),
+                                ("well-constrained", "well_constrained", _share)):
+            if fmt is None:
+                rows.append((result.name, label, _calibration(s["ICP"]), _calibration(s["SG-ICP"]), "",
+                             *[_calibration(s[p]) for p in peers]))
+                continue
             fmt = fmt.format if isinstance(fmt, str) else fmt
             rows.append((result.name, label, fmt(getattr(s["ICP"], key)), fmt(getattr(s["SG-ICP"], key)), "",
                          *[fmt(getattr(s[p], key)) for p in peers]))
     print_table(f"Registration: Hausdorff means over {run.trials} trials x objects per scenario "
                 "(improvement = RMSE/Mean/Max cut by SG-ICP [95 % paired bootstrap interval])",
                 ["scenario", "metric", "ICP", "SG-ICP", "improvement", *peers], rows)
+    if run.families:
+        show_families(run)
     if targets:
         print_table("Targets", ["target", "result", "detail"],
                     [(t.name, "PASS" if t.passed else "FAIL", t.detail) for t in run.targets])
+
+
+def show_families(run) -> None:
+    """One row per scene family: mean surface error (mm) of ICP and SG-ICP with the cut and its paired
+    interval, the peer, success and failure modes; then the worst family again."""
+    from bim2rdt.bench.registration.stats import cut_interval, improvement, worst_family
+
+    peer = "Open3D pt-plane" if "Open3D pt-plane" in run.families[0].stats else None
+
+    def row(result, label):
+        s = result.stats
+        low, high = cut_interval(result, "mean")
+        return (label, result.description, f"{1000 * s['ICP'].mean:.1f}", f"{1000 * s['SG-ICP'].mean:.1f}",
+                f"{improvement(s['ICP'].mean, s['SG-ICP'].mean):+.1f} % [{low:+.0f}, {high:+.0f}]",
+                *([f"{1000 * s[peer].mean:.1f}"] if peer else []),
+                f"{s['ICP'].success:.0%} / {s['SG-ICP'].success:.0%}",
+                f"{_modes(s['ICP'].modes)} -> {_modes(s['SG-ICP'].modes)}",
+                f"{_calibration(s['ICP'])} / {_calibration(s['SG-ICP'])}")
+
+    rows = [row(r, r.name) for r in run.families]
+    worst = worst_family(run.families)
+    rows.append(row(worst, f"worst family ({worst.name})"))
+    print_table(f"Scene families: mean surface error (mm) over {run.trials} trials x 3 objects "
+                "(cut by SG-ICP [95 % paired bootstrap interval])",
+                ["family", "scene", "ICP", "SG-ICP", "cut", *([peer] if peer else []), "success ICP / SG",
+                 "fails t/f/y/s ICP -> SG", "cov. in 95 % (n) ICP / SG"], rows)
+
+
+def _calibration(stats) -> str:
+    """Share of judged estimates inside their 95 % covariance ellipsoid and how many were judged; '-' for a
+    method that reports no covariance (a peer)."""
+    return "-" if stats.calibrated == 0 else f"{stats.calibration:.2f} ({stats.calibrated})"
+
+
+def _share(value: float) -> str:
+    return "-" if value != value else f"{value:.0%}"
 
 
 def _degrees(value: float) -> str:

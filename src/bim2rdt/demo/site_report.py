@@ -48,7 +48,8 @@ def observation_rows(day: SiteDay) -> list[dict]:
                  if truth else None)
         rows.append({
             "family": obs.family, "label": day.priors[obs.family].label, "global_id": obs.global_id,
-            "status": obs.status.value, "truth": truth.change if truth else None, "upright_bias": obs.upright_bias,
+            "status": obs.status.value, "reason": obs.reason, "truth": truth.change if truth else None,
+            "upright_bias": obs.upright_bias,
             "shift_m": obs.shift, "yaw_deg": obs.yaw_deg, "tilt_deg": obs.tilt_deg, "points": obs.points,
             "fitness": obs.fitness, "rmse_m": obs.rmse, "frames": list(obs.frames),
             "error_rotation_deg": error.rotation_deg if error else None,
@@ -81,7 +82,8 @@ def observation_cells(row: dict) -> tuple[str, ...]:
     def number(value, digits: int, scale: float = 1.0) -> str:
         return "-" if value is None else f"{scale * value:.{digits}f}"
 
-    return (row["label"], row["status"], row["truth"] or "-", number(row["upright_bias"], 2),
+    status = f"{row['status']} {row['reason']}" if row.get("reason") else row["status"]
+    return (row["label"], status, row["truth"] or "-", number(row["upright_bias"], 2),
             number(row["shift_m"], 2), number(row["yaw_deg"], 1), number(row["tilt_deg"], 1),
             number(row["fitness"], 2), number(row["error_translation_m"], 1, 100.0),
             number(row["error_rotation_deg"], 1))

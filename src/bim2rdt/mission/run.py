@@ -141,7 +141,7 @@ def _observe(detection: Detection, target: Target | None, mesh: trimesh.Trimesh,
                    support_height=config.slab_height if rests_on_slab(target, model_pts, config) else None,
                    plausible=_free_space(model_pts, model_normals, view, config))
     judged = judge(target, fit, prior.symmetry, config, tolerance_of(target, tolerances) if target else None)
-    reason = ""
+    reason = judged.reason  # the verdict's own: too few points explained, or a direction the view cannot see
     if not math.isfinite(fit.rmse):  # a partial view behind a wall: no point lies on the fitted model
         reason = (f"(no inlier: none of its {len(object_pts)} points lies within {100 * icp.score_distance:.0f} cm "
                   "of the fitted model)")

@@ -34,12 +34,14 @@ class Verdict:
     """The status of one registered object and the deviation behind it, against its BIM placement modulo the
     family's symmetry, measured as the twin measures it (:func:`bim2rdt.twin.pose_deviation`): ``shift`` (m,
     between the origins), ``yaw_deg`` (about the element's up axis, within +-180/n), ``tilt_deg`` (between the
-    up axes)."""
+    up axes), and ``reason``, what follows "unverified" in a report: "along x (the view does not pin ...)" or
+    "(the fit explains 40 % of its points, ...)"; empty for the other statuses."""
 
     status: ElementStatus
     shift: float
     yaw_deg: float
     tilt_deg: float
+    reason: str = ""
 
 
 def judge(target: Target | None, fit: RegistrationResult, symmetry: float, config: MissionConfig,
@@ -50,19 +52,34 @@ def judge(target: Target | None, fit: RegistrationResult, symmetry: float, confi
     twin's call: ``tolerance`` is the element's preset (default: ``TwinConfig()``'s for its class and family)."""
     reference = target.placement if target else fit.pose
     deviation = pose_deviation(reference, fit.pose, symmetry)
-    return Verdict(verdict(target, fit, deviation, config, tolerance), deviation.translation, deviation.yaw_deg,
-                   deviation.tilt_deg)
+    status, reason = verdict(target, fit, deviation, config, tolerance, symmetry)
+    return Verdict(status, deviation.translation, deviation.yaw_deg, deviation.tilt_deg, reason)
 
 
 def verdict(target: Target | None, fit: RegistrationResult, deviation: Deviation, config: MissionConfig,
-            tolerance: Tolerance | None = None) -> ElementStatus:
-    """UNVERIFIED when the fit explains too few points to trust, NEW for an object the BIM lacks, else the
-    twin's judgement of ``deviation`` against the element's tolerance preset (AS_PLANNED or DEVIATING)."""
+            tolerance: Tolerance | None = None, symmetry: float = 1.0) -> tuple[ElementStatus, str]:
+    """(status, reason). UNVERIFIED when the fit explains too few points to trust; NEW for an object the BIM
+    lacks; else the twin's judgement (:func:`bim2rdt.twin.verdict.against_tolerance`, the element's tolerance
+    preset) of the part of ``deviation`` the view pins down: DEVIATING when that is beyond the preset,
+    UNVERIFIED when the view leaves a horizontal direction (or the yaw of a body without symmetry) unconstrained
+    that could hide a deviation (the registration's unobservable directions: a box seen on one face may have
+    slid along it, and an estimate along that face is the start, not evidence), else AS_PLANNED."""
     if fit.fitness < config.min_fitness:
-        return ElementStatus.UNVERIFIED
+        return ElementStatus.UNVERIFIED, (f"(the fit explains {fit.fitness:.0%} of its points, under "
+                                          f"{config.min_fitness:.0%})")
     if target is None:
-        return ElementStatus.NEW
-    return against_tolerance(deviation, tolerance or tolerance_of(target))
+        return ElementStatus.NEW, ""
+    free, free_yaw = unconstrained_motion(fit, symmetry)
+    moved = fit.pose[:3, 3] - target.placement[:3, 3]
+    seen = Deviation(float(np.linalg.norm(moved - free.T @ (free @ moved))), deviation.tilt_deg,
+                     0.0 if free_yaw else deviation.yaw_deg)
+    status = against_tolerance(seen, tolerance or tolerance_of(target))
+    blind = [axis for axis in free if np.linalg.norm(axis[:2]) > 0.5]  # the slab pins the height anyway
+    if status is ElementStatus.DEVIATING or not (blind or free_yaw):
+        return status, ""
+    parts = [f"along {axis_name(axis)}" for axis in blind] + (["in yaw"] if free_yaw else [])
+    return ElementStatus.UNVERIFIED, (f"{' and '.join(parts)} (the view does not pin the pose down there, so the "
+                                      "fit cannot tell whether it moved)")
 
 
 def tolerance_of(target: Target, policy: TolerancePolicy | None = None) -> Tolerance:
@@ -71,3 +88,25 @@ def tolerance_of(target: Target, policy: TolerancePolicy | None = None) -> Toler
 
 
 _DEFAULT_POLICY = TwinConfig().tolerance_policy()
+
+
+def unconstrained_motion(fit: RegistrationResult, symmetry: float) -> tuple[np.ndarray, bool]:
+    """(world unit vectors (k, 3) along which the fit leaves the position free, whether it leaves the yaw free),
+    from the registration's unobservable directions. A free turn about the up axis counts only for a body with
+    no rotational symmetry: a round body's (order ``math.inf``) is its symmetry, and a square-based cone's
+    (order 4) yaw is weak by design and no site deviation anyone acts on. A fit without an uncertainty (a test
+    double) is taken as fully constrained."""
+    uncertainty = getattr(fit, "uncertainty", None)
+    if uncertainty is None:
+        return np.zeros((0, 3)), False
+    axes = uncertainty.rotation_axes()
+    free_yaw = bool(np.any(np.abs(axes[:, 2]) > 0.9)) and symmetry <= 1.0
+    return uncertainty.translation_directions(), free_yaw
+
+
+def axis_name(direction: np.ndarray) -> str:
+    """'x', 'y' or 'z' for a unit vector within 25 degrees of a world axis (either sign), else its components."""
+    dominant = int(np.argmax(np.abs(direction)))
+    if abs(direction[dominant]) >= np.cos(np.deg2rad(25.0)):
+        return "xyz"[dominant]
+    return "(" + ", ".join(f"{c:.2f}" for c in direction) + ")"

@@ -6,6 +6,7 @@ from bim2rdt.registration.errors import RegistrationError
 from bim2rdt.registration.icp import RegistrationResult, register
 from bim2rdt.registration.metrics import HausdorffStats, hausdorff
 from bim2rdt.registration.sampling import sample_model
+from bim2rdt.registration.uncertainty import POSE_PARAMETERS, PoseUncertainty
 
-__all__ = ["HausdorffStats", "IcpConfig", "RegistrationError", "RegistrationResult", "hausdorff", "register",
-           "sample_model"]
+__all__ = ["POSE_PARAMETERS", "HausdorffStats", "IcpConfig", "PoseUncertainty", "RegistrationError",
+           "RegistrationResult", "hausdorff", "register", "sample_model"]

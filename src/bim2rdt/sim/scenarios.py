@@ -89,6 +89,8 @@ class ObjectTrial:
     T_init: np.ndarray
     scene_pts_world: np.ndarray
     knocked: bool = False  # the true pose is tilted (the object leans), so an upright prior is wrong here
+    support_height: float | None = 0.0  # m along z: the slab it rests on, when the registration may know it
+    symmetry_order: float | None = None  # about body z (math.inf = any turn); None = the family's in sim.truth
 
 
 @dataclass(frozen=True)

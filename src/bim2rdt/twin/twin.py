@@ -120,7 +120,10 @@ class DigitalTwin:
                                       self.symmetry.get(observation.family, 1), self.min_fitness)
             if no_inlier:
                 status = ElementStatus.UNVERIFIED  # nothing of the view lies on the fitted model: nothing measured
+            elif getattr(observation, "status", None) is ElementStatus.UNVERIFIED:
+                status = ElementStatus.UNVERIFIED  # its observer could not judge it (a view blind along an axis)
             data = {"family": observation.family, "status": status.value, "pose": pose.tolist(),
+                    "reason": getattr(observation, "reason", ""),
                     "deviation": deviation.to_dict() if deviation else None,
                     "tolerance": tolerance.to_dict() if tolerance else None, "fit": _fit(observation),
                     "evidence": _evidence(observation.station, observation.frames, camera, observation.bbox)}

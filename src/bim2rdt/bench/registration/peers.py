@@ -1,6 +1,8 @@
 """Registration methods compared by the benchmark, behind one call signature so the loop has no if-chains.
 
-``method(model_pts, model_normals, scene_pts_world, T_init, bias, yaw_only) -> T_world_model``. Every method
+``method(model_pts, model_normals, scene_pts_world, T_init, bias, yaw_only, support_height)`` returns T_world_model
+or, for bim2rdt's own loop, the whole RegistrationResult (with its covariance); ``support_height`` is the slab
+the object rests on (m), or None when the scene does not know it. Every method
 gets the same yaw restarts (:func:`bim2rdt.registration.icp.yaw_restarts`), the same iteration cap and pair
 distance, and picks its best restart with the same truncated score.
 """
@@ -12,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from bim2rdt.errors import Bim2RdtError
-from bim2rdt.registration import IcpConfig, register
+from bim2rdt.registration import IcpConfig, RegistrationResult, register
 from bim2rdt.registration.icp import score_poses, yaw_restarts
 from bim2rdt.registration.matching import ModelIndex
 from bim2rdt.registration.so3 import invert_poses
@@ -23,25 +25,26 @@ UP = np.array([0.0, 0.0, 1.0])
 @dataclass(frozen=True)
 class SgIcp:
     """bim2rdt's loop: plain robust ICP when ``use_prior`` is False; SG-ICP with the family prior otherwise, resting
-    on the slab at ``support_height`` (m; the scenarios' ground is z = 0), or, with None, on the upright prior
+    on the scene's support when it is known (``contact``), or, with ``contact`` False, on the upright prior
     alone (the ablation that shows what the contact adds)."""
 
     config: IcpConfig
     use_prior: bool
-    support_height: float | None = 0.0
+    contact: bool = True
 
     @property
     def name(self) -> str:
         if not self.use_prior:
             return "ICP"
-        return "SG-ICP" if self.support_height is not None else "SG-ICP upright only"
+        return "SG-ICP" if self.contact else "SG-ICP upright only"
 
-    def __call__(self, model_pts, model_normals, scene_pts, T_init, bias, yaw_only) -> np.ndarray:
+    def __call__(self, model_pts, model_normals, scene_pts, T_init, bias, yaw_only,
+                 support_height: float | None = 0.0) -> RegistrationResult:
         if not self.use_prior:
-            return register(model_pts, model_normals, scene_pts, T_init, UP, 0.0, False, self.config).pose
+            return register(model_pts, model_normals, scene_pts, T_init, UP, 0.0, False, self.config)
         start = level(T_init) if yaw_only else T_init
         return register(model_pts, model_normals, scene_pts, start, UP, bias, yaw_only, self.config,
-                        support_height=self.support_height).pose
+                        support_height=support_height if self.contact else None)
 
 
 @dataclass(frozen=True)
@@ -56,7 +59,8 @@ class Open3dIcp:
     def name(self) -> str:
         return "Open3D pt-plane" if self.plane else "Open3D pt-pt"
 
-    def __call__(self, model_pts, model_normals, scene_pts, T_init, bias, yaw_only) -> np.ndarray:
+    def __call__(self, model_pts, model_normals, scene_pts, T_init, bias, yaw_only,
+                 support_height: float | None = 0.0) -> np.ndarray:
         o3d = import_open3d()
         reg = o3d.pipelines.registration
         target = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(model_pts))
@@ -69,7 +73,7 @@ class Open3dIcp:
         poses = np.stack([invert_poses(reg.registration_icp(
             source, target, self.config.max_pair_distance, invert_poses(T), estimation, criteria).transformation)
             for T in starts])
-        scores, _ = score_poses(ModelIndex.build(model_pts, model_normals), poses, scene_pts, self.config)
+        scores, _ = score_poses(ModelIndex.cached(model_pts, model_normals), poses, scene_pts, self.config)
         return poses[int(np.argmin(scores))]
 
 

@@ -6,15 +6,17 @@ from __future__ import annotations
 import json
 import platform
 from collections.abc import Callable, Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 from bim2rdt.atomic import write_bytes_atomic
 from bim2rdt.registration import IcpConfig
-from bim2rdt.bench.registration.stats import (COLUMNS, Prior, ScenarioResult, Target, check_targets, cut_interval, improvement,
-                                   run_scenario)
+from bim2rdt.bench.registration.stats import (COLUMNS, Prior, ScenarioResult, Target, check_calibration_target,
+                                              check_family_targets, check_targets, cut_interval, improvement,
+                                              run_scenario, worst_family)
 from bim2rdt.bench.registration.peers import Open3dIcp, SgIcp
 from bim2rdt.bench.registration.plots import plot_before_after
+from bim2rdt.sim.families import FAMILIES, family_scenario
 from bim2rdt.sim.scenarios import SCENARIOS, scenario
 
 
@@ -29,6 +31,7 @@ class RegistrationRun:
     results: list[ScenarioResult]
     targets: list[Target]
     plots: list[Path]
+    families: list[ScenarioResult] = field(default_factory=list)  # F1-F9 (bim2rdt.sim.families), when run
 
 
 def upright_priors(families: Sequence[str]) -> dict[str, Prior]:
@@ -43,19 +46,19 @@ def build_methods(config: IcpConfig, peers: bool) -> list:
     """ICP and SG-ICP (one loop, with and without the priors), SG-ICP on the upright prior alone (an ablation),
     plus Open3D's two ICPs when ``peers``."""
     methods = [SgIcp(config, use_prior=False), SgIcp(config, use_prior=True),
-               SgIcp(config, use_prior=True, support_height=None)]
+               SgIcp(config, use_prior=True, contact=False)]
     if peers:
         methods += [Open3dIcp(config, plane=False), Open3dIcp(config, plane=True)]
     return methods
 
 
 def run_registration_scenarios(out_dir: Path | None, trials: int, seed: int, config: IcpConfig, peers: bool,
-                               names: Sequence[str] = tuple(SCENARIOS),
+                               names: Sequence[str] = tuple(SCENARIOS), families: Sequence[str] = (),
                                tick: Callable[[], None] = lambda: None) -> RegistrationRun:
-    """Build and run each scenario; with ``out_dir``, save one before/after plot per scenario there."""
+    """Build and run each scenario, then each scene family (``families``, e.g. ``tuple(FAMILIES)``); with
+    ``out_dir``, save one before/after plot per scenario there."""
     methods = build_methods(config, peers)
-    families = [family for name in names for family, *_ in SCENARIOS[name].layout]
-    priors = upright_priors(families)
+    priors = upright_priors([family for name in names for family, *_ in SCENARIOS[name].layout])
     results, plots = [], []
     for name in names:
         built = scenario(name, trials=trials, seed=seed, sample_count=config.sample_count)
@@ -63,7 +66,25 @@ def run_registration_scenarios(out_dir: Path | None, trials: int, seed: int, con
         results.append(result)
         if out_dir is not None:
             plots.append(plot_before_after(built, result, Path(out_dir) / f"registration_{name}.png"))
-    return RegistrationRun(config, trials, seed, priors, results, check_targets(results), plots)
+    family_results = [run_family(name, trials, seed, config, peers, tick) for name in families]
+    targets = (check_targets(results) + check_family_targets(family_results)
+               + check_calibration_target(results + family_results))
+    return RegistrationRun(config, trials, seed, priors, results, targets, plots, family_results)
+
+
+def run_family(name: str, trials: int, seed: int, config: IcpConfig, peers: bool,
+               tick: Callable[[], None] = lambda: None) -> ScenarioResult:
+    """ICP, SG-ICP (and Open3D point-to-plane with ``peers``) on scene family ``name``. The family's own
+    model density and its user-given upright bias apply, as they would for a user calling ``register``."""
+    spec = FAMILIES[name]
+    family_config = config.model_copy(update={"sample_count": spec.sample_count})
+    methods = [m for m in build_methods(family_config, peers) if m.name in FAMILY_METHODS]
+    priors = {o.family: (spec.upright_bias, False) for o in spec.objects}
+    return run_scenario(family_scenario(name, trials=trials, seed=seed), methods, priors, tick)
+
+
+FAMILY_METHODS = ("ICP", "SG-ICP", "Open3D pt-plane")
+"""What runs on the scene families: the two methods the families judge, and the peer users would pick."""
 
 
 def run_record(run: RegistrationRun, settings: dict | None = None) -> dict:
@@ -80,6 +101,13 @@ def run_record(run: RegistrationRun, settings: dict | None = None) -> dict:
                                                                "ci95": list(cut_interval(r, metric))}
                                                       for metric in COLUMNS}}
                       for r in run.results},
+        "families": {r.name: {"description": r.description,
+                              "methods": {m: _no_nan(asdict(s)) for m, s in r.stats.items()},
+                              "sg_icp_cut_percent": {"mean": {"value": improvement(r.stats["ICP"].mean,
+                                                                                   r.stats["SG-ICP"].mean),
+                                                              "ci95": list(cut_interval(r, "mean"))}}}
+                     for r in run.families},
+        "worst_family": worst_family(run.families).name if run.families else None,
         "targets": [asdict(t) for t in run.targets],
         "plots": [str(p) for p in run.plots],
     }
