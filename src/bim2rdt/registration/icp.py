@@ -247,8 +247,7 @@ def _iterate(restarts: _Restarts, active: np.ndarray, problem: Problem, model: m
     annealing = delta > cfg.huber_delta
     stride = max(1, cfg.coarse_stride) if annealing else 1  # coarse-to-fine: the wide-scale steps need few points
     scene_body, pairs, w = _weighted_pairs(invert_poses(T), problem, model, normals_world, cfg, delta, stride)
-    dst = problem.model_pts_body[pairs.model_index]
-    normals = problem.model_normals_body[pairs.model_index]
+    dst, normals = pairs.samples, pairs.normals  # the model's samples: problem.model_*_body, indexed
     up_body = np.einsum("kji,j->ki", T[:, :3, :3], problem.up_world)
     lam = gravity_weight(dst, w, problem.upright_bias * cfg.gravity_gamma0)
     if problem.support_height is not None:
