@@ -314,8 +314,12 @@ def _transform(T: np.ndarray, points: np.ndarray) -> np.ndarray:
 
 
 def score_poses(model: matching.ModelIndex, poses: np.ndarray, scene_pts_world: np.ndarray, cfg: IcpConfig):
-    """Truncated surface-residual score of candidate poses (K, 4, 4) -> (scores (K,), pairs). Lower is better."""
-    pairs = matching.match_pairs(model, _transform(invert_poses(poses), scene_pts_world), cfg.max_pair_distance)
+    """Truncated surface-residual score of candidate poses (K, 4, 4) -> (scores (K,), pairs). Lower is better.
+    Points farther than ``score_distance`` + a sample spacing from every sample have a residual beyond the
+    truncation (it is at least the distance less the spacing), so the search stops there (+1 um against
+    round-off): their residuals are inf, not some value past the truncation, and every truncated use is the same."""
+    bound = min(cfg.max_pair_distance, cfg.score_distance + model.spacing + 1e-6)
+    pairs = matching.match_pairs(model, _transform(invert_poses(poses), scene_pts_world), bound)
     return matching.truncated_score(pairs, cfg.score_distance), pairs
 
 
