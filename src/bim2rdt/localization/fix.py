@@ -28,6 +28,7 @@ from bim2rdt.localization.surfaces import PermanentMap, SurfaceSamples, permanen
 from bim2rdt.perception.frame import Frame
 from bim2rdt.registration import IcpConfig, RegistrationError, register
 from bim2rdt.registration.so3 import invert_poses
+from bim2rdt.registration.validation import unit_up
 
 
 @dataclass(frozen=True)
@@ -224,8 +225,9 @@ def _rigid_prior(T) -> np.ndarray:
 
 
 def _unit_up(up) -> np.ndarray:
-    vector = np.asarray(up, dtype=np.float64).reshape(-1)
-    if vector.shape != (3,) or not np.all(np.isfinite(vector)) or np.linalg.norm(vector) < 1e-9:
-        raise LocalizationError(f"up must be a finite non-zero 3-vector, got {np.asarray(up).tolist()}")
-    return vector / np.linalg.norm(vector)
+    """The registration's check of ``up``, raised as a LocalizationError."""
+    try:
+        return unit_up(up)
+    except RegistrationError as error:
+        raise LocalizationError(str(error)) from None
 

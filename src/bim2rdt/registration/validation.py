@@ -46,7 +46,7 @@ def validate_problem(model_points, model_normals, scene_points, init, up, uprigh
     support = None if support_height is None else float(support_height)
     if support is not None and not np.isfinite(support):
         raise RegistrationError(f"support_height must be a finite height in metres or None, got {support}")
-    return Problem(model, normals / lengths[:, None], scene, _rigid_pose(init), _unit_up(up), bias, support)
+    return Problem(model, normals / lengths[:, None], scene, _rigid_pose(init), unit_up(up), bias, support)
 
 
 def _points(name: str, values) -> np.ndarray:
@@ -72,7 +72,8 @@ def _rigid_pose(init) -> np.ndarray:
     return pose
 
 
-def _unit_up(up) -> np.ndarray:
+def unit_up(up) -> np.ndarray:
+    """``up`` as a unit 3-vector; RegistrationError (one line) if it is not a finite non-zero 3-vector."""
     vector = np.asarray(up, dtype=np.float64).reshape(-1)
     if vector.shape != (3,) or not np.all(np.isfinite(vector)) or np.linalg.norm(vector) < 1e-9:
         raise RegistrationError(f"up must be a finite non-zero 3-vector, got {np.asarray(up).tolist()}")
