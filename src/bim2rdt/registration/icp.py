@@ -247,8 +247,7 @@ def _iterate(restarts: _Restarts, active: np.ndarray, problem: Problem, model: m
     annealing = delta > cfg.huber_delta
     stride = max(1, cfg.coarse_stride) if annealing else 1  # coarse-to-fine: the wide-scale steps need few points
     scene_body, pairs, w = _weighted_pairs(invert_poses(T), problem, model, normals_world, cfg, delta, stride)
-    dst = problem.model_pts_body[pairs.model_index]
-    normals = problem.model_normals_body[pairs.model_index]
+    dst, normals = pairs.samples, pairs.normals  # the model's samples: problem.model_*_body, indexed
     up_body = np.einsum("kji,j->ki", T[:, :3, :3], problem.up_world)
     lam = gravity_weight(dst, w, problem.upright_bias * cfg.gravity_gamma0)
     if problem.support_height is not None:
@@ -315,8 +314,12 @@ def _transform(T: np.ndarray, points: np.ndarray) -> np.ndarray:
 
 
 def score_poses(model: matching.ModelIndex, poses: np.ndarray, scene_pts_world: np.ndarray, cfg: IcpConfig):
-    """Truncated surface-residual score of candidate poses (K, 4, 4) -> (scores (K,), pairs). Lower is better."""
-    pairs = matching.match_pairs(model, _transform(invert_poses(poses), scene_pts_world), cfg.max_pair_distance)
+    """Truncated surface-residual score of candidate poses (K, 4, 4) -> (scores (K,), pairs). Lower is better.
+    Points farther than ``score_distance`` + a sample spacing from every sample have a residual beyond the
+    truncation (it is at least the distance less the spacing), so the search stops there (+1 um against
+    round-off): their residuals are inf, not some value past the truncation, and every truncated use is the same."""
+    bound = min(cfg.max_pair_distance, cfg.score_distance + model.spacing + 1e-6)
+    pairs = matching.match_pairs(model, _transform(invert_poses(poses), scene_pts_world), bound)
     return matching.truncated_score(pairs, cfg.score_distance), pairs
 
 

@@ -20,12 +20,16 @@ from scipy.spatial import ConvexHull, QhullError, cKDTree
 @dataclass
 class Pairs:
     """For each restart k and scene point n: the nearest model sample, the point-to-sample distance (m), the
-    residual the ICP step works with (m, see :func:`plane_residual`), and a validity mask."""
+    residual the ICP step works with (m, see :func:`plane_residual`), and a validity mask; ``samples`` and
+    ``normals`` are the matched samples' points and normals (body frame), gathered once for the residual and
+    the step."""
 
     model_index: np.ndarray  # (k, N) int
     distance: np.ndarray  # (k, N) float, inf when beyond the pair distance
     residual: np.ndarray  # (k, N) float, inf when beyond the pair distance
     valid: np.ndarray  # (k, N) bool
+    samples: np.ndarray  # (k, N, 3) model.points[model_index]
+    normals: np.ndarray  # (k, N, 3) model.normals[model_index]
 
 
 SURFEL_CANDIDATES = 8
@@ -99,17 +103,20 @@ def match_pairs(model: ModelIndex, scene_body: np.ndarray, max_distance: float) 
     distance, index = model.tree.query(scene_body.reshape(-1, 3), distance_upper_bound=max_distance)
     index = np.minimum(index, model.tree.n - 1).reshape(k, n)  # misses come back as tree.n; invalid anyway
     distance = distance.reshape(k, n)
-    residual = plane_residual(model, scene_body, index, distance)
-    return Pairs(index, distance, residual, np.isfinite(distance))
+    samples, normals = model.points[index], model.normals[index]
+    residual = plane_residual(model, scene_body, samples, normals, distance)
+    return Pairs(index, distance, residual, np.isfinite(distance), samples, normals)
 
 
-def plane_residual(model: ModelIndex, scene_body: np.ndarray, index: np.ndarray, distance: np.ndarray):
+def plane_residual(model: ModelIndex, scene_body: np.ndarray, samples: np.ndarray, normals: np.ndarray,
+                   distance: np.ndarray):
     """The residual the point-to-plane step minimises, guarded: the distance of scene points to their nearest
-    sample's plane, but at least (point-to-sample distance - sample spacing), so a point far from every sample
-    never looks close because it lies in some sample's plane. It weighs (Huber), trims and scores restarts:
-    weights must see what the step minimises. It overestimates the distance to the surface in gaps between
-    samples and at edges (see :func:`surface_distances`, which reports the fit)."""
-    along_normal = np.abs(np.einsum("kni,kni->kn", model.normals[index], scene_body - model.points[index]))
+    sample's plane (``samples``, ``normals`` (k, N, 3) the nearest samples'), but at least (point-to-sample
+    distance - sample spacing), so a point far from every sample never looks close because it lies in some
+    sample's plane. It weighs (Huber), trims and scores restarts: weights must see what the step minimises. It
+    overestimates the distance to the surface in gaps between samples and at edges (see
+    :func:`surface_distances`, which reports the fit)."""
+    along_normal = np.abs(np.einsum("kni,kni->kn", normals, scene_body - samples))
     return np.maximum(along_normal, distance - model.spacing)
 
 
@@ -214,7 +221,9 @@ def relax_if_few(pairs: Pairs, model: ModelIndex, scene_body: np.ndarray, min_pa
                 break
         index = np.minimum(index, model.tree.n - 1)
         pairs.model_index[k], pairs.distance[k], pairs.valid[k] = index, distance, found
-        pairs.residual[k] = plane_residual(model, scene_body[k:k + 1], index[None], distance[None])[0]
+        pairs.samples[k], pairs.normals[k] = model.points[index], model.normals[index]
+        pairs.residual[k] = plane_residual(model, scene_body[k:k + 1], pairs.samples[k:k + 1],
+                                           pairs.normals[k:k + 1], distance[None])[0]
 
 
 def trim_pairs(pairs: Pairs, residual: np.ndarray, trim_fraction: float, min_pairs: int,
