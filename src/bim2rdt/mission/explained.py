@@ -87,8 +87,8 @@ class Explanation:
 
     def reason(self) -> str:
         """What follows "unverified" in a report."""
-        return (f"(its points lie on {self.name}: {self.explained} of the {self.inliers} it fits are within "
-                f"{100 * self.distance:.0f} cm of that surface, so they show it, not this object)")
+        return (f"(its points lie on {self.name}: {self.explained} of the {self.inliers} it fits, within "
+                f"{100 * self.distance:.0f} cm)")
 
 
 def explaining_surface(inliers_world: np.ndarray, known: Sequence[KnownSurface],
