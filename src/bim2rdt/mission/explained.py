@@ -21,6 +21,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 import trimesh
@@ -44,16 +45,29 @@ class KnownSurface:
         triangles = np.asarray(mesh.triangles, dtype=float)
         return cls(name, triangles @ T_world_model[:3, :3].T + T_world_model[:3, 3])
 
+    @cached_property
+    def bounds(self) -> np.ndarray:
+        """(2, 3) the surface's box, world metres: a building has hundreds of elements, and most of them are
+        nowhere near a fit's points."""
+        corners = self.triangles.reshape(-1, 3)
+        return np.array([corners.min(axis=0), corners.max(axis=0)])
+
     def distances(self, points_world: np.ndarray, reach: float) -> np.ndarray:
         """(N,) distance (m) of each point to the surface; inf where it is farther than ``reach`` (only the
-        triangles whose box, grown by ``reach``, holds a point are measured)."""
-        low, high = self.triangles.min(axis=1) - reach, self.triangles.max(axis=1) + reach  # (T, 3) each
-        near = np.all((points_world[:, None, :] >= low) & (points_world[:, None, :] <= high), axis=2)  # (N, T)
-        point, triangle = np.nonzero(near)
+        points in the surface's box and the triangles whose box holds one of them, all grown by ``reach``, are
+        measured)."""
         out = np.full(len(points_world), np.inf)
+        inside = np.flatnonzero(np.all((points_world >= self.bounds[0] - reach)
+                                       & (points_world <= self.bounds[1] + reach), axis=1))
+        if len(inside) == 0:
+            return out
+        points = points_world[inside]
+        low, high = self.triangles.min(axis=1) - reach, self.triangles.max(axis=1) + reach  # (T, 3) each
+        near = np.all((points[:, None, :] >= low) & (points[:, None, :] <= high), axis=2)  # (n, T)
+        point, triangle = np.nonzero(near)
         if len(point):
-            closest = trimesh.triangles.closest_point(self.triangles[triangle], points_world[point])
-            np.minimum.at(out, point, np.linalg.norm(closest - points_world[point], axis=1))
+            closest = trimesh.triangles.closest_point(self.triangles[triangle], points[point])
+            np.minimum.at(out, inside[point], np.linalg.norm(closest - points[point], axis=1))
         return np.where(out <= reach, out, np.inf)
 
 
