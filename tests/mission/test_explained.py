@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from bim2rdt.mission import KnownSurface, MissionConfig, building_surfaces, run_mission
+from bim2rdt.mission import KnownSurface, MissionConfig, Target, building_surfaces, run_mission
 from bim2rdt.mission.explained import explaining_surface
 from bim2rdt.perception.detection import Detection
 from bim2rdt.semantics import KnowledgeBasePriors
@@ -55,9 +55,27 @@ def _mission(detection: Detection, building=()):
                        building=building)
 
 
-def test_a_tripod_fitted_to_a_columns_edge_is_rejected_naming_the_column():
+def test_a_tripod_fitted_to_a_columns_edge_is_set_aside_naming_the_column():
+    """No planned element: the fit shows the column, not a new object, so nothing enters the observations (the
+    twin); the report lists it with the reason."""
     detection = Detection(TRIPOD, _column_edge_strip(np.random.default_rng(3)), 0)
-    (observation,) = _mission(detection, [_column(), _column(x0=6.0)]).observations
+    result = _mission(detection, [_column(), _column(x0=6.0)])
+    assert result.observations == []
+    (set_aside,) = result.set_aside
+    assert set_aside.status is ElementStatus.UNVERIFIED
+    assert set_aside.reason.startswith(f"(its points lie on {COLUMN_NAME}:")
+
+
+def test_a_planned_tripod_whose_points_show_a_column_is_unverified_not_set_aside():
+    """A planned element's detection stays an observation: the element was looked for and not verified."""
+    rng = np.random.default_rng(3)
+    detection = Detection(TRIPOD, _column_edge_strip(rng), 0)
+    planned = Target("2tripodGlobalId00000000", TRIPOD, ground_pose(0.05, 0.05, 0.0), mesh_for_family(TRIPOD))
+    priors = KnowledgeBasePriors().priors([TRIPOD])
+    result = run_mission([planned], [np.eye(4)], lambda station, T: [detection], priors, mesh_for_family,
+                         MissionConfig(), building=[_column()])
+    (observation,) = result.observations
+    assert result.set_aside == [] and observation.global_id == planned.global_id
     assert observation.status is ElementStatus.UNVERIFIED
     assert observation.reason.startswith(f"(its points lie on {COLUMN_NAME}:")
 

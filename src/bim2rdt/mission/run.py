@@ -64,8 +64,9 @@ def run_mission(targets: Sequence[Target], stations: Sequence[np.ndarray],
     ``tolerances`` judges as planned vs deviating (the twin's presets: pass ``Settings.twin.tolerance_policy()``
     so the mission and the twin agree; default ``TwinConfig()``'s). ``building`` holds the surfaces of the BIM's
     permanent elements (:func:`bim2rdt.mission.explained.building_surfaces`): a fit whose points lie on one of
-    them, or on an object registered before it, shows that surface, not an object, and is unverified
-    (:mod:`bim2rdt.mission.explained`); such a fit explains nothing for the detections after it."""
+    them, or on an object registered before it, shows that surface, not an object
+    (:mod:`bim2rdt.mission.explained`): a planned element's fit is then unverified, and a detection of no planned
+    element is ``set_aside`` (no new object); such a fit explains nothing for the detections after it."""
     result = MissionResult(list(stations))
     views: dict[int, DepthView] = {}
 
@@ -89,6 +90,9 @@ def run_mission(targets: Sequence[Target], stations: Sequence[np.ndarray],
         mesh = target.mesh_body if target else new_object_mesh(detection.family)
         observation, model_pts, owner = _observe(detection, target, mesh, priors, config, icp, tolerances,
                                                  views.get(detection.station), known)
+        if owner is not None and target is None:  # a known surface, not an object the BIM lacks
+            result.set_aside.append(observation)
+            continue
         result.observations.append(observation)
         if owner is None:  # a fit of another element's surface is no object: it explains nothing after it
             registered.append(RegisteredObject.of(observation, model_pts))
