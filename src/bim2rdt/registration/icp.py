@@ -130,9 +130,10 @@ def hop(best: RegistrationResult, problem: Problem, model: matching.ModelIndex, 
         cfg: IcpConfig, yaw_only: bool) -> RegistrationResult:
     """Basin hopping around the kept pose, up to ``hop_rounds`` times: the loop again from it turned about the
     world up through the centroid by up to +-2 ``hop_yaw_deg`` and shifted by up to ``hop_shift`` along its own
-    x and y axes, and, under an upright prior (not yaw_only), from it levelled (:func:`hop_starts`); the best hop replaces the kept pose only when its score is lower by more than
-    ``hop_sigmas`` standard errors of the paired per-point difference and by more than ``hop_gain`` of the
-    kept score (:func:`clearly_lowest`): a hop must clearly win, or the choice of :func:`pick_restart` stands.
+    x and y axes, and, under an upright prior (not yaw_only), from it levelled (:func:`hop_starts`). The best
+    hop replaces the kept pose only when its score is lower by more than ``hop_sigmas`` standard errors of the
+    paired per-point difference and by more than ``hop_gain`` of the kept score (:func:`clearly_lowest`): a
+    hop must clearly win, or the choice of :func:`pick_restart` stands.
     On a pallet the restarts' spacing (22 degrees) is far wider than the yaw basin between deck boards (~5
     degrees), so every restart can end a few degrees or one board off (S4: the kept pose scored 103-141 where
     the truth scores 66-86, x 1e-6 m^2); hops of 3-6 degrees and 4 cm step across. ``register`` hops only
