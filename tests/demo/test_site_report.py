@@ -28,7 +28,8 @@ def test_an_observation_with_truth_shows_its_errors_in_centimetres_and_degrees()
 
 
 def test_the_markdown_table_has_one_full_row_per_observation():
-    day = SimpleNamespace(twin_path=Path("site_twin.ifc"), mission=SimpleNamespace(not_seen=[]), twin_records=[],
+    day = SimpleNamespace(twin_path=Path("site_twin.ifc"), mission=SimpleNamespace(not_seen=[], set_aside=[]),
+                          twin_records=[],
                           route=None)
     rows = [_row(), _row(truth="unplanned", error_translation_m=0.01, error_rotation_deg=1.0)]
     text = _markdown(day, rows, {"hav_events": []})

@@ -10,19 +10,37 @@ from bim2rdt.registration.icp import clearly_lowest, hop_starts
 from bim2rdt.registration.so3 import rotation_angle
 
 
-def test_hops_turn_by_one_and_two_steps_about_the_centroid_and_shift_along_the_pose_axes():
+def test_hops_are_the_grid_of_turns_about_the_centroid_and_shifts_along_the_pose_axes():
     T = np.eye(4)
     T[:3, :3] = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])  # body x is world y
     T[:3, 3] = (2.0, 3.0, 0.0)
     centroid = np.array([0.1, 0.0, 0.3])
     hops = hop_starts(T, centroid, np.array([0.0, 0.0, 1.0]), IcpConfig(hop_yaw_deg=3.0, hop_shift=0.04))
-    assert hops.shape == (8, 4, 4)
+    assert hops.shape == (24, 4, 4)
     turns = np.rad2deg(rotation_angle(np.einsum("kij,lj->kil", hops[:, :3, :3], T[:3, :3])))
-    assert np.allclose(turns, [6, 3, 3, 6, 0, 0, 0, 0], atol=1e-9)
+    assert sorted(np.round(turns, 9)) == [0.0] * 4 + [3.0] * 10 + [6.0] * 10
     centre = T[:3, :3] @ centroid + T[:3, 3]
-    assert np.allclose(np.einsum("kij,j->ki", hops[:4, :3, :3], centroid) + hops[:4, :3, 3], centre)
-    shifts = hops[4:, :3, 3] - T[:3, 3]
-    assert np.allclose(shifts, [[0, -0.04, 0], [0, 0.04, 0], [0.04, 0, 0], [-0.04, 0, 0]])
+    moved = np.einsum("kij,j->ki", hops[:, :3, :3], centroid) + hops[:, :3, 3] - centre
+    relative = np.einsum("kij,lj->kil", hops[:, :3, :3], T[:3, :3])
+    yaws = np.rad2deg(np.arctan2(relative[:, 1, 0], relative[:, 0, 0]))  # signed, about world up
+    offsets = {(round(yaw), *np.round(shift, 9)) for yaw, shift in zip(yaws, moved)}
+    shifts = {(0.0, 0.0, 0.0), (0.0, -0.04, 0.0), (0.0, 0.04, 0.0), (0.04, 0.0, 0.0), (-0.04, 0.0, 0.0)}
+    assert len(offsets) == 24  # every turn with every shift, T itself left out
+    assert {offset[1:] for offset in offsets} == shifts  # along body x (world y) and body y (world -x)
+    assert (0, 0.0, 0.0, 0.0) not in offsets
+
+
+def test_the_levelled_hop_stands_the_pose_upright_about_its_centroid():
+    from bim2rdt.registration.so3 import axis_angle, tilt_angle
+
+    up = np.array([0.0, 0.0, 1.0])
+    T = np.eye(4)
+    T[:3, :3] = axis_angle(np.array([1.0, 0.0, 0.0]), np.array(np.deg2rad(1.3)))
+    centroid = np.array([0.6, 0.4, 0.07])
+    hops = hop_starts(T, centroid, up, IcpConfig(), level=True)
+    assert hops.shape == (25, 4, 4)
+    assert tilt_angle(hops[-1, :3, :3], up) < 1e-9
+    assert np.allclose(hops[-1, :3, :3] @ centroid + hops[-1, :3, 3], T[:3, :3] @ centroid + T[:3, 3])
 
 
 def test_a_hop_counts_only_when_it_is_lower_beyond_its_noise_and_by_a_real_share():

@@ -146,3 +146,18 @@ def test_the_lowest_sample_along_any_direction_is_one_of_the_hull_samples():
     flat = points.copy()
     flat[:, 2] = 0.0
     assert len(hull_vertices(flat)) == len(flat)
+
+
+@pytest.mark.parametrize("samples, k, bound", [(1000, 1, 0.05), (1000, 1, np.inf), (1000, 8, 0.1), (6, 8, np.inf),
+                                               (6, 8, 0.3), (3, 8, 0.5)])
+def test_sample_tree_answers_exactly_what_scipy_answers(samples, k, bound):
+    """The fast tree must change no registration: the same neighbours, distances, and misses (inf at index n),
+    also when k exceeds the samples (pykdtree itself pads those with 2^32 - 1 and 1e154)."""
+    from scipy.spatial import cKDTree
+
+    rng = np.random.default_rng(samples + k)
+    points, queries = rng.random((samples, 3)), rng.random((200, 3))
+    ours = matching.SampleTree(points).query(queries, k=k, distance_upper_bound=bound)
+    scipy = cKDTree(points).query(queries, k=k, distance_upper_bound=bound)
+    np.testing.assert_array_equal(ours[1], scipy[1])
+    np.testing.assert_array_equal(ours[0], scipy[0])

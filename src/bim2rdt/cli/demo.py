@@ -75,10 +75,12 @@ def demo_command(
 
 
 def _show_site_day(result) -> None:
-    from bim2rdt.demo.site_report import OBSERVATION_COLUMNS, observation_cells, observation_rows
+    from bim2rdt.demo.site_report import OBSERVATION_COLUMNS, observation_cells, observation_rows, set_aside_line
 
     print_table("Robot mission: BIM objects verified with SG-ICP", OBSERVATION_COLUMNS,
                 [observation_cells(r) for r in observation_rows(result.site_day)])
+    if result.site_day.mission.set_aside:
+        console.print(set_aside_line(result.site_day))
     if result.site_day.route is not None:
         from bim2rdt.demo.routes import route_rows
 

@@ -23,7 +23,7 @@ from bim2rdt.bim import BimModel
 from bim2rdt.localization import LocalizationConfig, OdometryNoise, PoseFilter, StationFix, Turned, localize_station
 from bim2rdt.localization.checkshots import StationCheck, check_shots
 from bim2rdt.localization.planar import between, from_planar, to_planar
-from bim2rdt.mission import DirectRoute, run_mission
+from bim2rdt.mission import DirectRoute, building_surfaces, run_mission
 from bim2rdt.mission.records import MissionResult
 from bim2rdt.mission.route import Route
 from bim2rdt.perception.camera import Intrinsics, look_at
@@ -162,11 +162,13 @@ def localized_mission(targets, stations, model: BimModel, eyes: Callable[[], Eye
     missing elements, and judges by ``tolerances`` (the twin's presets)."""
     icp = icp or IcpConfig()
     dock = dock_pose(stations, start_xy, mission_config.camera_height)
+    building = building_surfaces(model)
     anchored = LocalizedRobot(eyes(), model, dock, seed, anchored=True, route=route)
     mission = run_mission(targets, stations, anchored, priors, new_object_mesh, mission_config, icp, tick=tick,
-                          route=route or DirectRoute(), frame_of=anchored.eyes.station_frame, tolerances=tolerances)
+                          route=route or DirectRoute(), frame_of=anchored.eyes.station_frame, tolerances=tolerances,
+                          building=building)
     drifting = LocalizedRobot(eyes(), model, dock, seed, anchored=False, route=comparison_route)
     dead = run_mission(targets, stations, drifting, priors, new_object_mesh, mission_config, icp,
                        route=comparison_route or DirectRoute(), frame_of=drifting.eyes.station_frame,
-                       tolerances=tolerances)
+                       tolerances=tolerances, building=building)
     return mission, MissionLocalization(anchored.stations, dead, drifting.stations)

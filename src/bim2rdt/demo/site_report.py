@@ -69,6 +69,22 @@ def missing_row(day: SiteDay, gone) -> dict:
             "error_translation_m": None, "error_tilt_deg": None}
 
 
+def set_aside_row(obs) -> dict:
+    """A detection the mission set aside (its fit shows a known surface, not an object): family, station, points
+    and why."""
+    return {"family": obs.family, "station": obs.station, "points": obs.points, "fitness": obs.fitness,
+            "reason": obs.reason}
+
+
+def set_aside_line(day: SiteDay) -> str:
+    """One sentence on the detections set aside, for the terminal and report.md."""
+    if not day.mission.set_aside:
+        return "Set aside: none."
+    return "Set aside (no object; the points show a known surface): " + "; ".join(
+        f"{day.priors[obs.family].label if obs.family in day.priors else obs.family} at station {obs.station} "
+        f"{obs.reason}" for obs in day.mission.set_aside) + "."
+
+
 def missing_truth(day: SiteDay, global_id: str) -> str | None:
     """Scoring after the mission: what the simulated truth did to an element reported missing ("removed", or
     its other change: a false alarm)."""
@@ -95,6 +111,7 @@ def write_site_report(day: SiteDay, out_dir: Path) -> dict[str, Path]:
     rows = observation_rows(day)
     paths = {"plan": plot_plan(day, out_dir / "plan.png"), "exposure": plot_exposure(day, out_dir / "exposure.png")}
     record = {"twin": str(day.twin_path), "observations": rows, "not_seen": day.mission.not_seen,
+              "set_aside": [set_aside_row(obs) for obs in day.mission.set_aside],
               "hav_events": [_event_row(e) for e in day.hav_events if not e.kind.endswith("predicted")],
               "twin_records": day.twin_records, "route": day.route.summary() if day.route else None}
     if day.route is not None:
@@ -179,7 +196,7 @@ def _markdown(day: SiteDay, rows: list[dict], record: dict) -> str:
              "## Objects verified by the robot", "",
              "| " + " | ".join(("family", *OBSERVATION_COLUMNS)) + " |", "|---" * (len(OBSERVATION_COLUMNS) + 1) + "|"]
     lines += ["| " + " | ".join((r["family"], *observation_cells(r))) + " |" for r in rows]
-    lines += ["", f"Not seen: {', '.join(day.mission.not_seen) or 'none'}.", ""]
+    lines += ["", f"Not seen: {', '.join(day.mission.not_seen) or 'none'}.", "", set_aside_line(day), ""]
     lines += route_markdown(day.route) if day.route is not None else []
     lines += ["## Safety events", "",
               "| time (UTC) | event | worker | A(8) m/s² |", "|---|---|---|---|"]

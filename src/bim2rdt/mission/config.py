@@ -35,6 +35,11 @@ class MissionConfig(BaseModel):
     max_see_through: float = Field(0.1, ge=0.0, le=1.0, description="A fit whose camera-facing surface stands "
                                    "where the station's camera saw through at more than this share of its cells is "
                                    "implausible (free space, as perception.visibility tests it).")
+    explained_distance: float = Field(0.02, gt=0.0, description="A point this close to a known surface (the BIM's "
+                                      "permanent elements, objects registered before) lies on it, m.")
+    explained_fraction: float = Field(0.5, gt=0.0, le=1.0, description="A fit whose inliers lie at least this "
+                                      "much on one known surface shows that surface, not an object: unverified, "
+                                      "with the surface named (mission.explained).")
     missing_margin: float = Field(0.10, gt=0.0, description="A depth this much beyond a planned element's surface "
                                   "means the camera saw through its place, m.")
     missing_fraction: float = Field(0.8, gt=0.0, le=1.0, description="An element is missing when the camera saw "

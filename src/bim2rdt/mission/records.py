@@ -57,9 +57,13 @@ class MissingElement:
 @dataclass
 class MissionResult:
     """Stations (T_world_camera each), the observations, the BIM targets whose place was seen empty
-    (``missing``), and the BIM targets never seen (``not_seen``: not looked at, or their place occluded)."""
+    (``missing``), the BIM targets never seen (``not_seen``: not looked at, or their place occluded), and the
+    fits ``set_aside``: detections tied to no planned element whose points a known surface explains (a column's
+    edge fitted by a tripod leg; :mod:`bim2rdt.mission.explained`). Those show no object, so they stay out of
+    the observations (and the twin), each with its ``reason``, for the report."""
 
     stations: list[np.ndarray]
     observations: list[Observation] = field(default_factory=list)
     not_seen: list[str] = field(default_factory=list)
     missing: list[MissingElement] = field(default_factory=list)
+    set_aside: list[Observation] = field(default_factory=list)

@@ -30,6 +30,7 @@ import trimesh
 from bim2rdt.mission.absence import depth_view, seen_empty
 from bim2rdt.mission.association import associate, preferred_targets
 from bim2rdt.mission.config import MissionConfig
+from bim2rdt.mission.explained import Explanation, KnownSurface, explaining_surface, fit_inliers
 from bim2rdt.mission.fitting import best_fit, initial_poses, rests_on_slab
 from bim2rdt.mission.ground import off_slab
 from bim2rdt.mission.merging import RegisteredObject, repeated_view
@@ -53,7 +54,7 @@ def run_mission(targets: Sequence[Target], stations: Sequence[np.ndarray],
                 config: MissionConfig = MissionConfig(), icp: IcpConfig = IcpConfig(),
                 tick: Callable[[], None] = lambda: None, route: Route = DirectRoute(),
                 frame_of: Callable[[int], Frame | None] | None = None,
-                tolerances: TolerancePolicy | None = None) -> MissionResult:
+                tolerances: TolerancePolicy | None = None, building: Sequence[KnownSurface] = ()) -> MissionResult:
     """Visit ``stations``; ``perceive(station_index, T_world_camera)`` returns that frame's detections. Each
     object is registered once, from its detection with the most points; a detection its registered neighbours
     already explain is another view of them (:mod:`bim2rdt.mission.merging`). Returns every verdict.
@@ -61,7 +62,11 @@ def run_mission(targets: Sequence[Target], stations: Sequence[np.ndarray],
     ``frame_of(station_index)``, when given, is the frame (depth, intrinsics, camera pose) the station's
     detections were read from: with it, a planned element whose place a frame shows empty is missing.
     ``tolerances`` judges as planned vs deviating (the twin's presets: pass ``Settings.twin.tolerance_policy()``
-    so the mission and the twin agree; default ``TwinConfig()``'s)."""
+    so the mission and the twin agree; default ``TwinConfig()``'s). ``building`` holds the surfaces of the BIM's
+    permanent elements (:func:`bim2rdt.mission.explained.building_surfaces`): a fit whose points lie on one of
+    them, or on an object registered before it, shows that surface, not an object
+    (:mod:`bim2rdt.mission.explained`): a planned element's fit is then unverified, and a detection of no planned
+    element is ``set_aside`` (no new object); such a fit explains nothing for the detections after it."""
     result = MissionResult(list(stations))
     views: dict[int, DepthView] = {}
 
@@ -74,6 +79,7 @@ def run_mission(targets: Sequence[Target], stations: Sequence[np.ndarray],
     claimed: set[str] = set()
     preferred = preferred_targets(detections, targets, config)
     registered: list[RegisteredObject] = []
+    known = list(building)
     for detection in sorted(detections, key=lambda d: -len(d.points_world)):
         seen_before = repeated_view(detection, registered, config)
         if seen_before is not None:
@@ -82,10 +88,15 @@ def run_mission(targets: Sequence[Target], stations: Sequence[np.ndarray],
             continue
         target = associate(detection, targets, claimed, config, preferred)
         mesh = target.mesh_body if target else new_object_mesh(detection.family)
-        observation, model_pts = _observe(detection, target, mesh, priors, config, icp, tolerances,
-                                          views.get(detection.station))
-        registered.append(RegisteredObject.of(observation, model_pts))
+        observation, model_pts, owner = _observe(detection, target, mesh, priors, config, icp, tolerances,
+                                                 views.get(detection.station), known)
+        if owner is not None and target is None:  # a known surface, not an object the BIM lacks
+            result.set_aside.append(observation)
+            continue
         result.observations.append(observation)
+        if owner is None:  # a fit of another element's surface is no object: it explains nothing after it
+            registered.append(RegisteredObject.of(observation, model_pts))
+            known.append(KnownSurface.of_mesh(_registered_name(observation), mesh, observation.pose))
     unclaimed = [t for t in targets if t.global_id not in claimed]
     result.missing = [gone for gone in (seen_empty(t, views, config, icp) for t in unclaimed) if gone is not None]
     gone_ids = {gone.global_id for gone in result.missing}
@@ -129,10 +140,12 @@ def _seen(detections: list[Detection], config: MissionConfig) -> list[Detection]
 def _observe(detection: Detection, target: Target | None, mesh: trimesh.Trimesh, priors: dict[str, UprightPrior],
              config: MissionConfig, icp: IcpConfig,
              tolerances: TolerancePolicy | None = None,
-             view: DepthView | None = None) -> tuple[Observation, np.ndarray]:
+             view: DepthView | None = None,
+             known: Sequence[KnownSurface] = ()) -> tuple[Observation, np.ndarray, Explanation | None]:
     """Register one object and judge it (against its tolerance preset under ``tolerances``); also returns the
-    model's surface samples (body frame). With ``view`` (the depth of the detection's station) a fit that
-    stands where the camera saw through is set aside for a consistent one."""
+    model's surface samples (body frame) and, when at least ``explained_fraction`` of the fit's inliers lie on
+    one of the ``known`` surfaces, that surface: the fit is then unverified. With ``view`` (the depth of the
+    detection's station) a fit that stands where the camera saw through is set aside for a consistent one."""
     prior = priors[detection.family]
     model_pts, model_normals = sample_model(mesh, icp.sample_count, seed=icp.seed)
     object_pts = off_slab(detection.points_world, config)
@@ -148,6 +161,9 @@ def _observe(detection: Detection, target: Target | None, mesh: trimesh.Trimesh,
     elif view is not None and (seen_through := see_through_fraction(fit.pose, model_pts, model_normals, view)) \
             > config.max_see_through:  # every start ended where the camera saw through
         reason = f"(the fit stands where the camera saw through, at {seen_through:.0%} of its visible surface)"
+    owner = _explained_by(object_pts, mesh, fit, known, config, icp)
+    if owner is not None:  # the points are another element's: the fit shows that element, not this object
+        reason = owner.reason()
     if reason:
         judged = dataclasses.replace(judged, status=ElementStatus.UNVERIFIED)
         log.info("%s at station %s: unverified %s", detection.family, detection.station, reason)
@@ -156,4 +172,20 @@ def _observe(detection: Detection, target: Target | None, mesh: trimesh.Trimesh,
                               station=detection.station, frames=(detection.station,), fit=fit,
                               status=judged.status, shift=judged.shift, yaw_deg=judged.yaw_deg,
                               tilt_deg=judged.tilt_deg, upright_bias=prior.upright_bias, reason=reason)
-    return observation, model_pts
+    return observation, model_pts, owner
+
+
+def _explained_by(object_pts: np.ndarray, mesh: trimesh.Trimesh, fit: RegistrationResult,
+                  known: Sequence[KnownSurface], config: MissionConfig, icp: IcpConfig) -> Explanation | None:
+    """The known surface that explains at least ``explained_fraction`` of the fit's inliers, or None."""
+    if not known or not math.isfinite(fit.rmse):
+        return None
+    inliers = fit_inliers(object_pts, KnownSurface.of_mesh("fit", mesh, fit.pose), icp.score_distance)
+    owner = explaining_surface(inliers, known, config.explained_distance)
+    return owner if owner is not None and owner.fraction >= config.explained_fraction else None
+
+
+def _registered_name(observation: Observation) -> str:
+    """How a report names an object registered earlier in the mission: its family and GlobalId (or "new")."""
+    which = observation.global_id or "new"
+    return f"the {observation.family} ({which}) registered at station {observation.station}"

@@ -109,10 +109,11 @@ class IcpConfig(BaseModel):
     hop_rounds: int = Field(
         3, ge=0, le=20,
         description="Rounds of basin hopping after the restarts (registration.icp.hop): the loop again from the "
-                    "kept pose turned by +-1 and +-2 hop_yaw_deg and shifted +-hop_shift along its own x and y "
-                    "axes; a hop replaces the kept pose only when it scores clearly lower (hop_sigmas, hop_gain). "
-                    "A pallet's yaw basin (boards 10 cm apart) is ~5 degrees, narrower than any affordable restart "
-                    "spacing: S4's SG-ICP success 69 -> 85 % (50 trials). Never with restarts=1 (a local fit). 0 = off.")
+                    "kept pose turned by 0, +-1 and +-2 hop_yaw_deg and shifted by 0 or hop_shift along its own x "
+                    "or y axis (the 5 x 5 grid less the pose itself) and, under an upright prior, levelled; a hop "
+                    "replaces the kept pose only when it scores clearly lower (hop_sigmas, hop_gain). A pallet's "
+                    "yaw basin (boards 10 cm apart) is ~5 degrees, narrower than any affordable restart spacing: "
+                    "S4's SG-ICP success 69 -> 89 % (50 trials). Never with restarts=1 (a local fit). 0 = off.")
     hop_sigmas: float = Field(
         1.0, ge=0.0, description="A hop must score lower than the kept pose by more than this many standard errors "
                                  "of the paired per-point difference (at 2, S4's pallet stayed at 65 %) ...")

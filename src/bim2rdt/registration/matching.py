@@ -14,6 +14,7 @@ from collections import OrderedDict
 from dataclasses import dataclass
 
 import numpy as np
+from pykdtree.kdtree import KDTree
 from scipy.spatial import ConvexHull, QhullError, cKDTree
 
 
@@ -45,6 +46,30 @@ where the surface turns away convexly. 10 degrees: a 32-sided drum's facets (11 
 leg (30 degrees) count, flat faces never do."""
 
 
+class SampleTree:
+    """Exact nearest model samples with scipy's ``cKDTree.query`` semantics (misses at distance inf, index
+    ``n``) on pykdtree's k-d tree: the same neighbours and distances, 2.5-4x faster per query (a registration's
+    matching was 40-47 % of its time; ``taskset -c 0`` on an S1 model of 10,000 samples: 0.13 against 0.34 ms
+    for 16 restarts x 73 points with a bound, 0.35 against 1.5 ms without)."""
+
+    def __init__(self, points: np.ndarray):
+        self.n = len(points)
+        self._tree = KDTree(np.ascontiguousarray(points, dtype=np.float64))
+
+    def query(self, points: np.ndarray, k: int = 1, distance_upper_bound: float = np.inf):
+        """(distances, indices) of the ``k`` nearest samples to ``points`` (N, 3): shape (N,) for k = 1, (N, k)
+        otherwise; beyond ``distance_upper_bound``, or past the n-th sample, distance inf and index ``n``."""
+        found = min(k, self.n)  # pykdtree answers garbage (2^32 - 1, 1e154) for neighbours past the n-th
+        distance, index = self._tree.query(np.ascontiguousarray(points, dtype=np.float64), k=found,
+                                           distance_upper_bound=distance_upper_bound)
+        index = index.astype(np.intp)
+        if found < k:
+            pad = ((0, 0), (0, k - found))
+            distance = np.pad(distance.reshape(len(points), found), pad, constant_values=np.inf)
+            index = np.pad(index.reshape(len(points), found), pad, constant_values=self.n)
+        return distance, index
+
+
 @dataclass(frozen=True)
 class ModelIndex:
     """The model's surface samples (body frame) with normals, a k-d tree over them, their spacing (m: median
@@ -54,7 +79,7 @@ class ModelIndex:
 
     points: np.ndarray
     normals: np.ndarray
-    tree: cKDTree
+    tree: SampleTree
     spacing: float
     surfel_radius: float
     extremes: np.ndarray  # indices of the samples on the convex hull (all of them when the samples are flat)
@@ -78,7 +103,7 @@ class ModelIndex:
     @classmethod
     def build(cls, points: np.ndarray, normals: np.ndarray, surfel_radius: float = SURFEL_RADIUS) -> ModelIndex:
         """Index the samples; the spacing is the median nearest-sample distance of up to 256 of them."""
-        tree = cKDTree(points)
+        tree = SampleTree(points)
         spacing, _ = tree.query(points[:: max(1, len(points) // 256)], k=2)
         spacing = float(np.median(spacing[:, 1]))
         return cls(points, normals, tree, spacing, surfel_radius * spacing, hull_vertices(points))
