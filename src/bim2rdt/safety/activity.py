@@ -26,6 +26,7 @@ GAP = "hav.gap"
 ARTEFACT = "hav.artefact"
 E_EAV = EAV**2 * T0_S
 E_ELV = ELV**2 * T0_S
+_LIMITS = ((EAV_REACHED, E_EAV, "eav_at", EAV), (ELV_REACHED, E_ELV, "elv_at", ELV))
 
 Notice = tuple[str, float, dict]
 """(event kind, device time, data) produced by the tracker; the monitor turns it into an Event."""
@@ -133,9 +134,11 @@ class ActivityTracker:
             if act.low_seconds >= self.trigger.stop_hold_s:
                 notices += self.stop(act.low_since, day_of)
             return notices
-        energy, seconds = energy + act.low_energy, seconds + act.low_seconds
-        act.low_energy, act.low_seconds, act.low_since = 0.0, 0.0, None
-        return notices + self._count(end, seconds, energy, day_of(act.day))
+        if act.low_seconds:  # a dip inside the activity counts
+            energy, seconds = energy + act.low_energy, seconds + act.low_seconds
+            act.low_energy, act.low_seconds, act.low_since = 0.0, 0.0, None
+        counted = self._count(end, seconds, energy, day_of(act.day))
+        return notices + counted if notices else counted
 
     def reject(self, seconds: float) -> None:
         """A frame rejected as an artefact: not exposure, but remembered against the activity."""
@@ -169,7 +172,7 @@ class ActivityTracker:
         act.energy, act.seconds = act.energy + energy, act.seconds + seconds
         day.add(self.hand, energy, seconds)
         after = day.energy
-        for kind, limit, attr, value in ((EAV_REACHED, E_EAV, "eav_at", EAV), (ELV_REACHED, E_ELV, "elv_at", ELV)):
+        for kind, limit, attr, value in _LIMITS if before < E_ELV <= after or before < E_EAV <= after else ():
             if before < limit <= after and getattr(day, attr) is None:
                 when = end - seconds + seconds * (limit - before) / (after - before)
                 setattr(day, attr, when)

@@ -224,12 +224,19 @@ class ExposureEngine:
         return [self.event(stream, notice) for notice in notices] if notices else []
 
     def _day_lookup(self, subject: str) -> Callable[[str], DayState]:
+        """The subject's worker-day by date (created and marked touched on first use); the last one is kept at hand,
+        as a stream's blocks ask for the same day thousands of times."""
+        last: list = [None, None]
+
         def day_of(day: str) -> DayState:
+            if day == last[0]:
+                return last[1]
             key = (subject, day)
             self.touched_days.add(key)
             state = self.days.get(key)
             if state is None:
                 state = self.days[key] = DayState()
+            last[:] = day, state
             return state
 
         return day_of

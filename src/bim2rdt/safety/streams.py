@@ -41,7 +41,7 @@ RESTART_SEQ = 64
 of the first were lost or overtaken on the way."""
 
 
-@dataclass
+@dataclass(slots=True)
 class Gap:
     """Unsampled time in a stream: missing batches or a pause; its time is not counted as exposure."""
 
@@ -51,7 +51,7 @@ class Gap:
     missing_seqs: int = 0
 
 
-@dataclass
+@dataclass(slots=True)
 class PushResult:
     """Batches now in order (with whether each starts a new segment), duplicates/late dropped, gaps."""
 
