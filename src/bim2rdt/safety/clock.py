@@ -26,7 +26,7 @@ WALL_CLOCK_FROM = 1_577_836_800.0
 sampled before it; a clock counting from boot reads days at most, a reset real-time clock 1970 or 2000."""
 
 
-@dataclass
+@dataclass(slots=True)
 class DeviceClock:
     """The estimated offset (s) of our clock ahead of the device's (None until a batch arrived)."""
 

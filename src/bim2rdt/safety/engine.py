@@ -26,7 +26,7 @@ from bim2rdt.safety.weighing import Blocks, FilterState, Piece, weigh_round
 from bim2rdt.safety.weighting import covered_band
 
 
-@dataclass
+@dataclass(slots=True)
 class Stream:
     """One device's stream: ordering buffer, filter state, activity tracker, session, clock and counters."""
 
@@ -200,10 +200,24 @@ class ExposureEngine:
         events = []
         for subject, devices in by_subject.items():
             day_of = self._day_lookup(subject)
-            blocks = heapq.merge(*(_stream_blocks(weighed[d], self.streams[d]) for d in devices)) \
-                if len(devices) > 1 else _stream_blocks(weighed[devices[0]], self.streams[devices[0]])
-            for end, _, device, seconds, energy, flags in blocks:
+            if len(devices) == 1:
+                events += self._track_stream(self.streams[devices[0]], weighed[devices[0]], day_of)
+                continue
+            for end, _, device, seconds, energy, flags in heapq.merge(*(_stream_blocks(weighed[d], self.streams[d])
+                                                                         for d in devices)):
                 events += self._frame(self.streams[device], day_of, end, seconds, energy, flags)
+        return events
+
+    def _track_stream(self, stream: Stream, runs: list[Blocks], day_of: Callable[[str], DayState]) -> list[Event]:
+        """A worker's only stream: each run of clean blocks inside a running activity that says nothing (no dip, no
+        limit, no prediction due) is counted in one step (:meth:`ActivityTracker.count_run`); the rest block by
+        block."""
+        events, bulk = [], not self.config.keep_timeline
+        for blocks in runs:
+            if bulk and not any(blocks.flags) and stream.tracker.count_run(blocks.seconds, blocks.energy, day_of):
+                continue
+            for end, _, device, seconds, energy, flags in _stream_blocks([blocks], stream):
+                events += self._frame(stream, day_of, end, seconds, energy, flags)
         return events
 
     def _frame(self, stream: Stream, day_of: Callable[[str], DayState], end: float, seconds: float, energy: float,

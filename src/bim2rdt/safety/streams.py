@@ -70,6 +70,9 @@ class PushResult:
 class StreamBuffer:
     """Ordering and gap detection of one device's batches."""
 
+    __slots__ = ("max_reorder", "reorder_s", "next_seq", "pending", "fs", "end_time", "last_end", "offset", "_skipped",
+                 "_runs", "boot", "restart_expected")
+
     def __init__(self, max_reorder: int = 8, reorder_s: float = 2.0):
         self.max_reorder, self.reorder_s = max_reorder, reorder_s
         self.next_seq: int | None = None

@@ -33,7 +33,7 @@ CHUNK = 128
 overhead (about 0.4 ms) stays small."""
 
 
-@dataclass
+@dataclass(slots=True)
 class FilterState:
     """One stream's filter memories (IIR ``zi`` (k, 3, 2), FIR ``fir_zi`` (3, taps-1)) and whether its next
     block is still settling after an artefact."""
