@@ -5,17 +5,20 @@ from __future__ import annotations
 
 import json
 import os
+import signal
 import socket
 import subprocess
 import sys
 import threading
+import time
+from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
 
 from bim2rdt.bim import load_ifc
 from bim2rdt.bus.broker import free_port
-from bim2rdt.safety import daily_exposure
+from bim2rdt.safety import HavMonitor, MonitorConfig, daily_exposure
 from bim2rdt.safety.recording import write_accel_csv
 from bim2rdt.sim.site import build_site_ifc
 from bim2rdt.sim.vibration import session_signal
@@ -98,18 +101,33 @@ def test_bench_hav_reports_throughput_against_the_floor_and_latency(cli_env):
     assert set(report["targets"]) == {"streams_ge_2000", "within_1_5x_floor", "store_reads_per_batch_le_2"}
 
 
-def test_a_live_run_through_mosquitto_with_the_shipped_config(tmp_path, cli_env):
+@contextmanager
+def live_listener(cli_env, *listen_args: str):
+    """`hav broker` and `hav listen` (with ``listen_args``) as separate processes on a free port; yields (port,
+    broker, listener, the listener's output lines, their reader thread) once it listens; both stopped after."""
     port, env = free_port(), {**os.environ, **cli_env, "PYTHONUNBUFFERED": "1"}
     broker = subprocess.Popen([sys.executable, "-m", "bim2rdt", "hav", "broker", "--port", str(port), "--devices",
-                               "1", "--duration", "60"], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                               "1", "--duration", "120"], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                               text=True)
     listener = None
     try:
         follow(broker, "mosquitto on", timeout=30)
         listener = subprocess.Popen([sys.executable, "-m", "bim2rdt", "hav", "listen", "--mqtt", f"127.0.0.1:{port}",
-                                     "--duration", "12"], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                                    text=True)
+                                     *listen_args], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         out, reader = follow(listener, "listening on", timeout=30)  # printed once its subscriptions are acked
+        yield port, broker, listener, out, reader
+    finally:
+        for process in (listener, broker):
+            if process is not None and process.poll() is None:
+                process.terminate()
+                try:
+                    process.wait(timeout=10)
+                except subprocess.TimeoutExpired:
+                    process.kill()
+
+
+def test_a_live_run_through_mosquitto_with_the_shipped_config(tmp_path, cli_env):
+    with live_listener(cli_env, "--duration", "12") as (port, broker, listener, out, reader):
         sim = run_cli("sim", "wearables", "--mqtt", f"127.0.0.1:{port}", "--workers", "1", "--minutes", "1",
                       "--fs", "1000", env=cli_env)
         assert sim.returncode == 0, sim.stderr
@@ -120,14 +138,6 @@ def test_a_live_run_through_mosquitto_with_the_shipped_config(tmp_path, cli_env)
         broker.terminate()
         assert broker.wait(timeout=10) == 0
         assert not _listening(port)  # the command stopped its mosquitto: nothing left running
-    finally:
-        for process in (listener, broker):
-            if process is not None and process.poll() is None:
-                process.terminate()
-                try:
-                    process.wait(timeout=10)
-                except subprocess.TimeoutExpired:
-                    process.kill()
 
 
 def _listening(port: int) -> bool:
@@ -214,3 +224,28 @@ def test_hav_listen_checks_the_twin_target_before_connecting(tmp_path, cli_env):
     result = run_cli("hav", "listen", "--mqtt", "127.0.0.1:1", "--ifc", str(site), "--out", str(tmp_path),
                      env=cli_env)  # nothing listens on port 1: had it connected first, that would be the error
     assert result.returncode == 1 and "is a folder" in result.stderr
+
+
+@pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGINT])
+def test_hav_listen_stopped_by_a_signal_prints_the_day_and_exits_0(tmp_path, cli_env, signum):
+    """A supervisor stops the monitor with SIGTERM (Ctrl-C is SIGINT): it commits, prints the day and exits 0. The
+    devices on the way run on clocks counting from boot and restart once: the store shows the restart counted
+    (announced by the simulator's boot ids), nothing dropped, the exposure on today's date."""
+    with live_listener(cli_env) as (port, _, listener, out, reader):
+        sim = run_cli("sim", "wearables", "--mqtt", f"127.0.0.1:{port}", "--workers", "1", "--minutes", "1",
+                      "--fs", "1000", "--device-clock", "boot", "--reboot-after", "0.5", env=cli_env)
+        assert sim.returncode == 0, sim.stderr
+        deadline = time.monotonic() + 30
+        while time.monotonic() < deadline and "".join(out).count("activity_ended") < 3:  # one per tool
+            time.sleep(0.2)
+        listener.send_signal(signum)
+        assert listener.wait(timeout=30) == 0, listener.stderr.read()
+        reader.join(timeout=10)
+        text = "".join(out)
+        assert text.count("activity_ended") == 3 and "Daily exposure" in text and "w1" in text.split("Daily")[1]
+    monitor = HavMonitor(tmp_path / "var" / "hav", "test-site", [], MonitorConfig(site="t"))
+    subject, status = monitor.session("w1").subject, monitor.stream_status("w1")
+    days = monitor.days_of(subject)
+    monitor.close()
+    assert status["restarts"] == 1 and status.get("duplicates", 0) == 0 and status["time_base"] == "receive"
+    assert days == [time.strftime("%Y-%m-%d", time.gmtime())]

@@ -40,7 +40,7 @@ class PayloadError(Bim2RdtError):
     """A message on an accel topic that is not a well-formed batch."""
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class AccelBatch:
     """Consecutive tri-axial samples from one wearable: ``xyz`` (n, 3) float32, m/s^2, at ``fs`` Hz.
 

@@ -5,7 +5,9 @@ from __future__ import annotations
 import json
 import sys
 import tempfile
-from collections.abc import Sequence
+import threading
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -80,3 +82,24 @@ def sample_file(name: str) -> Path:
     if not path.is_file():
         raise BimError(f"{path}: sample file absent (set BIM2RDT_SAMPLES or pass --file)")
     return path
+
+
+STOP_SIGNALS = ("SIGINT", "SIGTERM", "SIGHUP")
+"""Ctrl-C, a supervisor's stop (systemd, docker, kill) and a closed terminal: each ends a long-running command the
+same way, with its summary and exit 0."""
+
+
+@contextmanager
+def stop_requested() -> Iterator[threading.Event]:
+    """An event that ``STOP_SIGNALS`` set, for a command's loop to end at a point of its choosing (never inside a
+    commit, as an exception raised from a signal handler could); the previous handlers are restored after."""
+    import signal
+
+    stop = threading.Event()
+    numbers = [getattr(signal, name) for name in STOP_SIGNALS if hasattr(signal, name)]
+    previous = {number: signal.signal(number, lambda signum, frame: stop.set()) for number in numbers}
+    try:
+        yield stop
+    finally:
+        for number, handler in previous.items():
+            signal.signal(number, handler)

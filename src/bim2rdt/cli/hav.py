@@ -3,12 +3,13 @@
 from __future__ import annotations
 
 import os
+import threading
 import time
 from pathlib import Path
 
 import typer
 
-from bim2rdt.cli.common import console, out_path, print_json, print_table
+from bim2rdt.cli.common import console, out_path, print_json, print_table, stop_requested
 from bim2rdt.cli.hav_output import (DEV_HELP, event_line, open_monitor, print_malformed, print_summary, progress,
                                     require_own_secrets, twin_sink)
 
@@ -46,8 +47,9 @@ def hav_listen(
                                       "without the broker (a supervisor restarts the monitor; nothing is lost)."),
     dev: bool = typer.Option(False, "--dev", help=DEV_HELP),
 ) -> None:
-    """Run the HAV monitor against a broker: print events, publish them on site/<site>/safety/events. Exits non-zero
-    if the network thread dies, the broker stays away for --max-offline seconds, or the store fails."""
+    """Run the HAV monitor against a broker: print events, publish them on site/<site>/safety/events. Ctrl-C, SIGTERM
+    or SIGHUP commit what waits, print the day's summary and exit 0. Exits non-zero if the network thread dies, the
+    broker stays away for --max-offline seconds, or the store fails."""
     from bim2rdt.bus.credentials import parse_address
     from bim2rdt.bus.mqtt import MqttBus
     from bim2rdt.config import get_settings
@@ -59,28 +61,29 @@ def hav_listen(
     bus = MqttBus(host, port, client_id=settings.mqtt.username, username=settings.mqtt.username,
                   password=_password(settings, settings.mqtt.username), session_expiry_s=settings.mqtt.session_expiry_s,
                   manual_ack=True)
-    with twin_sink(ifc, out) as ifc_sink:  # the twin's target is checked here, before the run
+    with twin_sink(ifc, out) as ifc_sink, stop_requested() as stop:  # the twin's target is checked before the run
         sinks = [CallbackSink(event_line), BusSink(bus, settings.mqtt.site)] + ([ifc_sink] if ifc_sink else [])
         monitor = open_monitor(settings, sinks)
         monitor.attach(bus)  # before connecting: the broker may deliver what it queued for us at once
         bus.connect()
         console.print(f"listening on {host}:{port} site {settings.mqtt.site!r}; state in {settings.data_dir / 'hav'}")
         try:
-            watch(monitor, bus, duration, max_offline)
+            watch(monitor, bus, duration, max_offline, stop=stop)
         finally:
             _leave(monitor, bus)
 
 
-def watch(monitor, bus, duration: float, max_offline: float, period_s: float = 1.0) -> None:
-    """Tick the monitor until ``duration`` (0: Ctrl-C); BusError (exit 1) when paho's network thread died, the
-    broker has been away ``max_offline`` seconds, or the monitor failed (its store)."""
+def watch(monitor, bus, duration: float, max_offline: float, period_s: float = 1.0,
+          stop: threading.Event | None = None) -> None:
+    """Tick the monitor until ``duration`` (0: until stopped), ``stop`` is set (a signal) or Ctrl-C; BusError
+    (exit 1) when paho's network thread died, the broker has been away ``max_offline`` seconds, or the monitor
+    failed (its store)."""
     from bim2rdt.bus.mqtt import BusError
 
     deadline = time.monotonic() + duration if duration else float("inf")
-    offline_since = None
+    offline_since, stop = None, stop or threading.Event()
     try:
-        while time.monotonic() < deadline:
-            time.sleep(min(period_s, max(deadline - time.monotonic(), 0.0)))
+        while time.monotonic() < deadline and not stop.wait(min(period_s, max(deadline - time.monotonic(), 0.0))):
             monitor.tick()
             if monitor.failure:
                 raise BusError(f"the monitor stopped: {monitor.failure}")
@@ -163,31 +166,19 @@ def hav_broker(
 ) -> None:
     """Run the shipped Mosquitto config (password per device, per-device ACL pinned to the site) on 127.0.0.1 for
     local runs; exits non-zero if mosquitto does not start or dies."""
-    import signal
-
     from bim2rdt.bus.broker import MosquittoBroker
     from bim2rdt.config import get_settings
 
-    for signum in (signal.SIGTERM, signal.SIGHUP):  # terminated, or its terminal closed: stop mosquitto, no orphan
-        signal.signal(signum, _interrupt)
     settings = get_settings()
     require_own_secrets(settings, dev, "devices", "monitor")
     names = [settings.mqtt.username, "dashboard"] + [f"w{i + 1}" for i in range(devices)]
-    with MosquittoBroker({name: _password(settings, name) for name in names}, port=port, site=settings.mqtt.site,
-                         monitors=(settings.mqtt.username,)) as broker:
+    with stop_requested() as stop, MosquittoBroker({name: _password(settings, name) for name in names}, port=port,
+                                                   site=settings.mqtt.site, monitors=(settings.mqtt.username,)) as broker:
         console.print(f"mosquitto on 127.0.0.1:{broker.port} for site {settings.mqtt.site!r}; users "
                       f"{', '.join(names)}")
         deadline = time.monotonic() + duration if duration else float("inf")
-        try:
-            while time.monotonic() < deadline:
-                time.sleep(min(0.5, max(deadline - time.monotonic(), 0.0)))
-                broker.check()
-        except KeyboardInterrupt:
-            pass
-
-
-def _interrupt(signum, frame) -> None:
-    raise KeyboardInterrupt
+        while time.monotonic() < deadline and not stop.wait(min(0.5, max(deadline - time.monotonic(), 0.0))):
+            broker.check()  # terminated, interrupted or its terminal closed: the with stops mosquitto, no orphan
 
 
 def bench_hav(

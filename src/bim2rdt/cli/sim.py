@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from enum import Enum
 from pathlib import Path
 
 import typer
@@ -9,6 +10,13 @@ import typer
 from bim2rdt.cli.common import console
 from bim2rdt.cli.hav_output import (DEV_HELP, check_twin_target, event_line, open_monitor, print_summary, progress,
                                     require_own_secrets, twin_sink)
+
+class DeviceClock(str, Enum):
+    """What the simulated devices stamp their samples with."""
+
+    wall = "wall"
+    boot = "boot"
+
 
 sim_app = typer.Typer(help="Simulators: wearables on the site bus.", no_args_is_help=True)
 
@@ -29,17 +37,25 @@ def sim_wearables(
     csv: Path | None = typer.Option(None, "--csv", help="Also write worker 1's samples as CSV (for hav analyze)."),
     ifc: Path | None = typer.Option(None, "--ifc", help="In-process mode: site IFC to write the twin records into."),
     out: Path | None = typer.Option(None, "--out", help="Where the twin IFC goes (default: <ifc>_hav.ifc)."),
+    device_clock: DeviceClock = typer.Option(DeviceClock.wall, "--device-clock", help="wall: devices stamp UTC time; boot: seconds since power-up (no wall "
+                                             "time; the monitor places them on its receive clock)."),
+    reboot_after: float = typer.Option(0.0, "--reboot-after", min=0.0, help="Minutes into its plan at which each "
+                                       "device restarts (last will, 10 s off, new boot id, seq from 0); 0: never."),
     dev: bool = typer.Option(False, "--dev", help=DEV_HELP),
 ) -> None:
     """Publish simulated hammer drill / grinder / breaker sessions (realistic spectra and magnitudes)."""
+    from dataclasses import replace
+
     from bim2rdt.config import get_settings
-    from bim2rdt.sim.wearables import default_plans, plan_seconds
+    from bim2rdt.sim.wearables import default_plans, plan_seconds, with_reboot
 
     require_own_secrets(get_settings(), dev, "devices" if mqtt else "site")
     if mqtt is not None and ifc is not None:
         raise typer.BadParameter("--ifc is for the in-process mode: with --mqtt, `hav listen --ifc` writes the twin")
     check_twin_target(ifc, out)  # before minutes of simulation, not after
-    plans = default_plans(workers, minutes, zone)
+    plans = [replace(plan, clock=device_clock.value) for plan in default_plans(workers, minutes, zone)]
+    if reboot_after > 0:
+        plans = [with_reboot(plan, reboot_after * 60.0) for plan in plans]
     if csv is not None:
         _write_csv(plans[0], fs, csv)
     total = max(plan_seconds(p) for p in plans)

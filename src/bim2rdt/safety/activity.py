@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 from bim2rdt.safety.config import Trigger
@@ -26,6 +26,7 @@ GAP = "hav.gap"
 ARTEFACT = "hav.artefact"
 E_EAV = EAV**2 * T0_S
 E_ELV = ELV**2 * T0_S
+_LIMITS = ((EAV_REACHED, E_EAV, "eav_at", EAV), (ELV_REACHED, E_ELV, "elv_at", ELV))
 
 Notice = tuple[str, float, dict]
 """(event kind, device time, data) produced by the tracker; the monitor turns it into an Event."""
@@ -63,6 +64,20 @@ class DayState:
             record = self.hands[hand] = [0.0, 0.0]
         record[0] += energy
         record[1] += seconds
+        if record[0] >= self._greater[0]:
+            self._greater = record
+
+    def hand_totals(self, hand: str) -> tuple[float, float]:
+        """(energy, seconds) of one hand so far."""
+        record = self.hands.get(hand)
+        return (record[0], record[1]) if record is not None else (0.0, 0.0)
+
+    def set_hand_totals(self, hand: str, energy: float, seconds: float) -> None:
+        """Put one hand's totals, summed block by block elsewhere (never lower than they were)."""
+        record = self.hands.get(hand)
+        if record is None:
+            record = self.hands[hand] = [0.0, 0.0]
+        record[0], record[1] = energy, seconds
         if record[0] >= self._greater[0]:
             self._greater = record
 
@@ -114,6 +129,8 @@ class ActivityTracker:
     """Feeds one stream's frames through activity detection into the worker's day; ``name`` (the device)
     prefixes activity ids."""
 
+    __slots__ = ("trigger", "name", "hand", "state")
+
     def __init__(self, trigger: Trigger, name: str, state: ActivityState | None = None, hand: str = ""):
         self.trigger, self.name, self.hand = trigger, name, hand
         self.state = state or ActivityState()
@@ -133,9 +150,38 @@ class ActivityTracker:
             if act.low_seconds >= self.trigger.stop_hold_s:
                 notices += self.stop(act.low_since, day_of)
             return notices
-        energy, seconds = energy + act.low_energy, seconds + act.low_seconds
-        act.low_energy, act.low_seconds, act.low_since = 0.0, 0.0, None
-        return notices + self._count(end, seconds, energy, day_of(act.day))
+        if act.low_seconds:  # a dip inside the activity counts
+            energy, seconds = energy + act.low_energy, seconds + act.low_seconds
+            act.low_energy, act.low_seconds, act.low_since = 0.0, 0.0, None
+        counted = self._count(end, seconds, energy, day_of(act.day))
+        return notices + counted if notices else counted
+
+    def count_run(self, seconds: Sequence[float], energies: Sequence[float], day_of: DayLookup) -> bool:
+        """Count a run of clean blocks in one step where :meth:`frame` would say nothing about any of them: an
+        activity runs, no block dips under the stop threshold, no limit is crossed and no prediction falls due.
+        The sums are :meth:`frame`'s (the same additions in the same order). False, with nothing changed, when a
+        block needs :meth:`frame`."""
+        act = self.state
+        if act.id is None or act.low_seconds:
+            return False
+        stop = self.trigger.stop_threshold
+        day = day_of(act.day)
+        act_energy, act_seconds = act.energy, act.seconds
+        hand_energy, hand_seconds = day.hand_totals(self.hand)
+        for block_s, energy in zip(seconds, energies):
+            if (math.sqrt(energy / block_s) if block_s > 0 else 0.0) < stop:
+                return False
+            act_energy, act_seconds = act_energy + energy, act_seconds + block_s
+            hand_energy, hand_seconds = hand_energy + energy, hand_seconds + block_s
+        before, after = day.energy, max(day.energy, hand_energy)
+        if any(before < limit <= after and getattr(day, attr) is None for _, limit, attr, _ in _LIMITS):
+            return False
+        last = act.predicted_at_s
+        if day.eav_at is None and (last is None or act_seconds - last >= self.trigger.predict_every_s):
+            return False
+        act.energy, act.seconds = act_energy, act_seconds
+        day.set_hand_totals(self.hand, hand_energy, hand_seconds)
+        return True
 
     def reject(self, seconds: float) -> None:
         """A frame rejected as an artefact: not exposure, but remembered against the activity."""
@@ -169,7 +215,7 @@ class ActivityTracker:
         act.energy, act.seconds = act.energy + energy, act.seconds + seconds
         day.add(self.hand, energy, seconds)
         after = day.energy
-        for kind, limit, attr, value in ((EAV_REACHED, E_EAV, "eav_at", EAV), (ELV_REACHED, E_ELV, "elv_at", ELV)):
+        for kind, limit, attr, value in _LIMITS if before < E_ELV <= after or before < E_EAV <= after else ():
             if before < limit <= after and getattr(day, attr) is None:
                 when = end - seconds + seconds * (limit - before) / (after - before)
                 setattr(day, attr, when)

@@ -26,7 +26,7 @@ from bim2rdt.safety.weighing import Blocks, FilterState, Piece, weigh_round
 from bim2rdt.safety.weighting import covered_band
 
 
-@dataclass
+@dataclass(slots=True)
 class Stream:
     """One device's stream: ordering buffer, filter state, activity tracker, session, clock and counters."""
 
@@ -40,6 +40,16 @@ class Stream:
 
     def count(self, name: str, amount: float = 1) -> None:
         self.counters[name] = self.counters.get(name, 0) + amount
+
+    def placed(self, device_time: float) -> float:
+        """``device_time`` on the wall clock: as it is, or on the receive clock for a device without wall time."""
+        return device_time + self.clock.shift(device_time)
+
+    @property
+    def time_base(self) -> str:
+        """'receive' while the device's times are placed on the receive clock (no wall time), else 'device'."""
+        last = self.buffer.last_end
+        return "receive" if last is not None and self.clock.shift(last) else "device"
 
 
 @dataclass
@@ -115,7 +125,7 @@ class ExposureEngine:
         result = PushResult()
         last = stream.buffer.close(result)
         events = self._note_gaps(stream, result) + self._process([(stream, b, s) for b, s in result.pieces])
-        when = when if when is not None else last if last is not None else self.clock()
+        when = when if when is not None else stream.placed(last) if last is not None else self.clock()
         return Outcome([], {device: stream}, events + self.stop_activity(stream, when))
 
     def rebind(self, device: str, session: Session) -> Outcome:
@@ -132,7 +142,7 @@ class ExposureEngine:
         return [self.event(stream, notice) for notice in notices]
 
     def last_time(self, stream: Stream) -> float:
-        return stream.buffer.end_time if stream.buffer.end_time is not None else self.clock()
+        return stream.placed(stream.buffer.end_time) if stream.buffer.end_time is not None else self.clock()
 
     # --- order, gaps and clock -----------------------------------------------------------------------------
     def _note_push(self, stream: Stream, batch: AccelBatch, result: PushResult) -> list[Event]:
@@ -153,12 +163,12 @@ class ExposureEngine:
     def _note_gaps(self, stream: Stream, result: PushResult) -> list[Event]:
         events = []
         for gap in result.gaps:
-            seconds = max(gap.end - gap.start, 0.0)
+            seconds, shift = max(gap.end - gap.start, 0.0), stream.clock.shift(gap.start)
             stream.count("gaps")
             stream.count("gap_s", seconds)
             self.count("gaps")
             stream.tracker.gap(seconds)
-            events.append(self.event(stream, (GAP, gap.start, {"end": gap.end, "seconds": seconds,
+            events.append(self.event(stream, (GAP, gap.start + shift, {"end": gap.end + shift, "seconds": seconds,
                                                                 "reason": gap.reason,
                                                                 "missing_batches": gap.missing_seqs})))
         return events
@@ -190,10 +200,24 @@ class ExposureEngine:
         events = []
         for subject, devices in by_subject.items():
             day_of = self._day_lookup(subject)
-            blocks = heapq.merge(*(_stream_blocks(weighed[d], d) for d in devices)) if len(devices) > 1 else \
-                _stream_blocks(weighed[devices[0]], devices[0])
-            for end, _, device, seconds, energy, flags in blocks:
+            if len(devices) == 1:
+                events += self._track_stream(self.streams[devices[0]], weighed[devices[0]], day_of)
+                continue
+            for end, _, device, seconds, energy, flags in heapq.merge(*(_stream_blocks(weighed[d], self.streams[d])
+                                                                         for d in devices)):
                 events += self._frame(self.streams[device], day_of, end, seconds, energy, flags)
+        return events
+
+    def _track_stream(self, stream: Stream, runs: list[Blocks], day_of: Callable[[str], DayState]) -> list[Event]:
+        """A worker's only stream: each run of clean blocks inside a running activity that says nothing (no dip, no
+        limit, no prediction due) is counted in one step (:meth:`ActivityTracker.count_run`); the rest block by
+        block."""
+        events, bulk = [], not self.config.keep_timeline
+        for blocks in runs:
+            if bulk and not any(blocks.flags) and stream.tracker.count_run(blocks.seconds, blocks.energy, day_of):
+                continue
+            for end, _, device, seconds, energy, flags in _stream_blocks([blocks], stream):
+                events += self._frame(stream, day_of, end, seconds, energy, flags)
         return events
 
     def _frame(self, stream: Stream, day_of: Callable[[str], DayState], end: float, seconds: float, energy: float,
@@ -214,12 +238,19 @@ class ExposureEngine:
         return [self.event(stream, notice) for notice in notices] if notices else []
 
     def _day_lookup(self, subject: str) -> Callable[[str], DayState]:
+        """The subject's worker-day by date (created and marked touched on first use); the last one is kept at hand,
+        as a stream's blocks ask for the same day thousands of times."""
+        last: list = [None, None]
+
         def day_of(day: str) -> DayState:
+            if day == last[0]:
+                return last[1]
             key = (subject, day)
             self.touched_days.add(key)
             state = self.days.get(key)
             if state is None:
                 state = self.days[key] = DayState()
+            last[:] = day, state
             return state
 
         return day_of
@@ -236,7 +267,8 @@ class ExposureEngine:
                 "corrected": self.sessions.correction(session) is not None, "a_hv": stream.tracker.state.a_hv,
                 "day_a8": day.a8, "day_points": day.points, "risk": day.risk,
                 "band_hz": [coverage.low_hz, coverage.high_hz] if coverage else None,
-                "band_limited": bool(coverage and not coverage.complete), "clock_offset_s": stream.clock.offset_s}
+                "band_limited": bool(coverage and not coverage.complete), "clock_offset_s": stream.clock.offset_s,
+                "time_base": stream.time_base}
         body.update(data)
         return Event(kind, float(when), session.subject, stream.device, _finite(body), self.clock())
 
@@ -257,11 +289,14 @@ def _continues(piece: Piece, batch: AccelBatch) -> bool:
     return batch.fs == last.fs and batch.full_scale == last.full_scale
 
 
-def _stream_blocks(runs: list[Blocks], device: str):
-    """(end, order, device, seconds, energy, flags) of a stream's blocks, in its own order."""
-    order = 0
+def _stream_blocks(runs: list[Blocks], stream: Stream):
+    """(end, order, device, seconds, energy, flags) of a stream's blocks, in its own order, their end times on the
+    wall clock (:meth:`Stream.placed`)."""
+    order, device = 0, stream.device
     for blocks in runs:
-        for end, seconds, energy, flags in zip(blocks.end, blocks.seconds, blocks.energy, blocks.flags):
+        shift = stream.clock.shift(blocks.end[0]) if blocks.end else 0.0
+        ends = [end + shift for end in blocks.end] if shift else blocks.end
+        for end, seconds, energy, flags in zip(ends, blocks.seconds, blocks.energy, blocks.flags):
             yield end, order, device, seconds, energy, flags
             order += 1
 

@@ -235,13 +235,14 @@ class HavMonitor:
             return stream.session if stream else None
 
     def stream_status(self, device: str) -> dict | None:
-        """Where a device's stream stands: next expected seq, batches waiting, counters, clock offset (s)."""
+        """Where a device's stream stands: next expected seq, batches waiting, counters, clock offset (s), and the
+        time base its events and days are on ('receive' for a device without wall time, else 'device')."""
         with self._lock:
             stream = self._engine.streams.get(device)
             if stream is None:
                 return None
             return {"next_seq": stream.buffer.next_seq, "waiting": sorted(stream.buffer.pending),
-                    "clock_offset_s": stream.clock.offset_s, **stream.counters}
+                    "clock_offset_s": stream.clock.offset_s, "time_base": stream.time_base, **stream.counters}
 
     def activity(self, device: str) -> ActivityState | None:
         """The activity running on ``device``'s stream (``id`` None when idle); None for an unknown device."""

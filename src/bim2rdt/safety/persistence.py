@@ -56,7 +56,7 @@ class MonitorJournal:
         self._raw_devices.update(b.device for b in batches)
         with self.store.transaction():
             self.store.save_raw(batches)
-            self.store.save_streams([(s.device, _stream_state(s), s.filter.to_bytes()) for s in streams])
+            self.store.save_streams((s.device, _stream_state(s), s.filter.to_bytes()) for s in streams)
             self.store.save_activities([_open_activity(engine.streams[e.source]) for e in events
                                         if e.kind == ACTIVITY_STARTED])
             self._drop_raw(engine, now)

@@ -41,7 +41,7 @@ RESTART_SEQ = 64
 of the first were lost or overtaken on the way."""
 
 
-@dataclass
+@dataclass(slots=True)
 class Gap:
     """Unsampled time in a stream: missing batches or a pause; its time is not counted as exposure."""
 
@@ -51,7 +51,7 @@ class Gap:
     missing_seqs: int = 0
 
 
-@dataclass
+@dataclass(slots=True)
 class PushResult:
     """Batches now in order (with whether each starts a new segment), duplicates/late dropped, gaps."""
 
@@ -69,6 +69,9 @@ class PushResult:
 
 class StreamBuffer:
     """Ordering and gap detection of one device's batches."""
+
+    __slots__ = ("max_reorder", "reorder_s", "next_seq", "pending", "fs", "end_time", "last_end", "offset", "_skipped",
+                 "_runs", "boot", "restart_expected")
 
     def __init__(self, max_reorder: int = 8, reorder_s: float = 2.0):
         self.max_reorder, self.reorder_s = max_reorder, reorder_s

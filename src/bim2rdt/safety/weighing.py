@@ -13,6 +13,7 @@ linear-phase FIR. A new segment (after a gap) restarts the filters settled on it
 from __future__ import annotations
 
 import struct
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from functools import lru_cache
 
@@ -32,7 +33,7 @@ CHUNK = 128
 overhead (about 0.4 ms) stays small."""
 
 
-@dataclass
+@dataclass(slots=True)
 class FilterState:
     """One stream's filter memories (IIR ``zi`` (k, 3, 2), FIR ``fir_zi`` (3, taps-1)) and whether its next
     block is still settling after an artefact."""
@@ -57,7 +58,7 @@ class FilterState:
         return cls(zi, rest.reshape(3, -1).copy() if rest.size else None, settle)
 
 
-@dataclass
+@dataclass(slots=True)
 class Piece:
     """One stream's next in-order batches: a *run* of consecutive batches at one rate and sensor range, of which
     only the first may start a new segment; weighed in one pass with the stream's mounting correction."""
@@ -80,12 +81,12 @@ class Piece:
         return self.batches[0].full_scale or np.inf
 
 
-@dataclass
+@dataclass(slots=True)
 class Blocks:
     """A piece's blocks: device ``end`` times, ``seconds`` of samples, weighted ``energy`` (m^2/s^3), ``flags``."""
 
     end: list[float] = field(default_factory=list)
-    seconds: list[float] = field(default_factory=list)
+    seconds: Sequence[float] = ()
     energy: list[float] = field(default_factory=list)
     flags: list[int] = field(default_factory=list)
 
@@ -121,7 +122,7 @@ def weigh_round(pieces: list[Piece], limits: ArtefactLimits) -> list[Blocks]:
     groups: dict[tuple, list[int]] = {}
     for i, piece in enumerate(pieces):
         groups.setdefault((piece.fs, piece.lengths, piece.correction), []).append(i)
-    out: list[Blocks] = [Blocks() for _ in pieces]
+    out: list[Blocks | None] = [None] * len(pieces)
     for (fs, lengths, correction), members in groups.items():
         for first in range(0, len(members), CHUNK):  # cache-sized chunks: the block passes re-read hot data
             chunk = members[first:first + CHUNK]
@@ -180,12 +181,12 @@ def _blocks(piece: Piece, layout: _Layout, energy: list[float], flags: list[int]
     t0 = [b.device_time for b in piece.batches]
     ends = [t0[i] + offset for i, offset in zip(layout.batch, layout.end_offset_s)]
     if not piece.state.settle and not any(flags):
-        return Blocks(ends, list(layout.seconds), energy, flags)
+        return Blocks(ends, layout.seconds, energy, flags)
     marked = []
     for flag in flags:
         marked.append(flag | (SETTLING if piece.state.settle else 0))
         piece.state.settle = bool(flag & REJECTED_BEFORE_SETTLING)
-    return Blocks(ends, list(layout.seconds), energy, marked)
+    return Blocks(ends, layout.seconds, energy, marked)
 
 
 def _settle(piece: Piece, first: np.ndarray, correction: MountingCorrection | None) -> None:

@@ -1,9 +1,15 @@
 """Simulated wearables on a bus: each worker's device publishes its status and acceleration batches.
 
 A worker's day is a plan of (tool, seconds) pieces with pauses; each tool piece is announced by a retained
-status message ``{"online": true, "worker", "tool", "position", "zone"}`` (the device's last will sets
+status message ``{"online": true, "worker", "tool", "position", "zone", "boot"}`` (the device's last will sets
 ``{"online": false}``), then its samples go out as QoS 1 batches with (device, seq, device time). Devices are
 interleaved in time order; ``speed`` 1 paces them in real time, 0 publishes as fast as the bus takes them.
+
+``boot`` names the device's power-up (the hex of its power-up time in ms, unique per device as a random id
+would be). A ``("reboot", seconds)`` piece restarts the device: its last will goes out (offline), it is off for
+``seconds``, then it powers up with a new boot id, which it announces at once, and counts seq from 0 again. A
+plan on a ``boot`` clock stamps samples with seconds since power-up, as a wearable without wall time does: after
+a reboot its times repeat the first power-up's exactly, which only the new boot id tells from a replay.
 """
 
 from __future__ import annotations
@@ -11,7 +17,7 @@ from __future__ import annotations
 import json
 import time
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -21,6 +27,10 @@ from bim2rdt.sim.vibration import TOOLS, ToolSignal, batches
 
 TOOL_ORDER = ("grinder", "hammer_drill", "breaker")
 PAUSE_S = 30.0
+REBOOT = "reboot"
+"""A plan piece that restarts the device (off for its seconds): new boot id, seq from 0, a boot clock from 0."""
+REBOOT_DOWN_S = 10.0
+"""Seconds a restarting device is off, by default."""
 
 
 @dataclass(frozen=True)
@@ -33,6 +43,8 @@ class WorkerPlan:
     zone: str | None
     pieces: tuple[tuple[str, float], ...]
     intensity: float = 1.0
+    clock: str = "wall"
+    """'wall': device times are UTC epoch seconds; 'boot': seconds since the device powered up (no wall time)."""
 
 
 def default_plans(workers: int, minutes: float, zone: str | None = None) -> list[WorkerPlan]:
@@ -48,14 +60,36 @@ def default_plans(workers: int, minutes: float, zone: str | None = None) -> list
     return plans
 
 
-def status_payload(plan: WorkerPlan, tool: str, online: bool = True) -> bytes:
+def with_reboot(plan: WorkerPlan, after_s: float, down_s: float = REBOOT_DOWN_S) -> WorkerPlan:
+    """``plan`` with its device restarting once ``after_s`` seconds into it (the piece running then is split)."""
+    pieces, elapsed = [], 0.0
+    for piece, seconds in plan.pieces:
+        if elapsed <= after_s < elapsed + seconds:
+            cut = after_s - elapsed
+            pieces += [(piece, cut)] * (cut > 0) + [(REBOOT, down_s), (piece, seconds - cut)]
+        else:
+            pieces.append((piece, seconds))
+        elapsed += seconds
+    return replace(plan, pieces=tuple(pieces))
+
+
+def status_payload(plan: WorkerPlan, tool: str, online: bool = True, boot: str | None = None) -> bytes:
+    """The retained status: online with the worker, tool and boot id, or the last will's ``{"online": false}``."""
     body = {"online": online, "worker": plan.worker, "tool": tool, "position": "handle", "zone": plan.zone}
+    if boot is not None:
+        body["boot"] = boot
     return json.dumps(body if online else {"online": False}).encode()
+
+
+def boot_id(power_up: float) -> str:
+    """The id a device draws at power-up (wall time ``power_up``, s): the hex of that time in ms."""
+    return f"{round(power_up * 1000.0):x}"
 
 
 def timed_messages(plans: list[WorkerPlan], site: str, fs: float, t0: float, batch_s: float = 0.5,
                    seed: int = 0) -> Iterator[tuple[float, str, str, bytes, bool]]:
-    """(device time, device, topic, payload, retain) of every device's messages, in time order."""
+    """(wall time, device, topic, payload, retain) of every device's messages, in time order (on a wall clock
+    the wall time is the device time)."""
     streams = [_device_messages(plan, site, fs, t0, batch_s, seed + i) for i, plan in enumerate(plans)]
     heads = [next(s, None) for s in streams]
     while any(h is not None for h in heads):
@@ -66,17 +100,32 @@ def timed_messages(plans: list[WorkerPlan], site: str, fs: float, t0: float, bat
 
 def _device_messages(plan: WorkerPlan, site: str, fs: float, t0: float, batch_s: float,
                      seed: int) -> Iterator[tuple[float, str, str, bytes, bool]]:
-    when, seq, tool = t0, 0, plan.pieces[0][0]
+    """(wall time, device, topic, payload, retain) of one device; the device powers up at ``t0``."""
+    when, seq, tool, power_up = t0, 0, plan.pieces[0][0], t0
+    status = status_topic(site, plan.device)
     for i, (piece, seconds) in enumerate(plan.pieces):
+        if piece == REBOOT:  # its last will, then a new power-up announced at once
+            yield when, plan.device, status, status_payload(plan, tool, online=False), True
+            when += seconds
+            seq, power_up = 0, when
+            yield when, plan.device, status, status_payload(plan, _named(tool), boot=boot_id(power_up)), True
+            continue
         if piece != "idle":
             tool = piece
-            yield when, plan.device, status_topic(site, plan.device), status_payload(plan, tool), True
+            yield when, plan.device, status, status_payload(plan, tool, boot=boot_id(power_up)), True
         signal = _piece_signal(plan, piece, seconds, fs, seed * 100 + i)
-        for batch in batches(plan.device, signal, fs, when, batch_s, seq):
-            yield batch.device_time, plan.device, accel_topic(site, plan.device), encode_accel(batch), False
+        start = when - power_up if plan.clock == "boot" else when
+        for batch in batches(plan.device, signal, fs, start, batch_s, seq):
+            yield when + batch.device_time - start, plan.device, accel_topic(site, plan.device), encode_accel(batch), \
+                False
             seq = batch.seq + 1
         when += signal.n / fs
-    yield when, plan.device, status_topic(site, plan.device), status_payload(plan, tool, online=False), True
+    yield when, plan.device, status, status_payload(plan, tool, online=False), True
+
+
+def _named(tool: str) -> str:
+    """The tool a status names: the one in hand, 'unknown' before the first."""
+    return "unknown" if tool == "idle" else tool
 
 
 def publish_plans(bus_for: Callable[[str], object], plans: list[WorkerPlan], site: str, fs: float,
@@ -102,9 +151,10 @@ def plan_seconds(plan: WorkerPlan) -> float:
 
 
 def plan_signal(plan: WorkerPlan, fs: float, seed: int = 0) -> np.ndarray:
-    """The (n, 3) samples of a whole plan (the same ones :func:`timed_messages` sends for seed ``seed``)."""
+    """The (n, 3) samples of a whole plan (the same ones :func:`timed_messages` sends for seed ``seed``; a reboot
+    sends none)."""
     return np.concatenate([_piece_signal(plan, piece, seconds, fs, seed * 100 + i).samples()
-                           for i, (piece, seconds) in enumerate(plan.pieces)])
+                           for i, (piece, seconds) in enumerate(plan.pieces) if piece != REBOOT])
 
 
 def _piece_signal(plan: WorkerPlan, tool: str, seconds: float, fs: float, seed: int) -> ToolSignal:
