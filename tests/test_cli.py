@@ -28,3 +28,16 @@ def test_unknown_command_exits_non_zero_with_a_message():
     result = run_cli("no-such-command")
     assert result.returncode != 0
     assert "no-such-command" in (result.stderr + result.stdout)
+
+
+def test_the_benchmarks_progress_bar_runs_no_thread_beside_the_timed_code():
+    """A refresh thread waking on the same core took the GIL from the code `bench hav` times."""
+    import threading
+
+    from bim2rdt.cli.hav_output import progress
+
+    before = threading.active_count()
+    with progress(3, "timed rounds") as tick:
+        assert threading.active_count() == before
+        tick(1)
+        assert threading.active_count() == before
