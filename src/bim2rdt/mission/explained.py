@@ -20,69 +20,22 @@ sampled surface is sparsest, is where a phantom's points lie.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, field
-from functools import cached_property
+from dataclasses import dataclass
 
 import numpy as np
-import trimesh
 
 from bim2rdt.bim import BimModel
 from bim2rdt.perception.background import SLAB_CLASSES
 from bim2rdt.perception.structure import permanent_elements
-
-
-@dataclass(frozen=True)
-class KnownSurface:
-    """A surface the mission already knows is there: ``name`` for the report ("IfcColumn 'Column C11'") and its
-    ``triangles`` (T, 3, 3) in world metres."""
-
-    name: str
-    triangles: np.ndarray = field(repr=False)
-
-    @classmethod
-    def of_mesh(cls, name: str, mesh: trimesh.Trimesh, T_world_model: np.ndarray = np.eye(4)) -> KnownSurface:
-        """The surface of ``mesh`` (body frame) posed at ``T_world_model``."""
-        triangles = np.asarray(mesh.triangles, dtype=float)
-        return cls(name, triangles @ T_world_model[:3, :3].T + T_world_model[:3, 3])
-
-    @cached_property
-    def bounds(self) -> np.ndarray:
-        """(2, 3) the surface's box, world metres: a building has hundreds of elements, and most of them are
-        nowhere near a fit's points."""
-        corners = self.triangles.reshape(-1, 3)
-        return np.array([corners.min(axis=0), corners.max(axis=0)])
-
-    def distances(self, points_world: np.ndarray, reach: float) -> np.ndarray:
-        """(N,) distance (m) of each point to the surface; inf where it is farther than ``reach`` (only the
-        points in the surface's box and the triangles whose box holds one of them, all grown by ``reach``, are
-        measured)."""
-        out = np.full(len(points_world), np.inf)
-        inside = np.flatnonzero(np.all((points_world >= self.bounds[0] - reach)
-                                       & (points_world <= self.bounds[1] + reach), axis=1))
-        if len(inside) == 0:
-            return out
-        points = points_world[inside]
-        low, high = self.triangles.min(axis=1) - reach, self.triangles.max(axis=1) + reach  # (T, 3) each
-        near = np.all((points[:, None, :] >= low) & (points[:, None, :] <= high), axis=2)  # (n, T)
-        point, triangle = np.nonzero(near)
-        if len(point):
-            closest = trimesh.triangles.closest_point(self.triangles[triangle], points[point])
-            np.minimum.at(out, inside[point], np.linalg.norm(closest - points[point], axis=1))
-        return np.where(out <= reach, out, np.inf)
+from bim2rdt.perception.surfaces import KnownSurface
 
 
 def building_surfaces(model: BimModel) -> list[KnownSurface]:
     """The surfaces of ``model``'s permanent elements (walls, columns, beams, doors ...: what the detector's
     scan-vs-BIM explains a frame with), at their BIM placement. Slabs are left out: the mission already takes
     the points near the slab for slab (``MissionConfig.ground_clearance``), and every object stands on it."""
-    surfaces = []
-    for element in permanent_elements(model):
-        if element.ifc_class in SLAB_CLASSES:
-            continue
-        vertices, faces = model.mesh(element.global_id)
-        label = f"{element.ifc_class} '{element.name}'" if element.name else f"{element.ifc_class} {element.global_id}"
-        surfaces.append(KnownSurface(label, np.asarray(vertices, dtype=float)[np.asarray(faces)]))
-    return surfaces
+    return [KnownSurface.of_element(model, element) for element in permanent_elements(model)
+            if element.ifc_class not in SLAB_CLASSES]
 
 
 @dataclass(frozen=True)
