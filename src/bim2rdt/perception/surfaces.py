@@ -55,9 +55,7 @@ class KnownSurface:
         if len(inside) == 0:
             return inside, np.zeros((0, 3))
         points = points_world[inside]
-        low, high = self.triangles.min(axis=1) - reach, self.triangles.max(axis=1) + reach  # (T, 3) each
-        near = np.all((points[:, None, :] >= low) & (points[:, None, :] <= high), axis=2)  # (n, T)
-        point, triangle = np.nonzero(near)
+        point, triangle = _in_boxes(points, self.triangles.min(axis=1) - reach, self.triangles.max(axis=1) + reach)
         if len(point) == 0:
             return point, np.zeros((0, 3))
         return inside[point], trimesh.triangles.closest_point(self.triangles[triangle], points[point])
@@ -68,3 +66,18 @@ class KnownSurface:
         index, closest = self.closest_points(points_world, reach)
         np.minimum.at(out, index, np.linalg.norm(closest - points_world[index], axis=1))
         return np.where(out <= reach, out, np.inf)
+
+
+def _in_boxes(points: np.ndarray, low: np.ndarray, high: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The (point, box) index pairs of points (n, 3) inside boxes (T, 3) ``low`` to ``high``: a sweep along x
+    (each box takes the run of x-sorted points across its x-range, then y and z are checked), so a detailed
+    element (a spiral stair of thousands of triangles) costs its pairs, not points x triangles."""
+    order = np.argsort(points[:, 0])
+    xs = points[order, 0]
+    first, last = np.searchsorted(xs, low[:, 0], side="left"), np.searchsorted(xs, high[:, 0], side="right")
+    counts = last - first
+    box = np.repeat(np.arange(len(low)), counts)
+    step = np.arange(int(counts.sum())) - np.repeat(np.cumsum(counts) - counts, counts)
+    point = order[np.repeat(first, counts) + step]
+    inside = np.all((points[point, 1:] >= low[box, 1:]) & (points[point, 1:] <= high[box, 1:]), axis=1)
+    return point[inside], box[inside]
