@@ -1,11 +1,15 @@
 """Whose points a fit shows: a fit is evidence of an object only through points no known surface already explains.
 
-The detector keeps what the BIM's building does not explain, ray by ray. At a silhouette a pixel's ray can pass
-beside a column while the point it measured (a time-of-flight mixed pixel, a camera pose a few mm off) lies on
-the column, so a strip of the column's edge reaches the mission as an object's points. A thin family fits such a
-strip: a tripod leg fits a column's vertical edge to a few mm (the demo's frame 2 with a looser solver: 132
-points of Column C11's corner became a new tripod). By its own distances that fit is excellent; what is wrong
-is that its points are already explained, by an element the BIM puts there.
+The detector keeps what the BIM's building does not explain. It used to judge that ray by ray only: at a
+silhouette a pixel's ray can pass beside a column while the point it measured (a time-of-flight mixed pixel, a
+camera pose a few mm off) lies on the column, so a strip of the column's edge reached the mission as an object's
+points, and a thin family fits such a strip: a tripod leg fits a column's vertical edge to a few mm (the demo's
+frame 2: 129 points of Column C11's corner). By its own distances that fit is excellent; what is wrong is that
+its points are already explained, by an element the BIM puts there. The detector now also measures what its
+rays leave against every permanent surface in 3-D (:func:`bim2rdt.perception.background.on_any_surface`), so
+the demo's strip no longer reaches the mission (from any detector: every detection's points pass that test).
+This check stays for what perception cannot know, the objects registered earlier in the mission, and as a
+judge of the fit as a whole rather than of single points.
 
 So, of the points a fit explains (its inliers: within ``IcpConfig.score_distance`` of the fitted model's
 surface), the mission asks which of them lie on a known surface: the building's permanent elements, at their
