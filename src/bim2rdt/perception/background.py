@@ -109,10 +109,11 @@ def on_any_surface(surfaces: list[KnownSurface], points_world: np.ndarray, direc
             continue
         across = by_x[first:last]
         index, closest = surface.closest_points(points_world[across], reach)
-        offset = points_world[across[index]] - closest
+        near = across[index]  # (K,) a point for each of its triangles within reach
+        offset = points_world[near] - closest
         gap = np.linalg.norm(offset, axis=1)
-        along = np.abs(np.einsum("ni,ni->n", directions[across[index]], offset)) / np.maximum(gap, 1e-12)
-        out[across[index[gap <= tolerance + 3.0 * sigma[across[index]] * along]]] = True
+        along = np.abs(np.einsum("ni,ni->n", directions[near], offset)) / np.maximum(gap, 1e-12)
+        out[near[gap <= tolerance + 3.0 * sigma[near] * along]] = True
     return out
 
 
