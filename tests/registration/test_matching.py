@@ -131,6 +131,29 @@ def test_the_model_index_is_built_once_per_content_and_a_changed_model_gets_its_
     assert np.array_equal(matching.ModelIndex.cached(moved, normals).points, moved)
 
 
+def test_a_model_differing_only_between_the_checksummed_samples_is_not_taken_for_a_cached_one():
+    """The cache key reads every 64th sample; equality is confirmed on all of them (a model with the same key
+    replaces the cached one: a rebuild, never a wrong model)."""
+    points, normals = sample_model(trimesh.creation.box(extents=(0.4, 0.3, 0.2)), 500, seed=5)
+    first = matching.ModelIndex.cached(points, normals)
+    nudged, turned = points.copy(), normals.copy()
+    nudged[1] += 0.001
+    turned[1] = -turned[1]
+    assert matching.ModelIndex.cached(nudged, normals).points[1] == pytest.approx(nudged[1])
+    assert matching.ModelIndex.cached(points, turned).normals[1] == pytest.approx(turned[1])
+    again = matching.ModelIndex.cached(points, normals)
+    assert np.array_equal(again.points, points) and np.array_equal(again.normals, normals)
+
+
+def test_a_cached_model_keeps_its_own_copy_of_the_callers_samples():
+    points, normals = sample_model(trimesh.creation.box(extents=(0.5, 0.3, 0.2)), 500, seed=6)
+    first = matching.ModelIndex.cached(points, normals)
+    points[1] += 0.5  # the caller reuses its array for another model
+    assert not np.array_equal(first.points, points)
+    again = matching.ModelIndex.cached(points, normals)
+    assert again is not first and np.array_equal(again.points, points)
+
+
 def test_the_lowest_sample_along_any_direction_is_one_of_the_hull_samples():
     """The resting contact searches only the convex hull's samples; along any direction the lowest of those is
     the lowest of all. Flat samples span no volume: then every sample is kept."""

@@ -4,13 +4,13 @@ port (real HTTP), and a token per role."""
 from __future__ import annotations
 
 import os
-import time
 from pathlib import Path
 
 import httpx
 import pytest
 
-from server_helpers import CHROMIUM, SITE_SECRET, config_with_tokens, family_mesh, feed, record_day, vibration
+from server_helpers import (CHROMIUM, SITE_SECRET, config_with_tokens, family_mesh, feed, record_day, today_since,
+                            vibration)
 
 
 @pytest.fixture
@@ -29,7 +29,7 @@ def monitor(tmp_path):
 
     monitor = HavMonitor(tmp_path / "hav", SITE_SECRET, config=MonitorConfig(site="test"))
     monitor.start_session("dev-1", "anna.berg", "grinder", zone="Work zone A")
-    feed(monitor, vibration("dev-1", 20.0, 6.0, time.time() - 60))
+    feed(monitor, vibration("dev-1", 20.0, 6.0, today_since(60, 90)))  # later feeds follow it
     monitor.identity_for_server = IdentityMap(tmp_path / "hav" / "private" / "identity.sqlite", role="safety")
     yield monitor
     monitor.identity_for_server.close()

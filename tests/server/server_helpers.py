@@ -84,3 +84,16 @@ def feed(monitor, batches, chunk: int = 40) -> None:
 
 def auth(token: str) -> dict[str, str]:
     return {"Authorization": f"Bearer {token}"}
+
+
+def today_since(seconds_back: float, needed: float) -> float:
+    """``time.time() - seconds_back``, but not before today's UTC midnight: A(8) is a daily exposure, and samples
+    fed from before midnight count for yesterday (a test run at 00:30 UTC saw a worker 'an hour into the day'
+    at A(8) 0). Waits until ``needed`` seconds of today have passed, so samples fed over that span from the
+    returned start are not in the future."""
+    now = time.time()
+    midnight = now - now % 86400.0
+    if now - midnight < needed:
+        time.sleep(needed - (now - midnight) + 0.5)
+        now = time.time()
+    return max(now - seconds_back, midnight)

@@ -15,7 +15,7 @@ import httpx
 
 from bim2rdt.bus import accel_topic
 
-from server_helpers import CHROMIUM_FLAGS, SITE_SECRET, T_TWIN, auth, config_with_tokens, feed, vibration
+from server_helpers import CHROMIUM_FLAGS, SITE_SECRET, T_TWIN, auth, config_with_tokens, feed, today_since, vibration
 
 A_HV = 30.0
 """m/s^2: a heavy breaker, so the EAV (180,000 m^2/s^3 of energy) comes after 200 s of samples."""
@@ -31,7 +31,7 @@ def page_server(tmp_path, twin):
 
     monitor = HavMonitor(tmp_path / "hav", SITE_SECRET, config=MonitorConfig(site="test"))
     monitor.start_session("dev-1", "carla.diaz", "breaker", zone="Work zone A")
-    start = time.time() - 3600
+    start = today_since(3600, 960)  # the feeds below span 920 s from it
     feed(monitor, vibration("dev-1", 180.0, A_HV, start))
     identity = IdentityMap(tmp_path / "hav" / "private" / "identity.sqlite", role="safety")
     config, tokens = config_with_tokens(tmp_path)

@@ -49,10 +49,10 @@ def report_fit(pose: np.ndarray, problem: Problem, model: matching.ModelIndex, c
     weights = np.minimum(1.0, cfg.huber_delta / np.maximum(distance, 1e-12))
     on_edge = patches.other_face[inliers] - distance < 2.0 * sigma
     R = pose[:3, :3]
-    centre = R @ problem.model_pts_body.mean(axis=0) + pose[:3, 3]
+    centre = R @ model.centroid + pose[:3, 3]
     points, normals = problem.scene_pts_world[inliers], model.normals[sample] @ R.T
     jacobians = point_to_plane_jacobians(points, normals, centre)
-    prior = _prior_information(pose, problem, model.points[sample], weights, cfg, upright_bias, yaw_only)
+    prior = _prior_information(pose, centre, problem, model.points[sample], weights, cfg, upright_bias, yaw_only)
     information = least_squares_information(jacobians, np.where(on_edge, 0.0, weights), sigma, prior / sigma**2)
     length = float(np.sqrt(np.mean(np.sum((points - centre) ** 2, axis=1))))
     covariance, directions, strength = split_information(
@@ -63,12 +63,12 @@ def report_fit(pose: np.ndarray, problem: Problem, model: matching.ModelIndex, c
                                                                   sigma, length, directions, strength))
 
 
-def _prior_information(pose: np.ndarray, problem: Problem, matched_body: np.ndarray, weights: np.ndarray,
-                       cfg: IcpConfig, upright_bias: float, yaw_only: bool) -> np.ndarray:
+def _prior_information(pose: np.ndarray, centre: np.ndarray, problem: Problem, matched_body: np.ndarray,
+                       weights: np.ndarray, cfg: IcpConfig, upright_bias: float, yaw_only: bool) -> np.ndarray:
     """(6, 6) Gauss-Newton information of the loop's priors, in the data term's units (multiply by 1/sigma^2):
     the upright term lam |R g_m - g_w|^2 (lam = bias gamma0 sum w |p - p_mean|^2) gives lam (I - u u^T) on
     the rotation for the body's up axis u; the contact, one point-to-plane pair of weight support_weight x
-    sum w; yaw_only, roll and pitch held."""
+    sum w; yaw_only, roll and pitch held. ``centre`` (m, world) is the model's centroid at ``pose``."""
     information = np.zeros((6, 6))
     up_body = pose[:3, 2]
     if upright_bias > 0.0:
@@ -79,7 +79,6 @@ def _prior_information(pose: np.ndarray, problem: Problem, matched_body: np.ndar
         information[:3, :3] += HELD * (np.eye(3) - np.outer(problem.up_world, problem.up_world))
     if problem.support_height is not None:
         lowest = problem.model_pts_body[np.argmin(problem.model_pts_body @ (pose[:3, :3].T @ problem.up_world))]
-        centre = pose[:3, :3] @ problem.model_pts_body.mean(axis=0) + pose[:3, 3]
         row = point_to_plane_jacobians((pose[:3, :3] @ lowest + pose[:3, 3])[None], problem.up_world[None],
                                        centre)[0]
         information += cfg.support_weight * float(weights.sum()) * np.outer(row, row)

@@ -99,7 +99,7 @@ def register(model_points, model_normals, scene_points, init=np.eye(4), up=(0.0,
     model = matching.ModelIndex.cached(problem.model_pts_body, problem.model_normals_body)
     normals_world = matching.scene_normals(problem.scene_pts_world, cfg.scene_normal_neighbours) \
         if cfg.normal_gate_deg < 90.0 else None
-    centroid = problem.model_pts_body.mean(axis=0)
+    centroid = model.centroid
     start = level_towards_up(problem.T_world_model_init, centroid, problem.up_world,
                              0.0 if yaw_only else problem.upright_bias * cfg.start_leveling)
     restarts = _search(yaw_restarts(start, centroid, problem.up_world, cfg), problem, model, normals_world, cfg,
@@ -140,7 +140,7 @@ def hop(best: RegistrationResult, problem: Problem, model: matching.ModelIndex, 
     when fewer than ``hop_unless_agreeing`` surviving restarts ended where the kept one did, and never with a
     single restart: hops widen the restarts' search, and a caller asking for one start (a local fit from a
     trusted pose, localization's yaw-only camera fix) has said where the basin is."""
-    centroid = problem.model_pts_body.mean(axis=0)
+    centroid = model.centroid
     for _ in range(cfg.hop_rounds):
         starts = hop_starts(best.pose, centroid, problem.up_world, cfg,
                             level=problem.upright_bias > 0.0 and not yaw_only)
@@ -264,22 +264,21 @@ def _iterate(restarts: _Restarts, active: np.ndarray, problem: Problem, model: m
     up_body = np.einsum("kji,j->ki", T[:, :3, :3], problem.up_world)
     lam = gravity_weight(dst, w, problem.upright_bias * cfg.gravity_gamma0)
     if problem.support_height is not None:
-        scene_body, dst, normals, w = _with_contact_pair(T, up_body, problem, model.extremes, cfg.support_weight,
+        scene_body, dst, normals, w = _with_contact_pair(T, up_body, problem, model.extreme_points, cfg.support_weight,
                                                          (scene_body, dst, normals, w))
     dR, dt = SOLVERS[cfg.method].step(scene_body, dst, normals, w, up_body, BODY_UP, lam, yaw_only)
     _advance(restarts, active, dR, dt, matching.truncated_score(pairs, cfg.score_distance), cfg, annealing)
 
 
-def _with_contact_pair(T: np.ndarray, up_body: np.ndarray, problem: Problem, extremes: np.ndarray,
+def _with_contact_pair(T: np.ndarray, up_body: np.ndarray, problem: Problem, hull: np.ndarray,
                        support_weight: float, pairs: tuple):
     """Append the contact correspondence to the (scene, model, normal, weight) pair arrays: each restart's lowest
     model point along the world up should touch the slab. Its scene partner is that point dropped onto the slab
     plane and its normal the slab's, so the step sees one point-to-plane residual, the gap between the object
     and its support (a tilted object touches with its lowest edge, so a leaning cone still rests on the slab).
     Its weight is ``support_weight`` x the data's total weight, the same meaning for 40 points or 400.
-    ``extremes`` are the model samples that can be lowest (its convex hull's)."""
+    ``hull`` are the model samples that can be lowest (its convex hull's points)."""
     scene_body, dst, normals, w = pairs
-    hull = problem.model_pts_body[extremes]
     contact = hull[np.argmin(hull @ up_body.T, axis=0)]  # (k, 3) body
     slab_in_body = problem.support_height - T[:, :3, 3] @ problem.up_world
     gap = np.einsum("ki,ki->k", up_body, contact) - slab_in_body
@@ -310,9 +309,11 @@ def _advance(restarts: _Restarts, active: np.ndarray, dR: np.ndarray, dt: np.nda
              cfg: IcpConfig, annealing: bool) -> None:
     """Apply the body-frame steps (T_new = T inv(step)), record the scores, and mark restarts done whose step
     was small or whose score settled (never while the Huber scale is still annealing)."""
-    step = np.tile(np.eye(4), (len(active), 1, 1))
-    step[:, :3, :3], step[:, :3, 3] = dR, dt
-    restarts.poses[active] = restarts.poses[active] @ invert_poses(step)
+    inverse = np.zeros((len(active), 4, 4))  # inv([dR, dt]) = [dR^T, -dR^T dt], as invert_poses writes it
+    inverse[:, :3, :3] = np.swapaxes(dR, 1, 2)
+    inverse[:, :3, 3] = -np.einsum("...ij,...j->...i", np.swapaxes(dR, 1, 2), dt)
+    inverse[:, 3, 3] = 1.0
+    restarts.poses[active] = restarts.poses[active] @ inverse
     restarts.iterations[active] += 1
     previous, restarts.scores[active] = restarts.scores[active], scores
     small = (rotation_angle(dR) < cfg.convergence_rot_rad) & (np.linalg.norm(dt, axis=1) < cfg.convergence_trans)
@@ -345,7 +346,7 @@ def upright_penalty(poses: np.ndarray, pairs: matching.Pairs, problem: Problem, 
     if problem.upright_bias == 0.0:
         return np.zeros(len(poses))
     inliers = (pairs.residual < cfg.score_distance).astype(float)
-    dst = problem.model_pts_body[pairs.model_index]
+    dst = np.take(problem.model_pts_body, pairs.model_index, axis=0)
     lam = gravity_weight(dst, inliers, problem.upright_bias * cfg.gravity_gamma0)
     cos_tilt = np.cos(tilt_angle(poses[:, :3, :3], problem.up_world))
     return lam * 2.0 * (1.0 - cos_tilt) / pairs.residual.shape[1]
@@ -408,7 +409,7 @@ def _keep_best(restarts: _Restarts, problem: Problem, model: matching.ModelIndex
     scores, pairs = score_poses(model, poses, problem.scene_pts_world, cfg)
     penalties = upright_penalty(poses, pairs, problem, cfg)
     per_point = np.minimum(pairs.residual, cfg.score_distance) ** 2
-    best = pick_restart(per_point, penalties, poses, problem, cfg)
+    best = pick_restart(per_point, penalties, poses, problem, cfg, model.centroid)
     pose = poses[best]
     return RegistrationResult(
         pose=pose.copy(), rmse=float("nan"), fitness=float("nan"),  # reported on the final pose by _with_fit
@@ -423,9 +424,10 @@ def _keep_best(restarts: _Restarts, problem: Problem, model: matching.ModelIndex
 
 
 def pick_restart(per_point: np.ndarray, penalties: np.ndarray, poses: np.ndarray, problem: Problem,
-                 cfg: IcpConfig) -> int:
+                 cfg: IcpConfig, centroid_body: np.ndarray | None = None) -> int:
     """Index of the restart to keep, from each restart's per-point score terms (K, N) (m^2), its upright
-    penalty (K,) and its pose (K, 4, 4).
+    penalty (K,) and its pose (K, 4, 4); ``centroid_body`` is the model samples' centroid (computed when not
+    given).
 
     The lowest score wins, unless it wins only within the score's own noise. On a sparse, half-occluded view
     many restarts end in distinct poses that explain the points about equally well (a box slid along its
@@ -446,7 +448,7 @@ def pick_restart(per_point: np.ndarray, penalties: np.ndarray, poses: np.ndarray
     difference = per_point - per_point[lowest]
     noise = np.maximum(difference.std(axis=1) / np.sqrt(per_point.shape[1]), 1e-300)
     behind = (totals - totals[lowest]) / noise  # how many standard errors each restart's score is behind
-    centroid = problem.model_pts_body.mean(axis=0)
+    centroid = problem.model_pts_body.mean(axis=0) if centroid_body is None else centroid_body
     start = problem.T_world_model_init[:3, :3] @ centroid + problem.T_world_model_init[:3, 3]
     moved = np.linalg.norm(np.einsum("kij,j->ki", poses[:, :3, :3], centroid) + poses[:, :3, 3] - start, axis=1)
     tied = np.flatnonzero(behind <= cfg.tie_sigmas)

@@ -74,7 +74,9 @@ def solve_point_to_plane(src, dst, normals, w, g_src, g_dst, lam, yaw_only=False
     of the stiffness, and the contact pair's mismatch along them sent the pose 1.4 m away in one step.
     """
     r = np.einsum("kni,kni->kn", normals, src - dst)
-    J = np.concatenate([_cross(src, normals), normals], axis=2)  # (k, N, 6)
+    J = np.empty(src.shape[:2] + (6,))  # (k, N, 6): d r / d (omega, dt)
+    _cross(src, normals, out=J[..., :3])
+    J[..., 3:] = normals
     Jw_t = np.swapaxes(J * w[..., None], 1, 2)  # (k, 6, N)
     A = Jw_t @ J
     b = -(Jw_t @ r[..., None])[..., 0]
@@ -82,18 +84,20 @@ def solve_point_to_plane(src, dst, normals, w, g_src, g_dst, lam, yaw_only=False
     A[:, :3, :3] += lam[:, None, None] * np.einsum("kji,kjl->kil", Jg, Jg)
     b[:, :3] -= lam[:, None] * np.einsum("kji,kj->ki", Jg, g_src - g_dst)
     if not yaw_only:  # the full basis is the identity: solve in place (the same numbers, a third of the work)
-        x = _remapped_solve(A, b, _unit_scales(_FULL_BASIS, A))
+        x = _remapped_solve(A, b, _unit_scales(_FULL_ROTATIONAL, A))
         return exp_so3(x[:, :3]), x[:, 3:]
     basis = _step_basis(g_src, yaw_only)  # (k, 6, m)
     A_r = np.swapaxes(basis, 1, 2) @ A @ basis
     b_r = np.einsum("kim,ki->km", basis, b)
-    x = np.einsum("kim,km->ki", basis, _remapped_solve(A_r, b_r, _unit_scales(basis, A)))
+    rotational = np.linalg.norm(basis[:, :3, :], axis=1) > 0.0  # (k, m)
+    x = np.einsum("kim,km->ki", basis, _remapped_solve(A_r, b_r, _unit_scales(rotational, A)))
     return exp_so3(x[:, :3]), x[:, 3:]
 
 
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Cross products along the last axis (..., 3): np.cross's own arithmetic, without its axis shuffling."""
-    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+def _cross(a: np.ndarray, b: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+    """Cross products along the last axis (..., 3): np.cross's own arithmetic, without its axis shuffling;
+    written into ``out`` when given."""
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape)) if out is None else out
     a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
     b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
     np.subtract(a1 * b2, a2 * b1, out=out[..., 0])
@@ -102,8 +106,8 @@ def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return out
 
 
-_FULL_BASIS = np.eye(6)[None]
-"""The 6-DoF step basis (1, 6, 6), for :func:`_unit_scales` (which reads only which columns rotate)."""
+_FULL_ROTATIONAL = np.array([[True] * 3 + [False] * 3])
+"""Which coordinates of the 6-DoF step rotate (1, 6), for :func:`_unit_scales`."""
 
 
 DEGENERATE_RATIO = 1e-6
@@ -115,13 +119,12 @@ off along itself, a fit the old solve lost by diverging; the mission now rejects
 column (:mod:`bim2rdt.mission.explained`; the hop grid finds the same fit at 1e-6)."""
 
 
-def _unit_scales(basis: np.ndarray, A: np.ndarray) -> np.ndarray:
-    """Per step coordinate (k, m): 1 / L for rotational coordinates, 1 for translations, with L (m) the lever arm
-    of the system's own rotational stiffness, sqrt(tr A_rot / tr A_trans), so that eigenvalues compare a radian
-    at the object's edge with a metre."""
+def _unit_scales(rotational: np.ndarray, A: np.ndarray) -> np.ndarray:
+    """Per step coordinate (k, m): 1 / L for rotational coordinates (``rotational`` (k or 1, m) True), 1 for
+    translations, with L (m) the lever arm of the 6-DoF system ``A``'s own rotational stiffness,
+    sqrt(tr A_rot / tr A_trans), so that eigenvalues compare a radian at the object's edge with a metre."""
     lever = np.sqrt(np.trace(A[:, :3, :3], axis1=1, axis2=2)
                     / np.maximum(np.trace(A[:, 3:, 3:], axis1=1, axis2=2), 1e-300))
-    rotational = np.linalg.norm(basis[:, :3, :], axis=1) > 0.0  # (k, m)
     return np.where(rotational, 1.0 / np.maximum(lever, 1e-6)[:, None], 1.0)
 
 
