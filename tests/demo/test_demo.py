@@ -74,8 +74,10 @@ def test_the_robot_finds_the_unplanned_drum_and_flags_what_moved(demo_out):
     # 9 BIM objects on site, the one taken away (missing) and the unplanned drum, each once
     assert len(rows) == 11 and record["not_seen"] == []
     assert all(r["truth"] is not None for r in rows)  # and each matches a true object: no phantom, no duplicate
-    # a detection whose fit shows a known surface (a tripod leg on a column's edge) is set aside, with the reason
-    assert all(r["reason"].startswith("(its points lie on ") for r in record["set_aside"])
+    # no detection shows a known surface: the silhouette strip of Column C11's corner that a tripod leg fitted
+    # (set aside by the mission until perception's scan-vs-BIM measured its points against the column in 3-D)
+    # no longer leaves perception; the mission's own check is tested in tests/mission/test_explained.py
+    assert record["set_aside"] == []
     new = [r for r in rows if r["status"] == ElementStatus.NEW]
     assert len(new) == 1 and new[0]["truth"] == "unplanned" and new[0]["error_translation_m"] < 0.03
     moved_truth = [r for r in rows if r["truth"] in ("moved", "knocked")]

@@ -1,11 +1,15 @@
 """Whose points a fit shows: a fit is evidence of an object only through points no known surface already explains.
 
-The detector keeps what the BIM's building does not explain, ray by ray. At a silhouette a pixel's ray can pass
-beside a column while the point it measured (a time-of-flight mixed pixel, a camera pose a few mm off) lies on
-the column, so a strip of the column's edge reaches the mission as an object's points. A thin family fits such a
-strip: a tripod leg fits a column's vertical edge to a few mm (the demo's frame 2 with a looser solver: 132
-points of Column C11's corner became a new tripod). By its own distances that fit is excellent; what is wrong
-is that its points are already explained, by an element the BIM puts there.
+The detector keeps what the BIM's building does not explain. It used to judge that ray by ray only: at a
+silhouette a pixel's ray can pass beside a column while the point it measured (a time-of-flight mixed pixel, a
+camera pose a few mm off) lies on the column, so a strip of the column's edge reached the mission as an object's
+points, and a thin family fits such a strip: a tripod leg fits a column's vertical edge to a few mm (the demo's
+frame 2: 129 points of Column C11's corner). By its own distances that fit is excellent; what is wrong is that
+its points are already explained, by an element the BIM puts there. The detector now also measures what its
+rays leave against every permanent surface in 3-D (:func:`bim2rdt.perception.background.on_any_surface`), so
+the demo's strip no longer reaches the mission (from any detector: every detection's points pass that test).
+This check stays for what perception cannot know, the objects registered earlier in the mission, and as a
+judge of the fit as a whole rather than of single points.
 
 So, of the points a fit explains (its inliers: within ``IcpConfig.score_distance`` of the fitted model's
 surface), the mission asks which of them lie on a known surface: the building's permanent elements, at their
@@ -20,69 +24,22 @@ sampled surface is sparsest, is where a phantom's points lie.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, field
-from functools import cached_property
+from dataclasses import dataclass
 
 import numpy as np
-import trimesh
 
 from bim2rdt.bim import BimModel
 from bim2rdt.perception.background import SLAB_CLASSES
 from bim2rdt.perception.structure import permanent_elements
-
-
-@dataclass(frozen=True)
-class KnownSurface:
-    """A surface the mission already knows is there: ``name`` for the report ("IfcColumn 'Column C11'") and its
-    ``triangles`` (T, 3, 3) in world metres."""
-
-    name: str
-    triangles: np.ndarray = field(repr=False)
-
-    @classmethod
-    def of_mesh(cls, name: str, mesh: trimesh.Trimesh, T_world_model: np.ndarray = np.eye(4)) -> KnownSurface:
-        """The surface of ``mesh`` (body frame) posed at ``T_world_model``."""
-        triangles = np.asarray(mesh.triangles, dtype=float)
-        return cls(name, triangles @ T_world_model[:3, :3].T + T_world_model[:3, 3])
-
-    @cached_property
-    def bounds(self) -> np.ndarray:
-        """(2, 3) the surface's box, world metres: a building has hundreds of elements, and most of them are
-        nowhere near a fit's points."""
-        corners = self.triangles.reshape(-1, 3)
-        return np.array([corners.min(axis=0), corners.max(axis=0)])
-
-    def distances(self, points_world: np.ndarray, reach: float) -> np.ndarray:
-        """(N,) distance (m) of each point to the surface; inf where it is farther than ``reach`` (only the
-        points in the surface's box and the triangles whose box holds one of them, all grown by ``reach``, are
-        measured)."""
-        out = np.full(len(points_world), np.inf)
-        inside = np.flatnonzero(np.all((points_world >= self.bounds[0] - reach)
-                                       & (points_world <= self.bounds[1] + reach), axis=1))
-        if len(inside) == 0:
-            return out
-        points = points_world[inside]
-        low, high = self.triangles.min(axis=1) - reach, self.triangles.max(axis=1) + reach  # (T, 3) each
-        near = np.all((points[:, None, :] >= low) & (points[:, None, :] <= high), axis=2)  # (n, T)
-        point, triangle = np.nonzero(near)
-        if len(point):
-            closest = trimesh.triangles.closest_point(self.triangles[triangle], points[point])
-            np.minimum.at(out, inside[point], np.linalg.norm(closest - points[point], axis=1))
-        return np.where(out <= reach, out, np.inf)
+from bim2rdt.perception.surfaces import KnownSurface
 
 
 def building_surfaces(model: BimModel) -> list[KnownSurface]:
     """The surfaces of ``model``'s permanent elements (walls, columns, beams, doors ...: what the detector's
     scan-vs-BIM explains a frame with), at their BIM placement. Slabs are left out: the mission already takes
     the points near the slab for slab (``MissionConfig.ground_clearance``), and every object stands on it."""
-    surfaces = []
-    for element in permanent_elements(model):
-        if element.ifc_class in SLAB_CLASSES:
-            continue
-        vertices, faces = model.mesh(element.global_id)
-        label = f"{element.ifc_class} '{element.name}'" if element.name else f"{element.ifc_class} {element.global_id}"
-        surfaces.append(KnownSurface(label, np.asarray(vertices, dtype=float)[np.asarray(faces)]))
-    return surfaces
+    return [KnownSurface.of_element(model, element) for element in permanent_elements(model)
+            if element.ifc_class not in SLAB_CLASSES]
 
 
 @dataclass(frozen=True)

@@ -3,7 +3,8 @@ and which of the BIM's families is it?
 
 1. back-project the depth (every ``stride``-th pixel, flying pixels filtered) to world points;
 2. remove what the BIM's permanent elements explain (their surfaces by ray casting, and the storey's slab at
-   the height the BIM gives it): :mod:`bim2rdt.perception.background`;
+   the height the BIM gives it; then what the rays leave by its 3-D distance to their triangles, for the
+   silhouettes): :mod:`bim2rdt.perception.background`;
 3. cluster the rest on the image grid: :mod:`bim2rdt.perception.clusters`;
 4. give each cluster an image ROI and a mask (its pixels, dilated by one);
 5. name it by registration against the candidate families, near ones first: :mod:`bim2rdt.perception.naming`.
