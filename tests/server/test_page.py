@@ -42,6 +42,7 @@ def page_server(tmp_path, twin):
     monitor.close()
 
 
+@pytest.mark.timeout(1800)  # run in the first 16 min of a UTC day, page_server waits for today's 920 s of samples
 def test_the_page_shows_the_twin_and_warns_the_moment_a_worker_crosses_the_eav(page_server, chromium, tmp_path):
     from playwright.sync_api import expect, sync_playwright
 
