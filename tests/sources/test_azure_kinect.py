@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import shutil
 
+import cv2
 import numpy as np
 import pytest
 
@@ -51,11 +52,32 @@ def test_the_imu_up_is_within_two_degrees_of_the_desk_normal_seen_in_the_depth(f
     assert angle < 2.0, f"IMU up is {angle:.2f} degrees from the desk's normal"
 
 
+def test_the_depth_is_undistorted_so_the_flat_wall_is_one_plane(frames):
+    # the wall beside the mug is flat: through the lens' distortion it bends (13 % of the points within 5 mm of
+    # one plane when the pixels are taken as pinhole); undistorted, 27 % are
+    normal, distance, share = fit_plane(camera_points(frames[0]), tolerance=0.005)
+    assert share > 0.22 and 0.45 < distance < 0.6
+
+
 def test_colour_is_registered_onto_depth(frames):
     frame = frames[0]
     coloured = frame.rgb.any(axis=2)
     assert (coloured & frame.valid_depth).mean() > 0.9 * frame.valid_depth.mean()  # depth pixels got colour
     assert not (coloured & ~frame.valid_depth).any()  # and only they did
+
+
+def test_colour_edges_fall_on_depth_edges(frames):
+    # registered, the mug's outline in colour lies where its depth jumps: the colour gradient there is over twice
+    # the gradient on smooth depth (2.4; 0.4 with no extrinsics, 1.4 without the 3 cm baseline)
+    frame = frames[0]
+    gray = cv2.cvtColor(frame.rgb, cv2.COLOR_RGB2GRAY).astype(np.float32)
+    gradient = np.hypot(cv2.Sobel(gray, cv2.CV_32F, 1, 0), cv2.Sobel(gray, cv2.CV_32F, 0, 1))
+    depth = np.where(frame.valid_depth, frame.depth, np.nan)
+    jump = np.fmax(np.abs(depth - np.roll(depth, 1, 1)), np.abs(depth - np.roll(depth, 1, 0)))
+    inside = cv2.erode(frame.rgb.any(axis=2).astype(np.uint8), np.ones((7, 7), np.uint8)).astype(bool)
+    edges, smooth = (jump > 0.05) & inside, (jump < 0.005) & inside
+    assert edges.sum() > 300
+    assert gradient[edges].mean() > 2.0 * gradient[smooth].mean()
 
 
 def test_a_calibration_given_as_json_replaces_the_attached_one(recording, sensors, tmp_path):
