@@ -87,6 +87,19 @@ def test_office1_reads_as_a_cloud_of_its_valid_points(sensors):
     assert cloud.colors.shape == (254_456, 3) and cloud.colors.std() > 10
 
 
+def test_office1_as_a_cloud_takes_its_depth_correction_point_by_point(sensors):
+    import json
+
+    g = np.array(json.loads((sensors / "pcl" / "office1_truth.json").read_text())["depth_correction"]["g"])
+    raw = read_cloud(sensors / "pcl" / "office1.pcd")
+    corrected = read_cloud(sensors / "pcl" / "office1.pcd", depth_correction=g)
+    assert len(corrected) == len(raw)  # every real point has a true position at this g
+    expected = raw.points / (1.0 - raw.points @ g)[:, None]
+    assert np.allclose(corrected.points, expected, atol=1e-12) and "depth correction" in corrected.note
+    with pytest.raises(SourceError, match="office1.pcd: depth_correction must be three"):
+        read_cloud(sensors / "pcl" / "office1.pcd", depth_correction=(1, 2))
+
+
 def test_a_scan_in_millimetres_is_refused_or_converted_when_told(tmp_path):
     import trimesh
 

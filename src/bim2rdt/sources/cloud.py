@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
+from bim2rdt.sources.calibration import correct_points
 from bim2rdt.sources.errors import SourceError
 from bim2rdt.sources.optional import require
 
@@ -42,9 +43,12 @@ class Cloud:
         return len(self.points)
 
 
-def read_cloud(path, scale: float | None = None) -> Cloud:
+def read_cloud(path, scale: float | None = None, depth_correction=None) -> Cloud:
     """The scan at ``path`` (.pcd .ply .las .laz .e57) in metres; ``scale`` multiplies its coordinates first
-    (0.001 for a scan in millimetres). Raises :class:`SourceError` in one line naming the file."""
+    (0.001 for a scan in millimetres). ``depth_correction`` g applies ``p / (1 - g . p)``
+    (:mod:`bim2rdt.sources.calibration`) to the scaled points; it is meant for a cloud in its camera's frame (an
+    organised RGB-D frame read as a scan), and points with no true position are dropped. Raises
+    :class:`SourceError` in one line naming the file."""
     path = Path(path)
     reader = _READERS.get(path.suffix.lower())
     if reader is None:
@@ -53,7 +57,22 @@ def read_cloud(path, scale: float | None = None) -> Cloud:
     if not path.is_file():
         raise SourceError(path, "no such file")
     points, colors, intensity = reader(path)
-    return checked_cloud(path, points, colors, intensity, scale)
+    cloud = checked_cloud(path, points, colors, intensity, scale)
+    return cloud if depth_correction is None else corrected_cloud(cloud, depth_correction)
+
+
+def corrected_cloud(cloud: Cloud, g) -> Cloud:
+    """``cloud`` with the depth correction g applied to its points (camera frame); points with no true position
+    (``1 - g . p <= 0``) are dropped and counted in ``dropped``."""
+    try:
+        points = correct_points(cloud.points, g)
+    except ValueError as error:
+        raise SourceError(cloud.path, str(error)) from None
+    keep = np.isfinite(points).all(axis=1)
+    note = "; ".join(filter(None, [cloud.note, f"depth correction g = {np.round(np.asarray(g, float), 6).tolist()}"]))
+    return Cloud(points[keep], None if cloud.colors is None else cloud.colors[keep],
+                 None if cloud.intensity is None else cloud.intensity[keep], cloud.path,
+                 cloud.dropped + int((~keep).sum()), note)
 
 
 def checked_cloud(path: Path, points, colors, intensity, scale: float | None = None) -> Cloud:
