@@ -149,10 +149,15 @@ class RawWindows(BaseModel):
 
 
 class AuditEntry(BaseModel):
-    at: float
+    """One reveal or reveal attempt; a line of the log that is not a whole record (a write cut short) is an entry
+    with action and outcome 'damaged', ``at`` None and ``detail`` {line, bytes, text}."""
+
+    at: float | None = Field(description="UTC epoch seconds; None for a damaged line.")
     who: str
     role: str
-    action: str
+    action: str = Field(description="identity, raw or damaged.")
     subject: str
     why: str
+    outcome: str = Field("revealed", description="revealed, refused: role (403), refused: not found (404), "
+                         "refused: rate (429) or damaged.")
     detail: dict[str, Any]
