@@ -141,3 +141,16 @@ def test_safety_events_are_listed(client):
     events = get(client, "/api/events").json()
     assert "hav.activity_started" in [e["kind"] for e in events]
     assert all(e["subject"].startswith("w-") for e in events)
+
+
+def test_api_answers_are_never_sniffed_or_cached_even_refusals(client):
+    viewer = auth(client.tokens["viewer"])
+    answers = [client.get("/api/elements", headers=viewer), client.get("/api/health"),
+               client.get("/api/elements"),  # 401
+               client.get("/api/elements/NOPE", headers=viewer),  # 404
+               client.get("/api/state", params={"at": -1}, headers=viewer),  # 422
+               client.request("GET", "/api/workers", content=b"x" * 9000, headers=viewer)]  # 413
+    assert [a.status_code for a in answers] == [200, 200, 401, 404, 422, 413]
+    for answer in answers:
+        assert answer.headers["x-content-type-options"] == "nosniff", answer.request.url
+        assert answer.headers["cache-control"] == "no-store", answer.request.url

@@ -21,6 +21,7 @@ import html
 from pathlib import Path
 
 from fastapi import FastAPI
+from fastapi.exceptions import RequestValidationError
 from fastapi.responses import FileResponse, HTMLResponse
 from fastapi.staticfiles import StaticFiles
 
@@ -30,7 +31,8 @@ from bim2rdt.server.auth import TokenBook
 from bim2rdt.server.config import ServerConfig
 from bim2rdt.server.guard import BearerMiddleware
 from bim2rdt.server.hub import Hub, HubSink
-from bim2rdt.server.limits import BodyLimitMiddleware, RateLimiter
+from bim2rdt.server.limits import ApiHeadersMiddleware, BodyLimitMiddleware, RateLimiter
+from bim2rdt.server.validation import validation_failed
 
 STATIC = Path(__file__).parent / "static"
 CSP = ("default-src 'self'; script-src 'self'; style-src 'self'; img-src 'self' data: blob:; "
@@ -88,9 +90,11 @@ def create_app(twin=None, monitor=None, *, identity=None, config: ServerConfig =
     app.state.audit = path if isinstance(path, AuditLog) else AuditLog(path)
     app.state.rate_audited = {}
     app.state.limiter = RateLimiter(config.write_rate_per_minute)
+    app.add_exception_handler(RequestValidationError, validation_failed)
     _add_routes(app)
     app.add_middleware(BearerMiddleware, tokens=TokenBook((t.name, t.role, t.sha256) for t in config.tokens))
     app.add_middleware(BodyLimitMiddleware, max_bytes=config.max_body_bytes)
+    app.add_middleware(ApiHeadersMiddleware)  # last added: outermost
     return app
 
 

@@ -123,9 +123,9 @@ class RevealRequest(BaseModel):
 
 
 class RawRequest(RevealRequest):
-    start: float | None = Field(None, ge=0, le=1e11, description="Device time of the window's start (UTC s); "
+    start: float | None = Field(None, ge=0, le=1e11, allow_inf_nan=False, description="Device time of the window's start (UTC s); "
                                 "None: the newest samples kept.")
-    seconds: float = Field(2.0, gt=0, le=600, description="Window length, seconds (cut to the server's limit, "
+    seconds: float = Field(2.0, gt=0, le=600, allow_inf_nan=False, description="Window length, seconds (cut to the server's limit, "
                            "10 s by default).")
 
 
