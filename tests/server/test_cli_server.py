@@ -113,6 +113,32 @@ def test_bad_options_are_one_line_usage_errors(args, words):
     assert result.returncode == 2 and words in result.stderr + result.stdout
 
 
+@pytest.mark.parametrize("name", ["a/b", "", "x" * 100])
+def test_a_token_holder_name_that_cannot_be_stored_is_a_one_line_error(name):
+    result = _cli("token", "--name", name)
+    lines = result.stderr.strip().splitlines()
+    assert result.returncode == 2 and len(lines) == 1 and "--name" in lines[0], result.stderr
+    assert "token:" not in result.stdout
+
+
+def test_serve_on_a_busy_port_or_a_bad_host_is_a_one_line_error_at_once(recorded_site):
+    import socket
+
+    folder, _ = recorded_site
+    with socket.socket() as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen()
+        for host, port, words in (("127.0.0.1", busy.getsockname()[1], "address already in use"),
+                                  ("no-such-host.invalid", 0, "cannot listen on no-such-host.invalid"),
+                                  ("300.1.1.1", 0, "cannot listen on 300.1.1.1")):
+            started = time.monotonic()
+            result = _cli("serve", "--twin", f"sqlite:///{folder / 'twin.db'}", "--ifc", folder / "site.ifc",
+                          "--host", host, "--port", port, "--duration", 1, timeout=60)
+            lines = result.stderr.strip().splitlines()
+            assert result.returncode == 1 and len(lines) == 1, result.stderr
+            assert words in lines[0].lower() and time.monotonic() - started < 20, lines
+
+
 def test_a_twin_url_that_holds_no_twin_is_a_one_line_error(tmp_path, site_ifc):
     result = _cli("serve", "--twin", f"sqlite:///{tmp_path / 'none.db'}", "--ifc", site_ifc, "--port", 0)
     assert result.returncode == 1

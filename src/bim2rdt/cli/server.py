@@ -81,8 +81,14 @@ def token_command(
 
     if role not in ROLES:
         raise typer.BadParameter(f"role must be one of {', '.join(ROLES)}", param_hint="--role")
+    from pydantic import ValidationError
+
     token = new_token()
-    entry = TokenEntry(name=name, role=role, sha256=token_digest(token))
+    try:
+        entry = TokenEntry(name=name, role=role, sha256=token_digest(token))
+    except ValidationError:
+        raise typer.BadParameter(f"{name[:70]!r}: a holder's name is 1 to 64 letters, digits, spaces or _ . @ -",
+                                 param_hint="--name") from None
     console.print(f"token: {token}")
     console.print(f"settings entry: {json.dumps(entry.model_dump())}")
 

@@ -159,8 +159,10 @@ class LiveServe:
 
     def _start(self) -> None:
         from bim2rdt.server import TokenEntry, create_app, new_token, token_digest
-        from bim2rdt.server.runner import ServerThread
+        from bim2rdt.server.runner import ServerThread, listening_socket
 
+        sock = listening_socket(self.config.host, self.config.port)  # first: a busy port is said before the work
+        self._closers.append(sock.close)
         twin = self._open_twin()
         monitor, identity = self._open_monitor()
         roles = ("viewer", "safety", "admin") if self.all_roles else ("viewer",)
@@ -172,7 +174,7 @@ class LiveServe:
                            else config.resolved_audit_log(self.settings.data_dir))
         self.app = create_app(twin, monitor, identity=identity, config=config, audit_log=self.audit_path,
                               record_safety=True)
-        self.server = ServerThread(self.app, config.host, config.port).start()
+        self.server = ServerThread(self.app, config.host, config.port, sock=sock).start()
         self._closers.append(self.server.stop)
         self.url = self.server.url
         self.source = self._feed(monitor)
