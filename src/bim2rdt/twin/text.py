@@ -16,9 +16,9 @@ from typing import Any
 
 from bim2rdt.twin.errors import TwinError
 
-LIMITS = {"family": 128, "robot": 128, "source": 128, "detector": 64, "reason": 1000, "GlobalId": 64}
-"""Characters at most, per kind of name (robot and source: the ``source`` column, String(128); GlobalId: the
-``global_id`` column, String(64))."""
+LIMITS = {"family": 255, "robot": 128, "source": 128, "detector": 64, "reason": 1000, "GlobalId": 64}
+"""Characters at most, per kind of name (family: an IfcLabel's 255; robot and source: the ``source`` column,
+String(128); GlobalId: the ``global_id`` column, String(64))."""
 _SURROGATE = re.compile("[\ud800-\udfff]")
 
 
