@@ -178,3 +178,11 @@ def test_a_history_written_before_text_was_checked_is_still_served_whole(client,
         get(client, path)
     elements = {e["global_id"]: e for e in get(client, "/api/elements").json()}
     assert elements["1" * 22]["family"] == "\ufffd"
+
+
+@pytest.mark.parametrize("path, params", [("/api/state", {"at": "inf"}), ("/api/state", {"at": "nan"}),
+                                          ("/api/plan", {"at": "-inf"}), ("/api/events", {"since": "1e400"})])
+def test_a_non_finite_query_number_is_422_without_echoing_it(client, path, params):
+    response = client.get(path, params=params, headers=auth(client.tokens["viewer"]))
+    assert response.status_code == 422, response.text
+    assert not any(word in response.text.lower() for word in ("inf", "nan", "1e400"))
