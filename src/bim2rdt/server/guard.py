@@ -13,7 +13,6 @@ worth of refusals a minute into the log (and 429 refusals are recorded once a mi
 from __future__ import annotations
 
 import json
-
 import time
 
 from fastapi import HTTPException, Request
@@ -82,7 +81,7 @@ async def audit_refusal(request: Request, action: str, outcome: str, why: str = 
 
 
 async def write_audit(request: Request, action: str, subject: str, why: str, detail: dict,
-                outcome: str = "revealed") -> None:
+                      outcome: str = "revealed") -> None:
     """Append one record for the request's principal; HTTPException 503 when the log cannot take it."""
     principal = request.state.principal
     try:
