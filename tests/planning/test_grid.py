@@ -175,6 +175,17 @@ def test_bad_grid_parameters_are_one_line_errors(site_model, kwargs, message):
     assert "\n" not in str(error.value)
 
 
+@pytest.mark.parametrize("kwargs, message", [
+    ({"origin_xy": (float("nan"), 0.0)}, r"origin_xy must be a finite \(x, y\)"),
+    ({"origin_xy": (0.0, float("inf"))}, "origin_xy must be"), ({"origin_xy": (1.0,)}, "origin_xy must be"),
+    ({"origin_xy": "here"}, "origin_xy must be"), ({"floor_z": float("nan")}, "floor_z must be"),
+])
+def test_bad_occupancy_grid_parameters_are_one_line_errors(kwargs, message):
+    with pytest.raises(PlanningError, match=message) as error:
+        OccupancyGrid.from_occupancy(np.zeros((10, 10), bool), 0.1, **kwargs)
+    assert "\n" not in str(error.value)
+
+
 def test_a_bim_with_no_walls_is_a_one_line_error(building):
     with pytest.raises(PlanningError, match="the BIM has no walls"):
         OccupancyGrid.from_bim(building(walls=False))

@@ -65,3 +65,10 @@ def test_the_library_reader_reads_what_it_wrote(site_grid, tmp_path):
 def test_a_bad_map_name_is_refused(site_grid, tmp_path):
     with pytest.raises(PlanningError, match="plain file stem"):
         site_grid.save_nav2(tmp_path, "../escape")
+
+
+@pytest.mark.parametrize("folder", ["/proc/x", "/dev/null/maps"])
+def test_a_folder_that_cannot_take_the_map_is_a_one_line_error(site_grid, folder):
+    with pytest.raises(PlanningError, match="cannot write the Nav2 map") as error:
+        site_grid.save_nav2(folder)
+    assert "\n" not in str(error.value) and folder.split("/")[1] in str(error.value)

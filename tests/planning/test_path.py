@@ -66,7 +66,9 @@ def test_a_goal_too_close_to_a_column_says_the_robot_does_not_fit(site_grid):
 
 @pytest.mark.parametrize("goal, message", [((50.0, 50.0), r"goal \(50\.00, 50\.00\) is outside the grid"),
                                            ((1.0,), "goal must be a finite"), ("here", "goal must be"),
-                                           ((np.nan, 1.0), "goal must be a finite")])
+                                           ((np.nan, 1.0), "goal must be a finite"),
+                                           ((1e308, 0.0), r"goal \(1e\+308, 0\.00\) is outside the grid"),
+                                           ((-1e308, -1e308), "goal .* is outside the grid")])
 def test_bad_ends_are_one_line_errors(site_grid, goal, message):
     with pytest.raises(PlanningError, match=message) as error:
         plan_path(site_grid, DOCK, goal)

@@ -22,7 +22,13 @@ CHROMIUM_FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-back
 
 
 def family_mesh(family: str):
-    mesh = mesh_for_family(family)
+    """The simulator's mesh of a family; None (the twin's stand-in box) for one it lacks, as `serve` does."""
+    from bim2rdt.sim.meshes import UnknownFamilyError
+
+    try:
+        mesh = mesh_for_family(family)
+    except UnknownFamilyError:
+        return None
     return np.asarray(mesh.vertices), np.asarray(mesh.faces)
 
 

@@ -141,3 +141,48 @@ def test_safety_events_are_listed(client):
     events = get(client, "/api/events").json()
     assert "hav.activity_started" in [e["kind"] for e in events]
     assert all(e["subject"].startswith("w-") for e in events)
+
+
+def test_api_answers_are_never_sniffed_or_cached_even_refusals(client):
+    viewer = auth(client.tokens["viewer"])
+    answers = [client.get("/api/elements", headers=viewer), client.get("/api/health"),
+               client.get("/api/elements"),  # 401
+               client.get("/api/elements/NOPE", headers=viewer),  # 404
+               client.get("/api/state", params={"at": -1}, headers=viewer),  # 422
+               client.request("GET", "/api/workers", content=b"x" * 9000, headers=viewer)]  # 413
+    assert [a.status_code for a in answers] == [200, 200, 401, 404, 422, 413]
+    for answer in answers:
+        assert answer.headers["x-content-type-options"] == "nosniff", answer.request.url
+        assert answer.headers["cache-control"] == "no-store", answer.request.url
+
+
+def test_a_history_written_before_text_was_checked_is_still_served_whole(client, tmp_path):
+    """An observation of a family holding a lone surrogate (accepted before the twin checked text) is in the
+    store: every read and both exports still answer, the surrogate shown as U+FFFD."""
+    import json
+    import time
+
+    import sqlalchemy as sa
+
+    data = {"family": "\ud800", "status": "new", "pose": np.eye(4).tolist(), "reason": "\udc00", "deviation": None,
+            "tolerance": None, "fit": {"rmse": 0.01, "fitness": 0.9, "points": 100, "score": 1.0, "detector": ""},
+            "evidence": {"station": 4, "frames": [4], "camera": None, "bbox": None}}
+    engine = sa.create_engine(f"sqlite:///{tmp_path / 'twin.db'}")
+    with engine.begin() as conn:
+        conn.execute(sa.text("INSERT INTO twin_events (kind, time, global_id, source, data, recorded) VALUES "
+                             "('observation', :t, :g, 'spot-1', :d, :r)"),
+                     {"t": T_TWIN + 120, "g": "1" * 22, "d": json.dumps(data), "r": time.time()})
+    engine.dispose()
+    for path in ("/api/elements", "/api/state", "/api/plan", "/api/observations", f"/api/elements/{'1' * 22}",
+                 "/api/model.glb", "/api/exports/twin.bcf", "/api/exports/twin.ifc"):
+        get(client, path)
+    elements = {e["global_id"]: e for e in get(client, "/api/elements").json()}
+    assert elements["1" * 22]["family"] == "\ufffd"
+
+
+@pytest.mark.parametrize("path, params", [("/api/state", {"at": "inf"}), ("/api/state", {"at": "nan"}),
+                                          ("/api/plan", {"at": "-inf"}), ("/api/events", {"since": "1e400"})])
+def test_a_non_finite_query_number_is_422_without_echoing_it(client, path, params):
+    response = client.get(path, params=params, headers=auth(client.tokens["viewer"]))
+    assert response.status_code == 422, response.text
+    assert not any(word in response.text.lower() for word in ("inf", "nan", "1e400"))

@@ -113,10 +113,67 @@ def test_bad_options_are_one_line_usage_errors(args, words):
     assert result.returncode == 2 and words in result.stderr + result.stdout
 
 
+@pytest.mark.parametrize("name", ["a/b", "", "x" * 100])
+def test_a_token_holder_name_that_cannot_be_stored_is_a_one_line_error(name):
+    result = _cli("token", "--name", name)
+    lines = result.stderr.strip().splitlines()
+    assert result.returncode == 2 and len(lines) == 1 and "--name" in lines[0], result.stderr
+    assert "token:" not in result.stdout
+
+
+def test_serve_on_a_busy_port_or_a_bad_host_is_a_one_line_error_at_once(recorded_site):
+    import socket
+
+    folder, _ = recorded_site
+    with socket.socket() as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen()
+        for host, port, words in (("127.0.0.1", busy.getsockname()[1], "address already in use"),
+                                  ("no-such-host.invalid", 0, "cannot listen on no-such-host.invalid"),
+                                  ("300.1.1.1", 0, "cannot listen on 300.1.1.1")):
+            started = time.monotonic()
+            result = _cli("serve", "--twin", f"sqlite:///{folder / 'twin.db'}", "--ifc", folder / "site.ifc",
+                          "--host", host, "--port", port, "--duration", 1, timeout=60)
+            lines = result.stderr.strip().splitlines()
+            assert result.returncode == 1 and len(lines) == 1, result.stderr
+            assert words in lines[0].lower() and time.monotonic() - started < 20, lines
+
+
 def test_a_twin_url_that_holds_no_twin_is_a_one_line_error(tmp_path, site_ifc):
     result = _cli("serve", "--twin", f"sqlite:///{tmp_path / 'none.db'}", "--ifc", site_ifc, "--port", 0)
     assert result.returncode == 1
     assert result.stderr.strip().startswith("error: no twin at") and len(result.stderr.strip().splitlines()) == 1
+
+
+def _env_without_secrets(tmp_path, **extra):
+    import os
+
+    env = {k: v for k, v in os.environ.items() if k not in ("BIM2RDT_HAV__SITE_SECRET", "BIM2RDT_MQTT__PASSWORD")}
+    return {**env, "BIM2RDT_DATA_DIR": str(tmp_path / "var"), **extra}
+
+
+@pytest.mark.parametrize("extra, variable", [({}, "BIM2RDT_HAV__SITE_SECRET"),
+                                             ({"BIM2RDT_HAV__SITE_SECRET": "s3cret-of-the-site"},
+                                              "BIM2RDT_MQTT__PASSWORD")])
+def test_serve_with_a_broker_refuses_the_shipped_secrets_in_one_line(recorded_site, tmp_path, extra, variable):
+    folder, _ = recorded_site
+    result = subprocess.run([sys.executable, "-m", "bim2rdt", "serve", "--twin", f"sqlite:///{folder / 'twin.db'}",
+                             "--ifc", folder / "site.ifc", "--port", "0", "--mqtt", "127.0.0.1:1", "--duration", "1"],
+                            capture_output=True, text=True, timeout=120, env=_env_without_secrets(tmp_path, **extra))
+    assert result.returncode == 1, result.stdout + result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and variable in lines[0] and "--dev" in lines[0], result.stderr
+    assert "dashboard:" not in result.stdout
+
+
+def test_serve_with_a_broker_and_dev_takes_the_shipped_secrets_under_a_banner(recorded_site, tmp_path):
+    folder, _ = recorded_site
+    result = subprocess.run([sys.executable, "-m", "bim2rdt", "serve", "--twin", f"sqlite:///{folder / 'twin.db'}",
+                             "--ifc", folder / "site.ifc", "--port", "0", "--mqtt", "127.0.0.1:1", "--dev",
+                             "--duration", "1"], capture_output=True, text=True, timeout=120,
+                            env=_env_without_secrets(tmp_path))
+    assert "DEV" in result.stdout and "BIM2RDT_HAV__SITE_SECRET" in result.stdout, result.stdout
+    assert "cannot reach MQTT broker 127.0.0.1:1" in result.stderr  # it went on, to the broker
 
 
 @pytest.mark.mqtt
@@ -132,7 +189,8 @@ def test_serve_takes_real_wearables_from_a_broker(recorded_site, tmp_path):
     folder, _ = recorded_site
     users = {"monitor": "monitor-pw", "w7": "w7-pw"}
     with MosquittoBroker(users, folder=tmp_path / "mosquitto") as broker:
-        env = {**os.environ, "BIM2RDT_MQTT__PASSWORD": "monitor-pw", "BIM2RDT_DATA_DIR": str(tmp_path / "var")}
+        env = {**os.environ, "BIM2RDT_MQTT__PASSWORD": "monitor-pw", "BIM2RDT_DATA_DIR": str(tmp_path / "var"),
+               "BIM2RDT_HAV__SITE_SECRET": "a-site-secret-of-this-test"}
         served = Served("--twin", f"sqlite:///{folder / 'twin.db'}", "--ifc", folder / "site.ifc", "--port", 0,
                         "--mqtt", f"127.0.0.1:{broker.port}", "--duration", 120, env=env)
         try:

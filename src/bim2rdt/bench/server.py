@@ -39,7 +39,7 @@ def run_server_bench(clients: int = 50, seconds: float = 30.0, rate: float = 20.
     with tempfile.TemporaryDirectory(prefix="bim2rdt-bench-server-") as folder:
         token = new_token()
         config = ServerConfig(tokens=[TokenEntry(name="bench", role="viewer", sha256=token_digest(token))],
-                              stream_backlog=100_000)
+                              stream_backlog=100_000, max_connections=max(256, clients + 64))
         app = create_app(config=config, audit_log=Path(folder) / "audit.jsonl")
         hub = app.state.hub
         hub.queue_size = 100_000

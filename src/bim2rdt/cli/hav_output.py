@@ -41,19 +41,38 @@ def require_own_secrets(settings, dev: bool, *needs: str) -> None:
     'site' (worker pseudonyms), 'devices' (dev-provisioned device passwords), 'monitor' (the monitor's own
     broker password)."""
     from bim2rdt.bus.credentials import CredentialError
+
+    shipped = shipped_secrets(settings, *needs)
+    if shipped and not dev:
+        how = "to a secret of your own (e.g. $(openssl rand -hex 32)), or pass --dev for a local trial"
+        raise CredentialError(f"{shipped[0][1]}; set it {how}")
+
+
+def shipped_secrets(settings, *needs: str) -> list[tuple[str, str]]:
+    """(variable, why it matters) of each secret among ``needs`` (see ``require_own_secrets``) that is still the
+    shipped default."""
     from bim2rdt.config import HavSettings, MqttSettings
 
-    if dev:
-        return
-    how = "to a secret of your own (e.g. $(openssl rand -hex 32)), or pass --dev for a local trial"
+    found = []
     if "site" in needs and settings.hav.site_secret == HavSettings.model_fields["site_secret"].default:
-        raise CredentialError(f"BIM2RDT_HAV__SITE_SECRET is the shipped default: anyone could derive every "
-                              f"worker's pseudonym; set it {how}")
+        found.append(("BIM2RDT_HAV__SITE_SECRET", "BIM2RDT_HAV__SITE_SECRET is the shipped default: anyone could "
+                      "derive every worker's pseudonym"))
     if "devices" in needs and settings.mqtt.device_secret == MqttSettings.model_fields["device_secret"].default:
-        raise CredentialError(f"BIM2RDT_MQTT__DEVICE_SECRET is the shipped default: anyone could derive every "
-                              f"device's broker password; set it {how}")
+        found.append(("BIM2RDT_MQTT__DEVICE_SECRET", "BIM2RDT_MQTT__DEVICE_SECRET is the shipped default: anyone "
+                      "could derive every device's broker password"))
     if "monitor" in needs and not settings.mqtt.password:
-        raise CredentialError(f"the monitor has no broker password of its own: set BIM2RDT_MQTT__PASSWORD {how}")
+        found.append(("BIM2RDT_MQTT__PASSWORD", "the monitor has no broker password of its own: "
+                      "BIM2RDT_MQTT__PASSWORD is unset"))
+    return found
+
+
+def dev_banner(settings, *needs: str) -> str | None:
+    """The line ``--dev`` prints when it lets shipped secrets through (None when none is in use)."""
+    shipped = [variable for variable, _ in shipped_secrets(settings, *needs)]
+    if not shipped:
+        return None
+    return (f"DEV MODE (--dev): shipped default secrets in use ({', '.join(shipped)}); pseudonyms and passwords "
+            "can be derived by anyone: a local trial only, never on a site")
 
 
 def check_twin_target(ifc: Path | None, out: Path | None) -> Path | None:

@@ -9,6 +9,7 @@ from pathlib import Path
 import typer
 
 from bim2rdt.cli.common import console, print_json, print_table, writable_folder
+from bim2rdt.cli.hav_output import DEV_HELP, dev_banner, require_own_secrets
 
 
 def register(app: typer.Typer, bench_app: typer.Typer) -> None:
@@ -34,15 +35,21 @@ def serve_command(
     all_roles: bool = typer.Option(False, "--all-roles", help="Also generate and print a safety and an admin "
                                    "token (to try the roles on the demo)."),
     duration: float = typer.Option(0.0, "--duration", min=0.0, help="Stop after this many seconds (0: Ctrl-C)."),
+    dev: bool = typer.Option(False, "--dev", help="With --mqtt: " + DEV_HELP),
 ) -> None:
     """Serve the dashboard and its API: the live twin and HAV warnings in the browser. Prints the URL and the
-    viewer token it generated (tokens from the settings work too)."""
+    viewer token it generated (tokens from the settings work too). With --mqtt (real workers) the shipped default
+    secrets are refused unless --dev."""
     from bim2rdt.config import get_settings
 
     if twin_url and ifc is None:
         raise typer.BadParameter("--twin needs --ifc: the BIM the twin is kept over", param_hint="--ifc")
     address = _host_port(mqtt) if mqtt is not None else None
     settings = get_settings()
+    if address is not None:  # real wearables, real people: the pseudonym key and the monitor's password are ours
+        require_own_secrets(settings, dev, "site", "monitor")
+        if dev and (banner := dev_banner(settings, "site", "monitor")):
+            console.print(f"[bold red]{banner}[/]")
     config = settings.server.model_copy(update={k: v for k, v in (("host", host), ("port", port)) if v is not None})
     from bim2rdt.demo.serve import LiveServe
 
@@ -74,8 +81,14 @@ def token_command(
 
     if role not in ROLES:
         raise typer.BadParameter(f"role must be one of {', '.join(ROLES)}", param_hint="--role")
+    from pydantic import ValidationError
+
     token = new_token()
-    entry = TokenEntry(name=name, role=role, sha256=token_digest(token))
+    try:
+        entry = TokenEntry(name=name, role=role, sha256=token_digest(token))
+    except ValidationError:
+        raise typer.BadParameter(f"{name[:70]!r}: a holder's name is 1 to 64 letters, digits, spaces or _ . @ -",
+                                 param_hint="--name") from None
     console.print(f"token: {token}")
     console.print(f"settings entry: {json.dumps(entry.model_dump())}")
 

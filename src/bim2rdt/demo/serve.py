@@ -103,7 +103,8 @@ class LiveWearables:
 
 
 def fresh_folder(path: Path) -> Path:
-    """An empty folder at ``path`` (the live monitor simulates a new day each time)."""
+    """An empty folder at ``path`` (the live monitor's store: it simulates a new day each time). Never the audit
+    log's folder: nothing may remove an audit log."""
     shutil.rmtree(path, ignore_errors=True)
     path.mkdir(parents=True)
     return path
@@ -158,8 +159,10 @@ class LiveServe:
 
     def _start(self) -> None:
         from bim2rdt.server import TokenEntry, create_app, new_token, token_digest
-        from bim2rdt.server.runner import ServerThread
+        from bim2rdt.server.runner import ServerThread, listening_socket
 
+        sock = listening_socket(self.config.host, self.config.port)  # first: a busy port is said before the work
+        self._closers.append(sock.close)
         twin = self._open_twin()
         monitor, identity = self._open_monitor()
         roles = ("viewer", "safety", "admin") if self.all_roles else ("viewer",)
@@ -167,10 +170,11 @@ class LiveServe:
         entries = [TokenEntry(name=f"serve-{role}", role=role, sha256=token_digest(token))
                    for role, token in self.tokens.items()]
         config = self.config.model_copy(update={"tokens": [*self.config.tokens, *entries]})
-        audit = (self.out_dir / "live" / "audit.jsonl" if self.demo
-                 else config.resolved_audit_log(self.settings.data_dir))
-        app = create_app(twin, monitor, identity=identity, config=config, audit_log=audit, record_safety=True)
-        self.server = ServerThread(app, config.host, config.port).start()
+        self.audit_path = (self.out_dir / "live" / "audit.jsonl" if self.demo
+                           else config.resolved_audit_log(self.settings.data_dir))
+        self.app = create_app(twin, monitor, identity=identity, config=config, audit_log=self.audit_path,
+                              record_safety=True)
+        self.server = ServerThread(self.app, config.host, config.port, sock=sock).start()
         self._closers.append(self.server.stop)
         self.url = self.server.url
         self.source = self._feed(monitor)
@@ -197,7 +201,7 @@ class LiveServe:
             return None, None
         from bim2rdt.safety import HavMonitor, IdentityMap
 
-        folder = fresh_folder(self.out_dir / "live") / "hav" if self.demo and not self.mqtt \
+        folder = fresh_folder(self.out_dir / "live" / "hav") if self.demo and not self.mqtt \
             else self.settings.data_dir / "hav"
         monitor = HavMonitor(folder, self.settings.hav.site_secret, [], self.settings.hav.monitor_config())
         self._closers.append(monitor.close)

@@ -26,7 +26,7 @@ _EIGHT = np.ones((3, 3), bool)
 
 def describe_blocked_point(grid: OccupancyGrid, xy, role: str) -> str:
     """'start (1.00, 2.00) is inside Wall W1 (IfcWall)' or '... is within 0.35 m (the robot's radius) of ...'."""
-    where = f"{role} ({xy[0]:.2f}, {xy[1]:.2f})"
+    where = f"{role} ({_metres(xy[0])}, {_metres(xy[1])})"
     if not grid.frame.contains(grid.frame.cell_of(xy)):
         x0, x1, y0, y1 = grid.frame.extent
         return f"{where} is outside the grid of storey {grid.storey!r} (x {x0:.2f}..{x1:.2f}, y {y0:.2f}..{y1:.2f})"
@@ -38,6 +38,11 @@ def describe_blocked_point(grid: OccupancyGrid, xy, role: str) -> str:
         return f"{where} is inside {_names(inside)}"
     return (f"{where} is within {grid.robot_radius:.2f} m (the robot's radius) of "
             f"{_names([fp.label for fp, _ in blockers])}")
+
+
+def _metres(value: float) -> str:
+    """A coordinate for a message: centimetres on a site's scale, 3 digits far beyond it (1e+308)."""
+    return f"{value:.2f}" if abs(value) < 1e6 else f"{value:.3g}"
 
 
 def describe_no_path(grid: OccupancyGrid, start_cell: tuple[int, int], goal_cell: tuple[int, int], start_xy,

@@ -41,9 +41,13 @@ class GridFrame:
         return np.asarray(uv, float) * self.resolution + self.origin_xy
 
     def cell_of(self, xy) -> tuple[int, int]:
-        """(row, col) of the cell holding world point ``xy`` (may lie outside the grid; see ``contains``)."""
-        u, v = self.to_cells(xy)
-        return int(np.floor(v)), int(np.floor(u))
+        """(row, col) of the cell holding world point ``xy`` (may lie outside the grid; see ``contains``). A point
+        far outside (up to 1e308 m away, where the cell index overflows) gets a cell just outside the grid."""
+        with np.errstate(over="ignore", invalid="ignore"):
+            u, v = self.to_cells(xy)
+        row = np.clip(np.floor(v), -1, self.shape[0])
+        col = np.clip(np.floor(u), -1, self.shape[1])
+        return int(row), int(col)
 
     def contains(self, cell: tuple[int, int]) -> bool:
         return 0 <= cell[0] < self.shape[0] and 0 <= cell[1] < self.shape[1]

@@ -83,6 +83,9 @@ class OccupancyGrid:
         """A grid from a bool occupancy array (rows along y, cols along x; a SLAM map, a test's maze) whose
         lower-left corner is at world ``origin_xy``; its cells are one footprint called ``name``."""
         _check_numbers(resolution, robot_radius, height_band)
+        origin_xy = _finite_xy(origin_xy, "origin_xy")
+        if not (isinstance(floor_z, int | float) and math.isfinite(floor_z)):
+            raise PlanningError(f"floor_z must be a finite height in metres (got {floor_z!r})")
         occupied = np.asarray(occupied, bool)
         if occupied.ndim != 2 or occupied.size == 0:
             raise PlanningError(f"occupancy must be a non-empty 2-D array (got shape {occupied.shape})")
@@ -218,6 +221,16 @@ def _check_numbers(resolution: float, robot_radius: float, height_band: tuple[fl
     if not (math.isfinite(low) and math.isfinite(high) and 0 <= low < high):
         raise PlanningError(f"height_band must be (low, high) metres above the floor with 0 <= low < high "
                             f"(got {tuple(height_band)!r})")
+
+
+def _finite_xy(xy, what: str) -> tuple[float, float]:
+    try:
+        point = np.asarray(xy, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        point = np.array([])
+    if point.shape != (2,) or not np.all(np.isfinite(point)):
+        raise PlanningError(f"{what} must be a finite (x, y) in metres (got {xy!r})")
+    return float(point[0]), float(point[1])
 
 
 def _check_size(frame: GridFrame, resolution: float) -> None:

@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from bim2rdt.atomic import write_bytes_atomic
+from bim2rdt.atomic import WriteError, write_bytes_atomic
 from bim2rdt.planning.errors import PlanningError
 
 if TYPE_CHECKING:
@@ -33,12 +33,16 @@ def save_nav2(grid: OccupancyGrid, folder: Path, name: str) -> dict[str, Path]:
 
     if not name or "/" in name or name.startswith("."):
         raise PlanningError(f"map name {name!r}: give a plain file stem such as 'site'")
-    folder.mkdir(parents=True, exist_ok=True)
-    written = _write_map(folder, name, grid.layer(STRUCTURE_KINDS + ("object",)), grid, "trinary")
-    keepout = grid.layer(KEEPOUT_KINDS)
-    if keepout.any():
-        masks = _write_map(folder, f"{name}_keepout", keepout, grid, "scale")
-        written.update({"keepout_image": masks["image"], "keepout_yaml": masks["yaml"]})
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        written = _write_map(folder, name, grid.layer(STRUCTURE_KINDS + ("object",)), grid, "trinary")
+        keepout = grid.layer(KEEPOUT_KINDS)
+        if keepout.any():
+            masks = _write_map(folder, f"{name}_keepout", keepout, grid, "scale")
+            written.update({"keepout_image": masks["image"], "keepout_yaml": masks["yaml"]})
+    except (OSError, WriteError) as error:
+        reason = error.strerror if isinstance(error, OSError) and error.strerror else str(error)
+        raise PlanningError(f"cannot write the Nav2 map into {folder}: {reason}") from None
     return written
 
 

@@ -21,6 +21,7 @@ import html
 from pathlib import Path
 
 from fastapi import FastAPI
+from fastapi.exceptions import RequestValidationError
 from fastapi.responses import FileResponse, HTMLResponse
 from fastapi.staticfiles import StaticFiles
 
@@ -30,7 +31,8 @@ from bim2rdt.server.auth import TokenBook
 from bim2rdt.server.config import ServerConfig
 from bim2rdt.server.guard import BearerMiddleware
 from bim2rdt.server.hub import Hub, HubSink
-from bim2rdt.server.limits import BodyLimitMiddleware, RateLimiter
+from bim2rdt.server.limits import ApiHeadersMiddleware, BodyLimitMiddleware, RateLimiter
+from bim2rdt.server.validation import validation_failed
 
 STATIC = Path(__file__).parent / "static"
 CSP = ("default-src 'self'; script-src 'self'; style-src 'self'; img-src 'self' data: blob:; "
@@ -50,9 +52,10 @@ DOCS_PAGE = """<!doctype html>
 
 
 def create_app(twin=None, monitor=None, *, identity=None, config: ServerConfig = ServerConfig(),
-               audit_log: Path | None = None, hub: Hub | None = None, record_safety: bool = False) -> FastAPI:
+               audit_log: Path | AuditLog | None = None, hub: Hub | None = None, record_safety: bool = False) -> FastAPI:
     """The app over a twin and/or a HAV monitor; ``identity`` (an IdentityMap with role 'safety') enables
-    revealing identities; ``audit_log`` defaults to ``config.audit_log`` (required one way or the other). With
+    revealing identities; ``audit_log`` (a path, or an AuditLog) defaults to ``config.audit_log`` (required one
+    way or the other). With
     ``record_safety`` the monitor's events also go into the twin's history (through the view's lock, so the
     server's reads never interleave with the monitor thread's writes)."""
     from bim2rdt.server.safety_view import SafetyView
@@ -84,11 +87,14 @@ def create_app(twin=None, monitor=None, *, identity=None, config: ServerConfig =
                   description="The live digital twin of the site and hand-arm vibration exposure. Every /api path "
                   "but /api/health needs a bearer token (roles: viewer, safety, admin).")
     app.state.twin, app.state.safety, app.state.hub, app.state.config = twin_view, safety_view, hub, config
-    app.state.audit = AuditLog(path)
+    app.state.audit = path if isinstance(path, AuditLog) else AuditLog(path)
+    app.state.rate_audited = {}
     app.state.limiter = RateLimiter(config.write_rate_per_minute)
+    app.add_exception_handler(RequestValidationError, validation_failed)
     _add_routes(app)
     app.add_middleware(BearerMiddleware, tokens=TokenBook((t.name, t.role, t.sha256) for t in config.tokens))
     app.add_middleware(BodyLimitMiddleware, max_bytes=config.max_body_bytes)
+    app.add_middleware(ApiHeadersMiddleware)  # last added: outermost
     return app
 
 

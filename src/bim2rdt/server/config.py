@@ -51,6 +51,14 @@ class ServerConfig(BaseModel):
                                      "workers' exposure, seconds.")
     twin_poll_s: float = Field(0.5, gt=0, le=60, description="How often the server looks for new twin records "
                                "(other robots may append), seconds.")
+    max_connections: int = Field(256, ge=8, le=4096, description="Open connections at most (live streams "
+                                 "included); one beyond is answered 503 and closed at once.")
+    header_timeout_s: float = Field(10.0, gt=0, le=300, description="Seconds a connection has to send a whole "
+                                    "request head (from opening, or from its last response); then it is closed.")
+    keep_alive_s: int = Field(5, ge=1, le=300, description="Seconds an idle keep-alive connection is kept after "
+                              "a response.")
+    max_header_bytes: int = Field(16384, ge=4096, le=1_048_576, description="Largest request head accepted, "
+                                  "bytes.")
     stream_backlog: int = Field(2000, ge=10, le=1_000_000, description="Stream messages kept for clients that "
                                 "reconnect with Last-Event-ID.")
 

@@ -8,7 +8,7 @@ from fastapi.security import HTTPBearer
 
 from bim2rdt import __version__
 from bim2rdt.server.auth import ADMIN, READERS, SAFETY
-from bim2rdt.server.guard import RoleRoute
+from bim2rdt.server.guard import RoleRoute, write_audit
 from bim2rdt.server.schemas import (AuditEntry, Element, ElementDetail, Health, Identity, Me, RawRequest,
                                     RawWindows, RefusedMessages, RevealRequest, SafetyEvent, TwinRecord, TwinState,
                                     Worker)
@@ -21,11 +21,14 @@ router = APIRouter(prefix="/api", route_class=RoleRoute, dependencies=[Security(
                               403: {"description": "The token's role may not use this endpoint."}})
 
 READ = {"x-roles": sorted(READERS)}
-SAFETY_ONLY = {"x-roles": [SAFETY]}
+REVEAL_IDENTITY = {"x-roles": [SAFETY], "x-audit": "identity"}
+REVEAL_RAW = {"x-roles": [SAFETY], "x-audit": "raw"}
 ADMIN_ONLY = {"x-roles": [ADMIN]}
 GLOBAL_ID = Path(min_length=1, max_length=64, description="The element's IFC GlobalId (or a new object's id).")
 SUBJECT = Path(min_length=3, max_length=64, description="The worker's pseudonym.")
 UNAVAILABLE = {503: {"description": "This server has no twin (or no monitor)."}}
+AUDITED = {503: {"description": "No monitor, or the audit log cannot be written (nothing is revealed)."},
+           429: {"description": "Too many reveals from this token (audited)."}}
 
 
 @open_router.get("/health", response_model=Health, summary="Is the server up, and what does it serve")
@@ -136,20 +139,21 @@ async def events(request: Request, since: float | None = Query(None, ge=0, le=1e
     return await run_in_threadpool(_safety(request).events, since, kind, limit)
 
 
-@router.post("/workers/{subject}/identity", response_model=Identity, openapi_extra=SAFETY_ONLY,
-             responses={404: {"description": "No identity on record for this pseudonym."}, **UNAVAILABLE},
+@router.post("/workers/{subject}/identity", response_model=Identity, openapi_extra=REVEAL_IDENTITY,
+             responses={404: {"description": "No identity on record for this pseudonym (audited)."}, **AUDITED},
              summary="Who is behind a pseudonym (safety officer only; audited)")
 async def reveal_identity(request: Request, body: RevealRequest, subject: str = SUBJECT) -> Identity:
     view = _safety(request)
     worker_id = await run_in_threadpool(view.real_name, subject)
     if worker_id is None:
+        await write_audit(request, "identity", subject, body.reason, {}, "refused: not found")
         raise HTTPException(404, "no identity on record for this pseudonym")
-    await run_in_threadpool(_audit, request, "identity", subject, body.reason, {})
+    await write_audit(request, "identity", subject, body.reason, {})
     return Identity(subject=subject, worker=worker_id)
 
 
-@router.post("/workers/{subject}/raw", response_model=RawWindows, openapi_extra=SAFETY_ONLY,
-             responses={404: {"description": "No such worker."}, **UNAVAILABLE},
+@router.post("/workers/{subject}/raw", response_model=RawWindows, openapi_extra=REVEAL_RAW,
+             responses={404: {"description": "No such worker (audited)."}, **AUDITED},
              summary="A raw sensor window of a worker's devices (safety officer only; audited)")
 async def reveal_raw(request: Request, body: RawRequest, subject: str = SUBJECT) -> dict:
     """The window is cut to the server's limit (``raw_window_max_s``); ``seconds`` in the answer is what was
@@ -157,14 +161,16 @@ async def reveal_raw(request: Request, body: RawRequest, subject: str = SUBJECT)
     view = _safety(request)
     seconds = min(body.seconds, request.app.state.config.raw_window_max_s)
     if subject not in await run_in_threadpool(view.subjects):
+        await write_audit(request, "raw", subject, body.reason, {"start": body.start, "seconds": seconds},
+                    "refused: not found")
         raise HTTPException(404, "no such worker")
-    await run_in_threadpool(_audit, request, "raw", subject, body.reason, {"start": body.start, "seconds": seconds})
+    await write_audit(request, "raw", subject, body.reason, {"start": body.start, "seconds": seconds})
     windows = await run_in_threadpool(view.raw_window, subject, body.start, seconds)
     return {"subject": subject, "seconds": seconds, "windows": windows}
 
 
 @router.get("/audit", response_model=list[AuditEntry], openapi_extra=ADMIN_ONLY,
-            summary="The audit log of identity and raw-data reveals (admin only)")
+            summary="The audit log of identity and raw-data reveals and refused attempts (admin only)")
 async def audit(request: Request) -> list[dict]:
     return await run_in_threadpool(request.app.state.audit.entries)
 
@@ -182,11 +188,6 @@ def _safety(request: Request):
     if view is None:
         raise HTTPException(503, "this server has no HAV monitor")
     return view
-
-
-def _audit(request: Request, action: str, subject: str, why: str, detail: dict) -> None:
-    principal = request.state.principal
-    request.app.state.audit.append(principal.name, principal.role, action, subject, why, detail)
 
 
 async def _download(request: Request, kind: str) -> Response:

@@ -123,9 +123,9 @@ class RevealRequest(BaseModel):
 
 
 class RawRequest(RevealRequest):
-    start: float | None = Field(None, ge=0, le=1e11, description="Device time of the window's start (UTC s); "
+    start: float | None = Field(None, ge=0, le=1e11, allow_inf_nan=False, description="Device time of the window's start (UTC s); "
                                 "None: the newest samples kept.")
-    seconds: float = Field(2.0, gt=0, le=600, description="Window length, seconds (cut to the server's limit, "
+    seconds: float = Field(2.0, gt=0, le=600, allow_inf_nan=False, description="Window length, seconds (cut to the server's limit, "
                            "10 s by default).")
 
 
@@ -149,10 +149,15 @@ class RawWindows(BaseModel):
 
 
 class AuditEntry(BaseModel):
-    at: float
+    """One reveal or reveal attempt; a line of the log that is not a whole record (a write cut short) is an entry
+    with action and outcome 'damaged', ``at`` None and ``detail`` {line, bytes, text}."""
+
+    at: float | None = Field(description="UTC epoch seconds; None for a damaged line.")
     who: str
     role: str
-    action: str
+    action: str = Field(description="identity, raw or damaged.")
     subject: str
     why: str
+    outcome: str = Field("revealed", description="revealed, refused: role (403), refused: not found (404), "
+                         "refused: rate (429) or damaged.")
     detail: dict[str, Any]

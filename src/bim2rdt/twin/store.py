@@ -11,6 +11,7 @@ rolls back whole: the history stays as it was.
 from __future__ import annotations
 
 import json
+import numbers
 import time
 from collections.abc import Iterable, Iterator, Sequence
 from contextlib import contextmanager
@@ -24,11 +25,14 @@ from sqlalchemy.exc import ArgumentError, NoSuchModuleError, SQLAlchemyError
 
 from bim2rdt.twin.errors import TwinError
 from bim2rdt.twin.records import TwinEvent
+from bim2rdt.twin.text import checked_text, may_need_mending, mended
 
 CONNECT_TIMEOUT_S = 5
 """How long opening a PostgreSQL twin waits for the server before it says it cannot be reached."""
 SQLITE_BUSY_TIMEOUT_S = 60.0
 """How long an SQLite writer waits for another one to commit."""
+MAX_SEQ = 2**63 - 1
+"""The largest seq either backend can hold (a signed 64-bit integer)."""
 _WRITE_LOCK = 0x62696D32  # "bim2": the advisory lock key of the twin's writers on PostgreSQL
 
 _metadata = sa.MetaData()
@@ -98,9 +102,14 @@ class EventStore:
              kinds: Iterable[str] | None = None, global_id: str | None = None,
              by_time: bool = False) -> list[TwinEvent]:
         """Events with seq > ``after`` and ``since`` < time <= ``until``, of ``kinds``, about ``global_id``;
-        in store order, or in time order (ties by seq) with ``by_time``."""
+        in store order, or in time order (ties by seq) with ``by_time``. A seq ``after`` beyond any a store can
+        hold has nothing after it."""
+        if isinstance(after, bool) or not isinstance(after, numbers.Integral):
+            raise TwinError(f"after is a seq (a whole number), got {after!r}")
+        if after >= MAX_SEQ:
+            return []
         t = events_table.c
-        query = sa.select(events_table).where(t.seq > after)
+        query = sa.select(events_table).where(t.seq > max(int(after), 0))
         if until is not None:
             query = query.where(t.time <= until)
         if since is not None:
@@ -141,9 +150,11 @@ class Writer:
         return [_event(row) for row in self.conn.execute(query)]
 
     def append(self, event: NewEvent) -> TwinEvent:
-        """Insert one event; returns it with its seq (visible to others at commit)."""
-        row = {"kind": event.kind, "time": float(event.time), "global_id": event.global_id,
-               "source": event.source, "data": _dumps(event.data), "recorded": time.time()}
+        """Insert one event; returns it with its seq (visible to others at commit). Its source and GlobalId are
+        checked against the columns' limits here, so SQLite refuses what PostgreSQL would."""
+        global_id = None if event.global_id is None else checked_text(event.global_id, "GlobalId")
+        row = {"kind": event.kind, "time": float(event.time), "global_id": global_id,
+               "source": checked_text(event.source, "source"), "data": _dumps(event.data), "recorded": time.time()}
         seq = self.conn.execute(events_table.insert().returning(events_table.c.seq), row).scalar_one()
         return TwinEvent(seq=int(seq), kind=row["kind"], time=row["time"], global_id=row["global_id"],
                          source=row["source"], data=json.loads(row["data"]), recorded=row["recorded"])
@@ -201,8 +212,13 @@ def _sqlite_engine(url: URL, label: str) -> Engine:
 
 
 def _event(row) -> TwinEvent:
-    return TwinEvent(seq=int(row.seq), kind=row.kind, time=float(row.time), global_id=row.global_id,
-                     source=row.source, data=json.loads(row.data), recorded=float(row.recorded))
+    """A stored row as an event; text a history written before the checks may hold is mended (see ``text``)."""
+    data = json.loads(row.data)
+    if may_need_mending(row.data):
+        data = mended(data)
+    return TwinEvent(seq=int(row.seq), kind=row.kind, time=float(row.time), global_id=mended(row.global_id),
+                     source=mended(row.source), data=data, recorded=float(row.recorded))
+
 
 
 def _dumps(data: dict) -> str:

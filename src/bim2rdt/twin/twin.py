@@ -24,6 +24,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import numbers
 from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
 
@@ -40,6 +41,7 @@ from bim2rdt.twin.records import MISSING, OBSERVATION, SAFETY, STATUS, ElementSt
 from bim2rdt.twin.status import ElementStatus
 from bim2rdt.twin.store import EventStore, NewEvent, Writer
 from bim2rdt.twin.config import TwinConfig
+from bim2rdt.twin.text import checked_text
 from bim2rdt.twin.tolerance import TolerancePolicy
 from bim2rdt.twin.verdict import judge
 
@@ -107,13 +109,17 @@ class DigitalTwin:
                 and observation.rmse >= 0):
             raise TwinError(f"an observation needs fitness in [0, 1] and a finite rmse >= 0 (inf only with fitness "
                             f"0: no inlier), got {observation.fitness} and {observation.rmse}")
-        source = robot or self.robot
+        family = checked_text(observation.family, "family")
+        reason = checked_text(getattr(observation, "reason", ""), "reason", may_be_empty=True)
+        fit = _fit(observation)
+        evidence = _evidence(observation.station, observation.frames, camera, observation.bbox)
+        source = checked_text(robot or self.robot, "robot")
 
         def build(writer: Writer) -> list[TwinEvent]:
             if observation.global_id:
                 global_id, element = observation.global_id, self._known(observation.global_id)
             else:
-                global_id = self._match_new(observation.family, pose) or ifcopenshell.guid.new()
+                global_id = self._match_new(family, pose) or ifcopenshell.guid.new()
                 element = None
             tolerance = self.tolerances.for_element(element.ifc_class, element.family) if element else None
             status, deviation = judge(pose, observation.fitness, element, tolerance,
@@ -122,11 +128,9 @@ class DigitalTwin:
                 status = ElementStatus.UNVERIFIED  # nothing of the view lies on the fitted model: nothing measured
             elif getattr(observation, "status", None) is ElementStatus.UNVERIFIED:
                 status = ElementStatus.UNVERIFIED  # its observer could not judge it (a view blind along an axis)
-            data = {"family": observation.family, "status": status.value, "pose": pose.tolist(),
-                    "reason": getattr(observation, "reason", ""),
+            data = {"family": family, "status": status.value, "pose": pose.tolist(), "reason": reason,
                     "deviation": deviation.to_dict() if deviation else None,
-                    "tolerance": tolerance.to_dict() if tolerance else None, "fit": _fit(observation),
-                    "evidence": _evidence(observation.station, observation.frames, camera, observation.bbox)}
+                    "tolerance": tolerance.to_dict() if tolerance else None, "fit": fit, "evidence": evidence}
             return self._append_with_status(writer, NewEvent(OBSERVATION, when, global_id, source, data), status)
 
         appended = self._write(build)
@@ -138,13 +142,14 @@ class DigitalTwin:
         """Record that the element's place was seen empty (from ``station``/``frames``, camera ``camera``)."""
         when = _checked_time(time)
         camera = None if camera is None else _checked_pose(camera, "the camera pose")
+        evidence = _evidence(station, tuple(frames), camera, None)
+        source = checked_text(robot or self.robot, "robot")
 
         def build(writer: Writer) -> list[TwinEvent]:
             element = self._known(global_id)
             family = element.family if element else self._projection.get(global_id).family
-            data = {"family": family, "status": ElementStatus.MISSING.value, "pose": None,
-                    "evidence": _evidence(station, tuple(frames), camera, None)}
-            return self._append_with_status(writer, NewEvent(MISSING, when, global_id, robot or self.robot, data),
+            data = {"family": family, "status": ElementStatus.MISSING.value, "pose": None, "evidence": evidence}
+            return self._append_with_status(writer, NewEvent(MISSING, when, global_id, source, data),
                                             ElementStatus.MISSING)
 
         return self._projection.get(self._write(build)[0].global_id)
@@ -269,7 +274,8 @@ class DigitalTwin:
     def _safety_event(self, event: Event) -> NewEvent:
         when = _checked_time(event.time)
         related = self._zone_of(event.data.get("zone"))
-        return NewEvent(SAFETY, when, related, event.source or "hav-monitor", json.loads(event.to_json()))
+        source = checked_text(event.source or "hav-monitor", "source")
+        return NewEvent(SAFETY, when, related, source, json.loads(event.to_json()))
 
     def _known(self, global_id: str) -> BimElement | None:
         """The BIM element, or None for an object the twin found that the BIM lacks; TwinError otherwise."""
@@ -294,18 +300,31 @@ class DigitalTwin:
 
 def _fit(observation: Observation) -> dict:
     rmse = float(observation.rmse)
-    return {"rmse": rmse if math.isfinite(rmse) else None, "fitness": float(observation.fitness), "points": int(observation.points),
-            "score": float(observation.score), "detector": observation.detector}
+    return {"rmse": rmse if math.isfinite(rmse) else None, "fitness": float(observation.fitness),
+            "points": _whole(observation.points, "points"), "score": float(observation.score),
+            "detector": checked_text(observation.detector, "detector", may_be_empty=True)}
 
 
 def _evidence(station, frames, camera, bbox) -> dict:
-    return {"station": None if station is None else int(station), "frames": [int(f) for f in frames],
-            "camera": None if camera is None else camera.tolist(),
-            "bbox": None if bbox is None else [int(v) for v in bbox]}
+    if bbox is not None:
+        if isinstance(bbox, str) or len(bbox) != 4:
+            raise TwinError(f"an observation's bbox is (u0, v0, u1, v1) pixels, got {len(bbox)} values")
+        bbox = [_whole(v, "bbox") for v in bbox]
+    return {"station": None if station is None else _whole(station, "station"),
+            "frames": [_whole(f, "frames") for f in frames],
+            "camera": None if camera is None else camera.tolist(), "bbox": bbox}
+
+
+def _whole(value, what: str) -> int:
+    """A finite number as an int (a pixel, a frame index); TwinError naming ``what`` otherwise."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
+        raise TwinError(f"an observation's {what} must be finite numbers, got {value!r}")
+    return int(value)
 
 
 def _checked_time(time: float) -> float:
-    if isinstance(time, bool) or not isinstance(time, int | float) or not math.isfinite(time):
+    """UTC epoch seconds as a float: any finite real number (numpy's too, np.float32 included)."""
+    if isinstance(time, bool) or not isinstance(time, numbers.Real) or not math.isfinite(time):
         raise TwinError(f"a twin time is finite UTC epoch seconds, got {time!r}")
     return float(time)
 
