@@ -18,7 +18,7 @@ from bim2rdt.semantics import UprightPrior
 
 def mission_rules(config: MissionConfig, icp: IcpConfig) -> FitRules:
     """The fitting rules under ``config``: its tie ratio and slab contact, a full search from every start."""
-    return FitRules(icp, config.tie_ratio, config.slab_contact, config.ground_clearance, refine_detector_pose=False)
+    return FitRules(icp, config.tie_ratio, config.slab_contact, refine_detector_pose=False)
 
 
 def fit_target(detection: Detection, target: Target | None, model_pts: np.ndarray, model_normals: np.ndarray,

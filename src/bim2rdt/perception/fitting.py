@@ -8,7 +8,8 @@
   found is taken to stand on the slab. Resting, registration pulls its lowest point onto the slab.
 - **Where SG-ICP starts** (:func:`start_poses`): the BIM pose as it is (most objects have not moved), the BIM pose
   slid in the plane so the model's box centre stands on the points' (a moved object; without a BIM pose, upright
-  at zero yaw on the slab), the detector's own poses, and for a slender object (a beam) the slid pose shifted
+  at zero yaw on the slab with its plan centre on the points' median, :func:`upright_on`), the detector's own
+  poses, and for a slender object (a beam) the slid pose shifted
   along its long axis (:func:`along_long_axis`). A detector whose pose came from its own search (the geometric
   detector registers the cluster to name it) can be trusted to have searched: with
   ``FitRules.refine_detector_pose`` the BIM pose and the detector's are only refined (one restart each) and no
@@ -25,7 +26,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from bim2rdt.perception.slab import SLAB_CLEARANCE, off_the_slab
 from bim2rdt.registration import IcpConfig, RegistrationResult, register
 from bim2rdt.semantics import DEFAULT_UPRIGHT_BIAS, UprightPrior
 
@@ -40,14 +40,12 @@ Plausible = Callable[[RegistrationResult], bool]
 class FitRules:
     """The caller's settings of the one fitting path (lengths in metres): ``icp`` (the registration's),
     ``tie_ratio`` (the BIM pose wins when its score is within this factor of the best), ``slab_contact`` (a
-    pose's lowest point this close to the slab rests on it), ``slab_clearance`` (points this close above the
-    slab are slab: a start is centred on what lies above it) and ``refine_detector_pose`` (a detector's pose is
+    pose's lowest point this close to the slab rests on it) and ``refine_detector_pose`` (a detector's pose is
     the result of its own search: refine it and the BIM pose, search no further)."""
 
     icp: IcpConfig = field(default_factory=IcpConfig)
     tie_ratio: float = 1.15
     slab_contact: float = 0.05
-    slab_clearance: float = SLAB_CLEARANCE
     refine_detector_pose: bool = True
 
 
@@ -69,8 +67,7 @@ def fit_detection(model_pts: np.ndarray, model_normals: np.ndarray, points_world
                         config=cfg, support_height=slab_height if resting else None)
 
     refine = rules.refine_detector_pose and len(detector_poses) > 0
-    starts = start_poses(model_pts, points_world, bim_pose, detector_poses, slab_height, rules.slab_clearance,
-                         refine)
+    starts = start_poses(model_pts, points_world, bim_pose, detector_poses, slab_height, refine)
     fits = [fit_from(T, local if refine else rules.icp) for T in starts]
     best = min([f for f in fits if plausible(f)] or fits, key=lambda f: f.score)
     if bim_pose is None:
@@ -80,35 +77,21 @@ def fit_detection(model_pts: np.ndarray, model_normals: np.ndarray, points_world
 
 
 def start_poses(model_pts: np.ndarray, points_world: np.ndarray, bim_pose: np.ndarray | None,
-                detector_poses: Sequence[np.ndarray], slab_height: float, slab_clearance: float,
-                refine: bool) -> list[np.ndarray]:
+                detector_poses: Sequence[np.ndarray], slab_height: float, refine: bool) -> list[np.ndarray]:
     """Where SG-ICP starts (the BIM pose first, when there is one): see the module docs."""
     bim = [bim_pose] if bim_pose is not None else []
     if refine:
         return bim + list(detector_poses)
-    home = slid(bim_pose if bim_pose is not None else level_on(slab_height), model_pts, points_world, slab_height,
-                slab_clearance)
+    home = slid(bim_pose, model_pts, points_world) if bim_pose is not None else \
+        upright_on(points_world, model_pts, slab_height)
     return bim + [home] + list(detector_poses) + along_long_axis(home, model_pts, points_world)[1:]
 
 
-def level_on(slab_height: float) -> np.ndarray:
-    """An upright pose at zero yaw standing on the slab at ``slab_height``: a new object's home before sliding."""
-    T = np.eye(4)
-    T[2, 3] = slab_height
-    return T
-
-
-def slid(T: np.ndarray, model_pts: np.ndarray, points_world: np.ndarray, slab_height: float | None = None,
-         clearance: float = SLAB_CLEARANCE) -> np.ndarray:
+def slid(T: np.ndarray, model_pts: np.ndarray, points_world: np.ndarray) -> np.ndarray:
     """``T`` moved in the plane so the posed model's box centre (5-95 % extent along its body x and y) lies on
-    the points': extents are not pulled to the near side, where perspective puts most corners. With
-    ``slab_height`` both are taken above the slab (``clearance``), where the camera's points can be: a pallet's
-    bottom boards or a cone's base plate have no points below it to centre on."""
+    the points': extents are not pulled to the near side, where perspective puts most corners."""
     axes = T[:2, :2]
     model_world = model_pts @ T[:3, :3].T + T[:3, 3]
-    if slab_height is not None:
-        model_world = off_the_slab(model_world, slab_height, clearance, least=1)
-        points_world = off_the_slab(points_world, slab_height, clearance, least=1)
     out = T.copy()
     out[:2, 3] += axes @ (_box_centre(points_world, axes) - _box_centre(model_world, axes))
     return out

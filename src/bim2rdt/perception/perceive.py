@@ -71,7 +71,7 @@ class PerceiveConfig:
     def fit_rules(self) -> FitRules:
         """The fitting path's rules: a detector's pose came from its own search, so it is refined, not searched
         again (a frame's time budget: ``bench perception``)."""
-        return FitRules(self.icp, self.tie_ratio, self.slab_contact, self.slab_clearance, refine_detector_pose=True)
+        return FitRules(self.icp, self.tie_ratio, self.slab_contact, refine_detector_pose=True)
 
 
 @dataclass
