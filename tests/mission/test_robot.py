@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from bim2rdt.localization import Turned
 from bim2rdt.localization.planar import compose, from_planar, to_planar
 from bim2rdt.mission import MissionConfig, MissionContext, Target, dock_pose, run_robot_mission
 from bim2rdt.perception import Detection, Frame, Intrinsics, look_at
@@ -44,6 +45,11 @@ class ExactRobot:
     def capture(self) -> Frame:
         self.captures.append(self.T_world_camera.copy())
         return Frame(np.zeros((48, 64, 3), np.uint8), np.full((48, 64), np.nan, np.float32), INTRINSICS, np.eye(4))
+
+    def turn(self, angle: float) -> Turned:
+        _, tilt = to_planar(self.T_world_camera)
+        reading = self.drive(np.array([0.0, 0.0, 0.0, angle]), tilt)
+        return Turned(self.capture(), reading.increment, reading.distance, reading.turned)
 
 
 @dataclass

@@ -16,7 +16,7 @@ from bim2rdt.mission.run import run_mission
 from bim2rdt.mission.stations import plan_stations
 from bim2rdt.mission.verdict import pose_delta
 
-__all__ = ["Detect", "DirectRoute", "KnownSurface", "LocalizedRobot", "MissingElement", "MissionConfig", "MissionContext",
-           "MissionResult", "Observation", "PlannedRoute", "Robot", "RobotMission", "RoutePlan", "StationLocalization",
-           "Target", "building_surfaces", "dock_pose", "plan_route", "plan_stations", "pose_delta", "run_mission",
-           "run_robot_mission"]
+__all__ = ["Detect", "DirectRoute", "KnownSurface", "LocalizedRobot", "MissingElement", "MissionConfig",
+           "MissionContext", "MissionResult", "Observation", "PlannedRoute", "Robot", "RobotMission", "RoutePlan",
+           "StationLocalization", "Target", "building_surfaces", "dock_pose", "plan_route", "plan_stations",
+           "pose_delta", "run_mission", "run_robot_mission"]

@@ -57,11 +57,15 @@ class Odometry(Protocol):
 class Robot(Protocol):
     """A robot that moves and captures frames. ``drive`` carries out a commanded move (forward, left, up m, turn
     rad, in its current heading frame; the camera's tilt set to ``R_level_camera``) and returns what its odometry
-    measured; ``capture`` returns the frame its camera sees now."""
+    measured; ``capture`` returns the frame its camera sees now; ``turn`` turns in place by an angle (rad, about
+    the vertical, the camera's tilt kept), captures, and reports the frame and the turn's odometry (what
+    :func:`~bim2rdt.localization.localize_station` asks for when one view leaves a direction free)."""
 
     def drive(self, increment: np.ndarray, R_level_camera: np.ndarray) -> Odometry: ...
 
     def capture(self) -> Frame: ...
+
+    def turn(self, angle: float) -> Turned: ...
 
 
 class Detect(Protocol):
@@ -174,7 +178,7 @@ class LocalizedRobot:
         record the look; ``frames`` ends with the frame facing the station's view."""
         record = StationLocalization(station, planned, np.eye(4), -1)
         if self.anchored:
-            record.looks = localize_station(self.filter, self.model, frames[0], tilt, self._turn(tilt, frames),
+            record.looks = localize_station(self.filter, self.model, frames[0], tilt, self._turn(frames),
                                             self.config, turn_back=True)
         record.estimate = from_planar(self.filter.state, tilt)
         record.capture = self.captures - 1
@@ -182,11 +186,12 @@ class LocalizedRobot:
             record.check = check_shots(frames[-1], self.model, record.estimate)
         self.stations.append(record)
 
-    def _turn(self, tilt: np.ndarray, frames: list[Frame]) -> Callable[[float], Turned]:
+    def _turn(self, frames: list[Frame]) -> Callable[[float], Turned]:
         def turn(angle: float) -> Turned:
-            reading = self.robot.drive(np.array([0.0, 0.0, 0.0, angle]), tilt)
-            frames.append(self._capture())
-            return Turned(frames[-1], reading.increment, reading.distance, reading.turned)
+            turned = self.robot.turn(angle)
+            self.captures += 1
+            frames.append(turned.frame)
+            return turned
         return turn
 
 

@@ -19,7 +19,7 @@ from bim2rdt.sim.render import RgbdFrame, render_rgbd
 class SimulatedRobot:
     """Starts at ``T_world_camera``; ``walk_to``, ``drive`` and ``turn`` move the true pose and return odometry
     readings, ``render``/``capture`` a noisy frame from the true pose. Seeded. It is a
-    :class:`bim2rdt.mission.robot.Robot` (``drive``, ``capture``), so the library's robot loop runs on it."""
+    :class:`bim2rdt.mission.robot.Robot` (``drive``, ``capture``, ``turn``), so the library's robot loop runs on it."""
 
     def __init__(self, scene: SiteScene | None, T_world_camera: np.ndarray, seed: int = 0,
                  intrinsics: Intrinsics = Intrinsics(), renderer: Callable[[np.ndarray], RgbdFrame] | None = None):
