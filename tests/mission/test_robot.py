@@ -1,5 +1,5 @@
 """The robot loop runs on any robot: here a stand-in written in the test (no simulator class), that moves exactly
-as told and captures blank frames, and a detector stand-in that sees one drum. The loop drives it to the station,
+as told and captures blank frames without a pose, and a detector stand-in that sees one drum. The loop drives it to the station,
 places the frame with its own estimate (never the frame's own pose), and the mission judges the drum."""
 
 from __future__ import annotations
@@ -31,8 +31,8 @@ class Reading:
 
 @dataclass
 class ExactRobot:
-    """Moves exactly as commanded; its frames carry no depth and a meaningless pose (the identity), as a sensor
-    that does not know where it is would."""
+    """Moves exactly as commanded; its frames carry no depth and no pose, as a sensor that does not know where it
+    is would send them (a time stamp only)."""
 
     T_world_camera: np.ndarray
     captures: list[np.ndarray] = field(default_factory=list)
@@ -44,7 +44,8 @@ class ExactRobot:
 
     def capture(self) -> Frame:
         self.captures.append(self.T_world_camera.copy())
-        return Frame(np.zeros((48, 64, 3), np.uint8), np.full((48, 64), np.nan, np.float32), INTRINSICS, np.eye(4))
+        return Frame(np.zeros((48, 64, 3), np.uint8), np.full((48, 64), np.nan, np.float32), INTRINSICS,
+                     time=float(len(self.captures)))
 
     def turn(self, angle: float) -> Turned:
         _, tilt = to_planar(self.T_world_camera)
@@ -86,7 +87,8 @@ def test_the_loop_drives_any_robot_to_its_station_and_places_frames_with_its_own
     run, robot, eyes, station = _run()
     assert np.allclose(robot.T_world_camera, station, atol=1e-9)  # walked there on its odometry
     assert len(eyes.frames) == len(robot.captures) == 1
-    assert np.allclose(eyes.frames[0].T_world_camera, station, atol=1e-9)  # not the frame's own identity pose
+    assert eyes.frames[0].has_pose and np.allclose(eyes.frames[0].T_world_camera, station, atol=1e-9)
+    assert eyes.frames[0].time == 1.0  # the captured frame itself, placed by the loop's estimate
     located = run.stations[0]
     assert located.capture == 0 and np.allclose(located.estimate, station, atol=1e-9) and located.looks == []
 

@@ -5,8 +5,9 @@ the result into the twin.
 The loop is typed on protocols, never on a simulator: a :class:`Robot` moves when told (and reports its
 odometry) and captures :class:`~bim2rdt.perception.Frame` s; a :class:`Detect` reads one frame's detections. The
 simulator is one robot among others (``demo`` wires :class:`bim2rdt.sim.robot.SimulatedRobot` and its camera in),
-a driver for a real robot another. A frame's own ``T_world_camera`` is never used: the loop places every frame
-with its own estimate (odometry + BIM fixes), since that is all a real robot knows.
+a driver for a real robot another. A frame's own ``T_world_camera`` (known, a prior, or absent) is never used: the
+loop places every frame with its own estimate (odometry + BIM fixes; ``Frame.localized``), since that is all a real
+robot knows.
 
 :class:`LocalizedRobot` is the mission's ``perceive(station, T_world_camera)``: ``T_world_camera`` is the planned
 station, in the robot's belief. It walks the route's path there from its estimate, and after a walk fixes the pose
@@ -145,7 +146,7 @@ class LocalizedRobot:
         frames = [self._capture()]
         if walked > TURN_ONLY:  # a look before a leg is a turn in place: the last fix still holds
             self._localize(station, T_world_camera, tilt, frames)
-        frame = replace(frames[-1], T_world_camera=from_planar(self.filter.state, tilt))
+        frame = frames[-1].localized(from_planar(self.filter.state, tilt))
         self._latest[station] = frame
         return self.detect(station, frame)
 
