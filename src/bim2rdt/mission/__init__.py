@@ -8,6 +8,7 @@ loop (walk, capture, localize, detect) on any :class:`Robot` and :class:`Detect`
 
 from bim2rdt.mission.config import MissionConfig
 from bim2rdt.mission.explained import KnownSurface, building_surfaces
+from bim2rdt.mission.record import record_mission
 from bim2rdt.mission.records import MissingElement, MissionResult, Observation, Target
 from bim2rdt.mission.robot import (Detect, LocalizedRobot, MissionContext, Robot, RobotMission, StationLocalization,
                                    dock_pose, run_robot_mission)
@@ -19,4 +20,4 @@ from bim2rdt.mission.verdict import pose_delta
 __all__ = ["Detect", "DirectRoute", "KnownSurface", "LocalizedRobot", "MissingElement", "MissionConfig",
            "MissionContext", "MissionResult", "Observation", "PlannedRoute", "Robot", "RobotMission", "RoutePlan",
            "StationLocalization", "Target", "building_surfaces", "dock_pose", "plan_route", "plan_stations",
-           "pose_delta", "run_mission", "run_robot_mission"]
+           "pose_delta", "record_mission", "run_mission", "run_robot_mission"]

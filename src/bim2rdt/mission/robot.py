@@ -1,6 +1,6 @@
 """The robot loop on any robot: walk to each station on odometry, capture, fix the pose on the BIM, detect, and
 let the mission register and judge what was found (:func:`~bim2rdt.mission.run.run_mission`); the caller records
-the result into the twin.
+the result into the twin (:func:`~bim2rdt.mission.record.record_mission`).
 
 The loop is typed on protocols, never on a simulator: a :class:`Robot` moves when told (and reports its
 odometry) and captures :class:`~bim2rdt.perception.Frame` s; a :class:`Detect` reads one frame's detections. The
