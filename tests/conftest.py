@@ -8,6 +8,7 @@ from pathlib import Path
 import pytest
 
 _DEFAULT_SAMPLES = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "ifc"
+_DEFAULT_SENSORS = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "sensors"
 
 
 def samples_dir() -> Path:
@@ -20,6 +21,19 @@ def samples() -> Path:
     folder = samples_dir()
     if not folder.is_dir():
         pytest.skip(f"IFC samples folder {folder} is absent (set BIM2RDT_SAMPLES to the shared data/ifc folder)")
+    return folder
+
+
+def sensors_dir() -> Path:
+    """The folder of real sensor recordings: $BIM2RDT_SENSORS, else ../shared/data/sensors beside the checkout."""
+    return Path(os.environ.get("BIM2RDT_SENSORS", _DEFAULT_SENSORS))
+
+
+@pytest.fixture(scope="session")
+def sensors() -> Path:
+    folder = sensors_dir()
+    if not (folder / "SOURCES.md").is_file():
+        pytest.skip(f"sensor data folder {folder} is absent (set BIM2RDT_SENSORS to the shared data/sensors folder)")
     return folder
 
 

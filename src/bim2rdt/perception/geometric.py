@@ -79,6 +79,7 @@ class GeometricDetector:
         self.timings: dict[str, float] = {}
 
     def detect(self, frame: Frame) -> list[Detection]:
+        frame.require_pose("the geometric detector")
         clock = _Clock()
         depth = self.config.noise.apply(frame.depth)
         points, valid = self._points(frame, depth)

@@ -121,7 +121,7 @@ def locate_detections(frame: Frame, model: BimModel, detector: Detector | None =
 def _seen_in(frame: Frame, index: int, detections: list[Detection], structure: BimStructure,
              config: PerceiveConfig) -> list[_Seen]:
     depth = config.edge_filter.apply(frame.depth)
-    slab = structure.slab_height(frame.T_world_camera[:3, 3])
+    slab = structure.slab_height(frame.require_pose("perception")[:3, 3])
     out = []
     for detection in detections:
         points, reason = (np.zeros((0, 3)), detection.reason) if detection.reason else detection_points(

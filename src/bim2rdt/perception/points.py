@@ -56,7 +56,7 @@ def detection_points(frame: Frame, depth: np.ndarray, detection: Detection, stru
     ok = np.isfinite(z) & (z > 0)
     if not ok.any():
         return np.zeros((0, 3)), f"{detection.family}: no corner in ROI {roi} has a valid depth"
-    T = frame.T_world_camera
+    T = frame.require_pose("back-projecting a detection to the world")
     rays = frame.intrinsics.backproject(uv[ok], np.ones(int(ok.sum())))
     directions = rays @ T[:3, :3].T
     z_ok = z[ok].astype(float)

@@ -1,0 +1,15 @@
+"""Real sensor data in: frame readers behind one seam, and registered scans.
+
+``open_source(path, **options)`` returns a :class:`FrameSource` (an iterable of perception frames) for a TUM
+RGB-D folder, a colour + depth PNG pair, an Azure Kinect ``.mkv``, an organised ``.pcd`` or PCL grabber TIFFs;
+``read_cloud(path)`` reads a scan (``.pcd`` ``.ply`` ``.las`` ``.laz`` ``.e57``) as a :class:`Cloud`. Both raise
+:class:`SourceError` in one line naming the file. ``correct_depth`` is the depth calibration every frame reader
+applies with ``depth_correction=(gx, gy, gz)``.
+"""
+
+from bim2rdt.sources.calibration import correct_depth, correct_points
+from bim2rdt.sources.errors import SourceError
+from bim2rdt.sources.options import SourceOptions
+from bim2rdt.sources.source import FrameSource, open_source
+
+__all__ = ["FrameSource", "SourceError", "SourceOptions", "correct_depth", "correct_points", "open_source"]

@@ -1,0 +1,13 @@
+"""Errors of the sensor readers."""
+
+from __future__ import annotations
+
+from bim2rdt.errors import Bim2RdtError
+
+
+class SourceError(Bim2RdtError):
+    """A recording, frame or scan that cannot be read as it is: one line naming the file and what is wrong."""
+
+    def __init__(self, path, problem: str) -> None:
+        self.path, self.problem = str(path), problem
+        super().__init__(f"{path}: {problem}")

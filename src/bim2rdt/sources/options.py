@@ -1,0 +1,88 @@
+"""What a caller may tell a frame reader, checked once where it enters (``open_source(path, **options)``)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+from pathlib import Path
+
+import numpy as np
+
+from bim2rdt.perception.camera import Intrinsics
+from bim2rdt.sources.calibration import correction_vector
+from bim2rdt.sources.errors import SourceError
+
+
+@dataclass(frozen=True)
+class SourceOptions:
+    """``intrinsics``: the camera's, overriding what the recording says (an :class:`Intrinsics`, or a dict of its
+    fields: fx, fy, cx, cy, and width/height when they differ from the images); ``depth_scale``: raw depth units
+    per metre (TUM 5000, millimetre sensors 1000), overriding the format's own; ``depth_correction``: g (gx, gy,
+    gz) in 1/m, see :mod:`bim2rdt.sources.calibration`; ``prior``: a 4x4 T_world_camera given to every frame as
+    its prior pose (a recording's own poses win, e.g. TUM's groundtruth.txt); ``up``: gravity up in the camera
+    frame for every frame, overriding an IMU; ``calibration``: a JSON file with an Azure Kinect's calibration
+    (instead of the one attached to the .mkv); ``max_frames``: stop after this many frames."""
+
+    intrinsics: Intrinsics | dict | None = None
+    depth_scale: float | None = None
+    depth_correction: np.ndarray | None = None
+    prior: np.ndarray | None = None
+    up: np.ndarray | None = None
+    calibration: Path | None = None
+    max_frames: int | None = None
+
+
+def parse_options(path, options: dict) -> SourceOptions:
+    """``options`` as :class:`SourceOptions`, or :class:`SourceError` naming the option that is unknown or bad."""
+    known = {f.name for f in fields(SourceOptions)}
+    unknown = sorted(set(options) - known)
+    if unknown:
+        raise SourceError(path, f"unknown source option {unknown[0]!r} (known: {', '.join(sorted(known))})")
+    values = {k: v for k, v in options.items() if v is not None}
+    try:
+        return SourceOptions(**{name: _CHECKS[name](value) for name, value in values.items()})
+    except (TypeError, ValueError) as error:
+        raise SourceError(path, str(error)) from None
+
+
+def _intrinsics(value) -> Intrinsics | dict:
+    if isinstance(value, Intrinsics):
+        return value
+    if isinstance(value, dict):
+        allowed = {"fx", "fy", "cx", "cy", "width", "height"}
+        if not {"fx", "fy", "cx", "cy"} <= set(value) or set(value) - allowed:
+            raise ValueError(f"intrinsics needs fx, fy, cx, cy (and optionally width, height), got {sorted(value)}")
+        return value
+    raise ValueError(f"intrinsics must be an Intrinsics or a dict of fx, fy, cx, cy, got {type(value).__name__}")
+
+
+def _positive(name: str):
+    def check(value) -> float:
+        number = float(value)
+        if not np.isfinite(number) or number <= 0:
+            raise ValueError(f"{name} must be a positive number, got {value!r}")
+        return number
+    return check
+
+
+def _pose(value) -> np.ndarray:
+    T = np.asarray(value, dtype=np.float64)
+    if T.shape != (4, 4) or not np.all(np.isfinite(T)):
+        raise ValueError(f"prior must be a finite 4x4 T_world_camera, got shape {T.shape}")
+    return T
+
+
+def _up(value) -> np.ndarray:
+    up = np.asarray(value, dtype=np.float64)
+    if up.shape != (3,) or not np.all(np.isfinite(up)) or np.linalg.norm(up) < 1e-9:
+        raise ValueError(f"up must be a finite non-zero (x, y, z) in the camera frame, got {up.tolist()}")
+    return up / np.linalg.norm(up)
+
+
+def _frames(value) -> int:
+    if int(value) != value or value < 1:
+        raise ValueError(f"max_frames must be a positive whole number, got {value!r}")
+    return int(value)
+
+
+_CHECKS = {"intrinsics": _intrinsics, "depth_scale": _positive("depth_scale"), "depth_correction": correction_vector,
+           "prior": _pose, "up": _up, "calibration": Path, "max_frames": _frames}

@@ -1,0 +1,103 @@
+"""An organised ``.pcd`` frame (PCL / Kinect): x, y, z (+ rgb) on the image grid, read with pypcd4.
+
+Depth is z per pixel; NaN points are no return. The intrinsics are fitted from the cloud itself (u = fx x/z + cx
+and v = fy y/z + cy, least squares over the valid pixels) unless given; a cloud that is not a pinhole image
+(residual over half a pixel) is refused. Colour is the packed ``rgb``/``rgba`` field (0x00RRGGBB), if any.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+
+from bim2rdt.perception.camera import Intrinsics
+from bim2rdt.perception.frame import Frame
+from bim2rdt.sources.errors import SourceError
+from bim2rdt.sources.frames import build_frame, depth_metres, intrinsics_for
+from bim2rdt.sources.options import SourceOptions
+
+MAX_FIT_RESIDUAL_PX = 0.5
+"""A fitted pinhole's largest pixel residual; above it the cloud is not one camera's image."""
+
+
+class OrganisedPcd:
+    """A :class:`~bim2rdt.sources.FrameSource` of one organised PCD frame."""
+
+    def __init__(self, path: Path, options: SourceOptions) -> None:
+        self.path, self.options = Path(path), options
+
+    def __iter__(self) -> Iterator[Frame]:
+        xyz, rgb = read_organised(self.path)
+        height, width = xyz.shape[:2]
+        depth = depth_metres(self.path, xyz[..., 2], self.options.depth_scale or 1.0)
+        found = None if self.options.intrinsics is not None else fit_intrinsics(self.path, xyz)
+        intrinsics = intrinsics_for(self.path, self.options, width, height, found)
+        yield build_frame(self.path, rgb, depth, intrinsics, self.options, source=self.path.name)
+
+
+def read_pcd(path: Path):
+    """The file's pypcd4 ``PointCloud``, or :class:`SourceError` in one line."""
+    from bim2rdt.sources.optional import require
+
+    pypcd4 = require("pypcd4", path, "a .pcd file")
+    try:
+        return pypcd4.PointCloud.from_path(path)
+    except Exception as error:  # pypcd4 raises bare exceptions of many kinds on a damaged file
+        raise SourceError(path, f"not a readable PCD file ({type(error).__name__}: {_line(error)})") from None
+
+
+def read_organised(path: Path) -> tuple[np.ndarray, np.ndarray | None]:
+    """(H, W, 3) float64 camera-frame points (NaN = no return) and (H, W, 3) uint8 colour or None."""
+    cloud = read_pcd(path)
+    data, meta = cloud.pc_data, cloud.metadata
+    missing = [name for name in ("x", "y", "z") if name not in data.dtype.names]
+    if missing:
+        raise SourceError(path, f"the PCD has no field {missing[0]!r} (fields: {', '.join(data.dtype.names)})")
+    if meta.height <= 1:
+        raise SourceError(path, f"the PCD is not organised (height {meta.height}, width {meta.width}): it is a scan, "
+                                "not a camera frame; read it with read_cloud")
+    shape = (meta.height, meta.width)
+    xyz = np.stack([data[name].astype(np.float64) for name in ("x", "y", "z")], axis=-1).reshape(*shape, 3)
+    xyz[~np.all(np.isfinite(xyz), axis=-1)] = np.nan
+    return xyz, packed_rgb(data, shape)
+
+
+def packed_rgb(data: np.ndarray, shape: tuple[int, int] | None = None) -> np.ndarray | None:
+    """The PCL packed colour field (``rgb`` or ``rgba``: 0x00RRGGBB in 4 bytes, often typed float) as uint8
+    (N, 3), reshaped to ``shape`` + (3,) if given; None without one."""
+    name = next((n for n in ("rgb", "rgba") if n in data.dtype.names), None)
+    if name is None or data.dtype[name].itemsize != 4:
+        return None
+    packed = np.ascontiguousarray(data[name]).view(np.uint32)
+    rgb = np.stack([(packed >> 16) & 255, (packed >> 8) & 255, packed & 255], axis=-1).astype(np.uint8)
+    return rgb.reshape(*shape, 3) if shape is not None else rgb
+
+
+def fit_intrinsics(path, xyz: np.ndarray) -> Intrinsics:
+    """The pinhole that projects the organised cloud's points onto their own pixels (least squares)."""
+    height, width = xyz.shape[:2]
+    v, u = np.mgrid[0:height, 0:width]
+    valid = np.all(np.isfinite(xyz), axis=-1) & (xyz[..., 2] > 0)
+    if valid.sum() < 100:
+        raise SourceError(path, f"only {int(valid.sum())} valid points: too few to fit the camera's intrinsics; "
+                                "give them (intrinsics=...)")
+    z = xyz[..., 2][valid]
+    fx, cx, ru = _line_fit(xyz[..., 0][valid] / z, u[valid])
+    fy, cy, rv = _line_fit(xyz[..., 1][valid] / z, v[valid])
+    if max(ru, rv) > MAX_FIT_RESIDUAL_PX or fx <= 0 or fy <= 0:
+        raise SourceError(path, f"the organised cloud is not a pinhole image (fit residual {max(ru, rv):.2f} px); "
+                                "give the intrinsics (intrinsics=...)")
+    return Intrinsics(width, height, *(round(float(k), 4) for k in (fx, fy, cx, cy)))
+
+
+def _line_fit(slope_x: np.ndarray, pixel: np.ndarray) -> tuple[float, float, float]:
+    """pixel = f * slope_x + c by least squares: (f, c, largest residual in pixels)."""
+    A = np.stack([slope_x, np.ones_like(slope_x)], axis=1)
+    (f, c), *_ = np.linalg.lstsq(A, pixel.astype(np.float64), rcond=None)
+    return float(f), float(c), float(np.abs(A @ (f, c) - pixel).max())
+
+
+def _line(error: Exception) -> str:
+    return (str(error).splitlines() or [""])[0][:160]
