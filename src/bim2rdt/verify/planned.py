@@ -165,11 +165,15 @@ def _best_shift(local: np.ndarray, start: np.ndarray, yaws_deg, steps: np.ndarra
 
 
 def _agreement(body, pose: np.ndarray, points: np.ndarray, distance: float) -> tuple[float, float]:
-    """(RMS distance of the points within ``distance`` of the posed body's samples, their share): the kept
-    pose's rmse and fitness, as registration reports them."""
+    """(RMS distance of the points within ``distance`` of the posed body's samples, their share among the points
+    within 3 x ``distance``): the kept pose's rmse and fitness. Only the object's neighbourhood counts: the
+    points nearest its planned surface reach half a metre out, over the clutter around it."""
     samples, _ = body
-    gap, _ = cKDTree(samples @ pose[:3, :3].T + pose[:3, 3]).query(points, distance_upper_bound=distance)
-    near = np.isfinite(gap)
+    gap, _ = cKDTree(samples @ pose[:3, :3].T + pose[:3, 3]).query(points, distance_upper_bound=3 * distance)
+    gap = gap[np.isfinite(gap)]
+    near = gap <= distance
+    if len(gap) == 0:
+        return float("inf"), 0.0
     return (float(np.sqrt(np.mean(gap[near] ** 2))) if near.any() else float("inf")), float(near.mean())
 
 

@@ -1,0 +1,221 @@
+"""``verify``: a real recording or scan checked against its BIM, frame by frame.
+
+For each frame: its points (sensor frame) -> :func:`~bim2rdt.localization.localize_cloud` on the permanent
+elements from the prior -> the depth check (:mod:`.depth_check`) -> the points the permanent structure does not
+explain -> each planned object in view checked by its own body (:mod:`.planned`) -> what is left, clustered,
+as new objects (:mod:`.new_objects`). The observations are recorded into a twin by the caller
+(:mod:`.outputs`). A frame whose fix is refused carries the reason; a frame whose depth looks miscalibrated
+has its observations unverified, with the reason.
+"""
+
+from __future__ import annotations
+
+import time as clock
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from bim2rdt.bim import BimModel
+from bim2rdt.errors import Bim2RdtError
+from bim2rdt.localization import LocalizationConfig, LocalizationError, localize_cloud
+from bim2rdt.localization.cloud import OccludedMap, scan_points
+from bim2rdt.perception.background import explained, structure_for
+from bim2rdt.perception.frame import Frame
+from bim2rdt.perception.observation import Observation
+from bim2rdt.twin import ElementStatus
+from bim2rdt.verify.depth_check import DepthCheck, DepthCheckConfig, check_depth
+from bim2rdt.verify.new_objects import NewObjectConfig, new_objects
+from bim2rdt.verify.planned import PlannedConfig, check_planned, planned_in_view
+from bim2rdt.verify.rays import RangeLookup
+
+
+class VerifyError(Bim2RdtError):
+    """Input verify cannot work with (no frames, a prior outside the model, a model with nothing to localize
+    on); one line."""
+
+
+def real_sensor_localization() -> LocalizationConfig:
+    """Localization settings for consumer RGB-D cameras and scanners at up to ~5 m: a Kinect's depth noise is
+    ~3 cm at 4.7 m (structured light grows with z^2), so inliers reach 5 cm and the Huber scale 2.5 cm; a real
+    room has its furniture in front of half the walls, so 30 % of the points near the map suffice."""
+    return LocalizationConfig(inlier_distance=0.05, huber_delta=0.025, min_inlier_fraction=0.3)
+
+
+@dataclass(frozen=True)
+class VerifyConfig:
+    """The knobs of verify. ``depth_noise`` (a, b): the sensor's depth sigma is a + b z^2 metres at depth z
+    (Kinect v1, Khoshelham & Elberink 2012: ~1.4 mm/m^2), used where a point is judged on or off a wall."""
+
+    localization: LocalizationConfig = field(default_factory=real_sensor_localization)
+    planned: PlannedConfig = field(default_factory=PlannedConfig)
+    new: NewObjectConfig = field(default_factory=NewObjectConfig)
+    depth: DepthCheckConfig = field(default_factory=DepthCheckConfig)
+    depth_noise: tuple[float, float] = (0.002, 0.0015)
+    surface_tolerance: float = 0.03
+    """A point this close to a permanent surface (plus 3 sigma of depth noise) is the building's."""
+    find_new: bool = True
+    """Cluster what neither the building nor a planned object explains into new objects."""
+
+
+@dataclass
+class FrameResult:
+    """One frame or scan: where it came from, the fix (or why not), the depth check, what was found, seconds."""
+
+    index: int
+    source: str
+    time: float | None
+    prior: np.ndarray | None
+    pose: np.ndarray | None = None
+    covariance: np.ndarray | None = None
+    degenerate: list = field(default_factory=list)
+    residual: float | None = None
+    inliers: int = 0
+    accepted: bool = False
+    reason: str = ""
+    depth: DepthCheck | None = None
+    observations: list[Observation] = field(default_factory=list)
+    seconds: float = 0.0
+
+    def to_dict(self) -> dict:
+        """Its entry in localization.json."""
+        entry = {"source": self.source, "time": self.time,
+                 "pose": None if self.pose is None else self.pose.tolist(),
+                 "covariance": None if self.covariance is None else self.covariance.tolist(),
+                 "degenerate": [np.asarray(d).tolist() for d in self.degenerate], "residual": self.residual,
+                 "inliers": self.inliers, "accepted": self.accepted,
+                 "prior": None if self.prior is None else self.prior.tolist(),
+                 "depth_check": self.depth.to_dict() if self.depth else None, "seconds": round(self.seconds, 3)}
+        if not self.accepted:
+            entry["reason"] = self.reason
+        return entry
+
+
+@dataclass
+class VerifyResult:
+    """Every frame's result in source order."""
+
+    frames: list[FrameResult]
+
+    @property
+    def miscalibrated(self) -> bool:
+        return any(f.depth is not None and f.depth.miscalibrated for f in self.frames)
+
+    @property
+    def warnings(self) -> list[str]:
+        return [f"frame {f.index} ({f.source}): {f.depth.reason}" for f in self.frames
+                if f.depth is not None and f.depth.miscalibrated]
+
+
+@dataclass
+class Unverified(Observation):
+    """An observation its frame cannot vouch for: the twin records it unverified with ``reason``."""
+
+    status: ElementStatus = ElementStatus.UNVERIFIED
+    reason: str = ""
+
+
+def verify_frames(frames: Iterable[Frame], model: BimModel, prior: np.ndarray | None = None,
+                  config: VerifyConfig = VerifyConfig(),
+                  progress: Callable[[FrameResult], None] | None = None) -> VerifyResult:
+    """Each frame of ``frames`` localized on ``model`` and checked (see the module's note). A frame's own pose
+    (a recording's poses, or the source's ``prior`` option) is its prior, else ``prior`` (4, 4 T_world_sensor).
+    Raises :class:`VerifyError` for no frames or a model with nothing to localize on."""
+    try:
+        scene = OccludedMap.of(model)
+    except LocalizationError as error:
+        raise VerifyError(str(error)) from None
+    results = []
+    for index, frame in enumerate(frames):
+        result = verify_frame(index, frame, model, scene, prior, config)
+        results.append(result)
+        if progress is not None:
+            progress(result)
+    if not results:
+        raise VerifyError("the source holds no frames")
+    return VerifyResult(results)
+
+
+def verify_frame(index: int, frame: Frame, model: BimModel, scene: OccludedMap, prior: np.ndarray | None,
+                 config: VerifyConfig) -> FrameResult:
+    start = clock.perf_counter()
+    own = frame.T_world_camera if frame.T_world_camera is not None else None
+    result = FrameResult(index, frame.source or f"frame {index}", frame.time, own if own is not None else prior)
+    if result.prior is None:
+        result.reason = "no prior pose: give --prior X,Y,Z,YAW_DEG or --prior-file, or a source with poses"
+        return _timed(result, start)
+    points_sensor = frame_points(frame)
+    cloud = _Cloud(points_sensor)
+    try:
+        scan = scan_points(cloud, config.localization)
+        loc = localize_cloud(cloud, model, result.prior, (0.0, 0.0, 1.0), config.localization)
+    except LocalizationError as error:
+        result.reason = str(error)
+        if "scan" in locals():
+            result.depth = check_depth(scan, scene, result.prior, False, config.localization.max_range, config.depth)
+            if result.depth.miscalibrated:
+                result.reason += f"; {result.depth.reason}"
+        return _timed(result, start)
+    result.pose, result.covariance, result.degenerate = loc.pose, loc.covariance, list(loc.degenerate)
+    result.residual, result.inliers, result.accepted = loc.residual, loc.inliers, True
+    result.depth = check_depth(scan, scene, loc.pose, True, config.localization.max_range, config.depth)
+    result.observations = _observe(index, frame, points_sensor, loc.pose, model, scene, config)
+    if result.depth.miscalibrated:
+        result.observations = [Unverified(**_fields(o), reason=f"(sensor looks miscalibrated: {result.depth.reason})")
+                               for o in result.observations]
+    return _timed(result, start)
+
+
+def frame_points(frame: Frame) -> np.ndarray:
+    """The frame's valid depth pixels as camera-frame points (N, 3), metres."""
+    valid = frame.valid_depth
+    v, u = np.nonzero(valid)
+    depth = frame.depth[valid].astype(np.float64)
+    return frame.intrinsics.backproject(np.stack([u, v], axis=1).astype(np.float64), depth)
+
+
+@dataclass(frozen=True)
+class _Cloud:
+    points: np.ndarray
+
+
+def _observe(index: int, frame: Frame, points_sensor: np.ndarray, pose: np.ndarray, model: BimModel,
+             scene: OccludedMap, config: VerifyConfig) -> list[Observation]:
+    """The planned objects in view checked, and the new ones, from the fixed ``pose``."""
+    points_sensor = points_sensor[:: max(1, len(points_sensor) // 90_000)]
+    located = points_sensor @ pose[:3, :3].T + pose[:3, 3]
+    structure = structure_for(model)
+    slab = structure.slab_height(pose[:3, 3])
+    a, b = config.depth_noise
+    sigma = a + b * points_sensor[:, 2] ** 2
+    rays = points_sensor / points_sensor[:, 2:3]
+    building = explained(structure, pose[:3, 3], rays @ pose[:3, :3].T, points_sensor[:, 2],
+                         config.surface_tolerance, sigma, slab, config.surface_tolerance)
+    left = located[~building]
+    directions = points_sensor / np.linalg.norm(points_sensor, axis=1, keepdims=True)
+    hits = scene.occluder_hits(pose, directions[:: max(1, len(directions) // 20_000)], 0.5,
+                               config.localization.max_range)
+    elements = planned_in_view(model, hits, config.planned)
+    lookup = RangeLookup.of(points_sensor, pose)
+
+    def behind_walls(points_world: np.ndarray) -> np.ndarray:
+        offset = points_world - pose[:3, 3]
+        distance = np.linalg.norm(offset, axis=1)
+        return scene.permanent.first_hit(pose[:3, 3], offset / distance[:, None]) < distance - 0.03
+
+    fits = check_planned(left, elements, model, slab, index, pose[:3, 3], behind_walls, lookup.seen_through,
+                         config.planned)
+    observations = [f.observation for f in fits]
+    if config.find_new:
+        observations += new_objects(left, [(f.element.global_id, f.observation.pose) for f in fits], model, slab,
+                                    index, config.new)
+    return observations
+
+
+def _fields(observation: Observation) -> dict:
+    return {name: getattr(observation, name) for name in Observation.__dataclass_fields__}
+
+
+def _timed(result: FrameResult, start: float) -> FrameResult:
+    result.seconds = clock.perf_counter() - start
+    return result
