@@ -93,7 +93,7 @@ def check_depth(scan: ScanPoints, scene: OccludedMap, pose: np.ndarray, fixed: b
         return DepthCheck(False, "")
     placed = scan.points @ pose[:3, :3].T + pose[:3, 3]
     tree = cKDTree(visible.points)
-    pairs = _plane_pairs(scan, placed, tree, visible, scene, pose, config)
+    pairs = _plane_pairs(scan, placed, tree, visible, scene, pose, 0.1 if fixed else 0.5, config)
     residual = _median_residual(placed, tree, visible, config.near) if fixed else None
     reasons = []
     worst = max(pairs, key=lambda p: abs(p.error_deg), default=None)
@@ -117,8 +117,10 @@ def _median_residual(placed: np.ndarray, tree: cKDTree, visible, near: float) ->
 
 
 def _plane_pairs(scan: ScanPoints, placed: np.ndarray, tree: cKDTree, visible, scene: OccludedMap,
-                 pose: np.ndarray, config: DepthCheckConfig) -> list[PlanePair]:
-    """Planes of the cloud (sensor frame) matched to BIM elements, each element once, compared two by two."""
+                 pose: np.ndarray, reach: float, config: DepthCheckConfig) -> list[PlanePair]:
+    """Planes of the cloud (sensor frame) matched to BIM elements, each element once, compared two by two. Most of
+    a plane's points must lie within ``reach`` of its element (10 cm from a fix: a cupboard's front 25 cm before
+    the wall hidden behind it is not that wall; half a metre from a prior)."""
     matched: dict[str, tuple[np.ndarray, np.ndarray]] = {}  # element -> (measured normal (sensor), BIM normal)
     remaining = np.arange(len(scan.points))
     rng = np.random.default_rng(0)
@@ -129,7 +131,8 @@ def _plane_pairs(scan: ScanPoints, placed: np.ndarray, tree: cKDTree, visible, s
         normal, members = plane
         members = remaining[members]
         remaining = np.setdiff1d(remaining, members)
-        element, bim_normal = _bim_surface(placed[members], normal @ pose[:3, :3].T, tree, visible, scene, config)
+        element, bim_normal = _bim_surface(placed[members], normal @ pose[:3, :3].T, tree, visible, scene, reach,
+                                           config)
         if element is not None and element not in matched:
             matched[element] = (normal, bim_normal)
     names = list(matched)
@@ -165,10 +168,10 @@ def _ransac(points: np.ndarray, config: DepthCheckConfig, rng) -> tuple[np.ndarr
 
 
 def _bim_surface(placed: np.ndarray, normal_world: np.ndarray, tree: cKDTree, visible, scene: OccludedMap,
-                 config: DepthCheckConfig) -> tuple[str | None, np.ndarray | None]:
+                 reach: float, config: DepthCheckConfig) -> tuple[str | None, np.ndarray | None]:
     """The permanent element most of a plane's points lie nearest (within half a metre), when its surface there
     faces the plane's way within ``match_deg``: (GlobalId, its unit normal), else (None, None)."""
-    gap, index = tree.query(placed, distance_upper_bound=0.5)
+    gap, index = tree.query(placed, distance_upper_bound=reach)
     found = np.isfinite(gap)
     if found.sum() < 0.5 * len(placed):
         return None, None
