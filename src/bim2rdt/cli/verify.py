@@ -48,6 +48,8 @@ def verify_command(
     if prior is not None and prior_file is not None:
         raise typer.BadParameter("give --prior or --prior-file, not both")
     up_sensor = _numbers(up, 3, "--up") if up else None
+    if up_sensor is not None and math.hypot(*up_sensor) < 1e-9:
+        raise typer.BadParameter("--up must be a non-zero vector (gravity up in the sensor frame)")
     settings = get_settings()
     model = load_ifc(ifc_file, cache_dir=ifc_cache_dir(settings))
     T_prior = None

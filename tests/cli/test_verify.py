@@ -1,0 +1,142 @@
+"""`bim2rdt verify` on the real office1 Kinect frame: localization against the truth file, every furniture box as
+planned, an edited IFC (one box moved 30 cm, one deleted) giving deviating and new, the uncorrected depth giving
+a miscalibration warning and no deviating verdict, and bad input in one line."""
+
+from __future__ import annotations
+
+import json
+import math
+import zipfile
+
+import ifcopenshell
+import ifcopenshell.api
+import ifcopenshell.util.placement
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from bim2rdt.cli import app
+
+runner = CliRunner()
+MOVED, DELETED = "3AvJHIZibIA8Zc4nF02Aem", "1JLifEocPP8vfgeQqgMYaa"  # the desk, cupboard B
+
+
+def _truth(sensors):
+    return json.loads((sensors / "pcl" / "office1_truth.json").read_text())
+
+
+def _prior(truth, dx=0.14, dy=0.14, dyaw=5.0) -> str:
+    """X,Y,Z,YAW_DEG of the truth camera moved 20 cm and turned 5 degrees."""
+    T = np.array(truth["T_world_camera"])
+    yaw = math.degrees(math.atan2(T[1, 2], T[0, 2])) + dyaw
+    return f"{T[0, 3] + dx},{T[1, 3] + dy},{T[2, 3]},{yaw}"
+
+
+def _run(ifc, pcd, out, *extra):
+    result = runner.invoke(app, ["verify", str(ifc), str(pcd), "--out", str(out), "--json", *extra])
+    return result
+
+
+def _correction(truth) -> str:
+    return ",".join(str(g) for g in truth["depth_correction"]["g"])
+
+
+@pytest.fixture(scope="module")
+def corrected(sensors, tmp_path_factory):
+    truth = _truth(sensors)
+    out = tmp_path_factory.mktemp("verify")
+    result = _run(sensors / "pcl" / "office1.ifc", sensors / "pcl" / "office1.pcd", out, "--prior", _prior(truth),
+                  "--depth-correction", _correction(truth))
+    assert result.exit_code == 0, result.output
+    return truth, out, json.loads(result.output)
+
+
+def test_verify_localizes_office1_within_3_cm_and_1_degree_of_the_truth(corrected):
+    truth, out, _ = corrected
+    frame = json.loads((out / "localization.json").read_text())["frames"][0]
+    assert frame["accepted"] and frame["source"]
+    pose, T_true = np.array(frame["pose"]), np.array(truth["T_world_camera"])
+    turned = np.rad2deg(np.arccos(np.clip((np.trace(pose[:3, :3].T @ T_true[:3, :3]) - 1) / 2, -1, 1)))
+    assert np.linalg.norm(pose[:3, 3] - T_true[:3, 3]) < 0.03 and turned < 1.0
+    assert np.array(frame["covariance"]).shape == (6, 6)
+
+
+def test_verify_finds_every_furniture_box_of_office1_as_planned(corrected):
+    truth, out, summary = corrected
+    states = {e["global_id"]: e for e in json.loads((out / "twin.json").read_text())["elements"]}
+    for box in truth["furniture"]:
+        assert states[box["GlobalId"]]["status"] == "as planned", box["name"]
+    assert not summary["miscalibrated"]
+    for name in ("twin.ifc", "issues.bcf", "report.html"):
+        assert (out / name).stat().st_size > 0
+
+
+@pytest.fixture(scope="module")
+def edited(sensors, tmp_path_factory):
+    """office1.ifc with the desk moved 30 cm along +x and cupboard B deleted, verified."""
+    folder = tmp_path_factory.mktemp("edited")
+    ifc = ifcopenshell.open(str(sensors / "pcl" / "office1.ifc"))
+    desk = ifc.by_guid(MOVED)
+    matrix = ifcopenshell.util.placement.get_local_placement(desk.ObjectPlacement)
+    matrix[0, 3] += 0.3
+    ifcopenshell.api.run("geometry.edit_object_placement", ifc, product=desk, matrix=matrix, is_si=True)
+    ifcopenshell.api.run("root.remove_product", ifc, product=ifc.by_guid(DELETED))
+    ifc.write(str(folder / "office1_edited.ifc"))
+    truth = _truth(sensors)
+    result = _run(folder / "office1_edited.ifc", sensors / "pcl" / "office1.pcd", folder / "out", "--prior",
+                  _prior(truth), "--depth-correction", _correction(truth))
+    assert result.exit_code == 0, result.output
+    return truth, folder / "out"
+
+
+def test_an_edited_ifc_gives_the_moved_box_deviating_by_30_cm_and_the_deleted_one_new(edited):
+    truth, out = edited
+    states = json.loads((out / "twin.json").read_text())["elements"]
+    moved = next(e for e in states if e["global_id"] == MOVED)
+    assert moved["status"] == "deviating" and abs(moved["deviation"]["translation"] - 0.30) <= 0.05
+    gone = next(b for b in truth["furniture"] if b["GlobalId"] == DELETED)
+    new = [e for e in states if e["status"] == "new"
+           and np.linalg.norm(np.array(e["pose"])[:2, 3] - gone["centre"][:2]) < 0.5]
+    assert new, "no new object where the deleted cupboard stands"
+    with zipfile.ZipFile(out / "issues.bcf") as bcf:
+        markup = " ".join(bcf.read(n).decode() for n in bcf.namelist() if n.endswith("markup.bcf"))
+    assert MOVED in markup and new[0]["global_id"] in markup
+
+
+def test_without_the_depth_correction_nothing_is_deviating_and_the_sensor_looks_miscalibrated(sensors, tmp_path):
+    truth = _truth(sensors)
+    result = _run(sensors / "pcl" / "office1.ifc", sensors / "pcl" / "office1.pcd", tmp_path, "--prior",
+                  _prior(truth))
+    assert result.exit_code == 0, result.output
+    summary = json.loads(result.output)
+    assert summary["miscalibrated"] and "miscalibrated" in summary["warnings"][0]
+    assert summary["verdicts"]["deviating"] == 0
+    states = json.loads((tmp_path / "twin.json").read_text())["elements"]
+    assert not [e for e in states if e["status"] == "deviating"]
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--prior", "1,2"], "--prior needs 4"),
+    (["--prior", "100,100,1,0"], "outside the model"),
+    (["--up", "0,0,0", "--prior", "1,-4,1.4,80"], "non-zero"),
+])
+def test_bad_verify_input_is_one_line_and_exit_1(sensors, tmp_path, args, message):
+    result = runner.invoke(app, ["verify", str(sensors / "pcl" / "office1.ifc"), str(sensors / "pcl" / "office1.pcd"),
+                                 "--out", str(tmp_path), *args])
+    assert result.exit_code != 0 and "Traceback" not in result.output
+    if message:
+        assert message in result.output
+
+
+def test_a_source_that_does_not_exist_is_one_line_and_exit_1(sensors, tmp_path):
+    import os
+    import subprocess
+    import sys
+
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path))
+    done = subprocess.run([sys.executable, "-m", "bim2rdt", "verify", str(sensors / "pcl" / "office1.ifc"),
+                           str(tmp_path / "none.pcd"), "--prior", "1,-4,1.4,80", "--out", str(tmp_path / "out")],
+                          capture_output=True, text=True, env=env, timeout=120)
+    message = (done.stdout + done.stderr).strip()
+    assert done.returncode == 1 and "no such file" in message and "Traceback" not in message
+    assert len(message.splitlines()) == 1
