@@ -55,10 +55,10 @@ def localize_cloud(cloud, model: BimModel, prior_T_world_sensor, up=(0.0, 0.0, 1
     NaN rows are no return) on the permanent elements of ``model``, from ``prior_T_world_sensor`` (4, 4), with
     ``up`` the world up measured by the sensor's IMU (the prior's roll and pitch are kept). Returns the same
     :class:`Localization` as :func:`~bim2rdt.localization.localize`; raises :class:`LocalizationError` with the
-    reason."""
+    reason. A :class:`ScanPoints` (what :func:`scan_points` made of a cloud) is used as it is."""
     cfg = config or LocalizationConfig()
     prior, up_world = _rigid_prior(prior_T_world_sensor), _unit_up(up)
-    scan = scan_points(cloud, cfg)
+    scan = cloud if isinstance(cloud, ScanPoints) else scan_points(cloud, cfg)
     scene = OccludedMap.of(model)
     coarse, near = _fit(scan, scene, prior, prior, up_world, _coarse_icp(cfg), cfg, 2 * cfg.cloud_ray_deg)
     pose = coarse
@@ -97,8 +97,11 @@ def scan_points(cloud, cfg: LocalizationConfig) -> ScanPoints:
 def voxel_means(points: np.ndarray, voxel: float) -> np.ndarray:
     """One point per occupied ``voxel`` cube (the mean of its points), (M, 3): a scan's density falls with range
     and a frame's is highest near the camera; the fix should weigh surfaces, not the sensor's sampling."""
-    keys = np.floor(points / voxel).astype(np.int64)
-    _, inverse, counts = np.unique(keys, axis=0, return_inverse=True, return_counts=True)
+    cells = np.floor(points / voxel).astype(np.int64)
+    cells -= cells.min(axis=0)
+    size = cells.max(axis=0) + 1
+    keys = (cells[:, 0] * size[1] + cells[:, 1]) * size[2] + cells[:, 2]  # one integer per cube: a 1-D unique
+    _, inverse, counts = np.unique(keys, return_inverse=True, return_counts=True)
     sums = np.zeros((len(counts), 3))
     np.add.at(sums, inverse.reshape(-1), points)
     return sums / counts[:, None]
