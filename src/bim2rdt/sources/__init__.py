@@ -8,8 +8,10 @@ applies with ``depth_correction=(gx, gy, gz)``.
 """
 
 from bim2rdt.sources.calibration import correct_depth, correct_points
+from bim2rdt.sources.cloud import Cloud, read_cloud
 from bim2rdt.sources.errors import SourceError
 from bim2rdt.sources.options import SourceOptions
 from bim2rdt.sources.source import FrameSource, open_source
 
-__all__ = ["FrameSource", "SourceError", "SourceOptions", "correct_depth", "correct_points", "open_source"]
+__all__ = ["Cloud", "FrameSource", "SourceError", "SourceOptions", "correct_depth", "correct_points", "open_source",
+           "read_cloud"]

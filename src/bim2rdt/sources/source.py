@@ -17,7 +17,7 @@ from typing import Protocol, runtime_checkable
 
 from bim2rdt.perception.frame import Frame
 from bim2rdt.sources.errors import SourceError
-from bim2rdt.sources.options import SourceOptions, parse_options
+from bim2rdt.sources.options import parse_options
 
 
 @runtime_checkable
@@ -31,11 +31,17 @@ class FrameSource(Protocol):
 
 FILE_READERS: dict[str, str] = {
     ".pcd": "bim2rdt.sources.pcd_frame:OrganisedPcd",
+    ".mkv": "bim2rdt.sources.azure_kinect:AzureKinectMkv",
 }
 """File extension (lower case) -> ``"module:Class"`` of its reader."""
 
-FOLDER_READERS: list[tuple[Callable[[Path], bool], str]] = []
-"""(does this folder look like the format?, ``"module:Class"``), asked in order."""
+FOLDER_READERS: list[tuple[str, str]] = [
+    ("bim2rdt.sources.tum:is_tum_folder", "bim2rdt.sources.tum:TumFolder"),
+    ("bim2rdt.sources.grabber:is_grabber_folder", "bim2rdt.sources.grabber:GrabberFolder"),
+    ("bim2rdt.sources.tum:is_pair_folder", "bim2rdt.sources.tum:PairFolder"),
+]
+"""(``"module:function"`` telling whether a folder is in the format, ``"module:Class"`` of its reader), asked in
+order."""
 
 
 def open_source(path, **options) -> FrameSource:
@@ -53,7 +59,7 @@ def open_source(path, **options) -> FrameSource:
 def _reader_name(path: Path) -> str:
     if path.is_dir():
         for looks_like, name in FOLDER_READERS:
-            if looks_like(path):
+            if _reader(looks_like)(path):
                 return name
         raise SourceError(path, "no frames here: a folder needs a TUM rgb.txt + depth.txt, a colour + depth PNG pair "
                                 "(*_color.png, *_depth.png) or PCL grabber TIFFs (*_depth.tiff + .xml)")
@@ -64,6 +70,6 @@ def _reader_name(path: Path) -> str:
     return name
 
 
-def _reader(name: str) -> Callable[[Path, SourceOptions], FrameSource]:
+def _reader(name: str) -> Callable:
     module, attribute = name.split(":")
     return getattr(importlib.import_module(module), attribute)
