@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import math
+import sys
 import zipfile
 
 import ifcopenshell
@@ -115,28 +116,46 @@ def test_without_the_depth_correction_nothing_is_deviating_and_the_sensor_looks_
     assert not [e for e in states if e["status"] == "deviating"]
 
 
+def _fails(monkeypatch, capsys, *args) -> str:
+    """Run the real entry point (one-line errors, exit codes) with ``args``; its exit code must be 1 and its
+    output one line without a traceback: returns that line."""
+    from bim2rdt.cli import main
+
+    monkeypatch.setattr(sys, "argv", ["bim2rdt", "verify", *map(str, args)])
+    with pytest.raises(SystemExit) as done:
+        main()
+    captured = capsys.readouterr()
+    message = (captured.out + captured.err).strip()
+    assert done.value.code == 1, message
+    assert "Traceback" not in message and len(message.splitlines()) == 1, message
+    return message
+
+
 @pytest.mark.parametrize("args, message", [
     (["--prior", "1,2"], "--prior needs 4"),
     (["--prior", "100,100,1,0"], "outside the model"),
     (["--up", "0,0,0", "--prior", "1,-4,1.4,80"], "non-zero"),
+    (["--up", "0,0,1", "--prior", "1,-4,1.4,80"], "along the optical axis"),
+    (["--prior", "1,-4,1.4,80", "--prior-file", "x.json"], "not both"),
+    (["--prior", "1,-4,1.4,80", "--depth-correction", "1,2"], "--depth-correction needs 3"),
 ])
-def test_bad_verify_input_is_one_line_and_exit_1(sensors, tmp_path, args, message):
-    result = runner.invoke(app, ["verify", str(sensors / "pcl" / "office1.ifc"), str(sensors / "pcl" / "office1.pcd"),
-                                 "--out", str(tmp_path), *args])
-    assert result.exit_code != 0 and "Traceback" not in result.output
-    if message:
-        assert message in result.output
+def test_bad_verify_options_are_one_line_and_exit_1(sensors, tmp_path, monkeypatch, capsys, args, message):
+    line = _fails(monkeypatch, capsys, sensors / "pcl" / "office1.ifc", sensors / "pcl" / "office1.pcd",
+                  "--out", tmp_path, *args)
+    assert message in line
 
 
-def test_a_source_that_does_not_exist_is_one_line_and_exit_1(sensors, tmp_path):
-    import os
-    import subprocess
-    import sys
-
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path))
-    done = subprocess.run([sys.executable, "-m", "bim2rdt", "verify", str(sensors / "pcl" / "office1.ifc"),
-                           str(tmp_path / "none.pcd"), "--prior", "1,-4,1.4,80", "--out", str(tmp_path / "out")],
-                          capture_output=True, text=True, env=env, timeout=120)
-    message = (done.stdout + done.stderr).strip()
-    assert done.returncode == 1 and "no such file" in message and "Traceback" not in message
-    assert len(message.splitlines()) == 1
+def test_bad_sources_and_models_are_one_line_and_exit_1(sensors, tmp_path, monkeypatch, capsys):
+    ifc, pcd = sensors / "pcl" / "office1.ifc", sensors / "pcl" / "office1.pcd"
+    prior = ["--prior", "1.3,-4.5,1.4,82", "--out", tmp_path / "out"]
+    assert "no such file" in _fails(monkeypatch, capsys, ifc, tmp_path / "none.pcd", *prior)
+    (tmp_path / "empty").mkdir()
+    assert "no frames" in _fails(monkeypatch, capsys, ifc, tmp_path / "empty", *prior)
+    furniture_only = ifcopenshell.open(str(ifc))
+    for global_id in [p.GlobalId for p in furniture_only.by_type("IfcElement") if not p.is_a("IfcFurniture")]:
+        try:
+            ifcopenshell.api.run("root.remove_product", furniture_only, product=furniture_only.by_guid(global_id))
+        except RuntimeError:
+            pass  # went with its host (an opening with its wall)
+    furniture_only.write(str(tmp_path / "furniture.ifc"))
+    assert "no map to localize on" in _fails(monkeypatch, capsys, tmp_path / "furniture.ifc", pcd, *prior)

@@ -35,21 +35,16 @@ def verify_command(
 ) -> None:
     """Localize each frame on the BIM's walls and slabs, check every planned object in view and find new ones,
     record them in a twin and export it."""
-    import numpy as np
-
     from bim2rdt.bim import load_ifc
     from bim2rdt.config import get_settings, ifc_cache_dir
-    from bim2rdt.sources import open_source
-    from bim2rdt.verify import VerifyConfig, record_twin, verify_frames, write_outputs
+    from bim2rdt.verify import VerifyConfig, levelled, prior_pose, record_twin, verify_frames, write_outputs
     from bim2rdt.verify.outputs import verdict_counts
 
     if detector not in ("cluster", "none"):
-        raise typer.BadParameter(f"--detector must be 'cluster' or 'none', not {detector!r}")
+        raise _bad(f"--detector must be 'cluster' or 'none', not {detector!r}")
     if prior is not None and prior_file is not None:
-        raise typer.BadParameter("give --prior or --prior-file, not both")
+        raise _bad("give --prior or --prior-file, not both")
     up_sensor = _numbers(up, 3, "--up") if up else None
-    if up_sensor is not None and math.hypot(*up_sensor) < 1e-9:
-        raise typer.BadParameter("--up must be a non-zero vector (gravity up in the sensor frame)")
     settings = get_settings()
     model = load_ifc(ifc_file, cache_dir=ifc_cache_dir(settings))
     T_prior = None
@@ -59,11 +54,11 @@ def verify_command(
     elif prior_file is not None:
         T_prior = _prior_file(prior_file)
         if up_sensor is not None:
-            T_prior = prior_pose(T_prior[:3, 3], _heading_deg(T_prior), up_sensor)
+            T_prior = levelled(T_prior, up_sensor)
     if T_prior is not None:
         _inside(model, T_prior[:3, 3])
-    options = {"depth_correction": _numbers(depth_correction, 3, "--depth-correction")} if depth_correction else {}
-    frames = open_source(source, **options)
+    correction = _numbers(depth_correction, 3, "--depth-correction") if depth_correction else None
+    frames = _frames(source, correction)
     config = VerifyConfig(find_new=detector != "none")
     result = verify_frames(frames, model, T_prior, config,
                            progress=None if as_json else lambda f: console.print(
@@ -91,29 +86,34 @@ def verify_command(
                   + (", twin.ifc" if files.ifc else f" (no twin.ifc: {files.ifc_note})"))
 
 
-def prior_pose(position, yaw_deg: float, up_sensor=None):
-    """T_world_sensor of an optical-frame sensor at ``position`` whose optical axis heads ``yaw_deg`` from +x
-    (counter-clockwise, seen from above), level or tilted so that ``up_sensor`` (gravity up in the sensor frame)
-    maps onto world +z."""
-    import numpy as np
+def _bad(message: str) -> Exception:
+    """A one-line input error: exit 1, as every bad input of verify (typer's usage errors exit 2)."""
+    from bim2rdt.verify.errors import VerifyError
 
-    up = np.array([0.0, -1.0, 0.0]) if up_sensor is None else np.asarray(up_sensor, float) / np.linalg.norm(up_sensor)
-    # the level frame: sensor axes in a frame whose z is world up and whose forward is the sensor's heading
-    forward = np.array([0.0, 0.0, 1.0]) - up * up[2]  # the optical axis with its vertical part removed
-    if np.linalg.norm(forward) < 1e-6:
-        raise typer.BadParameter("--up is along the optical axis: the sensor looks straight up or down")
-    forward /= np.linalg.norm(forward)
-    left = np.cross(up, forward)
-    R_level_sensor = np.stack([forward, left, up])  # rows: heading, left, up (sensor coordinates)
-    c, s = math.cos(math.radians(yaw_deg)), math.sin(math.radians(yaw_deg))
-    T = np.eye(4)
-    T[:3, :3] = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]) @ R_level_sensor
-    T[:3, 3] = position
-    return T
+    return VerifyError(message)
 
 
-def _heading_deg(T) -> float:
-    return math.degrees(math.atan2(T[1, 2], T[0, 2]))
+SCAN_SUFFIXES = (".ply", ".las", ".laz", ".e57")
+
+
+def _frames(source: Path, correction):
+    """The source's frames (``open_source``), or a scan as one cloud (``read_cloud``: .ply .las .laz .e57, and
+    a .pcd that is not organised), with the depth correction applied."""
+    from bim2rdt.sources import SourceError, correct_points, open_source, read_cloud
+
+    options = {"depth_correction": correction} if correction is not None else {}
+    if source.suffix.lower() not in SCAN_SUFFIXES:
+        try:
+            return open_source(source, **options)
+        except SourceError as error:
+            if "not organised" not in str(error):
+                raise
+    cloud = read_cloud(source)
+    if correction is not None:
+        from dataclasses import replace
+
+        cloud = replace(cloud, points=correct_points(cloud.points, correction))
+    return [cloud]
 
 
 def _numbers(text: str, count: int, option: str) -> list[float]:
@@ -122,7 +122,7 @@ def _numbers(text: str, count: int, option: str) -> list[float]:
     except ValueError:
         values = []
     if len(values) != count or not all(math.isfinite(v) for v in values):
-        raise typer.BadParameter(f"{option} needs {count} comma-separated numbers, got {text!r}")
+        raise _bad(f"{option} needs {count} comma-separated numbers, got {text!r}")
     return values
 
 
@@ -132,12 +132,12 @@ def _prior_file(path: Path):
     try:
         T = np.asarray(json.loads(path.read_text()), dtype=float)
     except (OSError, ValueError, TypeError) as error:
-        raise typer.BadParameter(f"--prior-file {path}: {str(error).splitlines()[0]}") from None
+        raise _bad(f"--prior-file {path}: {str(error).splitlines()[0]}") from None
     if T.shape != (4, 4) or not np.all(np.isfinite(T)):
-        raise typer.BadParameter(f"--prior-file {path}: expected a 4x4 matrix (a list of 4 lists), got shape {T.shape}")
+        raise _bad(f"--prior-file {path}: expected a 4x4 matrix (a list of 4 lists), got shape {T.shape}")
     R = T[:3, :3]
     if np.abs(R @ R.T - np.eye(3)).max() > 1e-3 or np.linalg.det(R) < 0:
-        raise typer.BadParameter(f"--prior-file {path}: not a rigid transform")
+        raise _bad(f"--prior-file {path}: not a rigid transform")
     return T
 
 
@@ -151,7 +151,7 @@ def _inside(model, position) -> None:
     try:
         low, high = OccludedMap.of(model).permanent.mesh.bounds
     except LocalizationError as error:
-        raise typer.BadParameter(f"{model.path.name}: {error}") from None
+        raise _bad(f"{model.path.name}: {error}") from None
     if np.any(position < low - 2.0) or np.any(position > high + 2.0):
-        raise typer.BadParameter(f"the prior {np.round(position, 2).tolist()} lies outside the model (its walls and "
+        raise _bad(f"the prior {np.round(position, 2).tolist()} lies outside the model (its walls and "
                                  f"slabs span {np.round(low, 1).tolist()} to {np.round(high, 1).tolist()})")

@@ -17,7 +17,6 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from bim2rdt.bim import BimModel
-from bim2rdt.errors import Bim2RdtError
 from bim2rdt.localization import LocalizationConfig, LocalizationError, localize_cloud
 from bim2rdt.localization.cloud import OccludedMap, scan_points
 from bim2rdt.perception.background import explained, structure_for
@@ -25,14 +24,11 @@ from bim2rdt.perception.frame import Frame
 from bim2rdt.perception.observation import Observation
 from bim2rdt.twin import ElementStatus
 from bim2rdt.verify.depth_check import DepthCheck, DepthCheckConfig, check_depth, check_depth_from_prior
+from bim2rdt.verify.errors import VerifyError
 from bim2rdt.verify.new_objects import NewObjectConfig, new_objects
 from bim2rdt.verify.planned import PlannedConfig, check_planned, planned_in_view
+from bim2rdt.verify.priors import levelled
 from bim2rdt.verify.rays import RangeLookup
-
-
-class VerifyError(Bim2RdtError):
-    """Input verify cannot work with (no frames, a prior outside the model, a model with nothing to localize
-    on); one line."""
 
 
 def real_sensor_localization() -> LocalizationConfig:
@@ -115,11 +111,13 @@ class Unverified(Observation):
     reason: str = ""
 
 
-def verify_frames(frames: Iterable[Frame], model: BimModel, prior: np.ndarray | None = None,
+def verify_frames(frames: Iterable, model: BimModel, prior: np.ndarray | None = None,
                   config: VerifyConfig = VerifyConfig(),
                   progress: Callable[[FrameResult], None] | None = None) -> VerifyResult:
-    """Each frame of ``frames`` localized on ``model`` and checked (see the module's note). A frame's own pose
-    (a recording's poses, or the source's ``prior`` option) is its prior, else ``prior`` (4, 4 T_world_sensor).
+    """Each frame of ``frames`` localized on ``model`` and checked (see the module's note). An item is a
+    :class:`Frame` or a scan (anything with ``.points`` (N, 3) in the sensor frame, and ``.path``: a
+    ``sources.Cloud``). A frame's own pose (a recording's poses, or the source's ``prior`` option) is its prior,
+    else ``prior`` (4, 4 T_world_sensor).
     Raises :class:`VerifyError` for no frames or a model with nothing to localize on."""
     try:
         scene = OccludedMap.of(model)
@@ -136,15 +134,23 @@ def verify_frames(frames: Iterable[Frame], model: BimModel, prior: np.ndarray | 
     return VerifyResult(results)
 
 
-def verify_frame(index: int, frame: Frame, model: BimModel, scene: OccludedMap, prior: np.ndarray | None,
+def verify_frame(index: int, frame, model: BimModel, scene: OccludedMap, prior: np.ndarray | None,
                  config: VerifyConfig) -> FrameResult:
+    """One frame or scan (see :func:`verify_frames`)."""
     start = clock.perf_counter()
-    own = frame.T_world_camera if frame.T_world_camera is not None else None
-    result = FrameResult(index, frame.source or f"frame {index}", frame.time, own if own is not None else prior)
+    if isinstance(frame, Frame):
+        own, name, when, points_sensor = frame.T_world_camera, frame.source, frame.time, frame_points(frame)
+        if own is None and prior is not None and frame.up is not None:
+            prior = levelled(prior, frame.up)  # the frame's IMU sets the user's prior's roll and pitch
+    else:
+        points = np.asarray(frame.points, dtype=np.float64)
+        own, when = None, None
+        name = getattr(getattr(frame, "path", None), "name", None)
+        points_sensor = points[np.all(np.isfinite(points), axis=1)] if points.ndim == 2 else points
+    result = FrameResult(index, name or f"frame {index}", when, own if own is not None else prior)
     if result.prior is None:
         result.reason = "no prior pose: give --prior X,Y,Z,YAW_DEG or --prior-file, or a source with poses"
         return _timed(result, start)
-    points_sensor = frame_points(frame)
     cloud = _Cloud(points_sensor)
     try:
         scan = scan_points(cloud, config.localization)
@@ -159,7 +165,7 @@ def verify_frame(index: int, frame: Frame, model: BimModel, scene: OccludedMap, 
     result.pose, result.covariance, result.degenerate = loc.pose, loc.covariance, list(loc.degenerate)
     result.residual, result.inliers, result.accepted = loc.residual, loc.inliers, True
     result.depth = check_depth(scan, scene, loc.pose, config.localization.max_range, config.depth)
-    result.observations = _observe(index, frame, points_sensor, loc.pose, model, scene, config)
+    result.observations = _observe(index, points_sensor, loc.pose, model, scene, config)
     if result.depth.miscalibrated:
         result.observations = [Unverified(**_fields(o), reason=f"(sensor looks miscalibrated: {result.depth.reason})")
                                for o in result.observations]
@@ -195,20 +201,20 @@ class _Cloud:
     points: np.ndarray
 
 
-def _observe(index: int, frame: Frame, points_sensor: np.ndarray, pose: np.ndarray, model: BimModel,
-             scene: OccludedMap, config: VerifyConfig) -> list[Observation]:
+def _observe(index: int, points_sensor: np.ndarray, pose: np.ndarray, model: BimModel, scene: OccludedMap,
+             config: VerifyConfig) -> list[Observation]:
     """The planned objects in view checked, and the new ones, from the fixed ``pose``."""
     points_sensor = points_sensor[:: max(1, len(points_sensor) // 90_000)]
+    points_sensor = points_sensor[np.linalg.norm(points_sensor, axis=1) > 1e-6]
     located = points_sensor @ pose[:3, :3].T + pose[:3, 3]
     structure = structure_for(model)
     slab = structure.slab_height(pose[:3, 3])
     a, b = config.depth_noise
-    sigma = a + b * points_sensor[:, 2] ** 2
-    rays = points_sensor / points_sensor[:, 2:3]
-    building = explained(structure, pose[:3, 3], rays @ pose[:3, :3].T, points_sensor[:, 2],
-                         config.surface_tolerance, sigma, slab, config.surface_tolerance)
+    ranges = np.linalg.norm(points_sensor, axis=1)
+    directions = points_sensor / ranges[:, None]  # unit rays: a scan looks all round, no camera z to divide by
+    building = explained(structure, pose[:3, 3], directions @ pose[:3, :3].T, ranges, config.surface_tolerance,
+                         a + b * ranges**2, slab, config.surface_tolerance)
     left = located[~building]
-    directions = points_sensor / np.linalg.norm(points_sensor, axis=1, keepdims=True)
     hits = scene.occluder_hits(pose, directions[:: max(1, len(directions) // 20_000)], 0.5,
                                config.localization.max_range)
     elements = planned_in_view(model, hits, config.planned)
