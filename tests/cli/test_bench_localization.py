@@ -12,7 +12,8 @@ def run_cli(*args: str) -> subprocess.CompletedProcess:
 
 
 def test_bench_localization_json_scores_every_station_against_dead_reckoning_and_the_peer(tmp_path):
-    result = run_cli("bench", "localization", "--distance", "15", "--tolerance", "0", "--json", "--out", str(tmp_path))
+    result = run_cli("bench", "localization", "--distance", "15", "--tolerance", "0", "--no-office", "--json",
+                     "--out", str(tmp_path))
     assert result.returncode == 0, result.stderr
     report = json.loads(result.stdout)
     stations = report["stations"]
@@ -31,7 +32,7 @@ def test_bench_localization_json_scores_every_station_against_dead_reckoning_and
 
 
 def test_bench_localization_prints_errors_against_distance_and_the_targets(tmp_path):
-    result = run_cli("bench", "localization", "--distance", "10", "--no-peers", "--out", str(tmp_path))
+    result = run_cli("bench", "localization", "--distance", "10", "--no-peers", "--no-office", "--out", str(tmp_path))
     assert result.returncode == 0, result.stderr
     assert "against distance walked" in result.stdout and "dead reckoning" in result.stdout
     verdicts = [line for line in result.stdout.splitlines() if " PASS " in line or " FAIL " in line]
@@ -41,3 +42,39 @@ def test_bench_localization_prints_errors_against_distance_and_the_targets(tmp_p
 def test_bench_localization_rejects_a_tour_too_short_to_walk(tmp_path):
     result = run_cli("bench", "localization", "--distance", "1", "--out", str(tmp_path))
     assert result.returncode == 2 and "--distance" in result.stderr
+
+
+def test_bench_localization_fixes_the_real_office_frame_from_twenty_priors(tmp_path, sensors):
+    result = run_cli("bench", "localization", "--no-tour", "--sensors", str(sensors), "--json", "--out", str(tmp_path))
+    assert result.returncode == 0, result.stderr
+    office = json.loads(result.stdout)["office"]
+    assert office["frame"] == "pcl/office1.pcd" and office["priors"] == 20
+    for name in ("corrected", "raw"):
+        variant = office["variants"][name]
+        assert len(variant["fixes"]) == 20
+        summary = variant["summary"]
+        assert summary["accepted"] + summary["refused"] == 20 == sum(summary["refusals"].values()) + summary["accepted"]
+        for fix in variant["fixes"]:
+            assert fix["prior_position_cm"] <= 30.0 + 1e-9 and abs(fix["prior_yaw_deg"]) <= 8.0 + 1e-9
+            assert (fix["position_cm"] is None) == (fix["reason"] is not None) and fix["seconds"] > 0
+    assert json.loads((tmp_path / "results.json").read_text())["office"]["variants"].keys() == {"corrected", "raw"}
+
+
+def test_the_office_table_names_each_depth_variant_and_its_refusals(capsys):
+    from bim2rdt.cli.localization import show_office
+
+    summary = {"accepted": 18, "refused": 2, "refusals": {"moved beyond the basin": 2}, "median_position_cm": 1.5,
+               "worst_position_cm": 2.5, "median_yaw_deg": 0.2, "worst_yaw_deg": 0.6, "median_prior_cm": 20.0,
+               "median_seconds": 0.1}
+    show_office({"frame": "pcl/office1.pcd", "priors": 20, "radius_m": 0.3, "yaw_deg": 8.0,
+                 "variants": {"corrected": {"summary": summary}, "raw": {"summary": {**summary, "accepted": 0}}}})
+    out = capsys.readouterr().out
+    assert "Real office frame (pcl/office1.pcd)" in out and "18/20" in out and "median 1.50 cm / 0.20 deg" in out
+    assert "2 moved beyond the basin" in out and "0/20" in out
+
+
+def test_bench_localization_says_when_the_office_frame_is_absent(tmp_path):
+    result = run_cli("bench", "localization", "--no-tour", "--sensors", str(tmp_path / "none"), "--json",
+                     "--out", str(tmp_path))
+    assert result.returncode == 0, result.stderr
+    assert "no pcl/office1.pcd under" in json.loads(result.stdout)["office"]["skipped"]

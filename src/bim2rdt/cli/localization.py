@@ -1,5 +1,7 @@
 """`bim2rdt bench localization`: a 100 m tour on drifting odometry; dead reckoning, BIM fixes and the fused
-estimate against distance walked, time per frame, check shots, and Open3D's point-to-plane ICP as the peer."""
+estimate against distance walked, time per frame, check shots, and Open3D's point-to-plane ICP as the peer; then
+the real office frame (office1.pcd on office1.ifc) fixed from 20 priors around its truth, with and without its
+depth correction."""
 
 from __future__ import annotations
 
@@ -28,9 +30,16 @@ def bench_localization(
                                       help="Run Open3D too (default: when open3d is importable)."),
     one_core: bool = typer.Option(True, "--one-core/--all-cores",
                                   help="Pin the process to one CPU: the per-frame target is for one core."),
+    tour: bool = typer.Option(True, "--tour/--no-tour", help="Walk the simulated tour."),
+    office: bool = typer.Option(True, "--office/--no-office",
+                                help="Localize the real office frame too (skipped when the sensor data is absent)."),
+    sensors: Path = typer.Option(Path(os.environ.get("BIM2RDT_SENSORS", "../shared/data/sensors")), "--sensors",
+                                 help="The real sensor data folder (pcl/office1.pcd, office1.ifc, "
+                                      "office1_truth.json); default $BIM2RDT_SENSORS or ../shared/data/sensors."),
     as_json: bool = typer.Option(False, "--json", help="Print JSON instead of tables."),
 ) -> None:
-    """Walk the tour, localize every station on the BIM, fuse with odometry, and print errors and targets."""
+    """Walk the tour, localize every station on the BIM, fuse with odometry, and print errors and targets; then
+    fix the real office frame from priors around its truth."""
     from bim2rdt.atomic import write_bytes_atomic
     from bim2rdt.bench.localization.peers import Open3dPointToPlane
     from bim2rdt.bench.localization.run import run_record, run_tour
@@ -42,18 +51,52 @@ def bench_localization(
     if one_core and hasattr(os, "sched_setaffinity"):
         os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
     config = get_settings().localization
-    methods = [Open3dPointToPlane(config, visible_only=False), Open3dPointToPlane(config, visible_only=True)] \
-        if (_open3d_available() if peers is None else peers) else []
-    with progress(len(tour_poses(distance)), "localization tour") as tick:
-        run = run_tour(out, seed, distance, config, methods, tick=tick, tolerance=tolerance)
-    record = run_record(run)
+    record, plot = {}, None
+    if tour:
+        methods = [Open3dPointToPlane(config, visible_only=False), Open3dPointToPlane(config, visible_only=True)] \
+            if (_open3d_available() if peers is None else peers) else []
+        with progress(len(tour_poses(distance)), "localization tour") as tick:
+            run = run_tour(out, seed, distance, config, methods, tick=tick, tolerance=tolerance)
+        record = run_record(run)
+        plot = plot_errors(run, out / "errors.png")
+    if office:
+        record["office"] = _office(sensors, config, seed, out)
     write_bytes_atomic(out / "results.json", json.dumps(record, indent=2, default=float).encode("utf-8"))
-    plot = plot_errors(run, out / "errors.png")
     if as_json:
         print_json(record)
         return
-    show_record(record)
-    console.print(f"plot {plot}, results.json in {out}")
+    if tour:
+        show_record(record)
+    if office:
+        show_office(record["office"])
+    console.print(f"{f'plot {plot}, ' if plot else ''}results.json in {out}")
+
+
+def _office(sensors: Path, config, seed: int, out: Path) -> dict:
+    from bim2rdt.bench.localization.office import FRAME, run_office
+
+    if not (sensors / FRAME).is_file():
+        return {"skipped": f"no {FRAME} under {sensors} (set --sensors or BIM2RDT_SENSORS)"}
+    return run_office(sensors, config, seed=seed, cache_dir=out / "cache")
+
+
+def show_office(office: dict) -> None:
+    """The office frame's fixes per depth variant: accepted, errors, refusals, time."""
+    if "skipped" in office:
+        console.print(f"office frame skipped: {office['skipped']}")
+        return
+    rows = []
+    for name, variant in office["variants"].items():
+        s = variant["summary"]
+        error = "-" if not s["accepted"] else (f"median {s['median_position_cm']:.2f} cm / {s['median_yaw_deg']:.2f} "
+                                               f"deg, worst {s['worst_position_cm']:.2f} cm / "
+                                               f"{s['worst_yaw_deg']:.2f} deg")
+        refusals = "; ".join(f"{count} {why}" for why, count in s["refusals"].items()) or "-"
+        rows.append((name, f"{s['accepted']}/{office['priors']}", error, refusals, f"{s['median_seconds']:.3f}"))
+    print_table(f"Real office frame ({office['frame']}): BIM fix from {office['priors']} priors within "
+                f"{office['radius_m'] * 100:.0f} cm and {office['yaw_deg']:.0f} deg of the truth (median prior "
+                f"{office['variants']['corrected']['summary']['median_prior_cm']:.1f} cm off)",
+                ["depth", "fixed", "error (accepted)", "refused", "s per frame"], rows)
 
 
 def show_record(record: dict) -> None:
