@@ -159,3 +159,16 @@ def test_bad_sources_and_models_are_one_line_and_exit_1(sensors, tmp_path, monke
             pass  # went with its host (an opening with its wall)
     furniture_only.write(str(tmp_path / "furniture.ifc"))
     assert "no map to localize on" in _fails(monkeypatch, capsys, tmp_path / "furniture.ifc", pcd, *prior)
+
+
+def test_a_partly_corrected_depth_is_localized_but_every_verdict_is_unverified(sensors, tmp_path):
+    truth = _truth(sensors)
+    g = ",".join(str(0.7 * x) for x in truth["depth_correction"]["g"])  # 30 % of the bend left in
+    result = _run(sensors / "pcl" / "office1.ifc", sensors / "pcl" / "office1.pcd", tmp_path, "--prior",
+                  _prior(truth), "--depth-correction", g)
+    assert result.exit_code == 0, result.output
+    summary = json.loads(result.output)
+    assert summary["localized"] == 1 and summary["miscalibrated"]
+    states = [e for e in json.loads((tmp_path / "twin.json").read_text())["elements"]
+              if e["status"] != "not observed"]
+    assert states and all(e["status"] == "unverified" for e in states)
