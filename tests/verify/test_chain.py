@@ -59,3 +59,16 @@ def test_a_scan_without_a_prior_is_refused_with_its_reason_and_no_frames_is_an_e
     assert not result.frames[0].accepted and "no prior" in result.frames[0].reason
     with pytest.raises(VerifyError, match="no frames"):
         verify_frames([], site_model, np.eye(4))
+
+
+def test_a_recordings_own_poses_carry_the_last_fix_forward_as_odometry():
+    from bim2rdt.verify.chain import _prior_for
+
+    shift = np.eye(4)
+    shift[:3, 3] = (1.0, 0.0, 0.0)
+    own_0, own_1 = np.eye(4), shift  # the recording moved 1 m along its own x
+    fix_0 = look_at((5.0, 5.0, 1.2), (5.0, 9.0, 1.2))  # where the BIM put its first frame
+    prior_1 = _prior_for(own_1, (own_0, fix_0))
+    assert np.allclose(prior_1, fix_0 @ shift)  # 1 m along the fixed frame's own x
+    assert np.allclose(_prior_for(None, (None, fix_0)), fix_0)
+    assert _prior_for(own_1, None) is own_1

@@ -116,16 +116,28 @@ def verify_frames(frames: Iterable, model: BimModel, prior: np.ndarray | None = 
                   progress: Callable[[FrameResult], None] | None = None) -> VerifyResult:
     """Each frame of ``frames`` localized on ``model`` and checked (see the module's note). An item is a
     :class:`Frame` or a scan (anything with ``.points`` (N, 3) in the sensor frame, and ``.path``: a
-    ``sources.Cloud``). A frame's own pose (a recording's poses, or the source's ``prior`` option) is its prior,
-    else ``prior`` (4, 4 T_world_sensor).
+    ``sources.Cloud``). Each item's prior:
+
+    - with ``prior`` (4, 4 T_world_sensor, the model's frame) and frames that carry poses (a recording's own,
+      in whatever frame it keeps them): those poses are odometry, anchored at the last accepted fix (at first,
+      ``prior`` for the first frame): prior_i = T_fix_k @ inv(T_own_k) @ T_own_i;
+    - with ``prior`` and no poses: the last accepted fix, else ``prior``;
+    - without ``prior``: the frame's own pose, taken as in the model's frame (none: refused with the reason).
+
     Raises :class:`VerifyError` for no frames or a model with nothing to localize on."""
     try:
         scene = OccludedMap.of(model)
     except LocalizationError as error:
         raise VerifyError(str(error)) from None
-    results = []
+    results: list[FrameResult] = []
+    anchor: tuple[np.ndarray | None, np.ndarray] | None = None if prior is None else (None, np.asarray(prior))
     for index, frame in enumerate(frames):
-        result = verify_frame(index, frame, model, scene, prior, config)
+        own = frame.T_world_camera if isinstance(frame, Frame) else None
+        result = verify_frame(index, frame, model, scene, _prior_for(own, anchor), config)
+        if anchor is not None and result.accepted:
+            anchor = (own, result.pose)
+        elif anchor is not None and anchor[0] is None and own is not None:
+            anchor = (own, anchor[1])  # the user's prior is where the sensor was at its first pose
         results.append(result)
         if progress is not None:
             progress(result)
@@ -134,33 +146,45 @@ def verify_frames(frames: Iterable, model: BimModel, prior: np.ndarray | None = 
     return VerifyResult(results)
 
 
+def _prior_for(own: np.ndarray | None, anchor) -> np.ndarray | None:
+    """A frame's prior from its own pose and the anchor (see :func:`verify_frames`)."""
+    if anchor is None:
+        return own
+    anchor_own, anchor_world = anchor
+    if own is None or anchor_own is None:  # no odometry to carry the anchor forward (or the first frame)
+        return anchor_world
+    return anchor_world @ np.linalg.inv(anchor_own) @ own
+
+
 def verify_frame(index: int, frame, model: BimModel, scene: OccludedMap, prior: np.ndarray | None,
                  config: VerifyConfig) -> FrameResult:
-    """One frame or scan (see :func:`verify_frames`)."""
+    """One frame or scan from ``prior`` (see :func:`verify_frames`); a frame's IMU ``up`` sets the prior's roll
+    and pitch."""
     start = clock.perf_counter()
     if isinstance(frame, Frame):
-        own, name, when, points_sensor = frame.T_world_camera, frame.source, frame.time, frame_points(frame)
-        if own is None and prior is not None and frame.up is not None:
-            prior = levelled(prior, frame.up)  # the frame's IMU sets the user's prior's roll and pitch
+        name, when, points_sensor = frame.source, frame.time, frame_points(frame)
+        if prior is not None and frame.up is not None:
+            prior = levelled(prior, frame.up)
     else:
         points = np.asarray(frame.points, dtype=np.float64)
-        own, when = None, None
-        name = getattr(getattr(frame, "path", None), "name", None)
+        name, when = getattr(getattr(frame, "path", None), "name", None), None
         points_sensor = points[np.all(np.isfinite(points), axis=1)] if points.ndim == 2 else points
-    result = FrameResult(index, name or f"frame {index}", when, own if own is not None else prior)
-    if result.prior is None:
+    result = FrameResult(index, name or f"frame {index}", when, prior)
+    if prior is None:
         result.reason = "no prior pose: give --prior X,Y,Z,YAW_DEG or --prior-file, or a source with poses"
         return _timed(result, start)
-    cloud = _Cloud(points_sensor)
     try:
-        scan = scan_points(cloud, config.localization)
-        loc = localize_cloud(scan, model, result.prior, (0.0, 0.0, 1.0), config.localization)
+        scan = scan_points(_Cloud(points_sensor), config.localization)
     except LocalizationError as error:
         result.reason = str(error)
-        if "scan" in locals():
-            result.depth = _depth_at_best_fit(scan, model, scene, result.prior, config)
-            if result.depth is not None and result.depth.miscalibrated:
-                result.reason += f"; at its best rigid fit {result.depth.reason} (or the prior is far off)"
+        return _timed(result, start)
+    try:
+        loc = localize_cloud(scan, model, prior, (0.0, 0.0, 1.0), config.localization)
+    except LocalizationError as error:
+        result.reason = str(error)
+        result.depth = _depth_at_best_fit(scan, model, scene, prior, config)
+        if result.depth is not None and result.depth.miscalibrated:
+            result.reason += f"; at its best rigid fit {result.depth.reason} (or the prior is far off)"
         return _timed(result, start)
     result.pose, result.covariance, result.degenerate = loc.pose, loc.covariance, list(loc.degenerate)
     result.residual, result.inliers, result.accepted = loc.residual, loc.inliers, True
@@ -174,9 +198,10 @@ def verify_frame(index: int, frame, model: BimModel, scene: OccludedMap, prior: 
 
 def _depth_at_best_fit(scan, model: BimModel, scene: OccludedMap, prior: np.ndarray,
                        config: VerifyConfig) -> DepthCheck | None:
-    """The depth check at the best rigid fit the localizer finds without its acceptance tests (a basin twice as
-    wide, no inlier share, walls see-through): a frame refused because its depth is bent (office1 raw: its best
-    rigid fit lies 0.34 m and 7.7 deg from the true pose) still says why. None when even that fails."""
+    """The depth check at the best rigid fit the localizer finds without its acceptance tests (three times the
+    basin's reach, four times its turn, no inlier share, walls see-through): a frame refused because its depth is
+    bent (office1 raw: its best rigid fit lies 0.34 m and 7.7 deg from the true pose) still says why; without
+    even that fit, the angle test from the prior (``check_depth_from_prior``)."""
     loose = config.localization.model_copy(update={
         "max_correction": 3 * config.localization.max_correction,
         "max_correction_deg": 4 * config.localization.max_correction_deg, "min_inlier_fraction": 0.0,
