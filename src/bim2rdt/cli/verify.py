@@ -79,7 +79,8 @@ def verify_command(
                 [(f.index, f.source, "yes" if f.accepted else "no",
                   "-" if f.residual is None else f"{100 * f.residual:.1f}", f.inliers, f"{f.seconds:.1f}",
                   f.reason or (f.depth.reason if f.depth else "")) for f in result.frames[:20]])
-    console.print("verdicts: " + ", ".join(f"{v} {k}" for k, v in summary["verdicts"].items() if v))
+    console.print("verdicts: " + (", ".join(f"{v} {k}" for k, v in summary["verdicts"].items() if v)
+                                  or "none (no frame localized, or nothing in view)"))
     for warning in result.warnings[:5]:
         console.print(f"[bold red]warning:[/] {warning}; its verdicts are unverified")
     console.print(f"wrote {out}/: twin.json, issues.bcf, localization.json, report.html"

@@ -107,7 +107,7 @@ def check_depth(scan: ScanPoints, scene: OccludedMap, pose: np.ndarray, max_rang
     reasons = []
     worst = max(pairs, key=lambda p: abs(p.error_deg), default=None)
     if worst is not None and abs(worst.error_deg) > config.max_angle_error_deg:
-        reasons.append(f"two permanent planes meet at {worst.measured_deg:.1f} deg where the BIM's meet at "
+        reasons.append(f"two wall or slab faces meet at {worst.measured_deg:.1f} deg where the BIM's meet at "
                        f"{worst.bim_deg:.1f} (more than {config.max_angle_error_deg:g} deg off)")
     if residual is not None and residual > config.max_median_residual:
         reasons.append(f"points lie a median {100 * residual:.1f} cm from the walls and slabs at the best fit "
