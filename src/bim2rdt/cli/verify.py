@@ -18,7 +18,8 @@ def register(app: typer.Typer, bench_app: typer.Typer) -> None:
 def verify_command(
     ifc_file: Path = typer.Argument(..., help="The BIM (IFC4 to write the twin back; IFC2X3 still verifies)."),
     source: Path = typer.Argument(..., help="A recording: an organised .pcd frame, a TUM folder, an Azure Kinect "
-                                  ".mkv, PCL grabber TIFFs (whatever bim2rdt.sources reads)."),
+                                  ".mkv, PCL grabber TIFFs (what bim2rdt.sources reads); or a scan: "
+                                  ".ply .las .laz .e57, an unorganised .pcd."),
     prior: str | None = typer.Option(None, "--prior", help="X,Y,Z,YAW_DEG: the sensor's approximate pose in the "
                                      "model's frame (m, deg: the optical axis' heading from +x, counter-clockwise)."),
     prior_file: Path | None = typer.Option(None, "--prior-file", help="JSON 4x4 T_world_sensor (a list of 4 lists); "
