@@ -172,3 +172,24 @@ def test_a_partly_corrected_depth_is_localized_but_every_verdict_is_unverified(s
     states = [e for e in json.loads((tmp_path / "twin.json").read_text())["elements"]
               if e["status"] != "not observed"]
     assert states and all(e["status"] == "unverified" for e in states)
+
+
+def test_a_scan_file_goes_the_same_way_as_the_frame(sensors, tmp_path):
+    """office1's corrected points written as a .ply scan (no image): read by read_cloud, localized, the boxes
+    as planned."""
+    import trimesh
+
+    from bim2rdt.sources import open_source
+
+    truth = _truth(sensors)
+    frame = next(iter(open_source(sensors / "pcl" / "office1.pcd", depth_correction=truth["depth_correction"]["g"])))
+    valid = frame.valid_depth
+    v, u = np.nonzero(valid)
+    points = frame.intrinsics.backproject(np.stack([u, v], axis=1).astype(float), frame.depth[valid].astype(float))
+    trimesh.PointCloud(points).export(str(tmp_path / "office1.ply"))
+    result = _run(sensors / "pcl" / "office1.ifc", tmp_path / "office1.ply", tmp_path / "out", "--prior", _prior(truth))
+    assert result.exit_code == 0, result.output
+    frame_entry = json.loads((tmp_path / "out" / "localization.json").read_text())["frames"][0]
+    assert frame_entry["accepted"] and frame_entry["source"] == "office1.ply"
+    states = {e["global_id"]: e["status"] for e in json.loads((tmp_path / "out" / "twin.json").read_text())["elements"]}
+    assert all(states[b["GlobalId"]] == "as planned" for b in truth["furniture"])
