@@ -23,7 +23,7 @@ from bim2rdt.perception.background import explained, structure_for
 from bim2rdt.perception.frame import Frame
 from bim2rdt.perception.observation import Observation
 from bim2rdt.twin import ElementStatus
-from bim2rdt.verify.depth_check import DepthCheck, DepthCheckConfig, check_depth, check_depth_from_prior
+from bim2rdt.verify.depth_check import DepthCheck, DepthCheckConfig, check_depth
 from bim2rdt.verify.errors import VerifyError
 from bim2rdt.verify.new_objects import NewObjectConfig, new_objects
 from bim2rdt.verify.planned import PlannedConfig, check_planned, planned_in_view, seen_empty
@@ -207,8 +207,9 @@ def _depth_at_best_fit(scan, model: BimModel, scene: OccludedMap, prior: np.ndar
                        config: VerifyConfig) -> DepthCheck | None:
     """The depth check at the best rigid fit the localizer finds without its acceptance tests (three times the
     basin's reach, four times its turn, no inlier share, walls see-through): a frame refused because its depth is
-    bent (office1 raw: its best rigid fit lies 0.34 m and 7.7 deg from the true pose) still says why; without
-    even that fit, the angle test from the prior (``check_depth_from_prior``)."""
+    bent (office1 raw: its best rigid fit lies 0.34 m and 7.7 deg from the true pose) still says why. None when
+    even that fit fails: then nothing says how the depth fits the BIM (RANSAC planes found without a fix ran
+    through a far wall's depth steps, and were no test)."""
     loose = config.localization.model_copy(update={
         "max_correction": 3 * config.localization.max_correction,
         "max_correction_deg": 4 * config.localization.max_correction_deg, "min_inlier_fraction": 0.0,
@@ -216,7 +217,7 @@ def _depth_at_best_fit(scan, model: BimModel, scene: OccludedMap, prior: np.ndar
     try:
         best = localize_cloud(scan, model, prior, (0.0, 0.0, 1.0), loose)
     except LocalizationError:
-        return check_depth_from_prior(scan, scene, prior, config.localization.max_range, config.depth)
+        return None
     return check_depth(scan, scene, best.pose, config.localization.max_range, config.depth)
 
 
