@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import time as clock
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -109,14 +109,6 @@ class VerifyResult:
                 if f.depth is not None and f.depth.miscalibrated]
 
 
-@dataclass
-class Unverified(Observation):
-    """An observation its frame cannot vouch for: the twin records it unverified with ``reason``."""
-
-    status: ElementStatus = ElementStatus.UNVERIFIED
-    reason: str = ""
-
-
 def verify_frames(frames: Iterable, model: BimModel, prior: np.ndarray | None = None,
                   config: VerifyConfig = VerifyConfig(),
                   progress: Callable[[FrameResult], None] | None = None) -> VerifyResult:
@@ -197,8 +189,8 @@ def verify_frame(index: int, frame, model: BimModel, scene: OccludedMap, prior: 
     result.depth = check_depth(scan, scene, loc.pose, config.localization.max_range, config.depth)
     result.observations, result.missing = _observe(index, points_sensor, loc.pose, model, scene, config)
     if result.depth.miscalibrated:
-        result.observations = [Unverified(**_fields(o), reason=f"(sensor looks miscalibrated: {result.depth.reason})")
-                               for o in result.observations]
+        reason = f"(sensor looks miscalibrated: {result.depth.reason})"
+        result.observations = [replace(o, status=ElementStatus.UNVERIFIED, reason=reason) for o in result.observations]
         result.missing = []  # a bent depth sees past a place it merely misplaces
     return _timed(result, start)
 
@@ -272,10 +264,6 @@ def _observe(index: int, points_sensor: np.ndarray, pose: np.ndarray, model: Bim
         observations += new_objects(left, [(f.element.global_id, f.observation.pose) for f in fits], model, slab,
                                     index, config.new)
     return observations, [el.global_id for el in empty]
-
-
-def _fields(observation: Observation) -> dict:
-    return {name: getattr(observation, name) for name in Observation.__dataclass_fields__}
 
 
 def _timed(result: FrameResult, start: float) -> FrameResult:
