@@ -256,3 +256,27 @@ def check_calibration_target(results: Sequence[ScenarioResult]) -> list[Target]:
     detail = (f"{share:.3f} of {judged} well-constrained estimates in the right basin inside their 95 % ellipsoid"
               if judged else "no well-constrained estimate in the right basin to judge")
     return [Target(f"covariance calibration {low:.2f}-{high:.2f}", judged > 0 and low <= share <= high, detail)]
+
+
+ALIAS_AGREEMENT = 0.95
+"""Share of registrations where SG-ICP must end in the same basin as ICP or a better one (issue 26)."""
+
+
+def alias_agreement(scenario: Scenario, result: ScenarioResult, before: str = "ICP", after: str = "SG-ICP",
+                    basin_deg: float = 2.0, basin_m: float = 0.01) -> tuple[float, int]:
+    """(share, count) of registrations where ``after`` ends in the same basin as ``before`` from the same
+    restarts (its pose within ``basin_deg`` and a centroid within ``basin_m`` of ``before``'s, modulo the
+    object's symmetry) or in a better one (a lower mean surface error against the truth)."""
+    column = COLUMNS["mean"]
+    agree, index = [], 0
+    for t, trial in enumerate(scenario.trials):
+        for o, obj in enumerate(trial):
+            mine, theirs = result.poses[after][t][o], result.poses[before][t][o]
+            shown = closest_equivalent(mine, theirs, true_symmetry(obj.family, obj.symmetry_order))
+            centroid = scenario.models[obj.family][0].mean(axis=0)
+            turn = np.rad2deg(np.arccos(np.clip((np.trace(shown[:3, :3].T @ theirs[:3, :3]) - 1) / 2, -1, 1)))
+            shift = np.linalg.norm(shown[:3, :3] @ centroid + shown[:3, 3] - theirs[:3, :3] @ centroid - theirs[:3, 3])
+            better = result.rows[after][index][column] <= result.rows[before][index][column]
+            agree.append((turn < basin_deg and shift < basin_m) or better)
+            index += 1
+    return (float(np.mean(agree)) if agree else float("nan")), len(agree)
