@@ -148,6 +148,15 @@ class PeerUnavailable(Bim2RdtError):
     """An optional peer (extra ``bench``) is not installed."""
 
 
+def small_gicp_available() -> bool:
+    """Whether small_gicp (extra ``bench``) is importable."""
+    try:
+        import_small_gicp()
+    except PeerUnavailable:
+        return False
+    return True
+
+
 def import_small_gicp():
     """small_gicp, or a one-line error naming the extra that provides it."""
     try:
