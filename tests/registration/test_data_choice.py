@@ -8,7 +8,7 @@ import pytest
 
 from bim2rdt.registration import IcpConfig, register
 from bim2rdt.registration import icp
-from bim2rdt.registration.icp import RegistrationResult, keep_data_choice, prior_beats_data
+from bim2rdt.registration.icp import RegistrationResult, data_choice, keep_data_choice, prior_beats_data
 from bim2rdt.registration.matching import ModelIndex
 from bim2rdt.registration.validation import validate_problem
 
@@ -45,6 +45,22 @@ def test_the_rule_ignores_a_penalty_that_would_outweigh_the_datas_lead():
     assert np.argmin(per_point.mean(axis=1) + penalties) == 0  # the prior-weighted score picks the prior's
     assert not prior_beats_data(per_point, 2.0)
     assert prior_beats_data(per_point[::-1], 2.0)  # with the roles swapped, the data do pick it
+    assert data_choice(per_point, penalties, 2.0) == 1  # the data's choice: plain ICP's pose
+
+
+def test_within_the_noise_the_prior_breaks_the_tie():
+    """Data terms ~0.4 standard errors apart: a tie. The pose whose data term plus upright penalty is lower is
+    kept: plain ICP's when both stand upright and its data term is the lower, the prior's when plain ICP's is
+    tilted (its penalty) although its data term is a hair lower."""
+    rng = np.random.default_rng(2)
+    prior = rng.uniform(0.0, 1e-4, 400)
+    free = prior + rng.normal(-2e-6, 1e-4, 400)
+    per_point = np.stack([prior, free])
+    assert not prior_beats_data(per_point, 2.0) and not prior_beats_data(per_point[::-1], 2.0)
+    gap = per_point[0].mean() - per_point[1].mean()
+    assert gap > 0.0  # plain ICP's data term is the lower one
+    assert data_choice(per_point, np.zeros(2), 2.0) == 1
+    assert data_choice(per_point, np.array([0.0, 2.0 * gap]), 2.0) == 0
 
 
 def test_the_datas_basin_is_kept_over_the_priors_slid_alias(crate_model, crate_view, make_pose, placed):

@@ -145,14 +145,15 @@ def _with_prior_free_pass(best: RegistrationResult, problem: Problem, model: mat
 def keep_data_choice(prior: RegistrationResult, free: RegistrationResult, problem: Problem,
                      model: matching.ModelIndex, normals_world: np.ndarray | None, cfg: IcpConfig
                      ) -> RegistrationResult:
-    """The prior's result, or the prior-free one polished with the prior (:func:`_polish`): the prior's is kept
-    only when its data score (the truncated surface residual, no upright penalty) is lower than the prior-free
-    one's by more than ``tie_sigmas`` standard errors of their paired per-point difference
-    (:func:`prior_beats_data`). Within the data's noise the data's own choice stands: the prior knows the tilt,
-    not which yaw or slide alias a sparse view shows, so it may level the pose in that basin but not swap it."""
-    _, pairs = score_poses(model, np.stack([prior.pose, free.pose]), problem.scene_pts_world, cfg)
+    """The prior's result, or plain ICP's polished with the prior (:func:`_polish`), as :func:`data_choice`
+    says: the data term (the truncated surface residual, no upright penalty) decides beyond its paired noise;
+    within it the prior breaks the tie. A prior that knows how an object stands, not which yaw or slide alias
+    a sparse view shows, cannot then keep an alias the data score worse."""
+    poses = np.stack([prior.pose, free.pose])
+    _, pairs = score_poses(model, poses, problem.scene_pts_world, cfg)
+    per_point = np.minimum(pairs.residual, cfg.score_distance) ** 2
     total = prior.total_iterations + free.total_iterations
-    if prior_beats_data(np.minimum(pairs.residual, cfg.score_distance) ** 2, cfg.tie_sigmas):
+    if data_choice(per_point, upright_penalty(poses, pairs, problem, cfg), cfg.tie_sigmas) == 0:
         return replace(prior, total_iterations=total)
     polished = _polish(free.pose, problem, model, normals_world, cfg)
     pose = polished.poses[0]
@@ -163,9 +164,23 @@ def keep_data_choice(prior: RegistrationResult, free: RegistrationResult, proble
                    total_iterations=total + int(polished.iterations[0]))
 
 
+def data_choice(per_point: np.ndarray, penalties: np.ndarray, sigmas: float) -> int:
+    """0 (the prior's pose) or 1 (plain ICP's) from their per-point data terms (2, N) (m^2) and upright penalties
+    (2,): the one whose data term is lower by more than ``sigmas`` standard errors of the paired per-point
+    difference (:func:`prior_beats_data`); within that noise, the lower data term plus penalty (the loop's
+    objective: there the prior breaks the tie, and it decides a tilt the data cannot tell), the prior's on
+    equality."""
+    if prior_beats_data(per_point[::-1], sigmas):
+        return 1
+    if prior_beats_data(per_point, sigmas):
+        return 0
+    totals = per_point.mean(axis=1) + penalties
+    return int(totals[1] < totals[0])
+
+
 def prior_beats_data(per_point: np.ndarray, sigmas: float) -> bool:
-    """Whether the prior's pose (row 0 of per-point score terms (2, N), m^2) scores lower on the data than the
-    prior-free pose (row 1) by more than ``sigmas`` standard errors of their paired per-point difference."""
+    """Whether the pose of row 0 of per-point score terms (2, N) (m^2) scores lower on the data than that of
+    row 1 by more than ``sigmas`` standard errors of their paired per-point difference."""
     difference = per_point[1] - per_point[0]
     noise = difference.std() / np.sqrt(len(difference))
     return bool(difference.mean() > sigmas * noise)
