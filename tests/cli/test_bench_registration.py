@@ -19,13 +19,20 @@ def test_bench_registration_json_has_every_scenario_method_and_target(tmp_path):
     report = json.loads(result.stdout)
     assert set(report["scenarios"]) == {"S1", "S2", "S3", "S4"}
     methods = report["scenarios"]["S1"]["methods"]
-    assert {"ICP", "SG-ICP", "Open3D pt-pt", "Open3D pt-plane"} <= set(methods)
+    assert {"ICP", "SG-ICP", "Open3D pt-pt", "Open3D pt-plane", "small_gicp plane 1T", "small_gicp GICP 1T",
+            "small_gicp plane allT", "small_gicp GICP allT"} <= set(methods)
     assert all(0.0 <= m["success"] <= 1.0 and m["rmse"] > 0.0 for m in methods.values())
     assert all(sum(m["modes"].values()) == m["registrations"] for m in methods.values())
     assert all(m["knocked_tilt_deg"] is None or m["knocked_tilt_deg"] >= 0.0 for m in methods.values())
-    assert len(report["targets"]) == 8  # S1-S4's four, S4 success, the families' two, the covariance calibration
-    assert set(report["families"]) == {f"F{i}" for i in range(1, 10)}
-    assert {"ICP", "SG-ICP", "Open3D pt-plane"} == set(report["families"]["F1"]["methods"])
+    # S1-S4's four, the small_gicp moonshot, S4 success, the families' two, the aliases' two, small_gicp's
+    # accuracy, the covariance calibration
+    assert len(report["targets"]) == 12
+    assert set(report["families"]) == {f"F{i}" for i in range(1, 12)}
+    assert {"ICP", "SG-ICP", "Open3D pt-plane", "small_gicp plane 1T", "small_gicp GICP 1T"} == set(
+        report["families"]["F1"]["methods"])
+    assert "alias_agreement" in report["families"]["F10"] and "alias_agreement" not in report["families"]["F1"]
+    assert 0.0 <= report["families"]["F11"]["alias_agreement"]["share"] <= 1.0
+    assert report["speed"]["sg_icp_ratio"]["small_gicp plane 1T"] > 0.0
     assert report["worst_family"] in report["families"]
     assert report["priors"]["Survey_Tripod_Aluminium"]["upright_bias"] < report["priors"][
         "Wooden_Crate_1200x800x600"]["upright_bias"]
@@ -40,7 +47,8 @@ def test_bench_registration_prints_the_table_with_pass_or_fail(tmp_path):
     assert "SG-ICP" in result.stdout and "Targets" in result.stdout
     assert "fails t/f/y/s" in result.stdout and "leaning tilt" in result.stdout
     verdicts = [line for line in result.stdout.splitlines() if " PASS " in line or " FAIL " in line]
-    assert len(verdicts) == 6  # no peers: RMSE cut, no worse than ICP, S4 success, the families' two, calibration
+    assert len(verdicts) == 8  # no peers: RMSE cut, no worse than ICP, S4 success, the families' and aliases' two
+    # each, calibration
     assert "covariance: in 95 %" in result.stdout
     assert "worst family" in result.stdout and "Scene families" in result.stdout
     results = json.loads((tmp_path / "results.json").read_text())

@@ -10,7 +10,8 @@ import typer
 
 from bim2rdt.cli.common import console, out_path, print_json, print_table, writable_folder
 
-PEER_COLUMNS = ("SG-ICP upright only", "Open3D pt-pt", "Open3D pt-plane")
+PEER_COLUMNS = ("SG-ICP upright only", "Open3D pt-pt", "Open3D pt-plane", "small_gicp plane 1T",
+                "small_gicp GICP 1T", "small_gicp plane allT", "small_gicp GICP allT")
 
 
 def register(app: typer.Typer, bench_app: typer.Typer) -> None:
@@ -28,21 +29,21 @@ def bench_registration(
                                   help="Pin the process to one CPU so Open3D's TBB threads and our numpy "
                                        "compete on equal terms."),
     families: bool = typer.Option(True, "--families/--no-families",
-                                  help="Also run the scene families F1-F9 (sparse half-occluded single views "
-                                       "built outside S1-S4; bim2rdt.sim.families)."),
+                                  help="Also run the scene families F1-F11 (sparse half-occluded single views "
+                                       "built outside S1-S4; F10-F11 are issue 26's yaw aliases, two "
+                                       "generators)."),
     as_json: bool = typer.Option(False, "--json", help="Print JSON instead of tables."),
 ) -> None:
-    """Run S1-S4 with ICP, SG-ICP (priors from the knowledge base) and Open3D, then the scene families F1-F9;
-    print the tables and targets."""
-    from bim2rdt.bench.registration.runs import run_registration_scenarios, run_record, save_run
+    """Run S1-S4 with ICP, SG-ICP (priors from the knowledge base), Open3D and small_gicp, then the scene
+    families F1-F11; print the tables and targets."""
+    from bim2rdt.bench.registration.runs import FAMILY_NAMES, run_registration_scenarios, run_record, save_run
     from bim2rdt.config import get_settings, settings_record
-    from bim2rdt.sim.families import FAMILIES
 
     if one_core and hasattr(os, "sched_setaffinity"):
         os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
     use_peers = _open3d_available() if peers is None else peers
     settings = get_settings()
-    names = tuple(FAMILIES) if families else ()
+    names = FAMILY_NAMES if families else ()
     with progress((4 + len(names)) * trials, "registration scenarios and families") as tick:
         run = run_registration_scenarios(out, trials, seed, settings.registration, use_peers, families=names,
                                          tick=tick)
@@ -85,6 +86,8 @@ def show_run(run, targets: bool = True) -> None:
                 ["scenario", "metric", "ICP", "SG-ICP", "improvement", *peers], rows)
     if run.families:
         show_families(run)
+    if len(peers) > 1:
+        show_speed(run)
     if targets:
         print_table("Targets", ["target", "result", "detail"],
                     [(t.name, "PASS" if t.passed else "FAIL", t.detail) for t in run.targets])
@@ -92,19 +95,25 @@ def show_run(run, targets: bool = True) -> None:
 
 def show_families(run) -> None:
     """One row per scene family: mean surface error (mm) of ICP and SG-ICP with the cut and its paired
-    interval, the peer, success and failure modes; then the worst family again."""
-    from bim2rdt.bench.registration.stats import cut_interval, improvement, worst_family
+    interval, the peers (Open3D, small_gicp's better method), success, failure modes, alias agreement (F10-F11);
+    then the worst family again."""
+    from bim2rdt.bench.registration.stats import best_peer, cut_interval, improvement, worst_family
 
     peer = "Open3D pt-plane" if "Open3D pt-plane" in run.families[0].stats else None
+    small = any(best_peer(r, "mean") for r in run.families)
 
     def row(result, label):
         s = result.stats
         low, high = cut_interval(result, "mean")
+        best = best_peer(result, "mean")
+        agreement = result.alias_agreement
         return (label, result.description, f"{1000 * s['ICP'].mean:.1f}", f"{1000 * s['SG-ICP'].mean:.1f}",
                 f"{improvement(s['ICP'].mean, s['SG-ICP'].mean):+.1f} % [{low:+.0f}, {high:+.0f}]",
                 *([f"{1000 * s[peer].mean:.1f}"] if peer else []),
+                *([f"{1000 * s[best].mean:.1f} ({best.split()[1]})" if best else "-"] if small else []),
                 f"{s['ICP'].success:.0%} / {s['SG-ICP'].success:.0%}",
                 f"{_modes(s['ICP'].modes)} -> {_modes(s['SG-ICP'].modes)}",
+                f"{agreement[0]:.1%} ({agreement[1]})" if agreement else "-",
                 f"{_calibration(s['ICP'])} / {_calibration(s['SG-ICP'])}")
 
     rows = [row(r, r.name) for r in run.families]
@@ -112,8 +121,20 @@ def show_families(run) -> None:
     rows.append(row(worst, f"worst family ({worst.name})"))
     print_table(f"Scene families: mean surface error (mm) over {run.trials} trials x 3 objects "
                 "(cut by SG-ICP [95 % paired bootstrap interval])",
-                ["family", "scene", "ICP", "SG-ICP", "cut", *([peer] if peer else []), "success ICP / SG",
-                 "fails t/f/y/s ICP -> SG", "cov. in 95 % (n) ICP / SG"], rows)
+                ["family", "scene", "ICP", "SG-ICP", "cut", *([peer] if peer else []),
+                 *(["small_gicp best 1T"] if small else []), "success ICP / SG", "fails t/f/y/s ICP -> SG",
+                 "alias agreement (n)", "cov. in 95 % (n) ICP / SG"], rows)
+
+
+def show_speed(run) -> None:
+    """Median time per object over S1-S4 of every method, and SG-ICP's ratio to it."""
+    from bim2rdt.bench.registration.runs import speed_record
+
+    speed = speed_record(run.results)
+    print_table("Speed over S1-S4: median time per object (same starts, same restarts, same run)",
+                ["method", "median ms", "SG-ICP / method"],
+                [(m, f"{ms:.1f}", f"{speed['sg_icp_ratio'][m]:.2f}x" if m in speed["sg_icp_ratio"] else "")
+                 for m, ms in speed["median_ms"].items()])
 
 
 def _calibration(stats) -> str:

@@ -99,17 +99,91 @@ def register(model_points, model_normals, scene_points, init=np.eye(4), up=(0.0,
     model = matching.ModelIndex.cached(problem.model_pts_body, problem.model_normals_body)
     normals_world = matching.scene_normals(problem.scene_pts_world, cfg.scene_normal_neighbours) \
         if cfg.normal_gate_deg < 90.0 else None
+    best = _restarts_and_hops(problem, model, normals_world, cfg, yaw_only)
+    if problem.upright_bias > 0.0 and not yaw_only and cfg.prior_free_pass:
+        best = _with_prior_free_pass(best, problem, model, normals_world, cfg)
+    if 0.0 < problem.upright_bias < 1.0 and not yaw_only and cfg.release_iterations > 0:
+        best = _release_if_leaning(best, problem, model, normals_world, cfg)
+    return _with_fit(best, problem, model, cfg, yaw_only)  # (no prior, a certain one, or yaw_only: no release)
+
+
+RIVAL_DEGREES = 3.0
+"""A prior-free search whose kept pose is within 1 cm and this many degrees of the prior's is in the prior's basin
+(the prior levels a 1-3 degree tilt fitted to noise on sparse views); it stops there."""
+
+
+def _restarts_and_hops(problem: Problem, model: matching.ModelIndex, normals_world: np.ndarray | None,
+                       cfg: IcpConfig, yaw_only: bool, rival: np.ndarray | None = None
+                       ) -> RegistrationResult | None:
+    """Algorithm 1's search under ``problem``'s bias: yaw restarts from the (levelled) start, the kept one
+    (:func:`pick_restart`), and hops around it when fewer than ``hop_unless_agreeing`` restarts agree.
+    With ``rival`` (a pose found under another bias), the search ends early (None, no hops) when the kept
+    restart ended in the rival's basin (within 1 cm and ``RIVAL_DEGREES``: only the tilt the prior levels
+    differs)."""
     centroid = model.centroid
     start = level_towards_up(problem.T_world_model_init, centroid, problem.up_world,
                              0.0 if yaw_only else problem.upright_bias * cfg.start_leveling)
     restarts = _search(yaw_restarts(start, centroid, problem.up_world, cfg), problem, model, normals_world, cfg,
                        yaw_only)
     best = _keep_best(restarts, problem, model, cfg)
+    if rival is not None and near(best.pose[None], rival, centroid, degrees=RIVAL_DEGREES)[0]:
+        return None
     if cfg.restarts > 1 and agreeing(restarts, best.pose, centroid) < cfg.hop_unless_agreeing:
         best = hop(best, problem, model, normals_world, cfg, yaw_only)
-    if 0.0 < problem.upright_bias < 1.0 and not yaw_only and cfg.release_iterations > 0:
-        best = _release_if_leaning(best, problem, model, normals_world, cfg)
-    return _with_fit(best, problem, model, cfg, yaw_only)  # (no prior, a certain one, or yaw_only: no release)
+    return best
+
+
+def _with_prior_free_pass(best: RegistrationResult, problem: Problem, model: matching.ModelIndex,
+                          normals_world: np.ndarray | None, cfg: IcpConfig) -> RegistrationResult:
+    """Plain ICP's search from the same restarts (no prior, no levelled start: exactly what ``upright_bias=0``
+    runs), then :func:`keep_data_choice` between its result and the prior's. When ICP's kept restart ended in
+    the prior's basin, the prior's result stands and ICP does not hop."""
+    free = _restarts_and_hops(replace(problem, upright_bias=0.0), model, normals_world, cfg, False, best.pose)
+    return best if free is None else keep_data_choice(best, free, problem, model, normals_world, cfg)
+
+
+def keep_data_choice(prior: RegistrationResult, free: RegistrationResult, problem: Problem,
+                     model: matching.ModelIndex, normals_world: np.ndarray | None, cfg: IcpConfig
+                     ) -> RegistrationResult:
+    """The prior's result, or plain ICP's polished with the prior (:func:`_polish`), as :func:`data_choice`
+    says: the data term (the truncated surface residual, no upright penalty) decides beyond its paired noise;
+    within it the prior breaks the tie. A prior that knows how an object stands, not which yaw or slide alias
+    a sparse view shows, cannot then keep an alias the data score worse."""
+    poses = np.stack([prior.pose, free.pose])
+    _, pairs = score_poses(model, poses, problem.scene_pts_world, cfg)
+    per_point = np.minimum(pairs.residual, cfg.score_distance) ** 2
+    total = prior.total_iterations + free.total_iterations
+    if data_choice(per_point, upright_penalty(poses, pairs, problem, cfg), cfg.tie_sigmas) == 0:
+        return replace(prior, total_iterations=total)
+    polished = _polish(free.pose, problem, model, normals_world, cfg)
+    pose = polished.poses[0]
+    scores, repaired = score_poses(model, pose[None], problem.scene_pts_world, cfg)
+    return replace(free, pose=pose.copy(), iterations=free.iterations + int(polished.iterations[0]),
+                   score=float(scores[0] + upright_penalty(pose[None], repaired, problem, cfg)[0]),
+                   tilt_deg=float(np.rad2deg(tilt_angle(pose[:3, :3], problem.up_world))),
+                   total_iterations=total + int(polished.iterations[0]))
+
+
+def data_choice(per_point: np.ndarray, penalties: np.ndarray, sigmas: float) -> int:
+    """0 (the prior's pose) or 1 (plain ICP's) from their per-point data terms (2, N) (m^2) and upright penalties
+    (2,): the one whose data term is lower by more than ``sigmas`` standard errors of the paired per-point
+    difference (:func:`prior_beats_data`); within that noise, the lower data term plus penalty (the loop's
+    objective: there the prior breaks the tie, and it decides a tilt the data cannot tell), the prior's on
+    equality."""
+    if prior_beats_data(per_point[::-1], sigmas):
+        return 1
+    if prior_beats_data(per_point, sigmas):
+        return 0
+    totals = per_point.mean(axis=1) + penalties
+    return int(totals[1] < totals[0])
+
+
+def prior_beats_data(per_point: np.ndarray, sigmas: float) -> bool:
+    """Whether the pose of row 0 of per-point score terms (2, N) (m^2) scores lower on the data than that of
+    row 1 by more than ``sigmas`` standard errors of their paired per-point difference."""
+    difference = per_point[1] - per_point[0]
+    noise = difference.std() / np.sqrt(len(difference))
+    return bool(difference.mean() > sigmas * noise)
 
 
 def _search(starts: np.ndarray, problem: Problem, model: matching.ModelIndex, normals_world: np.ndarray | None,
@@ -164,11 +238,17 @@ def hop(best: RegistrationResult, problem: Problem, model: matching.ModelIndex, 
 
 def agreeing(restarts: _Restarts, pose: np.ndarray, centroid_body: np.ndarray) -> int:
     """How many surviving restarts ended where ``pose`` is (centroid within 1 cm, rotation within 1 degree)."""
-    alive = restarts.poses[~restarts.pruned]
-    shift = np.linalg.norm(np.einsum("kij,j->ki", alive[:, :3, :3] - pose[:3, :3], centroid_body)
-                           + alive[:, :3, 3] - pose[:3, 3], axis=1)
-    turn = rotation_angle(np.einsum("kij,lj->kil", alive[:, :3, :3], pose[:3, :3]))
-    return int(np.count_nonzero((shift < 0.01) & (turn < np.deg2rad(1.0))))
+    return int(np.count_nonzero(near(restarts.poses[~restarts.pruned], pose, centroid_body)))
+
+
+def near(poses: np.ndarray, pose: np.ndarray, centroid_body: np.ndarray, distance: float = 0.01,
+         degrees: float = 1.0) -> np.ndarray:
+    """(K,) whether each of ``poses`` (K, 4, 4) puts the model's centroid within ``distance`` (m) of where
+    ``pose`` puts it and turns it by less than ``degrees`` from ``pose``."""
+    shift = np.linalg.norm(np.einsum("kij,j->ki", poses[:, :3, :3] - pose[:3, :3], centroid_body)
+                           + poses[:, :3, 3] - pose[:3, 3], axis=1)
+    turn = rotation_angle(np.einsum("kij,lj->kil", poses[:, :3, :3], pose[:3, :3]))
+    return (shift < distance) & (turn < np.deg2rad(degrees))
 
 
 def hop_starts(T: np.ndarray, centroid_body: np.ndarray, up_world: np.ndarray, cfg: IcpConfig,
@@ -377,14 +457,20 @@ def _release_if_leaning(best: RegistrationResult, problem: Problem, model: match
 def _polish_without_prior(pose: np.ndarray, problem: Problem, model: matching.ModelIndex,
                           normals_world: np.ndarray | None, cfg: IcpConfig) -> _Restarts:
     """``release_iterations`` of the loop from ``pose`` with the bias off, at the final Huber scale."""
-    free = replace(problem, upright_bias=0.0)
+    return _polish(pose, replace(problem, upright_bias=0.0), model, normals_world, cfg, cfg.release_iterations)
+
+
+def _polish(pose: np.ndarray, problem: Problem, model: matching.ModelIndex, normals_world: np.ndarray | None,
+            cfg: IcpConfig, iterations: int | None = None) -> _Restarts:
+    """``iterations`` (default ``polish_iterations``) of the loop from ``pose`` under ``problem`` (its bias), at
+    the final Huber scale."""
     restarts = _Restarts.start(pose[None].copy())
     first = cfg.huber_anneal_iterations  # past the annealing: this is a polish, not a search
-    for iteration in range(first, first + cfg.release_iterations):
+    for iteration in range(first, first + (cfg.polish_iterations if iterations is None else iterations)):
         active = restarts.active()
         if len(active) == 0:
             break
-        _iterate(restarts, active, free, model, normals_world, cfg, iteration, False)
+        _iterate(restarts, active, problem, model, normals_world, cfg, iteration, False)
     return restarts
 
 
@@ -401,9 +487,10 @@ def lean_evidence(residuals: np.ndarray, truncation: float, freed: int = 2) -> f
     return float(held.sum() - freed_sq.sum()) / (2.0 * sigma2) - 0.5 * freed * np.log(n)
 
 
-def _keep_best(restarts: _Restarts, problem: Problem, model: matching.ModelIndex, cfg: IcpConfig) -> RegistrationResult:
-    """Algorithm 1's ScoreAndKeepBest: rescore every surviving restart at its final pose (data score plus the
-    upright penalty when the bias is on) and keep the best by :func:`pick_restart`."""
+def _keep_best(restarts: _Restarts, problem: Problem, model: matching.ModelIndex, cfg: IcpConfig
+               ) -> RegistrationResult:
+    """Algorithm 1's ScoreAndKeepBest: rescore every surviving restart at its final pose and keep one by
+    :func:`pick_restart` (the data decide, the upright penalty only breaks their ties)."""
     alive = np.flatnonzero(~restarts.pruned)
     poses = restarts.poses[alive]
     scores, pairs = score_poses(model, poses, problem.scene_pts_world, cfg)

@@ -58,6 +58,7 @@ class ScenarioResult:
     tags: tuple[str, ...] = ()  # e.g. "tilt trap": a family built so that the start's tilt is what misleads ICP
     rows: dict[str, list[tuple]] = field(default_factory=dict)
     poses: dict[str, list[list[np.ndarray]]] = field(default_factory=dict)
+    alias_agreement: tuple[float, int] | None = None  # issue 26's families: (share, count), see alias_agreement
 
 
 def run_scenario(scenario: Scenario, methods: Sequence[Method], priors: dict[str, Prior],
@@ -184,6 +185,11 @@ def check_targets(results: Sequence[ScenarioResult], peer: str = "Open3D pt-plan
             Target(f"median time per object <= {SPEED_RATIO}x {peer}", ours <= SPEED_RATIO * theirs,
                    f"{ours:.1f} ms vs {theirs:.1f} ms ({ours / theirs:.2f}x)"),
         ]
+    for small in SMALL_GICP[:1]:
+        if all(small in r.stats for r in results):
+            ours, theirs = pooled_median_ms(results, "SG-ICP"), pooled_median_ms(results, small)
+            targets.append(Target(f"moonshot: median time per object <= {small}", ours <= theirs,
+                                  f"{ours:.1f} ms vs {theirs:.1f} ms ({ours / theirs:.2f}x)"))
     targets += [Target(f"S4 SG-ICP success >= {S4_SUCCESS:.0%}", r.stats["SG-ICP"].success >= S4_SUCCESS,
                        f"{r.stats['SG-ICP'].success:.1%} (ICP {r.stats['ICP'].success:.1%})")
                 for r in results if r.name == "S4"]
@@ -256,3 +262,80 @@ def check_calibration_target(results: Sequence[ScenarioResult]) -> list[Target]:
     detail = (f"{share:.3f} of {judged} well-constrained estimates in the right basin inside their 95 % ellipsoid"
               if judged else "no well-constrained estimate in the right basin to judge")
     return [Target(f"covariance calibration {low:.2f}-{high:.2f}", judged > 0 and low <= share <= high, detail)]
+
+
+ALIAS_AGREEMENT = 0.95
+"""Share of registrations where SG-ICP must end in the same basin as ICP or a better one (issue 26)."""
+
+
+def alias_agreement(scenario: Scenario, result: ScenarioResult, before: str = "ICP", after: str = "SG-ICP",
+                    basin_deg: float = 2.0, basin_m: float = 0.01) -> tuple[float, int]:
+    """(share, count) of registrations where ``after`` ends in the same basin as ``before`` from the same
+    restarts (its pose within ``basin_deg`` and a centroid within ``basin_m`` of ``before``'s, modulo the
+    object's symmetry) or in a better one (a lower mean surface error against the truth)."""
+    column = COLUMNS["mean"]
+    agree, index = [], 0
+    for t, trial in enumerate(scenario.trials):
+        for o, obj in enumerate(trial):
+            mine, theirs = result.poses[after][t][o], result.poses[before][t][o]
+            shown = closest_equivalent(mine, theirs, true_symmetry(obj.family, obj.symmetry_order))
+            centroid = scenario.models[obj.family][0].mean(axis=0)
+            turn = np.rad2deg(np.arccos(np.clip((np.trace(shown[:3, :3].T @ theirs[:3, :3]) - 1) / 2, -1, 1)))
+            shift = np.linalg.norm(shown[:3, :3] @ centroid + shown[:3, 3] - theirs[:3, :3] @ centroid - theirs[:3, 3])
+            better = result.rows[after][index][column] <= result.rows[before][index][column]
+            agree.append((turn < basin_deg and shift < basin_m) or better)
+            index += 1
+    return (float(np.mean(agree)) if agree else float("nan")), len(agree)
+
+
+def check_alias_targets(results: Sequence[ScenarioResult]) -> list[Target]:
+    """Issue 26's targets on the alias families: SG-ICP's mean surface error not worse than ICP's beyond the
+    noise (the whole 95 % paired interval of the cut below zero), and alias agreement >= :data:`ALIAS_AGREEMENT`."""
+    if not results:
+        return []
+    worse, behind = [], []
+    for r in results:
+        cut = improvement(r.stats["ICP"].mean, r.stats["SG-ICP"].mean)
+        low, high = cut_interval(r, "mean")
+        if cut < 0.0:
+            (worse if high < 0.0 else behind).append(f"{r.name} {cut:+.1f} % [{low:+.1f}, {high:+.1f}]")
+    detail = ("worse in " + ", ".join(worse)) if worse else "ok"
+    if behind:
+        detail += "; behind within noise: " + ", ".join(behind)
+    agreements = {r.name: r.alias_agreement for r in results if r.alias_agreement is not None}
+    return [
+        Target("aliases: SG-ICP mean error not worse than ICP", not worse, detail),
+        Target(f"aliases: alias agreement >= {ALIAS_AGREEMENT:.0%}",
+               bool(agreements) and all(share >= ALIAS_AGREEMENT for share, _ in agreements.values()),
+               ", ".join(f"{name} {share:.1%} of {count}" for name, (share, count) in agreements.items())),
+    ]
+
+
+SMALL_GICP = ("small_gicp plane 1T", "small_gicp GICP 1T")
+"""small_gicp's methods whose accuracy SG-ICP must match (one thread; more threads give the same poses)."""
+
+
+def best_peer(result: ScenarioResult, metric: str, peers: Sequence[str] = SMALL_GICP) -> str | None:
+    """The peer among ``peers`` with the lowest mean ``metric`` on ``result``; None when none ran."""
+    ran = [p for p in peers if p in result.stats]
+    return min(ran, key=lambda p: getattr(result.stats[p], metric)) if ran else None
+
+
+def check_peer_accuracy(scenarios: Sequence[ScenarioResult], families: Sequence[ScenarioResult]) -> list[Target]:
+    """Issue 26: SG-ICP at least as accurate as small_gicp's best method on every scenario (RMSE) and family
+    (mean surface error): not worse beyond the noise (the whole 95 % paired interval below zero)."""
+    checked = [(r, "rmse") for r in scenarios] + [(r, "mean") for r in families]
+    checked = [(r, metric, best_peer(r, metric)) for r, metric in checked]
+    checked = [(r, metric, peer) for r, metric, peer in checked if peer is not None]
+    if not checked:
+        return []
+    worse, behind = [], []
+    for r, metric, peer in checked:
+        cut = improvement(getattr(r.stats[peer], metric), getattr(r.stats["SG-ICP"], metric))
+        if cut < 0.0:
+            low, high = cut_interval(r, metric, before=peer)
+            (worse if high < 0.0 else behind).append(f"{r.name} vs {peer} {cut:+.1f} % [{low:+.1f}, {high:+.1f}]")
+    detail = ("worse in " + ", ".join(worse)) if worse else "ok"
+    if behind:
+        detail += "; behind within noise: " + ", ".join(behind)
+    return [Target("SG-ICP as accurate as small_gicp's best everywhere", not worse, detail)]
