@@ -13,6 +13,7 @@ outbox of events for durable sinks. Workers appear only as pseudonyms; the ident
 from __future__ import annotations
 
 import json
+import re
 import threading
 import time
 import zlib
@@ -24,7 +25,7 @@ from typing import Any
 import numpy as np
 import sqlalchemy as sa
 from sqlalchemy.engine import Connection
-from sqlalchemy.exc import IntegrityError, SQLAlchemyError
+from sqlalchemy.exc import SQLAlchemyError
 
 from bim2rdt import sqlstore
 from bim2rdt.bus.event import Event
@@ -85,9 +86,9 @@ outbox_table = sa.Table(
     sa.Column("sink", sa.Text, nullable=False), sa.Column("event", sa.Text, nullable=False),
     sa.Index("outbox_sink", "sink", "id"), sqlite_autoincrement=True)
 keep_table = sa.Table(
-    "raw_keep", metadata, sa.Column("device", sa.Text, nullable=False), sa.Column("start", sa.Double, nullable=False),
-    sa.Column("end", sa.Double, nullable=False), sa.Column("until", sa.Double, nullable=False),
-    sa.Index("raw_keep_device", "device", "start"))
+    "raw_keep", metadata, sa.Column("device", sa.Text, nullable=False),
+    sa.Column("window_start", sa.Double, nullable=False), sa.Column("window_end", sa.Double, nullable=False),
+    sa.Column("keep_until", sa.Double, nullable=False), sa.Index("raw_keep_until", "keep_until"))
 version_table = sa.Table("hav_schema", metadata, sa.Column("version", sa.Integer, nullable=False))
 
 
@@ -143,11 +144,12 @@ class ExposureStore:
         self.engine = sqlstore.make_engine(self.url, StoreError, "the exposure store", SQLITE_PRAGMAS, busy_timeout_s)
         self._guard = threading.RLock() if sqlstore.is_memory(self.url) else nullcontext()
         """An in-memory store is one connection shared by all threads: one of them uses it at a time."""
-        self._insert = sa.dialects.postgresql.insert if self.dialect == "postgresql" else sa.dialects.sqlite.insert
+        self._dbapi = self.engine.dialect.loaded_dbapi
+        self._sql: dict[str, str] = {}
+        self._cursor = None
         with self._errors("cannot open"):
             self._writer = self.engine.connect()
             migrate(self._writer)
-        self._conn: Connection | None = None
         self._owner: int | None = None
         self._pruned_at = -float("inf")
         self.commits, self.commit_s = 0, 0.0
@@ -163,12 +165,20 @@ class ExposureStore:
         """All writes inside commit together or not at all (the monitor's writer connection)."""
         start = time.thread_time()
         with self._guard, self._errors("could not write"):
-            with self._writer.begin():
-                self._conn, self._owner = self._writer, threading.get_ident()
-                try:
-                    yield self
-                finally:
-                    self._conn = None
+            raw = self._writer.connection.dbapi_connection
+            self._cursor, self._owner = raw.cursor(), threading.get_ident()
+            try:
+                if self.dialect == "sqlite":
+                    self._cursor.execute("BEGIN")
+                yield self
+            except BaseException:
+                raw.rollback()
+                raise
+            else:
+                raw.commit()
+            finally:
+                self._cursor.close()
+                self._cursor = None
         self.commits += 1
         self.commit_s += time.thread_time() - start
 
@@ -180,7 +190,7 @@ class ExposureStore:
                  "fs": b.fs, "full_scale": b.full_scale, "n": b.xyz.shape[0], **_packed(b, compress)}
                 for b in batches]
         if rows:
-            self._exec(self._insert(raw_table).on_conflict_do_nothing(), rows)
+            self._exec(_insert_sql(raw_table, rows[0], conflict=" ON CONFLICT DO NOTHING"), rows)
 
     def raw_batches(self, device: str, from_seq: int) -> list[AccelBatch]:
         t = raw_table.c
@@ -195,15 +205,15 @@ class ExposureStore:
         are visited, never a stream's whole history. Searching by (device, seq < next seq) instead read every
         stored row of the stream on every commit (each one a page read): quadratic in the shift's length."""
         before = dict(streams)
-        expired = self._exec(sa.text(_expired_sql(self.dialect, "kept = 0")), {"by": received_by}).fetchall()
+        expired = self._exec(_expired_sql(self.dialect, "kept = 0"), {"by": received_by}).fetchall()
         gone = [{"d": device, "s": seq} for device, seq in expired if seq < before.get(device, seq)]
         if gone:
-            self._exec(sa.text("DELETE FROM raw WHERE device = :d AND seq = :s"), gone)
+            self._exec("DELETE FROM raw WHERE device = :d AND seq = :s", gone)
 
     def expired_raw(self, received_by: float) -> list[tuple[str, int, float, float]]:
         """(device, seq, device time, end device time) of unmarked raw batches received at or before
         ``received_by`` (the candidates of the retention rule)."""
-        rows = self._exec(sa.text(_expired_sql(self.dialect, "kept = 0", more=", device_time, n / fs")),
+        rows = self._exec(_expired_sql(self.dialect, "kept = 0", more=", device_time, n / fs"),
                           {"by": received_by}).fetchall()
         return [(d, s, t, t + duration) for d, s, t, duration in rows]
 
@@ -211,16 +221,16 @@ class ExposureStore:
         """Keep these (device, seq) raw batches for the event retention (they lie in an event's window)."""
         rows = [{"d": d, "s": s} for d, s in rows]
         if rows:
-            self._exec(sa.text("UPDATE raw SET kept = 1 WHERE device = :d AND seq = :s"), rows)
+            self._exec("UPDATE raw SET kept = 1 WHERE device = :d AND seq = :s", rows)
 
     def delete_raw(self, rows: Iterable[tuple[str, int]]) -> None:
         rows = [{"d": d, "s": s} for d, s in rows]
         if rows:
-            self._exec(sa.text("DELETE FROM raw WHERE device = :d AND seq = :s"), rows)
+            self._exec("DELETE FROM raw WHERE device = :d AND seq = :s", rows)
 
     def drop_kept_raw(self, received_by: float) -> None:
         """Delete the batches kept around events that were received at or before ``received_by``."""
-        self._exec(sa.text("DELETE FROM raw WHERE kept = 1 AND received_time <= :by"), {"by": received_by})
+        self._exec("DELETE FROM raw WHERE kept = 1 AND received_time <= :by", {"by": received_by})
 
     def raw_bytes(self) -> int:
         """Bytes of raw samples stored (blobs only)."""
@@ -256,16 +266,16 @@ class ExposureStore:
     # windows of raw data kept around events ------------------------------------------------------------
     def add_keep_windows(self, rows: Iterable[tuple[str, float, float, float]]) -> None:
         """(device, start, end device time, keep until (receive clock)) windows whose raw batches are kept."""
-        rows = [{"device": d, "start": s, "end": e, "until": u} for d, s, e, u in rows]
+        rows = [{"device": d, "window_start": s, "window_end": e, "keep_until": u} for d, s, e, u in rows]
         if rows:
-            self._exec(keep_table.insert(), rows)
+            self._exec(_insert_sql(keep_table, rows[0]), rows)
 
     def keep_windows(self) -> list[tuple[str, float, float, float]]:
         t = keep_table.c
-        return [tuple(row) for row in self._read(sa.select(t.device, t.start, t.end, t.until))]
+        return [tuple(row) for row in self._read(sa.select(t.device, t.window_start, t.window_end, t.keep_until))]
 
     def drop_keep_windows(self, received_by: float) -> None:
-        self._exec(keep_table.delete().where(keep_table.c.until <= received_by))
+        self._exec("DELETE FROM raw_keep WHERE keep_until <= :by", {"by": received_by})
 
     # the ledger of applied batches ---------------------------------------------------------------------
     def mark_applied(self, keys: Iterable[tuple[str, str, int, float]], now: float) -> None:
@@ -274,13 +284,13 @@ class ExposureStore:
         rows = [{"device": d, "boot": b, "seq": s, "received_time": r} for d, b, s, r in keys]
         if rows:
             try:
-                self._exec(applied_table.insert(), rows)
-            except IntegrityError:
+                self._exec(_insert_sql(applied_table, rows[0]), rows)
+            except self._dbapi.IntegrityError:
                 raise AlreadyApplied("a batch of this commit was applied before (another monitor process, or a "
                                      "redelivery): reload and retry") from None
         if now - self._pruned_at >= LEDGER_PRUNE_EVERY_S:
             self._pruned_at = now
-            self._exec(applied_table.delete().where(applied_table.c.received_time < now - LEDGER_KEEP_S))
+            self._exec("DELETE FROM applied WHERE received_time < :by", {"by": now - LEDGER_KEEP_S})
 
     def applied_count(self) -> int:
         return int(self._read(sa.select(sa.func.count()).select_from(applied_table)).scalar_one())
@@ -347,12 +357,13 @@ class ExposureStore:
         events, sinks = list(events), list(outbox)
         if not events:
             return
-        self._exec(events_table.insert(), [
+        self._exec(_insert_sql(events_table, _EVENT_ROW), [
             {"kind": e.kind, "time": e.time, "subject": e.subject, "source": e.source,
              "data": json.dumps(e.data, default=float), "received": e.received} for e in events])
         if sinks:
             payloads = [e.to_json().decode() for e in events]
-            self._exec(outbox_table.insert(), [{"sink": sink, "event": p} for sink in sinks for p in payloads])
+            self._exec(_insert_sql(outbox_table, _OUTBOX_ROW), [{"sink": sink, "event": p} for sink in sinks
+                                                                 for p in payloads])
 
     def events(self, kind: str | None = None, since: float | None = None) -> list[Event]:
         """The events in commit order, of ``kind`` (default all), that happened after ``since`` (UTC s)."""
@@ -398,33 +409,39 @@ class ExposureStore:
             self.engine.dispose()
 
     # internals -----------------------------------------------------------------------------------------
-    def _exec(self, statement, params=None):
-        """Run a write inside the open transaction."""
-        if self._conn is None:
+    def _exec(self, sql: str, params: dict | list[dict]):
+        """Run a write (``:name`` parameters; a list runs it once per row) inside the open transaction, straight
+        on the driver's cursor: the commit path's statements are fixed text, so SQLAlchemy's per-statement work
+        would be its largest cost."""
+        if self._cursor is None:
             raise StoreError("the exposure store writes only inside transaction()")
-        return self._conn.execute(statement, params) if params is not None else self._conn.execute(statement)
+        text = self._sql.get(sql)
+        if text is None:
+            text = self._sql[sql] = re.sub(r":(\w+)", r"%(\1)s", sql) if self.dialect == "postgresql" else sql
+        if isinstance(params, list):
+            self._cursor.executemany(text, params)
+        else:
+            self._cursor.execute(text, params)
+        return self._cursor
 
     def _read(self, statement, params: dict | None = None):
         """Run a read: inside the open transaction when the writing thread reads, else on a pooled connection
         (its rows fetched before the connection goes back)."""
-        if self._conn is not None and self._owner == threading.get_ident():
-            return self._conn.execute(statement, params or {})
+        if self._cursor is not None and self._owner == threading.get_ident():
+            raise StoreError("a read inside the store's own transaction must use _exec")
         with self._guard, self._errors("could not read"), self.engine.connect() as conn:
             return _Buffered(conn.execute(statement, params or {}))
 
     def _upsert(self, table: sa.Table, rows: list[dict], keys: tuple[str, ...]) -> None:
-        if not rows:
-            return
-        insert = self._insert(table)
-        statement = insert.on_conflict_do_update(
-            index_elements=list(keys), set_={c.name: insert.excluded[c.name] for c in table.c if c.name not in keys})
-        self._exec(statement, rows)
+        if rows:
+            updates = ", ".join(f"{c} = excluded.{c}" for c in rows[0] if c not in keys)
+            self._exec(_insert_sql(table, rows[0], f" ON CONFLICT ({', '.join(keys)}) DO UPDATE SET {updates}"), rows)
 
     @contextmanager
     def _errors(self, what: str) -> Iterator[None]:
         try:
             yield
-        except SQLAlchemyError as error:
+        except (SQLAlchemyError, self._dbapi.Error) as error:
             raise StoreError(f"{what} the exposure store at {self.label}: "
                              f"{sqlstore.reason(error, self.url.password)}") from error
 
@@ -472,6 +489,16 @@ class _Buffered:
 
     def scalar_one(self):
         return self._rows[0][0]
+
+
+_EVENT_ROW = dict.fromkeys(("kind", "time", "subject", "source", "data", "received"))
+_OUTBOX_ROW = dict.fromkeys(("sink", "event"))
+
+
+def _insert_sql(table: sa.Table, row: dict, conflict: str = "") -> str:
+    """INSERT of ``row``'s columns into ``table`` with named parameters (SQLite and PostgreSQL share the syntax,
+    ON CONFLICT included)."""
+    return (f"INSERT INTO {table.name} ({', '.join(row)}) VALUES ({', '.join(':' + c for c in row)}){conflict}")
 
 
 def _expired_sql(dialect: str, condition: str, more: str = "") -> str:
