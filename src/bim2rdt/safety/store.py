@@ -36,8 +36,9 @@ PAGE_SIZE = 16384
 """Bytes per SQLite page. A 0.5 s int16 batch at 5 kHz is 15 kB: on 4 kB pages it spans an overflow chain of
 four pages, each written to the WAL and again at the checkpoint; 16 kB pages cut the commit cost per batch from
 58 to 38 us (2 wearables x 15 min, median of 3 interleaved runs) without making small-row updates heavy."""
-SQLITE_PRAGMAS = (f"page_size={PAGE_SIZE}", "synchronous=NORMAL")
-"""A committed ingest survives a process crash (WAL, synchronous=NORMAL); page_size applies to a new file only."""
+SQLITE_PRAGMAS = (f"page_size={PAGE_SIZE}", "synchronous=NORMAL", "journal_size_limit=16777216")
+"""A committed ingest survives a process crash (WAL, synchronous=NORMAL); page_size applies to a new file only;
+the WAL file is cut back to 16 MB after a checkpoint (it would keep its largest size)."""
 LEDGER_KEEP_S = 3 * 3600.0
 """Seconds an applied batch's key stays in the ledger: longer than any redelivery (an MQTT session queues for an
 hour by default; a JetStream redelivery comes within ack_wait x max_deliver); older duplicates are still found by
@@ -199,49 +200,51 @@ class ExposureStore:
 
     def drop_raw(self, streams: Iterable[tuple[str, int]], received_by: float) -> None:
         """Delete each (device, next seq) stream's processed batches (seq < next seq) received at or before
-        ``received_by``, but those kept around an event (``kept``).
+        ``received_by``.
 
         The candidates come from the covering index on (received_time, device, seq): only rows past retention
         are visited, never a stream's whole history. Searching by (device, seq < next seq) instead read every
         stored row of the stream on every commit (each one a page read): quadratic in the shift's length."""
         before = dict(streams)
-        expired = self._exec(_expired_sql(self.dialect, "kept = 0"), {"by": received_by}).fetchall()
+        expired = self._exec(_expired_sql(self.dialect), {"by": received_by}).fetchall()
         gone = [{"d": device, "s": seq} for device, seq in expired if seq < before.get(device, seq)]
         if gone:
             self._exec("DELETE FROM raw WHERE device = :d AND seq = :s", gone)
 
-    def expired_raw(self, received_by: float) -> list[tuple[str, int, float, float]]:
-        """(device, seq, device time, end device time) of unmarked raw batches received at or before
-        ``received_by`` (the candidates of the retention rule)."""
-        rows = self._exec(_expired_sql(self.dialect, "kept = 0", more=", device_time, n / fs"),
-                          {"by": received_by}).fetchall()
-        return [(d, s, t, t + duration) for d, s, t, duration in rows]
+    def unkept_between(self, device: str, low: float, cut: float) -> list[tuple[int, float, float]]:
+        """(seq, start, end device time) of the device's unmarked batches starting in device time [low, cut)."""
+        rows = self._exec("SELECT seq, device_time, device_time + n / fs FROM raw WHERE device = :d AND "
+                          "device_time >= :low AND device_time < :cut AND kept = 0",
+                          {"d": device, "low": low, "cut": cut}).fetchall()
+        return [(int(seq), start, end) for seq, start, end in rows]
 
-    def mark_kept(self, rows: Iterable[tuple[str, int]]) -> None:
-        """Keep these (device, seq) raw batches for the event retention (they lie in an event's window)."""
+    def keep_raw(self, rows: Iterable[tuple[str, int]], compress: bool) -> None:
+        """Mark these (device, seq) batches kept around an event; with ``compress``, their samples compressed."""
         rows = [{"d": d, "s": s} for d, s in rows]
-        if rows:
-            self._exec("UPDATE raw SET kept = 1 WHERE device = :d AND seq = :s", rows)
+        if not rows:
+            return
+        if compress:
+            found = [self._exec("SELECT samples, scale, codec FROM raw WHERE device = :d AND seq = :s", row).fetchone()
+                     for row in rows]
+            rows = [{**row, "b": _compressed(bytes(blob), scale, codec)} for row, (blob, scale, codec) in zip(rows, found)]
+            self._exec(f"UPDATE raw SET kept = 1, codec = {RAW_ZLIB}, samples = :b WHERE device = :d AND seq = :s", rows)
+            return
+        self._exec("UPDATE raw SET kept = 1 WHERE device = :d AND seq = :s", rows)
 
     def delete_raw(self, rows: Iterable[tuple[str, int]]) -> None:
         rows = [{"d": d, "s": s} for d, s in rows]
         if rows:
             self._exec("DELETE FROM raw WHERE device = :d AND seq = :s", rows)
 
-    def drop_kept_raw(self, received_by: float) -> None:
-        """Delete the batches kept around events that were received at or before ``received_by``."""
-        self._exec("DELETE FROM raw WHERE kept = 1 AND received_time <= :by", {"by": received_by})
-
     def raw_bytes(self) -> int:
-        """Bytes of raw samples stored (blobs only)."""
-        return int(self._read(sa.select(sa.func.coalesce(sa.func.sum(sa.func.length(raw_table.c.samples)), 0)))
-                   .scalar_one())
+        """Bytes of raw samples stored (blobs only; inside a transaction)."""
+        return int(self._exec("SELECT COALESCE(SUM(LENGTH(samples)), 0) FROM raw", {}).fetchone()[0])
 
-    def oldest_raw(self, limit: int) -> list[tuple[str, int, int]]:
-        """(device, seq, blob bytes) of the ``limit`` raw batches received first."""
-        t = raw_table.c
-        query = sa.select(t.device, t.seq, sa.func.length(t.samples)).order_by(t.received_time).limit(limit)
-        return [(d, s, int(n)) for d, s, n in self._read(query)]
+    def oldest_raw(self, limit: int = 2000) -> list[tuple[str, int, int]]:
+        """(device, seq, blob bytes) of the ``limit`` raw batches received first (inside a transaction)."""
+        rows = self._exec("SELECT device, seq, LENGTH(samples) FROM raw ORDER BY received_time LIMIT :n",
+                          {"n": limit}).fetchall()
+        return [(d, int(s), int(n)) for d, s, n in rows]
 
     def raw_seqs(self, device: str) -> list[int]:
         t = raw_table.c
@@ -501,10 +504,10 @@ def _insert_sql(table: sa.Table, row: dict, conflict: str = "") -> str:
     return (f"INSERT INTO {table.name} ({', '.join(row)}) VALUES ({', '.join(':' + c for c in row)}){conflict}")
 
 
-def _expired_sql(dialect: str, condition: str, more: str = "") -> str:
-    """Unmarked raw rows received at or before :by, from the covering expiry index."""
+def _expired_sql(dialect: str) -> str:
+    """Raw rows received at or before :by, from the covering expiry index."""
     hint = " INDEXED BY raw_expiry" if dialect == "sqlite" else ""
-    return f"SELECT device, seq{more} FROM raw{hint} WHERE received_time <= :by AND {condition}"
+    return f"SELECT device, seq FROM raw{hint} WHERE received_time <= :by"
 
 
 def _raw_columns():
@@ -535,6 +538,14 @@ def _packed(batch: AccelBatch, compress: bool) -> dict:
     width = 2 if scale is not None else 4
     planes = np.frombuffer(blob, np.uint8).reshape(-1, width).T.tobytes()  # high bytes of noise repeat: planes
     return {"samples": zlib.compress(planes, 1), "scale": scale, "codec": RAW_ZLIB}
+
+
+def _compressed(blob: bytes, scale: float | None, codec: int) -> bytes:
+    """A stored blob, compressed (as it is when it already was)."""
+    if codec == RAW_ZLIB:
+        return blob
+    width = 2 if scale is not None else 4
+    return zlib.compress(np.frombuffer(blob, np.uint8).reshape(-1, width).T.tobytes(), 1)
 
 
 def _xyz(blob: bytes, n: int, scale: float | None, codec: int | None = RAW_PLAIN) -> np.ndarray:
