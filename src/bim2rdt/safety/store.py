@@ -152,6 +152,8 @@ class ExposureStore:
             self._writer = self.engine.connect()
             migrate(self._writer)
         self._owner: int | None = None
+        self._leases: set[str] = set()
+        self._lease_conn: Connection | None = None
         self._pruned_at = -float("inf")
         self.commits, self.commit_s = 0, 0.0
         """Transactions committed, and the thread CPU seconds spent inside them (``bench hav`` reads both)."""
@@ -392,6 +394,22 @@ class ExposureStore:
                     conn.begin():
                 conn.execute(outbox_table.delete().where(outbox_table.c.id.in_(ids)))
 
+    def outbox_lease(self, sink: str) -> bool:
+        """Whether this process delivers ``sink``'s queue: always on SQLite (one process owns the file); on
+        PostgreSQL the one holding a session advisory lock per sink (released when its connection ends, so a
+        standby process takes over after a crash)."""
+        if self.dialect != "postgresql":
+            return True
+        if sink in self._leases:
+            return True
+        with self._errors("could not lease the outbox of"):
+            if self._lease_conn is None:
+                self._lease_conn = self.engine.connect().execution_options(isolation_level="AUTOCOMMIT")
+            key = zlib.crc32(f"bim2rdt-hav-outbox:{sink}".encode())
+            if self._lease_conn.execute(sa.text("SELECT pg_try_advisory_lock(:k)"), {"k": key}).scalar():
+                self._leases.add(sink)
+        return sink in self._leases
+
     def outbox_count(self, sink: str | None = None) -> int:
         query = sa.select(sa.func.count()).select_from(outbox_table)
         if sink is not None:
@@ -408,6 +426,8 @@ class ExposureStore:
 
     def close(self) -> None:
         with self._guard:
+            if self._lease_conn is not None:
+                self._lease_conn.close()
             self._writer.close()
             self.engine.dispose()
 
