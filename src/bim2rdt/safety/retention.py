@@ -26,6 +26,10 @@ from bim2rdt.safety.store import ExposureStore
 
 KEPT_KINDS = (ACTIVITY_STARTED, ACTIVITY_ENDED, EAV_REACHED, ELV_REACHED, ARTEFACT)
 """Events whose surrounding raw samples are kept: where a person checks what the sensor saw."""
+SORT_EVERY_S = 5.0
+"""A device's batches are sorted out of the recent window in steps of this many seconds of its samples: deletes of
+neighbouring rows in one commit share their b-tree and free-list pages (fewer page writes, fewer reads when the
+WAL is checkpointed)."""
 SIZE_CHECK_EVERY_S = 10.0
 """Seconds (monitor clock) between checks of the raw samples' total size."""
 
@@ -65,7 +69,7 @@ class RawRetention:
         """Apply the recent and event rules to each (device, next seq, newest sample end (device time)) stream
         touched, and now and then the size bound (``next_seq_of(device)``: its first batch not yet processed)."""
         for device, next_seq, newest in streams:
-            if newest is not None:
+            if newest is not None and newest - self.recent_s >= self._handled.get(device, -float("inf")) + SORT_EVERY_S:
                 self._sort_out(device, next_seq, newest - self.recent_s)
         if now - self._size_checked_at >= SIZE_CHECK_EVERY_S:
             self._size_checked_at = now

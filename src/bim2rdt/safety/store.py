@@ -36,7 +36,7 @@ PAGE_SIZE = 16384
 """Bytes per SQLite page. A 0.5 s int16 batch at 5 kHz is 15 kB: on 4 kB pages it spans an overflow chain of
 four pages, each written to the WAL and again at the checkpoint; 16 kB pages cut the commit cost per batch from
 58 to 38 us (2 wearables x 15 min, median of 3 interleaved runs) without making small-row updates heavy."""
-SQLITE_PRAGMAS = (f"page_size={PAGE_SIZE}", "synchronous=NORMAL", "journal_size_limit=16777216")
+SQLITE_PRAGMAS = (f"page_size={PAGE_SIZE}", "synchronous=NORMAL", "journal_size_limit=16777216", "cache_size=-32768")
 """A committed ingest survives a process crash (WAL, synchronous=NORMAL); page_size applies to a new file only;
 the WAL file is cut back to 16 MB after a checkpoint (it would keep its largest size)."""
 LEDGER_KEEP_S = 3 * 3600.0
