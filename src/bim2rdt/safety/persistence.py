@@ -64,7 +64,9 @@ class MonitorJournal:
         self._raw_devices.update(b.device for b in batches)
         with self.store.transaction():
             self.store.mark_applied(applied, now)
-            self.store.save_raw(batches)
+            saved = self.store.save_raw(batches)
+            if self.retention is not None:
+                self.retention.saved(saved)
             self.store.save_streams((s.device, _stream_state(s), s.filter.to_bytes()) for s in streams)
             self.store.save_activities([_open_activity(engine.streams[e.source]) for e in events
                                         if e.kind == ACTIVITY_STARTED])

@@ -46,6 +46,14 @@ class RawRetention:
         self._handled: dict[str, float] = {}
         """device -> device time below which its unkept batches were already deleted or kept."""
         self._size_checked_at = -float("inf")
+        self._bytes: int | None = None
+        """Bytes of raw samples in the store, kept up to date from what is written and deleted (counted once, at
+        the first size check: a scan reads every raw page)."""
+
+    def saved(self, size: int) -> None:
+        """``size`` bytes of raw samples were written."""
+        if self._bytes is not None:
+            self._bytes += size
 
     def restore(self) -> None:
         """Load the event windows saved before a restart."""
@@ -81,21 +89,26 @@ class RawRetention:
         """Keep (and compress) or delete the device's processed batches that fell out of the recent window."""
         rows = self.store.unkept_between(device, self._handled.get(device, -float("inf")), cut)
         windows = self._windows.get(device, [])
-        keep, drop, waiting = [], [], []
-        for seq, start, end in rows:
+        keep, drop, waiting, freed = [], [], [], 0
+        for seq, start, end, size in rows:
             if seq >= next_seq:
                 waiting.append(start)
             elif any(start < w_end and end > w_start for w_start, w_end, _ in windows):
                 keep.append((device, seq))
             else:
                 drop.append((device, seq))
-        self.store.keep_raw(keep, compress=True)
+                freed += size
+        freed += self.store.keep_raw(keep, compress=True)
         self.store.delete_raw(drop)
+        if self._bytes is not None:
+            self._bytes -= freed
         self._handled[device] = min([cut, *waiting])
 
     def _bound_size(self, next_seq_of: Callable[[str], int | None]) -> None:
         """Delete the oldest received processed batches while the raw samples exceed the size bound."""
-        excess = self.store.raw_bytes() - self.max_bytes
+        if self._bytes is None:
+            self._bytes = self.store.raw_bytes()
+        excess = self._bytes - self.max_bytes
         if excess <= 0:
             return
         gone = []
@@ -106,4 +119,5 @@ class RawRetention:
             if processed is not None and seq < processed:
                 gone.append((device, seq))
                 excess -= size
+                self._bytes -= size
         self.store.delete_raw(gone)
