@@ -53,6 +53,11 @@ class HavSettings(MonitorConfig):
     site_secret: str = Field("change-me", min_length=1, description="Key for worker pseudonyms (keyed hash); the "
                              "shipped default is refused outside --dev.")
 
+    ack_wait_s: float = Field(30.0, gt=0, le=3600, description="NATS path: seconds JetStream waits for a monitor's "
+                              "acknowledgement (sent after the commit) before redelivering a message.")
+    max_deliver: int = Field(20, ge=2, le=10_000, description="NATS path: deliveries of one message at most (a "
+                             "message whose commit keeps failing is then dropped by JetStream, with an advisory).")
+
     def monitor_config(self, **overrides) -> MonitorConfig:
         """The monitor's part with ``overrides``, without the secret (the monitor takes it as its own argument)."""
         return MonitorConfig(**{**self.model_dump(include=set(MonitorConfig.model_fields)), **overrides})

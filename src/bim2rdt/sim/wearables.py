@@ -176,9 +176,10 @@ def run_in_process(plans: list[WorkerPlan], monitor, site: str, fs: float, speed
 
 def run_over_mqtt(plans: list[WorkerPlan], site: str, fs: float, host: str, port: int,
                   password_of: Callable[[str], str], speed: float = 0.0,
-                  tick: Callable[[float], None] | None = None) -> int:
+                  tick: Callable[[float], None] | None = None, mqtt_version: int = 5) -> int:
     """Publish every plan to a broker, each device logged in as itself (``password_of(device)``) with its
-    retained offline status as last will; returns the number of messages sent."""
+    retained offline status as last will; returns the number of messages sent. ``mqtt_version`` 3: MQTT 3.1.1
+    (nats-server's MQTT listener)."""
     from bim2rdt.bus.mqtt import MqttBus
 
     buses = {}
@@ -186,7 +187,8 @@ def run_over_mqtt(plans: list[WorkerPlan], site: str, fs: float, host: str, port
         for plan in plans:
             will = (status_topic(site, plan.device), status_payload(plan, "", False))
             buses[plan.device] = MqttBus(host, port, client_id=plan.device, username=plan.device,
-                                         password=password_of(plan.device), will=will).connect()
+                                         password=password_of(plan.device), will=will,
+                                         mqtt_version=mqtt_version).connect()
         return publish_plans(buses.__getitem__, plans, site, fs, speed=speed, tick=tick)
     finally:
         for bus in buses.values():

@@ -1,0 +1,84 @@
+"""Monitors on the NATS path: one per partition, each a durable pull consumer acknowledging after its commit; the
+exposure they count equals one in-memory monitor's on the same messages."""
+
+from __future__ import annotations
+
+import time
+
+from bim2rdt.bus.local import LocalBus
+from bim2rdt.bus.nats_bus import NatsBus
+from bim2rdt.bus.partitions import partition_of
+from bim2rdt.safety import HavMonitor, MonitorConfig
+from bim2rdt.sim.wearables import default_plans, publish_plans
+from tests.bus.conftest import SITE
+from tests.bus.nats_helpers import wearable
+
+FS = 2500.0
+SECRET = "nats-test-secret"
+CONFIG = MonitorConfig(site=SITE, commit_delay_s=0.05)
+
+
+def reference_days(plans, t0: float) -> dict:
+    """{(device, day): (A(8), seconds)} of one in-memory monitor fed the same messages in process."""
+    monitor = HavMonitor(None, SECRET, config=CONFIG)
+    bus = LocalBus().connect()
+    monitor.attach(bus)
+    publish_plans(lambda device: bus, plans, SITE, FS, t0=t0)
+    monitor.flush()
+    return days_of(monitor, [p.device for p in plans])
+
+
+def days_of(monitor, devices) -> dict:
+    out = {}
+    for device in devices:
+        session = monitor.session(device)
+        if session is None:
+            continue
+        for day in monitor.days_of(session.subject):
+            state = monitor.day(session.subject, day)
+            out[(device, day)] = (state.a8, state.seconds)
+    return out
+
+
+def partition_monitor(server, k: int, folder, **bus_options) -> tuple[HavMonitor, NatsBus]:
+    monitor = HavMonitor(folder / f"p{k}", SECRET, config=CONFIG)
+    bus = NatsBus(server.url, "monitor", server.layout.monitors["monitor"], SITE, partition=k,
+                  partitions=server.layout.partitions, **bus_options)
+    monitor.attach(bus)
+    return monitor, bus.connect()
+
+
+def publish_over_mqtt(server, plans, t0: float) -> int:
+    buses = {plan.device: wearable(server, plan.device) for plan in plans}
+    try:
+        return publish_plans(buses.__getitem__, plans, SITE, FS, t0=t0)
+    finally:
+        for bus in buses.values():
+            bus.close()
+
+
+def wait_delivered(buses, count: int, timeout_s: float = 60.0) -> None:
+    deadline = time.monotonic() + timeout_s
+    while sum(bus.delivered for bus in buses) < count and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert sum(bus.delivered for bus in buses) >= count
+
+
+def test_three_partition_monitors_count_what_one_in_memory_monitor_counts(nats_server, tmp_path):
+    plans = default_plans(6, 1.0)
+    t0 = time.time()
+    parts = [partition_monitor(nats_server, k, tmp_path) for k in range(3)]
+    sent = publish_over_mqtt(nats_server, plans, t0)
+    wait_delivered([bus for _, bus in parts], sent)
+    got = {}
+    for k, (monitor, bus) in enumerate(parts):
+        monitor.flush()
+        bus.close()
+        assert {d for d in monitor.devices()} == {p.device for p in plans if partition_of(SITE, p.device, 3) == k}
+        got.update(days_of(monitor, monitor.devices()))
+        monitor.close()
+    want = reference_days(plans, t0)
+    assert len(want) == 6 and sum(seconds for _, seconds in want.values()) > 60
+    assert got.keys() == want.keys()
+    for key, (a8, seconds) in want.items():
+        assert abs(got[key][0] - a8) <= 1e-9 and abs(got[key][1] - seconds) <= 1e-9, key
