@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import time
 
+import pytest
+
 from bim2rdt.bus.local import LocalBus
 from bim2rdt.bus.nats_bus import NatsBus
 from bim2rdt.bus.partitions import partition_of
@@ -40,18 +42,29 @@ def days_of(monitor, devices) -> dict:
     return out
 
 
+def assert_same_days(got: dict, want: dict) -> None:
+    """Every worker-day's A(8) and counted seconds within 1e-9 of the reference's."""
+    assert got.keys() == want.keys() and want
+    for key, (a8, seconds) in want.items():
+        assert abs(got[key][0] - a8) <= 1e-9 and abs(got[key][1] - seconds) <= 1e-9, (key, got[key], want[key])
+
+
 def partition_monitor(server, k: int, folder, **bus_options) -> tuple[HavMonitor, NatsBus]:
     monitor = HavMonitor(folder / f"p{k}", SECRET, config=CONFIG)
     bus = NatsBus(server.url, "monitor", server.layout.monitors["monitor"], SITE, partition=k,
                   partitions=server.layout.partitions, **bus_options)
     monitor.attach(bus)
+    bus.accepting = lambda: monitor.failure is None  # as hav listen --nats
     return monitor, bus.connect()
 
 
 def publish_over_mqtt(server, plans, t0: float) -> int:
     buses = {plan.device: wearable(server, plan.device) for plan in plans}
     try:
-        return publish_plans(buses.__getitem__, plans, SITE, FS, t0=t0)
+        sent = publish_plans(buses.__getitem__, plans, SITE, FS, t0=t0)
+        for bus in buses.values():
+            assert bus.drain(60.0)
+        return sent
     finally:
         for bus in buses.values():
             bus.close()
@@ -79,6 +92,38 @@ def test_three_partition_monitors_count_what_one_in_memory_monitor_counts(nats_s
         monitor.close()
     want = reference_days(plans, t0)
     assert len(want) == 6 and sum(seconds for _, seconds in want.values()) > 60
-    assert got.keys() == want.keys()
-    for key, (a8, seconds) in want.items():
-        assert abs(got[key][0] - a8) <= 1e-9 and abs(got[key][1] - seconds) <= 1e-9, key
+    assert_same_days(got, want)
+
+
+def test_a_message_whose_commit_failed_is_redelivered_and_applied_once(nats_server, tmp_path):
+    plans = default_plans(1, 1.0)
+    device, t0 = plans[0].device, time.time()
+    k = partition_of(SITE, device, 3)
+    monitor, bus = partition_monitor(nats_server, k, tmp_path, ack_wait_s=2.0)
+    real_commit, failures = monitor._journal.commit, []
+
+    def fail_once(*args, **kwargs):
+        if not failures and args[1]:  # the first commit that holds batches
+            failures.append(len(args[1]))
+            raise OSError("disk full (injected)")
+        return real_commit(*args, **kwargs)
+
+    monitor._journal.commit = fail_once
+    sent = publish_over_mqtt(nats_server, plans, t0)
+    time.sleep(1.0)
+    assert failures and monitor.failure and "disk full" in monitor.failure
+    bus.close()  # hav listen exits on monitor.failure; the supervisor starts a new monitor on the same store
+    monitor.store.close()
+
+    monitor, bus = partition_monitor(nats_server, k, tmp_path)
+    wait_delivered([bus], failures[0])
+    deadline = time.monotonic() + 30
+    while monitor.stream_status(device) is None or monitor.stream_status(device)["next_seq"] is None or \
+            monitor.stream_status(device)["batches"] < sent - 4 and time.monotonic() < deadline:
+        time.sleep(0.1)
+    time.sleep(0.5)
+    monitor.flush()
+    bus.close()
+    assert bus.delivered >= failures[0] + 1  # the uncommitted group (and the status after it) came again ...
+    assert_same_days(days_of(monitor, [device]), reference_days(plans, t0))  # ... and counted once
+    monitor.close()

@@ -117,6 +117,16 @@ class MqttBus:
             self._acks.pop(mid, None)
             return self._ack_codes.pop(mid, 0)
 
+    def drain(self, timeout_s: float | None = None) -> bool:
+        """Wait until the broker acknowledged every QoS 1 message published so far (before a close, which would
+        drop what is still in flight); False if ``timeout_s`` (default ``self.timeout_s``) passed first."""
+        import time
+
+        deadline = time.monotonic() + (self.timeout_s if timeout_s is None else timeout_s)
+        while getattr(self._client, "_out_messages", None) and time.monotonic() < deadline:  # paho 2.x: unacked
+            time.sleep(0.01)
+        return not getattr(self._client, "_out_messages", None)
+
     @property
     def alive(self) -> bool:
         """Whether paho's network thread still runs (it may be reconnecting): a watchdog reads this."""

@@ -91,6 +91,9 @@ class NatsBus:
         self._fetcher: Future | None = None
         self._closing = False
         self._acks: set = set()
+        self.accepting: Callable[[], bool] = lambda: True
+        """False stops dispatching (and fetching): set it to ``lambda: monitor.failure is None``, so a monitor whose
+        store failed handles and acknowledges nothing more; what it had not committed comes again to its restart."""
 
     # --- the MqttBus interface ------------------------------------------------------------------------------
     def connect(self) -> NatsBus:
@@ -184,7 +187,7 @@ class NatsBus:
     async def _fetch_loop(self) -> None:
         import nats.errors
 
-        while not self._closing:
+        while not self._closing and self.accepting():
             try:
                 messages = await self._sub.fetch(self.fetch_batch, timeout=0.5)
             except nats.errors.TimeoutError:
@@ -194,6 +197,8 @@ class NatsBus:
                 await asyncio.sleep(0.2)
                 continue
             for message in messages:
+                if not self.accepting():
+                    return
                 self._dispatch(message)
 
     def _dispatch(self, message) -> None:

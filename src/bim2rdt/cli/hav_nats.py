@@ -38,6 +38,7 @@ def listen_partition(settings, url: str, partition: int, partitions: int, durati
         monitor = open_monitor(settings, sinks + [BusSink(bus, settings.mqtt.site)],
                                data_dir=partition_data_dir(settings, partition, partitions))
         monitor.attach(bus)
+        bus.accepting = lambda: monitor.failure is None  # nothing more is handled or acknowledged after a failure
         bus.connect()
         console.print(f"partition {partition}/{partitions} of site {settings.mqtt.site!r} on {url}; "
                       f"{len(monitor.devices())} device(s) restored")

@@ -189,7 +189,10 @@ def run_over_mqtt(plans: list[WorkerPlan], site: str, fs: float, host: str, port
             buses[plan.device] = MqttBus(host, port, client_id=plan.device, username=plan.device,
                                          password=password_of(plan.device), will=will,
                                          mqtt_version=mqtt_version).connect()
-        return publish_plans(buses.__getitem__, plans, site, fs, speed=speed, tick=tick)
+        sent = publish_plans(buses.__getitem__, plans, site, fs, speed=speed, tick=tick)
+        for bus in buses.values():
+            bus.drain(60.0)  # a close drops what the broker has not acknowledged yet
+        return sent
     finally:
         for bus in buses.values():
             bus.close()
