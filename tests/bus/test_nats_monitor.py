@@ -127,3 +127,55 @@ def test_a_message_whose_commit_failed_is_redelivered_and_applied_once(nats_serv
     assert bus.delivered >= failures[0] + 1  # the uncommitted group (and the status after it) came again ...
     assert_same_days(days_of(monitor, [device]), reference_days(plans, t0))  # ... and counted once
     monitor.close()
+
+
+def test_poison_over_nats_is_refused_and_counted_as_over_mqtt_and_leaves_the_good_stream_exact(nats_server, tmp_path):
+    """The same hostile payloads as tests/bus/test_fuzz.py's, from a device through nats-server's MQTT listener:
+    each is dead-lettered and acknowledged, and the good batches interleaved with them give their own A(8)."""
+    import json
+
+    from hypothesis import given, settings
+    from hypothesis import strategies as st
+
+    from bim2rdt.bus.topics import accel_topic, status_topic
+    from bim2rdt.bus.payloads import encode_accel
+    from test_fuzz import FUZZ, _as, _good
+    from poison import BAD_STATUS, poison_accel
+
+    device, t0 = "w4", time.time()
+    good = _good(device, t0, seconds=6.0)
+    accel, status = accel_topic(SITE, device), status_topic(SITE, device)
+    k = partition_of(SITE, device, 3)
+    monitor, bus = partition_monitor(nats_server, k, tmp_path)
+    w4 = wearable(nats_server, device)
+    w4.publish(status, json.dumps({"online": True, "worker": "fay", "tool": "hammer_drill"}).encode(), qos=1)
+    sent = {"poison": 0, "good": 0, "all": 1}
+
+    @settings(FUZZ, max_examples=12)
+    @given(poison=st.lists(st.one_of(poison_accel.map(lambda p: (accel, _as(p, device))),
+                                     BAD_STATUS.map(lambda p: (status, p))), min_size=20, max_size=40))
+    def publish_round(poison):
+        for topic, payload in poison:
+            w4.publish(topic, payload, qos=1)
+        sent["poison"] += len(poison)
+        if sent["good"] < len(good):
+            w4.publish(accel, encode_accel(good[sent["good"]]), qos=1)
+            sent["good"] += 1
+
+    publish_round()
+    for batch in good[sent["good"]:]:
+        w4.publish(accel, encode_accel(batch), qos=1)
+    assert w4.drain(30.0)
+    w4.close()
+    wait_delivered([bus], sent["poison"] + len(good) + 1)
+    monitor.flush()
+    bus.close()
+    reference = HavMonitor(None, SECRET, config=CONFIG, clock=lambda: t0)
+    subject = reference.start_session(device, "fay", "hammer_drill")
+    reference.ingest_many(good, now=t0 + 100)
+    day = reference.days_of(subject)[0]
+    assert sent["poison"] >= 200
+    assert monitor.malformed_messages()[device].count == sent["poison"]
+    assert monitor.day(subject, day).energy == pytest.approx(reference.day(subject, day).energy, rel=1e-9)
+    reference.close()
+    monitor.close()
