@@ -88,7 +88,8 @@ def test_the_rendered_config_pins_each_device_to_its_partition_subjects_and_is_v
     text = render_nats_config(layout)
     for device in ("w1", "w2"):
         k = partition_of("s", device, 5)
-        assert f'"hav.{k}.site.s.wearable.{device}.accel", "hav.{k}.site.s.wearable.{device}.status"' in text
+        subjects = [f"hav.{k}.site.s.wearable.{device}.{leaf}" for leaf in ("accel", "status", "summary")]
+        assert '"allow": ["' + '", "'.join(subjects) + '"]' in text
     (tmp_path / "n.conf").write_text(text)
     check = subprocess.run([NATS_SERVER, "-t", "-c", str(tmp_path / "n.conf")], capture_output=True, text=True)
     assert check.returncode == 0, check.stderr + check.stdout

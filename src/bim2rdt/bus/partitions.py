@@ -48,11 +48,11 @@ def partition_mapping(partitions: int) -> tuple[str, str]:
 
 
 def device_subjects(site: str, device: str, partitions: int) -> list[str]:
-    """The two subjects ``device`` may publish after the mapping: its accel and status, in its one partition."""
+    """The subjects ``device`` may publish after the mapping: its accel, status and summary, in its one partition."""
     check_subject_level(site, "site")
     check_subject_level(device, "device")
     k = partition_of(site, device, partitions)
-    return [f"{PREFIX}.{k}.site.{site}.wearable.{device}.{leaf}" for leaf in ("accel", "status")]
+    return [f"{PREFIX}.{k}.site.{site}.wearable.{device}.{leaf}" for leaf in ("accel", "status", "summary")]
 
 
 def partition_filter(site: str, partition: int) -> str:

@@ -207,32 +207,32 @@ def hav_broker(
     settings = get_settings()
     require_own_secrets(settings, dev, "devices", "monitor")
     names = [settings.mqtt.username, "dashboard"] + [f"w{i + 1}" for i in range(devices)]
-    with stop_requested() as stop, _broker(settings, names, port, nats, mqtt_port, partitions) as broker:
+    broker, banner = _broker(settings, names, port, nats, mqtt_port, partitions)
+    with stop_requested() as stop, broker:
+        console.print(banner)
         deadline = time.monotonic() + duration if duration else float("inf")
         while time.monotonic() < deadline and not stop.wait(min(0.5, max(deadline - time.monotonic(), 0.0))):
             broker.check()  # terminated, interrupted or its terminal closed: the with stops the broker, no orphan
 
 
 def _broker(settings, names: list[str], port: int | None, nats: bool, mqtt_port: int, partitions: int):
-    """The broker `hav broker` runs (not started yet), after saying what it will be."""
+    """The broker `hav broker` runs (not started yet) and the line that says what it is."""
     from bim2rdt.bus.broker import MosquittoBroker
 
     passwords = {name: _password(settings, name) for name in names}
     if not nats:
         broker = MosquittoBroker(passwords, port=port or 18830, site=settings.mqtt.site,
                                  monitors=(settings.mqtt.username,))
-        console.print(f"mosquitto on 127.0.0.1:{broker.port} for site {settings.mqtt.site!r}; users {', '.join(names)}")
-        return broker
+        return broker, f"mosquitto on 127.0.0.1:{broker.port} for site {settings.mqtt.site!r}; users {', '.join(names)}"
     from bim2rdt.bus.nats_broker import NatsServer
 
     monitor = settings.mqtt.username
     devices = {name: password for name, password in passwords.items() if name not in (monitor, "dashboard")}
     broker = NatsServer(settings.mqtt.site, devices, {monitor: passwords[monitor]}, partitions=partitions,
                         port=port or 14222, mqtt_port=mqtt_port)
-    console.print(f"nats-server on {broker.url} (wearables: MQTT 3.1.1 on 127.0.0.1:{broker.mqtt_port}) for site "
-                  f"{settings.mqtt.site!r}, {partitions} partition(s); monitor {monitor!r}, devices "
-                  f"{', '.join(devices)}")
-    return broker
+    return broker, (f"nats-server on {broker.url} (wearables: MQTT 3.1.1 on 127.0.0.1:{broker.mqtt_port}) for site "
+                    f"{settings.mqtt.site!r}, {partitions} partition(s); monitor {monitor!r}, devices "
+                    f"{', '.join(devices)}")
 
 
 def bench_hav(

@@ -33,6 +33,7 @@ from bim2rdt.safety.sessions import ISO_POSITIONS, Session, SessionBook
 from bim2rdt.safety.sinks import EventSink, emit_all
 from bim2rdt.safety.store import ExposureStore
 from bim2rdt.safety.subscriber import BusSubscriber
+from bim2rdt.safety.summary import merge_outcomes, push_summaries, split_summaries, stream_kind
 from bim2rdt.safety.weighting import require_weighable_rate
 
 __all__ = ["ISO_POSITIONS", "HavMonitor", "MalformedMessages", "MonitorConfig", "Session"]
@@ -100,10 +101,11 @@ class HavMonitor:
         return self.ingest_many([batch])
 
     def ingest_many(self, batches: Iterable[AccelBatch], now: float | None = None) -> list[Event]:
-        """Take batches from any devices in any order; returns (and emits) the events they caused. HavError,
+        """Take batches (and on-device summaries, :mod:`~bim2rdt.safety.summary`) from any devices in any order;
+        returns (and emits) the events they caused. HavError,
         before any state changes, if a batch's rate is too low to weigh or it holds more than ``MAX_BATCH_S``
         of samples (as the bus refuses: the store finds a raw window's batches within that reach)."""
-        batches = list(batches)
+        batches, summaries = split_summaries(batches)  # on-device summaries (safety.summary) ride along
         for batch in batches:
             require_weighable_rate(batch.fs)
             if not batch.duration_s <= MAX_BATCH_S:
@@ -112,6 +114,8 @@ class HavMonitor:
         with self._lock:
             now = self.clock() if now is None else now
             outcome = self._engine.push(batches, now)
+            if summaries:
+                outcome = merge_outcomes(outcome, push_summaries(self._engine, summaries, now))
             self._commit(outcome, now)
             return outcome.events
 
@@ -235,14 +239,16 @@ class HavMonitor:
             return stream.session if stream else None
 
     def stream_status(self, device: str) -> dict | None:
-        """Where a device's stream stands: next expected seq, batches waiting, counters, clock offset (s), and the
-        time base its events and days are on ('receive' for a device without wall time, else 'device')."""
+        """Where a device's stream stands: next expected seq, batches waiting, counters, clock offset (s), the
+        time base its events and days are on ('receive' for a device without wall time, else 'device') and what
+        the device sends ('stream': 'raw' batches, on-device 'summary' seconds, 'mixed' or 'none')."""
         with self._lock:
             stream = self._engine.streams.get(device)
             if stream is None:
                 return None
             return {"next_seq": stream.buffer.next_seq, "waiting": sorted(stream.buffer.pending),
-                    "clock_offset_s": stream.clock.offset_s, "time_base": stream.time_base, **stream.counters}
+                    "clock_offset_s": stream.clock.offset_s, "time_base": stream.time_base,
+                    "stream": stream_kind(stream.counters), **stream.counters}
 
     def activity(self, device: str) -> ActivityState | None:
         """The activity running on ``device``'s stream (``id`` None when idle); None for an unknown device."""
