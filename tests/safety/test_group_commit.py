@@ -47,7 +47,7 @@ def test_a_crash_on_the_in_process_bus_loses_at_most_the_waiting_group(make_moni
     first.attach(bus)
     _publish(bus, items[:27])  # two groups of 10 committed, 7 batches waiting
     first._subscriber.stop()  # the process dies: nothing flushed, nothing closed cleanly
-    first.store._db.close()
+    first.store.close()
     first.identity.close()
 
     second, _ = make_monitor("crash")

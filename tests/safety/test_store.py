@@ -13,11 +13,11 @@ from hav_helpers import T0
 def _vm_steps_per_commit(monitor, batches, clock) -> float:
     """SQLite virtual-machine steps (in units of 100) per single-batch ingest: the work the store does."""
     steps = [0]
-    monitor.store._db.set_progress_handler(lambda: steps.__setitem__(0, steps[0] + 1) or 0, 100)
+    monitor.store._writer.connection.dbapi_connection.set_progress_handler(lambda: steps.__setitem__(0, steps[0] + 1) or 0, 100)
     for batch in batches:
         clock.now = batch.device_time + 0.6
         monitor.ingest_many([batch])
-    monitor.store._db.set_progress_handler(None, 100)
+    monitor.store._writer.connection.dbapi_connection.set_progress_handler(None, 100)
     return steps[0] / len(batches)
 
 
@@ -43,7 +43,7 @@ def test_raw_int16_batches_are_stored_as_counts_and_restored_bit_for_bit(tmp_pat
     store = ExposureStore(tmp_path / "hav.sqlite")
     with store.transaction():
         store.save_raw([sent, floats])
-    sizes = dict(store._db.execute("SELECT device, length(samples) FROM raw").fetchall())
+    sizes = dict(store._writer.exec_driver_sql("SELECT device, length(samples) FROM raw").fetchall())
     assert sizes == {"w1": 2500 * 3 * 2, "w2": 2500 * 3 * 4}
     back = store.raw_batches("w1", 0)[0]
     assert back.xyz.dtype == np.float32 and np.array_equal(back.xyz, sent.xyz) and back.scale == sent.scale

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import importlib
 import pkgutil
-import sqlite3
 import sys
 
 import typer
@@ -67,11 +66,15 @@ def main() -> None:
     except typer.Abort:
         typer.echo("aborted", err=True)
         sys.exit(130)
-    except (OSError, sqlite3.OperationalError) as error:  # the machine, not the code: say it in one line
+    except OSError as error:  # the machine, not the code: say it in one line
         typer.secho(f"error: {_system_reason(error)}", err=True, fg=typer.colors.RED)
         sys.exit(1)
     except Exception as error:  # click usage errors; typer >= 0.29 vendors click as typer._click
         import click
+
+        if _database_failure(error):  # a database the machine cannot write (full disk): one line
+            typer.secho(f"error: {_system_reason(error)}", err=True, fg=typer.colors.RED)
+            sys.exit(1)
 
         bad_value = isinstance(error, click.BadParameter | typer.BadParameter) and \
             type(error).__name__ != "MissingParameter"  # click's or typer's vendored click's
@@ -84,8 +87,15 @@ def main() -> None:
         raise
 
 
-def _system_reason(error: OSError | sqlite3.OperationalError) -> str:
-    if isinstance(error, sqlite3.OperationalError):
-        return f"SQLite: {error}"
+def _database_failure(error: Exception) -> bool:
+    """An SQLite or SQLAlchemy OperationalError (the database cannot be written: disk full, I/O error)."""
+    return type(error).__name__ == "OperationalError" and type(error).__module__.split(".")[0] in (
+        "sqlite3", "sqlalchemy")
+
+
+def _system_reason(error: Exception) -> str:
+    if not isinstance(error, OSError):
+        original = getattr(error, "orig", None) or error
+        return f"SQLite: {' '.join(str(original).splitlines()[:1])}"
     where = f"{error.filename}: " if error.filename else ""
     return f"{where}{error.strerror or error}"

@@ -61,6 +61,13 @@ class MonitorConfig(BaseModel):
                              "before a gap is declared.")
     raw_retention_s: float = Field(7 * 24 * 3600.0, ge=0, description="Raw batches are deleted this long after "
                                    "receipt once framed, seconds (0: as soon as framed).")
+    store_url: str | None = Field(None, min_length=1, description="SQLAlchemy URL of the exposure store: "
+                                  "sqlite:///path/hav.sqlite for one monitor process, postgresql+psycopg://user:"
+                                  "password@host/db for several; None: hav.sqlite in the monitor's data folder.")
+    outbox_retry_s: float = Field(1.0, gt=0, le=600, description="Seconds between deliveries of queued events "
+                                  "to a durable sink (the twin) that failed.")
+    outbox_drain_s: float = Field(5.0, ge=0, le=600, description="Seconds closing the monitor waits for the "
+                                  "durable sinks to take what is queued (the rest is delivered at the next start).")
     keep_timeline: bool = Field(False, description="Keep (time, subject, A(8)) after every counted block (plots).")
     commit_batches: int = Field(64, ge=1, le=1000, description="Group commit: bus messages ingested and committed "
                                 "together at most (one SQLite transaction, one filtering pass per stream).")

@@ -9,3 +9,12 @@ class HavError(Bim2RdtError):
 
 class AccessDenied(HavError):
     """A role that may not read the identity map asked for a real name behind a pseudonym."""
+
+
+class StoreError(HavError):
+    """The exposure store cannot be opened, read or written (a bad URL, an unreachable server, a full disk)."""
+
+
+class AlreadyApplied(HavError):
+    """A commit would apply a batch the store's ledger already holds (keyed on device, boot, seq): the monitor's
+    memory is behind the store (another process applied it, or a redelivery raced a restore); nothing was written."""

@@ -4,15 +4,19 @@
 - the in-memory engine (:mod:`~bim2rdt.safety.engine`): order, weigh, reject artefacts, track activities and
   worker-days, make events;
 - sessions and corrections (:mod:`~bim2rdt.safety.sessions`): who wears which device, pseudonymously;
-- persistence (:mod:`~bim2rdt.safety.persistence`): every ingest is one SQLite transaction, so a restart
-  mid-shift resumes where it stopped;
+- persistence (:mod:`~bim2rdt.safety.persistence`, :mod:`~bim2rdt.safety.store`): every ingest is one store
+  transaction (SQLite by default, PostgreSQL by ``config.store_url``), so a restart mid-shift resumes where it
+  stopped, and a batch is applied at most once;
 - the bus subscriber (:mod:`~bim2rdt.safety.subscriber`): accel and status topics, group commits;
 - the device clock (:mod:`~bim2rdt.safety.clock`): each stream's clock offset.
-Events go to the sinks after their commit.
+Events go to the sinks after their commit: to a plain sink at once (a sink that fails is logged and counted,
+never a refused message), to a durable sink (one with an ``outbox`` name, the twin's) through the outbox in the
+store, delivered by its own thread (:mod:`~bim2rdt.safety.outbox`), so the accounting never waits on it.
 """
 
 from __future__ import annotations
 
+import logging
 import threading
 import time
 from collections.abc import Callable, Iterable, Sequence
@@ -25,18 +29,21 @@ from bim2rdt.safety.activity import ActivityState, DayState, utc_day
 from bim2rdt.safety.config import MonitorConfig
 from bim2rdt.safety.deadletters import DeadLetters, MalformedMessages
 from bim2rdt.safety.engine import ExposureEngine, Outcome
-from bim2rdt.safety.errors import HavError
+from bim2rdt.safety.errors import AlreadyApplied, HavError
 from bim2rdt.safety.mounting import MountingCorrection
+from bim2rdt.safety.outbox import OutboxDelivery, outbox_name
 from bim2rdt.safety.persistence import MonitorJournal
+from bim2rdt.safety.reads import MonitorReads
 from bim2rdt.safety.privacy import IdentityMap
 from bim2rdt.safety.sessions import ISO_POSITIONS, Session, SessionBook
-from bim2rdt.safety.sinks import EventSink, emit_all
+from bim2rdt.safety.sinks import EventSink, emit_each
 from bim2rdt.safety.store import ExposureStore
 from bim2rdt.safety.subscriber import BusSubscriber
 from bim2rdt.safety.summary import merge_outcomes, push_summaries, split_summaries, stream_kind
 from bim2rdt.safety.weighting import require_weighable_rate
 
 __all__ = ["ISO_POSITIONS", "HavMonitor", "MalformedMessages", "MonitorConfig", "Session"]
+log = logging.getLogger("bim2rdt.safety")
 
 
 class HavMonitor:
@@ -44,13 +51,16 @@ class HavMonitor:
 
     def __init__(self, data_dir: Path | None, site_secret: str, sinks: Sequence[EventSink] = (),
                  config: MonitorConfig = MonitorConfig(), clock: Callable[[], float] = time.time):
-        """State under ``data_dir`` (``hav.sqlite``, ``private/identity.sqlite``); None keeps it in memory, for a
-        throw-away monitor that must write nothing (``hav analyze``)."""
-        self.config, self.sinks, self.clock = config, list(sinks), clock
+        """State under ``data_dir`` (``hav.sqlite``, ``private/identity.sqlite``), or in the database at
+        ``config.store_url`` (the identity map stays under ``data_dir``); ``data_dir`` None (and no URL) keeps it
+        in memory, for a throw-away monitor that must write nothing (``hav analyze``). ``sinks`` with an
+        ``outbox`` name are durable (see :meth:`add_sink`)."""
+        self.config, self.sinks, self.clock = config, [], clock
         folder = Path(data_dir) if data_dir is not None else None
-        self.store = ExposureStore(folder / "hav.sqlite" if folder else None)
+        self.store = ExposureStore.for_folder(folder, config.store_url)
         self.identity = IdentityMap(folder / "private" / "identity.sqlite" if folder else None, role="monitor")
         self._journal = MonitorJournal(self.store, config.raw_retention_s)
+        self._deliveries: dict[str, OutboxDelivery] = {}
         self._sessions = SessionBook(site_secret, self.identity, self._journal.corrections())
         self._engine = ExposureEngine(config, self._sessions, clock)
         self._journal.restore(self._engine)
@@ -59,6 +69,38 @@ class HavMonitor:
         """Why the monitor cannot go on (its store failed), else None: ``hav listen`` exits non-zero on it."""
         self._lock = threading.RLock()
         self._subscriber = BusSubscriber(self, config.commit_batches, config.commit_delay_s, self._lock)
+        for sink in sinks:
+            self.add_sink(sink)
+
+    def add_sink(self, sink: EventSink) -> None:
+        """Send the events of every later commit to ``sink``: at once, or, for a sink with an ``outbox`` name
+        (the twin's), through the store's outbox: queued in each commit's transaction, delivered in order by a
+        background thread that retries every ``config.outbox_retry_s`` while the sink fails, none lost or
+        doubled; events queued for that name by an earlier run are delivered too."""
+        name = outbox_name(sink)
+        if name is None:
+            self.sinks.append(sink)
+            return
+        with self._lock:
+            if name in self._deliveries:
+                raise HavError(f"the monitor already has a durable sink named {name!r}")
+            self._deliveries[name] = OutboxDelivery(self.store, name, sink, self.config.outbox_retry_s).start()
+            self._journal.outbox.append(name)
+
+    @property
+    def reads(self) -> MonitorReads:
+        """The read side of the store (events, raw windows) for the server and the CLI: reads never take the
+        monitor's lock."""
+        return MonitorReads(self.store)
+
+    def outbox_status(self) -> dict[str, dict]:
+        """Per durable sink: events waiting, delivered by this process, failed deliveries, the last error."""
+        return {name: {"pending": d.pending(), "delivered": d.delivered, "failures": d.failures,
+                       "last_error": d.last_error} for name, d in self._deliveries.items()}
+
+    def drain_outbox(self, timeout_s: float) -> bool:
+        """Wait up to ``timeout_s`` for every durable sink to take what is queued; True when all did."""
+        return all([d.drain(timeout_s) for d in self._deliveries.values()])
 
     @property
     def stats(self) -> dict[str, float]:
@@ -113,11 +155,19 @@ class HavMonitor:
                                f"most {MAX_BATCH_S:g} s")
         with self._lock:
             now = self.clock() if now is None else now
-            outcome = self._engine.push(batches, now)
-            if summaries:
-                outcome = merge_outcomes(outcome, push_summaries(self._engine, summaries, now))
-            self._commit(outcome, now)
+            outcome = self._push(batches, summaries, now)
+            try:
+                self._commit(outcome, now)
+            except AlreadyApplied:  # memory was behind the store: reload it; what was applied is now a duplicate
+                log.warning("a batch was already applied to the store; reloading the engine from it")
+                self._reload()
+                outcome = self._push(batches, summaries, now)
+                self._commit(outcome, now)
             return outcome.events
+
+    def _push(self, batches: list[AccelBatch], summaries: list, now: float) -> Outcome:
+        outcome = self._engine.push(batches, now)
+        return merge_outcomes(outcome, push_summaries(self._engine, summaries, now)) if summaries else outcome
 
     def ingest_payload(self, topic: str, payload: bytes, received: float | None = None) -> list[Event]:
         """An MQTT accel message, ingested now; ignored (and counted) if malformed, too slowly sampled to weigh,
@@ -210,11 +260,15 @@ class HavMonitor:
         with self._lock:
             for batch in batches:
                 self.refuse(batch.device, reason, self.clock())
-            stats, timeline = self._engine.stats, self._engine.timeline
-            self._engine = ExposureEngine(self.config, self._sessions, self.clock)
-            self._engine.stats.update(stats)
-            self._engine.timeline.extend(timeline)
-            self._journal.restore(self._engine)
+            self._reload()
+
+    def _reload(self) -> None:
+        """Rebuild the engine from the store (counts and timeline carried over)."""
+        stats, timeline = self._engine.stats, self._engine.timeline
+        self._engine = ExposureEngine(self.config, self._sessions, self.clock)
+        self._engine.stats.update(stats)
+        self._engine.timeline.extend(timeline)
+        self._journal.restore(self._engine)
 
     # --- reading -----------------------------------------------------------------------------------------
     def day(self, subject: str, day: str | None = None) -> DayState:
@@ -257,19 +311,33 @@ class HavMonitor:
             return stream.tracker.state if stream else None
 
     def close(self) -> None:
-        """Commit what waits for a group commit, then close the store and the identity map."""
+        """Commit what waits for a group commit, give the durable sinks up to ``config.outbox_drain_s`` to take
+        what is queued (the rest waits in the store for the next start), then close the store and the identity
+        map."""
         self._subscriber.stop()
         with self._lock:
             self.flush()
             self.save_dead_letters()
+        if not self.drain_outbox(self.config.outbox_drain_s):
+            log.warning("closing with events still queued for %s: delivered at the next start",
+                        ", ".join(name for name, d in self._deliveries.items() if d.pending()))
+        for delivery in self._deliveries.values():
+            delivery.stop()
+        with self._lock:
             self.store.close()
             self.identity.close()
 
     # --- internals ---------------------------------------------------------------------------------------
     def _commit(self, outcome: Outcome, now: float | None = None, sessions: dict[str, Session] | None = None) -> None:
-        """Persist what a call changed in one transaction, then hand its events to the sinks (as one group to a
-        sink that takes groups: see :func:`~bim2rdt.safety.sinks.emit_all`)."""
+        """Persist what a call changed in one transaction (the events queued for the durable sinks in it), then
+        hand its events to the plain sinks (a sink that fails is logged and counted in ``stats["sink_errors"]``,
+        see :func:`~bim2rdt.safety.sinks.emit_each`) and wake the durable sinks' deliveries."""
         now = self.clock() if now is None else now
         self._journal.commit(self._engine, outcome.accepted, outcome.streams.values(), outcome.events, now, sessions,
                              self._dead.take_dirty())
-        emit_all(self.sinks, outcome.events)
+        failed = emit_each(self.sinks, outcome.events)
+        if failed:
+            self._engine.count("sink_errors", failed)
+        if outcome.events:
+            for delivery in self._deliveries.values():
+                delivery.wake()

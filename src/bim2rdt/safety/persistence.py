@@ -1,8 +1,9 @@
-"""The monitor's persistence: each ingest's changes in one SQLite transaction, and the engine restored from them.
+"""The monitor's persistence: each ingest's changes in one store transaction, and the engine restored from them.
 
-One commit holds the raw batches (all while retained, else only those still waiting for a predecessor), the
-touched streams' ordering, filter, activity and clock state, the touched worker-days, the events and the
-activities they start or end. A restart therefore resumes exactly where the last commit left off: batches
+One commit holds the raw batches (all while retained, else only those still waiting for a predecessor), the keys
+of the batches it applies (the ledger: a batch is applied at most once), the touched streams' ordering, filter,
+activity and clock state, the touched worker-days, the events (queued in the outbox for each durable sink) and
+the activities they start or end. A restart therefore resumes exactly where the last commit left off: batches
 redelivered after it are duplicates, batches it had not committed are new (see :class:`~bim2rdt.safety.monitor.
 HavMonitor` for the group-commit window).
 """
@@ -27,6 +28,8 @@ class MonitorJournal:
     def __init__(self, store: ExposureStore, raw_retention_s: float):
         self.store, self.raw_retention_s = store, raw_retention_s
         self._raw_devices: set[str] = set()  # streams that may have raw rows to drop
+        self.outbox: list[str] = []
+        """Names of the durable sinks: each commit's events are queued for each of them."""
 
     def corrections(self) -> list[MountingCorrection]:
         return [MountingCorrection.from_json(text) for text in self.store.corrections()]
@@ -51,10 +54,12 @@ class MonitorJournal:
         """One transaction: raw batches, stream states, touched days, events, activities (and sessions, counts
         of refused messages)."""
         streams = list(streams)
+        applied = [(b.device, engine.streams[b.device].buffer.boot or "", b.seq, b.received_time) for b in batches]
         if self.raw_retention_s <= 0:
             batches = [b for b in batches if b.seq in engine.streams[b.device].buffer.pending]
         self._raw_devices.update(b.device for b in batches)
         with self.store.transaction():
+            self.store.mark_applied(applied, now)
             self.store.save_raw(batches)
             self.store.save_streams((s.device, _stream_state(s), s.filter.to_bytes()) for s in streams)
             self.store.save_activities([_open_activity(engine.streams[e.source]) for e in events
@@ -62,7 +67,7 @@ class MonitorJournal:
             self._drop_raw(engine, now)
             self.store.save_days([(subject, day, engine.days[(subject, day)])
                                   for subject, day in engine.touched_days])
-            self.store.add_events(events)
+            self.store.add_events(events, self.outbox)
             self.store.save_activities([(e.data["activity"], e.subject, e.data["day"], {**e.data, "open": False})
                                         for e in events if e.kind == ACTIVITY_ENDED])
             for device, session in (sessions or {}).items():

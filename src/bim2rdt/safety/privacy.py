@@ -2,8 +2,9 @@
 
 A pseudonym is a keyed hash (HMAC-SHA256 with the site secret, ``Settings.hav.site_secret``) of the worker id:
 stable across days and restarts, not reversible without the secret, different on every site. The identity map
-(pseudonym -> worker id) lives in its own SQLite file in a private folder (mode 0700, file 0600), apart from
-the exposure store, and :meth:`IdentityMap.real_name` refuses any role but ``safety``.
+(pseudonym -> worker id) lives in its own SQLite file (through SQLAlchemy, as every store of the project) in a
+private folder (mode 0700, file 0600), apart from the exposure store, and :meth:`IdentityMap.real_name` refuses
+any role but ``safety``.
 """
 
 from __future__ import annotations
@@ -11,12 +12,17 @@ from __future__ import annotations
 import hashlib
 import hmac
 import os
-import sqlite3
 from pathlib import Path
 
-from bim2rdt.safety.errors import AccessDenied, HavError
+import sqlalchemy as sa
+
+from bim2rdt import sqlstore
+from bim2rdt.safety.errors import AccessDenied, HavError, StoreError
 
 SAFETY_ROLE = "safety"
+_metadata = sa.MetaData()
+identity_table = sa.Table("identity", _metadata, sa.Column("pseudonym", sa.Text, primary_key=True),
+                          sa.Column("worker", sa.Text, nullable=False))
 
 
 def pseudonym(worker_id: str, secret: str) -> str:
@@ -32,27 +38,30 @@ class IdentityMap:
     def __init__(self, path: Path | None, role: str):
         """``path`` None keeps the map in memory (a throw-away monitor, e.g. analysing a file)."""
         self.path, self.role = (Path(path) if path is not None else None), role
-        if self.path is None:
-            self._db = sqlite3.connect(":memory:", check_same_thread=False)
-        else:
+        if self.path is not None:
             self.path.parent.mkdir(parents=True, exist_ok=True)
             os.chmod(self.path.parent, 0o700)
-            self._db = sqlite3.connect(self.path, check_same_thread=False)
+        url = sqlstore.parse_url(f"sqlite:///{self.path}" if self.path else "sqlite://", StoreError, "the identity map",
+                                 "sqlite:///private/identity.sqlite")
+        self._engine = sqlstore.make_engine(url, StoreError, "the identity map", ("synchronous=FULL",))
+        with self._engine.begin() as conn:
+            _metadata.create_all(conn)
+        if self.path is not None:
             os.chmod(self.path, 0o600)
-        self._db.execute("CREATE TABLE IF NOT EXISTS identity (pseudonym TEXT PRIMARY KEY, worker TEXT NOT NULL)")
-        self._db.commit()
 
     def remember(self, pseudonym_: str, worker_id: str) -> None:
         """Record who is behind a pseudonym (any role may add; the monitor does when a session starts)."""
-        self._db.execute("INSERT OR REPLACE INTO identity VALUES (?, ?)", (pseudonym_, worker_id))
-        self._db.commit()
+        insert = sa.dialects.sqlite.insert(identity_table).values(pseudonym=pseudonym_, worker=worker_id)
+        with self._engine.begin() as conn:
+            conn.execute(insert.on_conflict_do_update(index_elements=["pseudonym"], set_={"worker": worker_id}))
 
     def real_name(self, pseudonym_: str) -> str | None:
         """The worker id behind ``pseudonym_``: safety role only (AccessDenied otherwise)."""
         if self.role != SAFETY_ROLE:
             raise AccessDenied(f"role {self.role!r} may not read the identity map (only {SAFETY_ROLE!r})")
-        row = self._db.execute("SELECT worker FROM identity WHERE pseudonym = ?", (pseudonym_,)).fetchone()
-        return row[0] if row else None
+        with self._engine.connect() as conn:
+            return conn.execute(sa.select(identity_table.c.worker).where(identity_table.c.pseudonym == pseudonym_)
+                                ).scalar()
 
     def close(self) -> None:
-        self._db.close()
+        self._engine.dispose()

@@ -9,6 +9,7 @@ that turns them into IfcEvent/IfcTask records lives in :mod:`bim2rdt.safety.ifc_
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Callable, Iterable, Sequence
 from typing import Protocol
 
@@ -32,6 +33,20 @@ def emit_all(sinks: Iterable[EventSink], events: Sequence[Event]) -> None:
             continue
         for event in events:
             sink.emit(event)
+
+
+def emit_each(sinks: Iterable[EventSink], events: Sequence[Event]) -> int:
+    """:func:`emit_all`, each sink on its own: one that raises is logged and skipped, the others still get the
+    events; returns how many sinks failed (a sink's failure says nothing about the messages)."""
+    failed = 0
+    for sink in sinks:
+        try:
+            emit_all([sink], events)
+        except Exception:
+            failed += 1
+            logging.getLogger("bim2rdt.safety").exception("the sink %s failed on %d events", type(sink).__name__,
+                                                          len(events))
+    return failed
 
 
 class ListSink:

@@ -1,54 +1,122 @@
-"""Exposure state on disk: SQLite in WAL mode, one transaction per ingest, so a restart loses nothing.
+"""Exposure state in a database, through SQLAlchemy Core (the twin's URL handling, :mod:`bim2rdt.sqlstore`): an
+SQLite file by default (WAL, one transaction per ingest, so a restart loses nothing), PostgreSQL by URL when
+several monitor processes share one store.
 
-What is kept: raw batches (out-of-order ones until they are processed, all of them only for the configured
-retention), each stream's ordering, filter and activity state, each worker-day's accumulated weighted energy and
-the times EAV
-and ELV were reached, activities, events and fitted mounting corrections. Workers appear only as pseudonyms;
-the identity map lives in a separate file (see :mod:`bim2rdt.safety.privacy`).
+What is kept: raw batches (out-of-order ones until they are processed, the rest by the raw retention rule of
+:mod:`bim2rdt.safety.retention`), each stream's ordering, filter and activity state, each worker-day's accumulated
+weighted energy and the times EAV and ELV were reached, activities, events, fitted mounting corrections, the
+ledger of applied batches (``applied``: a batch is applied at most once, keyed on (device, boot, seq)) and the
+outbox of events for durable sinks. Workers appear only as pseudonyms; the identity map lives apart (see
+:mod:`bim2rdt.safety.privacy`). The schema is versioned: :data:`MIGRATIONS` bring an older store up to date.
 """
 
 from __future__ import annotations
 
 import json
-import sqlite3
+import threading
 import time
-from collections.abc import Iterable, Iterator
-from contextlib import contextmanager
+import zlib
+from collections.abc import Callable, Iterable, Iterator
+from contextlib import contextmanager, nullcontext
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+import sqlalchemy as sa
+from sqlalchemy.engine import Connection
+from sqlalchemy.exc import IntegrityError, SQLAlchemyError
 
+from bim2rdt import sqlstore
 from bim2rdt.bus.event import Event
 from bim2rdt.bus.payloads import MAX_BATCH_S, AccelBatch
+from bim2rdt.safety.errors import AlreadyApplied, StoreError
 
 PAGE_SIZE = 16384
 """Bytes per SQLite page. A 0.5 s int16 batch at 5 kHz is 15 kB: on 4 kB pages it spans an overflow chain of
 four pages, each written to the WAL and again at the checkpoint; 16 kB pages cut the commit cost per batch from
 58 to 38 us (2 wearables x 15 min, median of 3 interleaved runs) without making small-row updates heavy."""
+SQLITE_PRAGMAS = (f"page_size={PAGE_SIZE}", "synchronous=NORMAL")
+"""A committed ingest survives a process crash (WAL, synchronous=NORMAL); page_size applies to a new file only."""
+LEDGER_KEEP_S = 3 * 3600.0
+"""Seconds an applied batch's key stays in the ledger: longer than any redelivery (an MQTT session queues for an
+hour by default; a JetStream redelivery comes within ack_wait x max_deliver); older duplicates are still found by
+each stream's own memory of the times it took."""
+LEDGER_PRUNE_EVERY_S = 60.0
+"""The ledger is pruned at most this often (seconds of the monitor's clock)."""
+RAW_PLAIN, RAW_ZLIB = 0, 1
+"""Codecs of a raw blob: as packed, or zlib-compressed (level 1) byte-planes of the packed samples."""
 
-_SCHEMA = """
-CREATE TABLE IF NOT EXISTS raw (device TEXT, seq INTEGER, device_time REAL, received_time REAL, fs REAL,
-    full_scale REAL, n INTEGER, samples BLOB, scale REAL, PRIMARY KEY (device, seq));
-DROP INDEX IF EXISTS raw_received;
-CREATE INDEX IF NOT EXISTS raw_expiry ON raw (received_time, device, seq);
-CREATE INDEX IF NOT EXISTS raw_window ON raw (device, device_time);
-CREATE TABLE IF NOT EXISTS streams (device TEXT PRIMARY KEY, state TEXT, filter BLOB);
-CREATE TABLE IF NOT EXISTS days (subject TEXT, day TEXT, energy REAL, seconds REAL, eav_at REAL, elv_at REAL,
-    hands TEXT, PRIMARY KEY (subject, day));
-CREATE TABLE IF NOT EXISTS sessions (device TEXT PRIMARY KEY, session TEXT);
-CREATE TABLE IF NOT EXISTS activities (id TEXT PRIMARY KEY, subject TEXT, day TEXT, state TEXT);
-CREATE TABLE IF NOT EXISTS events (id INTEGER PRIMARY KEY AUTOINCREMENT, kind TEXT, time REAL, subject TEXT,
-    source TEXT, data TEXT, received REAL);
-CREATE TABLE IF NOT EXISTS corrections (subject TEXT, position TEXT, fit TEXT, PRIMARY KEY (subject, position));
-CREATE TABLE IF NOT EXISTS malformed (device TEXT PRIMARY KEY, count INTEGER, last_reason TEXT, last_received REAL);
-"""
+metadata = sa.MetaData()
+_ID = sa.BigInteger().with_variant(sa.Integer(), "sqlite")
+raw_table = sa.Table(
+    "raw", metadata,
+    sa.Column("device", sa.Text, primary_key=True), sa.Column("seq", sa.BigInteger, primary_key=True),
+    sa.Column("device_time", sa.Double), sa.Column("received_time", sa.Double), sa.Column("fs", sa.Double),
+    sa.Column("full_scale", sa.Double), sa.Column("n", sa.Integer), sa.Column("samples", sa.LargeBinary),
+    sa.Column("scale", sa.Double), sa.Column("codec", sa.SmallInteger, nullable=False, server_default="0"),
+    sa.Column("kept", sa.SmallInteger, nullable=False, server_default="0"),
+    sa.Index("raw_expiry", "received_time", "device", "seq"), sa.Index("raw_window", "device", "device_time"))
+streams_table = sa.Table("streams", metadata, sa.Column("device", sa.Text, primary_key=True),
+                         sa.Column("state", sa.Text), sa.Column("filter", sa.LargeBinary))
+days_table = sa.Table(
+    "days", metadata, sa.Column("subject", sa.Text, primary_key=True), sa.Column("day", sa.Text, primary_key=True),
+    sa.Column("energy", sa.Double), sa.Column("seconds", sa.Double), sa.Column("eav_at", sa.Double),
+    sa.Column("elv_at", sa.Double), sa.Column("hands", sa.Text))
+sessions_table = sa.Table("sessions", metadata, sa.Column("device", sa.Text, primary_key=True),
+                          sa.Column("session", sa.Text))
+activities_table = sa.Table("activities", metadata, sa.Column("id", sa.Text, primary_key=True),
+                            sa.Column("subject", sa.Text), sa.Column("day", sa.Text), sa.Column("state", sa.Text))
+events_table = sa.Table(
+    "events", metadata, sa.Column("id", _ID, primary_key=True, autoincrement=True), sa.Column("kind", sa.Text),
+    sa.Column("time", sa.Double), sa.Column("subject", sa.Text), sa.Column("source", sa.Text),
+    sa.Column("data", sa.Text), sa.Column("received", sa.Double), sqlite_autoincrement=True)
+corrections_table = sa.Table(
+    "corrections", metadata, sa.Column("subject", sa.Text, primary_key=True),
+    sa.Column("position", sa.Text, primary_key=True), sa.Column("fit", sa.Text))
+malformed_table = sa.Table(
+    "malformed", metadata, sa.Column("device", sa.Text, primary_key=True), sa.Column("count", sa.Integer),
+    sa.Column("last_reason", sa.Text), sa.Column("last_received", sa.Double))
+applied_table = sa.Table(
+    "applied", metadata, sa.Column("device", sa.Text, primary_key=True), sa.Column("boot", sa.Text, primary_key=True),
+    sa.Column("seq", sa.BigInteger, primary_key=True), sa.Column("received_time", sa.Double, nullable=False),
+    sa.Index("applied_received", "received_time"))
+outbox_table = sa.Table(
+    "outbox", metadata, sa.Column("id", _ID, primary_key=True, autoincrement=True),
+    sa.Column("sink", sa.Text, nullable=False), sa.Column("event", sa.Text, nullable=False),
+    sa.Index("outbox_sink", "sink", "id"), sqlite_autoincrement=True)
+keep_table = sa.Table(
+    "raw_keep", metadata, sa.Column("device", sa.Text, nullable=False), sa.Column("start", sa.Double, nullable=False),
+    sa.Column("end", sa.Double, nullable=False), sa.Column("until", sa.Double, nullable=False),
+    sa.Index("raw_keep_device", "device", "start"))
+version_table = sa.Table("hav_schema", metadata, sa.Column("version", sa.Integer, nullable=False))
 
+
+def _add_column(table: str, column: str, ddl: str) -> Callable[[Connection], None]:
+    def step(conn: Connection) -> None:
+        if column not in {c["name"] for c in sa.inspect(conn).get_columns(table)}:
+            conn.exec_driver_sql(f"ALTER TABLE {table} ADD COLUMN {column} {ddl}")
+    return step
+
+
+def _drop_raw_received(conn: Connection) -> None:
+    conn.exec_driver_sql("DROP INDEX IF EXISTS raw_received")  # the expiry index before raw_expiry
+
+
+MIGRATIONS: list[tuple[int, str, Callable[[Connection], None]]] = [
+    (1, "raw samples as int16 counts with a scale (stores from 0.1)", _add_column("raw", "scale", "REAL")),
+    (2, "the expiry index raw_received replaced by the covering raw_expiry", _drop_raw_received),
+    (3, "compressed raw blobs", _add_column("raw", "codec", "SMALLINT NOT NULL DEFAULT 0")),
+    (4, "raw batches kept around events", _add_column("raw", "kept", "SMALLINT NOT NULL DEFAULT 0")),
+]
+"""(version, what, step) in order: each step runs once, in its own transaction, on a store older than it; a new
+store is created at the last version. Tables and indexes a step does not name are created as they are defined."""
+SCHEMA_VERSION = MIGRATIONS[-1][0]
 
 WINDOW_LOOKBACK_S = MAX_BATCH_S + 1.0
 """Seconds before a window's start where a batch reaching into the window may begin: batches hold at most
 ``MAX_BATCH_S`` of samples (the bus refuses longer ones, ``HavMonitor.ingest_many`` too), plus rounding."""
-RAW_WINDOW_SQL = ("SELECT device, seq, device_time, received_time, fs, full_scale, n, samples, scale FROM raw "
+_RAW_COLUMNS = "device, seq, device_time, received_time, fs, full_scale, n, samples, scale, codec"
+RAW_WINDOW_SQL = (f"SELECT {_RAW_COLUMNS} FROM raw "
                   "WHERE device = :device AND device_time > :start - :lookback AND device_time < :end "
                   "AND device_time + n / fs > :start ORDER BY seq")
 """A device's batches with samples in device time [start, end): a range on the ``raw_window`` index (device,
@@ -56,159 +124,396 @@ device_time) bounded on both sides, never a scan of the device's whole raw histo
 
 
 class ExposureStore:
-    """The monitor's SQLite file (WAL, synchronous=NORMAL: a committed ingest survives a process crash)."""
+    """The monitor's store at a SQLAlchemy URL; one writer connection (the monitor's, under its lock), pooled
+    connections for readers and the outbox."""
 
-    def __init__(self, path: Path | None):
-        """``path`` None keeps the store in memory (a throw-away monitor, e.g. analysing a file)."""
-        self.path = Path(path) if path is not None else None
-        if self.path is not None:
-            self.path.parent.mkdir(parents=True, exist_ok=True)
-        self._db = sqlite3.connect(self.path or ":memory:", check_same_thread=False, isolation_level=None)
-        self._db.execute(f"PRAGMA page_size={PAGE_SIZE}")  # a new file only; an existing one keeps its own
-        self._db.execute("PRAGMA journal_mode=WAL")
-        self._db.execute("PRAGMA synchronous=NORMAL")
-        self._db.executescript(_SCHEMA)
-        if "scale" not in {row[1] for row in self._db.execute("PRAGMA table_info(raw)")}:  # a store from 0.1
-            self._db.execute("ALTER TABLE raw ADD COLUMN scale REAL")
+    def __init__(self, location: Path | str | None, busy_timeout_s: float = sqlstore.SQLITE_BUSY_TIMEOUT_S):
+        """``location``: a SQLAlchemy URL (``sqlite:///var/hav/hav.sqlite``, ``postgresql+psycopg://...``), a
+        path of an SQLite file, or None for a throw-away store in memory (``hav analyze``). StoreError if it
+        cannot be opened."""
+        if location is None or isinstance(location, Path):
+            url_text = f"sqlite:///{location}" if location is not None else "sqlite://"
+        else:
+            url_text = location
+        self.url = sqlstore.parse_url(url_text, StoreError, "the exposure store", "sqlite:///var/hav/hav.sqlite")
+        self.label = sqlstore.label(self.url)
+        self.path = Path(self.url.database) if self.url.get_backend_name() == "sqlite" and not \
+            sqlstore.is_memory(self.url) else None
+        self.dialect = self.url.get_backend_name()
+        self.engine = sqlstore.make_engine(self.url, StoreError, "the exposure store", SQLITE_PRAGMAS, busy_timeout_s)
+        self._guard = threading.RLock() if sqlstore.is_memory(self.url) else nullcontext()
+        """An in-memory store is one connection shared by all threads: one of them uses it at a time."""
+        self._insert = sa.dialects.postgresql.insert if self.dialect == "postgresql" else sa.dialects.sqlite.insert
+        with self._errors("cannot open"):
+            self._writer = self.engine.connect()
+            migrate(self._writer)
+        self._conn: Connection | None = None
+        self._owner: int | None = None
+        self._pruned_at = -float("inf")
         self.commits, self.commit_s = 0, 0.0
         """Transactions committed, and the thread CPU seconds spent inside them (``bench hav`` reads both)."""
 
+    @classmethod
+    def for_folder(cls, folder: Path | None, url: str | None = None) -> ExposureStore:
+        """The store at ``url``, else ``folder/hav.sqlite``, else in memory."""
+        return cls(url if url else (Path(folder) / "hav.sqlite" if folder is not None else None))
+
     @contextmanager
     def transaction(self) -> Iterator[ExposureStore]:
-        """All writes inside commit together or not at all."""
+        """All writes inside commit together or not at all (the monitor's writer connection)."""
         start = time.thread_time()
-        self._db.execute("BEGIN")
-        try:
-            yield self
-        except BaseException:
-            self._db.execute("ROLLBACK")
-            raise
-        self._db.execute("COMMIT")
+        with self._guard, self._errors("could not write"):
+            with self._writer.begin():
+                self._conn, self._owner = self._writer, threading.get_ident()
+                try:
+                    yield self
+                finally:
+                    self._conn = None
         self.commits += 1
         self.commit_s += time.thread_time() - start
 
     # raw batches ---------------------------------------------------------------------------------------
-    def save_raw(self, batches: Iterable[AccelBatch]) -> None:
-        """Samples as they came: int16 counts (half the bytes) when the batch has a count ``scale``, else float32."""
-        self._db.executemany("INSERT OR IGNORE INTO raw VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)", [
-            (b.device, b.seq, b.device_time, b.received_time, b.fs, b.full_scale, b.xyz.shape[0], *_packed(b))
-            for b in batches])
+    def save_raw(self, batches: Iterable[AccelBatch], compress: bool = False) -> None:
+        """Samples as they came: int16 counts (half the bytes) when the batch has a count ``scale``, else float32;
+        with ``compress``, zlib over the samples' byte planes (lossless)."""
+        rows = [{"device": b.device, "seq": b.seq, "device_time": b.device_time, "received_time": b.received_time,
+                 "fs": b.fs, "full_scale": b.full_scale, "n": b.xyz.shape[0], **_packed(b, compress)}
+                for b in batches]
+        if rows:
+            self._exec(self._insert(raw_table).on_conflict_do_nothing(), rows)
 
     def raw_batches(self, device: str, from_seq: int) -> list[AccelBatch]:
-        rows = self._db.execute("SELECT device, seq, device_time, received_time, fs, full_scale, n, samples, scale "
-                                "FROM raw WHERE device = ? AND seq >= ? ORDER BY seq", (device, from_seq)).fetchall()
-        return [AccelBatch(d, s, t, fs, _xyz(blob, n, scale), fsc, rt, scale)
-                for d, s, t, rt, fs, fsc, n, blob, scale in rows]
+        t = raw_table.c
+        query = sa.select(*_raw_columns()).where(t.device == device, t.seq >= from_seq).order_by(t.seq)
+        return [_batch(row) for row in self._read(query)]
 
     def drop_raw(self, streams: Iterable[tuple[str, int]], received_by: float) -> None:
         """Delete each (device, next seq) stream's processed batches (seq < next seq) received at or before
-        ``received_by``.
+        ``received_by``, but those kept around an event (``kept``).
 
         The candidates come from the covering index on (received_time, device, seq): only rows past retention
         are visited, never a stream's whole history. Searching by (device, seq < next seq) instead read every
         stored row of the stream on every commit (each one a page read): quadratic in the shift's length."""
         before = dict(streams)
-        expired = self._db.execute("SELECT device, seq FROM raw INDEXED BY raw_expiry WHERE received_time <= ?",
-                                   (received_by,)).fetchall()
-        self._db.executemany("DELETE FROM raw WHERE device = ? AND seq = ?",
-                             [(device, seq) for device, seq in expired if seq < before.get(device, seq)])
+        expired = self._exec(sa.text(_expired_sql(self.dialect, "kept = 0")), {"by": received_by}).fetchall()
+        gone = [{"d": device, "s": seq} for device, seq in expired if seq < before.get(device, seq)]
+        if gone:
+            self._exec(sa.text("DELETE FROM raw WHERE device = :d AND seq = :s"), gone)
+
+    def expired_raw(self, received_by: float) -> list[tuple[str, int, float, float]]:
+        """(device, seq, device time, end device time) of unmarked raw batches received at or before
+        ``received_by`` (the candidates of the retention rule)."""
+        rows = self._exec(sa.text(_expired_sql(self.dialect, "kept = 0", more=", device_time, n / fs")),
+                          {"by": received_by}).fetchall()
+        return [(d, s, t, t + duration) for d, s, t, duration in rows]
+
+    def mark_kept(self, rows: Iterable[tuple[str, int]]) -> None:
+        """Keep these (device, seq) raw batches for the event retention (they lie in an event's window)."""
+        rows = [{"d": d, "s": s} for d, s in rows]
+        if rows:
+            self._exec(sa.text("UPDATE raw SET kept = 1 WHERE device = :d AND seq = :s"), rows)
+
+    def delete_raw(self, rows: Iterable[tuple[str, int]]) -> None:
+        rows = [{"d": d, "s": s} for d, s in rows]
+        if rows:
+            self._exec(sa.text("DELETE FROM raw WHERE device = :d AND seq = :s"), rows)
+
+    def drop_kept_raw(self, received_by: float) -> None:
+        """Delete the batches kept around events that were received at or before ``received_by``."""
+        self._exec(sa.text("DELETE FROM raw WHERE kept = 1 AND received_time <= :by"), {"by": received_by})
+
+    def raw_bytes(self) -> int:
+        """Bytes of raw samples stored (blobs only)."""
+        return int(self._read(sa.select(sa.func.coalesce(sa.func.sum(sa.func.length(raw_table.c.samples)), 0)))
+                   .scalar_one())
+
+    def oldest_raw(self, limit: int) -> list[tuple[str, int, int]]:
+        """(device, seq, blob bytes) of the ``limit`` raw batches received first."""
+        t = raw_table.c
+        query = sa.select(t.device, t.seq, sa.func.length(t.samples)).order_by(t.received_time).limit(limit)
+        return [(d, s, int(n)) for d, s, n in self._read(query)]
 
     def raw_seqs(self, device: str) -> list[int]:
-        return [row[0] for row in self._db.execute("SELECT seq FROM raw WHERE device = ? ORDER BY seq", (device,))]
+        t = raw_table.c
+        return [row[0] for row in self._read(sa.select(t.seq).where(t.device == device).order_by(t.seq))]
 
     def raw_count(self) -> int:
-        return self._db.execute("SELECT COUNT(*) FROM raw").fetchone()[0]
+        return int(self._read(sa.select(sa.func.count()).select_from(raw_table)).scalar_one())
 
     def raw_window(self, device: str, start: float, end: float) -> list[AccelBatch]:
         """The device's kept batches with samples in device time [start, end), in seq order (the dashboard's
         raw sensor window; what retention already dropped is not there)."""
-        rows = self._db.execute(RAW_WINDOW_SQL, {"device": device, "start": start, "end": end,
-                                                 "lookback": WINDOW_LOOKBACK_S}).fetchall()
-        return [AccelBatch(d, s, t, fs, _xyz(blob, n, scale), fsc, rt, scale)
-                for d, s, t, rt, fs, fsc, n, blob, scale in rows]
+        rows = self._read(sa.text(RAW_WINDOW_SQL), {"device": device, "start": start, "end": end,
+                                                    "lookback": WINDOW_LOOKBACK_S})
+        return [_batch(row) for row in rows]
+
+    def last_raw(self, device: str) -> AccelBatch | None:
+        """The device's kept batch with the highest seq (None when none is kept)."""
+        t = raw_table.c
+        row = self._read(sa.select(*_raw_columns()).where(t.device == device).order_by(t.seq.desc()).limit(1)).first()
+        return _batch(row) if row is not None else None
+
+    # windows of raw data kept around events ------------------------------------------------------------
+    def add_keep_windows(self, rows: Iterable[tuple[str, float, float, float]]) -> None:
+        """(device, start, end device time, keep until (receive clock)) windows whose raw batches are kept."""
+        rows = [{"device": d, "start": s, "end": e, "until": u} for d, s, e, u in rows]
+        if rows:
+            self._exec(keep_table.insert(), rows)
+
+    def keep_windows(self) -> list[tuple[str, float, float, float]]:
+        t = keep_table.c
+        return [tuple(row) for row in self._read(sa.select(t.device, t.start, t.end, t.until))]
+
+    def drop_keep_windows(self, received_by: float) -> None:
+        self._exec(keep_table.delete().where(keep_table.c.until <= received_by))
+
+    # the ledger of applied batches ---------------------------------------------------------------------
+    def mark_applied(self, keys: Iterable[tuple[str, str, int, float]], now: float) -> None:
+        """Record (device, boot, seq, received time) of batches this commit applies. AlreadyApplied (the
+        transaction rolls back) if one was applied before: by another process, or before this one restored."""
+        rows = [{"device": d, "boot": b, "seq": s, "received_time": r} for d, b, s, r in keys]
+        if rows:
+            try:
+                self._exec(applied_table.insert(), rows)
+            except IntegrityError:
+                raise AlreadyApplied("a batch of this commit was applied before (another monitor process, or a "
+                                     "redelivery): reload and retry") from None
+        if now - self._pruned_at >= LEDGER_PRUNE_EVERY_S:
+            self._pruned_at = now
+            self._exec(applied_table.delete().where(applied_table.c.received_time < now - LEDGER_KEEP_S))
+
+    def applied_count(self) -> int:
+        return int(self._read(sa.select(sa.func.count()).select_from(applied_table)).scalar_one())
 
     # JSON state rows -----------------------------------------------------------------------------------
     def save_streams(self, states: Iterable[tuple[str, Any, bytes]]) -> None:
         """(device, JSON-able state, filter-state blob) rows."""
-        self._db.executemany("INSERT INTO streams VALUES (?, ?, ?) ON CONFLICT (device) DO UPDATE SET "
-                             "state = excluded.state, filter = excluded.filter",
-                             [(device, json.dumps(state), blob) for device, state, blob in states])
+        rows = [{"device": device, "state": json.dumps(state), "filter": blob} for device, state, blob in states]
+        self._upsert(streams_table, rows, ("device",))
 
     def streams(self) -> dict[str, tuple[Any, bytes]]:
-        rows = self._db.execute("SELECT device, state, filter FROM streams")
-        return {device: (json.loads(state), blob) for device, state, blob in rows}
+        rows = self._read(sa.select(streams_table))
+        return {device: (json.loads(state), bytes(blob)) for device, state, blob in rows}
 
     def save_days(self, rows: Iterable[tuple[str, str, Any]]) -> None:
         """(subject, day, DayState) rows: the day's energy (m^2/s^3) and trigger seconds of the greater hand,
         EAV/ELV times, and every hand's figures."""
-        self._db.executemany("INSERT INTO days VALUES (?, ?, ?, ?, ?, ?, ?) ON CONFLICT (subject, day) DO UPDATE SET "
-                             "energy = excluded.energy, seconds = excluded.seconds, eav_at = excluded.eav_at, "
-                             "elv_at = excluded.elv_at, hands = excluded.hands", [
-            (subject, day, state.energy, state.seconds, state.eav_at, state.elv_at, _hands_json(state.hands))
-            for subject, day, state in rows])
+        self._upsert(days_table, [{"subject": subject, "day": day, "energy": state.energy, "seconds": state.seconds,
+                                   "eav_at": state.eav_at, "elv_at": state.elv_at, "hands": _hands_json(state.hands)}
+                                  for subject, day, state in rows], ("subject", "day"))
 
     def days(self) -> dict[tuple[str, str], tuple[dict, float | None, float | None]]:
         """(subject, day) -> (hands, EAV time, ELV time)."""
-        rows = self._db.execute("SELECT subject, day, energy, seconds, hands, eav_at, elv_at FROM days")
+        t = days_table.c
+        rows = self._read(sa.select(t.subject, t.day, t.energy, t.seconds, t.hands, t.eav_at, t.elv_at))
         return {(subject, day): (json.loads(hands) if hands else {"": [energy, seconds]}, eav, elv)
                 for subject, day, energy, seconds, hands, eav, elv in rows}
 
     def save_session(self, device: str, session: dict[str, Any]) -> None:
-        self._db.execute("INSERT OR REPLACE INTO sessions VALUES (?, ?)", (device, json.dumps(session)))
+        self._upsert(sessions_table, [{"device": device, "session": json.dumps(session)}], ("device",))
 
     def sessions(self) -> dict[str, dict[str, Any]]:
-        return {d: json.loads(s) for d, s in self._db.execute("SELECT device, session FROM sessions")}
+        return {d: json.loads(s) for d, s in self._read(sa.select(sessions_table))}
 
     def save_activities(self, rows: Iterable[tuple[str, str, str, dict[str, Any]]]) -> None:
-        """(activity id, subject, day, state) rows, inserted or replaced."""
-        self._db.executemany("INSERT OR REPLACE INTO activities VALUES (?, ?, ?, ?)",
-                             [(i, subject, day, json.dumps(state)) for i, subject, day, state in rows])
+        """(activity id, subject, day, state) rows, inserted or replaced (an activity that already ended within
+        the commit has no open row: id None, skipped)."""
+        self._upsert(activities_table, [{"id": i, "subject": subject, "day": day, "state": json.dumps(state)}
+                                        for i, subject, day, state in rows if i is not None], ("id",))
 
     def activities(self, subject: str | None = None) -> list[dict[str, Any]]:
-        rows = self._db.execute("SELECT id, subject, day, state FROM activities ORDER BY id")
+        rows = self._read(sa.select(activities_table).order_by(activities_table.c.id))
         return [{"id": i, "subject": s, "day": d, **json.loads(v)} for i, s, d, v in rows
                 if subject is None or s == subject]
 
     def save_correction(self, subject: str, position: str, fit_json: str) -> None:
-        self._db.execute("INSERT OR REPLACE INTO corrections VALUES (?, ?, ?)", (subject, position, fit_json))
+        self._upsert(corrections_table, [{"subject": subject, "position": position, "fit": fit_json}],
+                     ("subject", "position"))
 
     def corrections(self) -> list[str]:
-        return [row[0] for row in self._db.execute("SELECT fit FROM corrections")]
+        return [row[0] for row in self._read(sa.select(corrections_table.c.fit))]
 
     def save_malformed(self, rows: Iterable[tuple[str, int, str, float | None]]) -> None:
         """(device, count, last reason, last received) of refused messages."""
-        self._db.executemany("INSERT OR REPLACE INTO malformed VALUES (?, ?, ?, ?)", list(rows))
+        self._upsert(malformed_table, [{"device": d, "count": c, "last_reason": r, "last_received": t}
+                                       for d, c, r, t in rows], ("device",))
 
     def malformed(self) -> dict[str, tuple[int, str, float | None]]:
-        return {d: (c, r, t) for d, c, r, t in self._db.execute("SELECT * FROM malformed")}
+        return {d: (c, r, t) for d, c, r, t in self._read(sa.select(malformed_table))}
 
-    # events --------------------------------------------------------------------------------------------
-    def add_events(self, events: Iterable[Event]) -> None:
-        self._db.executemany("INSERT INTO events (kind, time, subject, source, data, received) VALUES (?,?,?,?,?,?)",
-                             [(e.kind, e.time, e.subject, e.source, json.dumps(e.data, default=float), e.received)
-                              for e in events])
+    # events and the outbox -----------------------------------------------------------------------------
+    def add_events(self, events: Iterable[Event], outbox: Iterable[str] = ()) -> None:
+        """Append the events; with ``outbox``, also queue them (in order) for each of those durable sinks."""
+        events, sinks = list(events), list(outbox)
+        if not events:
+            return
+        self._exec(events_table.insert(), [
+            {"kind": e.kind, "time": e.time, "subject": e.subject, "source": e.source,
+             "data": json.dumps(e.data, default=float), "received": e.received} for e in events])
+        if sinks:
+            payloads = [e.to_json().decode() for e in events]
+            self._exec(outbox_table.insert(), [{"sink": sink, "event": p} for sink in sinks for p in payloads])
 
-    def events(self, kind: str | None = None) -> list[Event]:
-        rows = self._db.execute("SELECT kind, time, subject, source, data, received FROM events ORDER BY id")
-        return [Event(k, t, s, src, json.loads(d), r) for k, t, s, src, d, r in rows if kind in (None, k)]
+    def events(self, kind: str | None = None, since: float | None = None) -> list[Event]:
+        """The events in commit order, of ``kind`` (default all), that happened after ``since`` (UTC s)."""
+        t = events_table.c
+        query = sa.select(t.kind, t.time, t.subject, t.source, t.data, t.received).order_by(t.id)
+        if kind is not None:
+            query = query.where(t.kind == kind)
+        if since is not None:
+            query = query.where(t.time > since)
+        return [Event(k, tm, s, src, json.loads(d), r) for k, tm, s, src, d, r in self._read(query)]
+
+    def outbox(self, sink: str, limit: int = 500) -> list[tuple[int, Event]]:
+        """The oldest ``limit`` (id, event) waiting for ``sink``, in the order they were committed."""
+        t = outbox_table.c
+        rows = self._read(sa.select(t.id, t.event).where(t.sink == sink).order_by(t.id).limit(limit))
+        return [(int(i), Event.from_json(text)) for i, text in rows]
+
+    def outbox_done(self, ids: Iterable[int]) -> None:
+        """Remove delivered outbox rows (their own short transaction, never the monitor's)."""
+        ids = list(ids)
+        if ids:
+            with self._guard, self._errors("could not write"), sqlstore.write_connection(self.engine) as conn, \
+                    conn.begin():
+                conn.execute(outbox_table.delete().where(outbox_table.c.id.in_(ids)))
+
+    def outbox_count(self, sink: str | None = None) -> int:
+        query = sa.select(sa.func.count()).select_from(outbox_table)
+        if sink is not None:
+            query = query.where(outbox_table.c.sink == sink)
+        return int(self._read(query).scalar_one())
+
+    def size_bytes(self) -> int:
+        """Bytes the store takes on disk (an SQLite file with its WAL; the database's size on PostgreSQL)."""
+        if self.path is not None:
+            return sum(p.stat().st_size for p in self.path.parent.glob(self.path.name + "*") if p.is_file())
+        if self.dialect == "postgresql":
+            return int(self._read(sa.text("SELECT pg_database_size(current_database())")).scalar_one())
+        return 0
 
     def close(self) -> None:
-        self._db.close()
+        with self._guard:
+            self._writer.close()
+            self.engine.dispose()
+
+    # internals -----------------------------------------------------------------------------------------
+    def _exec(self, statement, params=None):
+        """Run a write inside the open transaction."""
+        if self._conn is None:
+            raise StoreError("the exposure store writes only inside transaction()")
+        return self._conn.execute(statement, params) if params is not None else self._conn.execute(statement)
+
+    def _read(self, statement, params: dict | None = None):
+        """Run a read: inside the open transaction when the writing thread reads, else on a pooled connection
+        (its rows fetched before the connection goes back)."""
+        if self._conn is not None and self._owner == threading.get_ident():
+            return self._conn.execute(statement, params or {})
+        with self._guard, self._errors("could not read"), self.engine.connect() as conn:
+            return _Buffered(conn.execute(statement, params or {}))
+
+    def _upsert(self, table: sa.Table, rows: list[dict], keys: tuple[str, ...]) -> None:
+        if not rows:
+            return
+        insert = self._insert(table)
+        statement = insert.on_conflict_do_update(
+            index_elements=list(keys), set_={c.name: insert.excluded[c.name] for c in table.c if c.name not in keys})
+        self._exec(statement, rows)
+
+    @contextmanager
+    def _errors(self, what: str) -> Iterator[None]:
+        try:
+            yield
+        except SQLAlchemyError as error:
+            raise StoreError(f"{what} the exposure store at {self.label}: "
+                             f"{sqlstore.reason(error, self.url.password)}") from error
 
 
-def _packed(batch: AccelBatch) -> tuple[bytes, float | None]:
-    """(samples, count scale): int16 counts when xyz is exactly counts x float32(scale) (as decoded from an int16
-    payload; dividing back errs by under 0.01 count), else float32 and no scale."""
+def migrate(conn: Connection) -> int:
+    """Bring the store on ``conn`` to :data:`SCHEMA_VERSION`; returns the version it had (0: before versions,
+    -1: a new store)."""
+    with conn.begin():
+        inspector = sa.inspect(conn)
+        new = not inspector.has_table("raw")
+        versioned = inspector.has_table(version_table.name)
+        found = -1 if new else (conn.execute(sa.select(version_table.c.version)).scalar() or 0) if versioned else 0
+        if new:
+            metadata.create_all(conn)
+            conn.execute(version_table.insert(), {"version": SCHEMA_VERSION})
+            return found
+    for version, _, step in MIGRATIONS:
+        if version > found:
+            with conn.begin():
+                step(conn)
+    with conn.begin():
+        metadata.create_all(conn)  # new tables; the indexes of tables that were there already:
+        for table in metadata.sorted_tables:
+            for index in table.indexes:
+                index.create(conn, checkfirst=True)
+        conn.execute(version_table.delete())
+        conn.execute(version_table.insert(), {"version": SCHEMA_VERSION})
+    return found
+
+
+class _Buffered:
+    """A read's rows fetched while its connection was open."""
+
+    def __init__(self, result):
+        self._rows = result.fetchall()
+
+    def __iter__(self):
+        return iter(self._rows)
+
+    def fetchall(self) -> list:
+        return self._rows
+
+    def first(self):
+        return self._rows[0] if self._rows else None
+
+    def scalar_one(self):
+        return self._rows[0][0]
+
+
+def _expired_sql(dialect: str, condition: str, more: str = "") -> str:
+    """Unmarked raw rows received at or before :by, from the covering expiry index."""
+    hint = " INDEXED BY raw_expiry" if dialect == "sqlite" else ""
+    return f"SELECT device, seq{more} FROM raw{hint} WHERE received_time <= :by AND {condition}"
+
+
+def _raw_columns():
+    t = raw_table.c
+    return (t.device, t.seq, t.device_time, t.received_time, t.fs, t.full_scale, t.n, t.samples, t.scale, t.codec)
+
+
+def _batch(row) -> AccelBatch:
+    d, s, t, rt, fs, fsc, n, blob, scale, codec = row
+    return AccelBatch(d, int(s), t, fs, _xyz(bytes(blob), n, scale, codec), fsc, rt, scale)
+
+
+def _packed(batch: AccelBatch, compress: bool) -> dict:
+    """{samples, scale, codec}: int16 counts when xyz is exactly counts x float32(scale) (as decoded from an
+    int16 payload; dividing back errs by under 0.01 count), else float32 and no scale; zlib over byte planes
+    with ``compress``."""
+    scale, blob = None, None
     if batch.scale is not None:
-        scale = np.float32(batch.scale)
+        scale32 = np.float32(batch.scale)
         with np.errstate(all="ignore"):
-            counts = np.rint(batch.xyz / scale)
-            if np.array_equal(np.clip(counts, -32768, 32767).astype(np.float32) * scale, batch.xyz):
-                return counts.astype("<i2").tobytes(), batch.scale
-    return np.ascontiguousarray(batch.xyz, dtype=np.float32).tobytes(), None
+            counts = np.rint(batch.xyz / scale32)
+            if np.array_equal(np.clip(counts, -32768, 32767).astype(np.float32) * scale32, batch.xyz):
+                blob, scale = counts.astype("<i2").tobytes(), batch.scale
+    if blob is None:
+        blob = np.ascontiguousarray(batch.xyz, dtype=np.float32).tobytes()
+    if not compress:
+        return {"samples": blob, "scale": scale, "codec": RAW_PLAIN}
+    width = 2 if scale is not None else 4
+    planes = np.frombuffer(blob, np.uint8).reshape(-1, width).T.tobytes()  # high bytes of noise repeat: planes
+    return {"samples": zlib.compress(planes, 1), "scale": scale, "codec": RAW_ZLIB}
 
 
-def _xyz(blob: bytes, n: int, scale: float | None) -> np.ndarray:
+def _xyz(blob: bytes, n: int, scale: float | None, codec: int | None = RAW_PLAIN) -> np.ndarray:
+    width = 2 if scale is not None else 4
+    if codec == RAW_ZLIB:
+        blob = np.frombuffer(zlib.decompress(blob), np.uint8).reshape(width, -1).T.tobytes()
     if scale is None:
         return np.frombuffer(blob, np.float32).reshape(n, 3)
     return np.frombuffer(blob, "<i2").reshape(n, 3).astype(np.float32) * np.float32(scale)

@@ -1,7 +1,7 @@
 """The monitor on the site bus: wearable accel and status messages in, group commits out.
 
 Accel messages are decoded and checked, then held until ``commit_batches`` of them are waiting or the oldest has
-waited ``commit_delay_s``; then they are ingested together: one SQLite transaction and one filtering pass per
+waited ``commit_delay_s``; then they are ingested together: one store transaction and one filtering pass per
 stream instead of one per message. A background thread commits a group that waited ``commit_delay_s`` when no
 further message comes. A status message (a session starts or ends) first commits what is waiting, so every
 batch counts under the session it was sent in.
@@ -23,7 +23,6 @@ within the last ``commit_delay_s`` seconds.
 from __future__ import annotations
 
 import logging
-import sqlite3
 import threading
 from collections.abc import Callable
 from typing import TYPE_CHECKING
@@ -32,7 +31,7 @@ from bim2rdt.bus.event import Event
 from bim2rdt.bus.payloads import AccelBatch, PayloadError, decode_accel
 from bim2rdt.bus.summaries import DeviceSummary, decode_summary
 from bim2rdt.bus.topics import device_of, wearable_pattern
-from bim2rdt.safety.errors import HavError
+from bim2rdt.safety.errors import HavError, StoreError
 from bim2rdt.safety.weighting import require_weighable_rate
 
 if TYPE_CHECKING:
@@ -147,7 +146,7 @@ class BusSubscriber:
     def _ingest(self, batches: list[AccelBatch], now: float | None) -> list[Event]:
         try:
             return self.monitor.ingest_many(batches, now=now)
-        except (sqlite3.Error, OSError) as error:  # the store failed: keep the messages unacknowledged
+        except (StoreError, OSError) as error:  # the store failed: keep the messages unacknowledged
             self.monitor.fail(f"the exposure store failed: {error}")  # unacknowledged: redelivered after a restart
             raise
         except Exception as error:  # an engine failure on input that passed its checks: never stop for it

@@ -65,7 +65,7 @@ def create_app(twin=None, monitor=None, *, identity=None, config: ServerConfig =
     if monitor is not None:
         monitor.sinks.append(HubSink(hub))  # first: the stream hears of an event before anything slower runs
         if record_safety and twin_view is not None:
-            monitor.sinks.append(twin_view.safety_sink())
+            monitor.add_sink(twin_view.safety_sink())  # durable: through the monitor's outbox
     path = audit_log or config.audit_log
     if path is None:
         raise ValueError("create_app needs an audit log path (audit_log= or config.audit_log)")

@@ -2,20 +2,18 @@
 (for the safety role only) the identity behind a pseudonym and raw sensor windows.
 
 Exposure figures come from the monitor's public reads (``devices``, ``session``, ``activity``, ``day``,
-``stream_status``), which hold its lock; events and raw windows come from a second, read-only-in-practice
-connection to its SQLite store (WAL lets it read while the monitor writes).
+``stream_status``), which hold its lock; events and raw windows come from the safety package's read API
+(``monitor.reads``: the store's pooled connections, never the monitor's lock nor its file opened here).
 """
 
 from __future__ import annotations
 
 import math
 import threading
-from pathlib import Path
 
 import numpy as np
 
 from bim2rdt.safety.exposure import EAV, ELV, T0_S
-from bim2rdt.safety.store import ExposureStore
 from bim2rdt.server.hub import event_record
 
 E_EAV, E_ELV = EAV**2 * T0_S, ELV**2 * T0_S
@@ -38,11 +36,11 @@ class SafetyView:
 
     def __init__(self, monitor, identity=None):
         self.monitor, self.identity = monitor, identity
-        self._reader = ExposureStore(Path(monitor.store.path))
+        self._reader = monitor.reads
         self._lock = threading.Lock()
 
     def close(self) -> None:
-        self._reader.close()
+        """Nothing to release: the reads use the monitor's store, which the monitor closes."""
 
     # ---- exposure ---------------------------------------------------------------------------------------
     def workers(self) -> list[dict]:
@@ -77,8 +75,8 @@ class SafetyView:
     def events(self, since: float | None = None, kind: str | None = None, limit: int = 1000) -> list[dict]:
         """The monitor's events (oldest first) after ``since`` (UTC s, device time), the newest ``limit``."""
         with self._lock:
-            events = self._reader.events(kind)
-        chosen = [event_record(e) for e in events if since is None or e.time > since]
+            events = self._reader.events(kind, since)
+        chosen = [event_record(e) for e in events]
         return chosen[-limit:]
 
     # ---- safety role only -------------------------------------------------------------------------------
@@ -127,11 +125,8 @@ class SafetyView:
 
     def _last_time(self, device: str) -> float:
         """The device time just after its newest kept raw sample (0 when none is kept)."""
-        seqs = self._reader.raw_seqs(device)
-        if not seqs:
-            return 0.0
-        last = self._reader.raw_batches(device, seqs[-1])[-1]
-        return last.device_time + last.xyz.shape[0] / last.fs
+        last = self._reader.last_sample_time(device)
+        return last if last is not None else 0.0
 
 
 def _window(device: str, session, batches, start: float, seconds: float) -> dict:

@@ -14,6 +14,7 @@ import numpy as np
 
 from bim2rdt.server.plan import FLOORS, STRUCTURE, ZONES, bounds, hull_xy, posed, robot_path
 from bim2rdt.twin import MISSING, OBSERVATION, SAFETY, STATUS, STATUS_COLOURS, ElementState, ElementStatus
+from bim2rdt.twin.sink import recorded_outbox_ids
 
 CHANGE_KINDS = (OBSERVATION, MISSING, STATUS)
 """Twin records the live stream forwards (safety events reach it straight from the monitor)."""
@@ -80,17 +81,24 @@ class TwinView:
                 for e in wanted]
 
     def safety_sink(self):
-        """A monitor sink that appends each safety event to the twin's history, under this view's lock (a monitor
-        commit's events in one transaction)."""
+        """A durable monitor sink (the monitor queues events in its store and delivers them from its own thread,
+        retrying while the twin is locked) that appends safety events to the twin's history under this view's
+        lock (a group of events in one transaction)."""
         view = self
 
         class LockedTwinSink:
+            outbox = "twin"
+
             def emit(self, event) -> None:
                 self.emit_many([event])
 
             def emit_many(self, events) -> None:
                 with view._lock:
                     view.twin.record_events(events)
+
+            def delivered(self, events) -> set[int]:
+                with view._lock:
+                    return recorded_outbox_ids(view.twin, events)
 
         return LockedTwinSink()
 

@@ -1,15 +1,20 @@
-"""The HAV monitor's events into the twin's history: a sink (``emit(event)``) like the monitor's others, which also
-takes a commit's events as one group (``emit_many(events)``: one twin transaction for the group)."""
+"""The HAV monitor's events into the twin's history: a durable sink (``outbox = "twin"``: the monitor queues its
+events in its own store and delivers them from there, retrying while the twin is unavailable, see
+:mod:`bim2rdt.safety.outbox`), which takes a group of events in one transaction (``emit_many``) and says which
+queued events it already holds (``delivered``), so a redelivery never doubles one."""
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 
 from bim2rdt.bus.event import Event
+from bim2rdt.twin.records import SAFETY
 
 
 class TwinSink:
     """Appends every safety event the monitor emits to the twin (``DigitalTwin.record_events``)."""
+
+    outbox = "twin"
 
     def __init__(self, twin):
         self.twin = twin
@@ -18,5 +23,27 @@ class TwinSink:
         self.twin.record_event(event)
 
     def emit_many(self, events: Sequence[Event]) -> None:
-        """The events of one monitor commit, in one transaction (all recorded, or none on an error)."""
+        """A group of events, in one transaction (all recorded, or none on an error)."""
         self.twin.record_events(events)
+
+    def delivered(self, events: Sequence[Event]) -> set[int]:
+        """The ``outbox_id`` of those ``events`` the twin already holds."""
+        return recorded_outbox_ids(self.twin, events)
+
+
+def recorded_outbox_ids(twin, events: Sequence[Event]) -> set[int]:
+    """The ``data["outbox_id"]`` of those ``events`` (same kind, source, time and id) already in ``twin``'s history."""
+    wanted = {_key(e.kind, e.source, e.time, e.data.get("outbox_id")) for e in events}
+    since = min(e.time for e in events) - 1.0 if events else None
+    held = set()
+    for record in twin.events(since=since, kinds=[SAFETY]):
+        body = record.data if isinstance(record.data, dict) else {}
+        data = body.get("data") if isinstance(body.get("data"), dict) else {}
+        key = _key(body.get("kind"), body.get("source"), body.get("time"), data.get("outbox_id"))
+        if key in wanted:
+            held.add(key[3])
+    return held
+
+
+def _key(kind, source, when, outbox_id) -> tuple:
+    return (kind, source, round(float(when), 6) if when is not None else None, outbox_id)

@@ -20,13 +20,12 @@ from typing import Any
 
 import sqlalchemy as sa
 from sqlalchemy.engine import URL, Connection, Engine
-from sqlalchemy.exc import ArgumentError, NoSuchModuleError, SQLAlchemyError
+from sqlalchemy.exc import SQLAlchemyError
 
+from bim2rdt import sqlstore
 from bim2rdt.twin.errors import TwinError
 from bim2rdt.twin.records import TwinEvent
 
-CONNECT_TIMEOUT_S = 5
-"""How long opening a PostgreSQL twin waits for the server before it says it cannot be reached."""
 SQLITE_BUSY_TIMEOUT_S = 60.0
 """How long an SQLite writer waits for another one to commit."""
 _WRITE_LOCK = 0x62696D32  # "bim2": the advisory lock key of the twin's writers on PostgreSQL
@@ -116,7 +115,7 @@ class EventStore:
     def _write_connection(self) -> Connection:
         """A connection whose transactions take the write lock at BEGIN (SQLite: a deferred transaction that
         reads before it writes can fail at once with "database is locked" instead of waiting its turn)."""
-        return self.engine.connect().execution_options(twin_write=True)
+        return sqlstore.write_connection(self.engine)
 
     def _lock(self, conn: Connection) -> None:
         if conn.dialect.name == "postgresql":
@@ -153,51 +152,11 @@ class Writer:
 
 
 def _parse(url: str) -> URL:
-    try:
-        parsed = sa.make_url(url)
-    except ArgumentError:
-        raise TwinError(f"not a database URL: {url.split('@')[-1]!r} (expected sqlite:///path/twin.db or "
-                        "postgresql+psycopg://user:password@host/db)") from None
-    if parsed.get_backend_name() not in ("sqlite", "postgresql"):
-        raise TwinError(f"the twin is stored in SQLite or PostgreSQL, not {parsed.get_backend_name()} "
-                        f"({parsed.render_as_string(hide_password=True)})")
-    return parsed
+    return sqlstore.parse_url(url, TwinError, "the twin", "sqlite:///path/twin.db")
 
 
 def _engine(url: URL) -> Engine:
-    label = url.render_as_string(hide_password=True)
-    try:
-        if url.get_backend_name() == "sqlite":
-            return _sqlite_engine(url, label)
-        return sa.create_engine(url, connect_args={"connect_timeout": CONNECT_TIMEOUT_S}, pool_pre_ping=True)
-    except (NoSuchModuleError, ModuleNotFoundError) as error:
-        raise TwinError(f"cannot open {label}: its driver is not installed ({error}); for PostgreSQL install the "
-                        "'postgres' extra: pip install 'bim2rdt[postgres]'") from None
-
-
-def _sqlite_engine(url: URL, label: str) -> Engine:
-    """SQLite with the driver's own transaction handling off, so that writers can ``BEGIN IMMEDIATE`` (the
-    SQLAlchemy recipe for pysqlite), in WAL mode with full sync."""
-    if url.database and url.database != ":memory:":
-        try:
-            Path(url.database).parent.mkdir(parents=True, exist_ok=True)
-        except OSError as error:
-            raise TwinError(f"cannot reach the twin at {label}: {error.strerror}: {error.filename}") from None
-    engine = sa.create_engine(url, connect_args={"timeout": SQLITE_BUSY_TIMEOUT_S})
-
-    @sa.event.listens_for(engine, "connect")
-    def _on_connect(dbapi_connection, _record) -> None:
-        dbapi_connection.isolation_level = None
-        cursor = dbapi_connection.cursor()
-        cursor.execute("PRAGMA journal_mode=WAL")
-        cursor.execute("PRAGMA synchronous=FULL")
-        cursor.close()
-
-    @sa.event.listens_for(engine, "begin")
-    def _on_begin(conn: Connection) -> None:
-        conn.exec_driver_sql("BEGIN IMMEDIATE" if conn.get_execution_options().get("twin_write") else "BEGIN")
-
-    return engine
+    return sqlstore.make_engine(url, TwinError, "the twin", ("synchronous=FULL",), SQLITE_BUSY_TIMEOUT_S)
 
 
 def _event(row) -> TwinEvent:
@@ -213,7 +172,4 @@ def _dumps(data: dict) -> str:
 
 
 def _reason(error: SQLAlchemyError, password: str | None) -> str:
-    """The driver's first line (never the SQL, never the password)."""
-    original = getattr(error, "orig", None) or error
-    text = " ".join(str(original).strip().splitlines()[:1]) or type(original).__name__
-    return text.replace(password, "***") if password else text
+    return sqlstore.reason(error, password)
