@@ -50,6 +50,8 @@ def hav_listen(
     partition: str = typer.Option("0/1", "--partition", help="With --nats: the partition K/N this process serves."),
     partitions: int = typer.Option(0, "--partitions", min=0, max=1024, help="With --nats: start and supervise N "
                                    "monitor processes here, one per partition, restarting any that dies."),
+    standby: bool = typer.Option(False, "--standby", hidden=True, help="With --nats: import, then wait for the "
+                                 "partition K/N on stdin (the supervisor's warm standby)."),
     dev: bool = typer.Option(False, "--dev", help=DEV_HELP),
 ) -> None:
     """Run the HAV monitor against a broker: print events, publish them on site/<site>/safety/events. Ctrl-C, SIGTERM
@@ -64,7 +66,7 @@ def hav_listen(
     settings = get_settings()
     require_own_secrets(settings, dev, "site", "monitor")
     if nats is not None:
-        _listen_nats(settings, nats, partition, partitions, duration, max_offline, ifc, out, dev)
+        _listen_nats(settings, nats, partition, partitions, duration, max_offline, ifc, out, dev, standby)
         return
     host, port = parse_address(mqtt or _configured_broker(settings))
     bus = MqttBus(host, port, client_id=settings.mqtt.username, username=settings.mqtt.username,
@@ -83,9 +85,9 @@ def hav_listen(
 
 
 def _listen_nats(settings, url: str, partition: str, partitions: int, duration: float, max_offline: float,
-                 ifc: Path | None, out: Path | None, dev: bool) -> None:
+                 ifc: Path | None, out: Path | None, dev: bool, standby: bool = False) -> None:
     from bim2rdt.bus.partitions import parse_partition
-    from bim2rdt.cli.hav_nats import listen_partition, supervise
+    from bim2rdt.cli.hav_nats import listen_partition, supervise, wait_for_partition
     from bim2rdt.safety import CallbackSink
 
     if not url.startswith(("nats://", "tls://")):
@@ -96,6 +98,13 @@ def _listen_nats(settings, url: str, partition: str, partitions: int, duration: 
         supervise(["--nats", url, "--max-offline", str(max_offline)] + (["--dev"] if dev else []), partitions,
                   duration)
         return
+    if standby:
+        import bim2rdt.bus.nats_bus  # noqa: F401  the heavy imports now, not when a partition needs us
+        import bim2rdt.safety.monitor  # noqa: F401
+
+        partition = wait_for_partition()
+        if partition is None:
+            return
     k, n = parse_partition(partition)
     with twin_sink(ifc, out) as ifc_sink:
         listen_partition(settings, url, k, n, duration, max_offline,

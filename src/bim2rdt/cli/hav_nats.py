@@ -3,6 +3,7 @@ that runs all N of them on this host and restarts any that dies."""
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 import threading
@@ -12,11 +13,14 @@ from pathlib import Path
 from bim2rdt.cli.common import console
 
 RESTART_DELAY_S = 1.0
-"""Seconds between a monitor's death and its restart (a crash loop does not spin)."""
+"""Seconds before a cold restart of a monitor (no standby ready), so a crash loop does not spin."""
+POLL_S = 0.2
+"""Seconds between the supervisor's looks at its monitors."""
 
 
 def partition_data_dir(settings, partition: int, partitions: int) -> Path:
-    """Where partition K of N keeps its SQLite store: each partition owns its own file."""
+    """Where partition K of N keeps its SQLite store (each partition its own file, unless hav.store_url names a
+    shared one, PostgreSQL) and its identity map."""
     from bim2rdt.config import usable_folder
 
     return usable_folder(settings.data_dir / "hav" / f"partition-{partition}-of-{partitions}", "BIM2RDT_DATA_DIR")
@@ -28,19 +32,21 @@ def listen_partition(settings, url: str, partition: int, partitions: int, durati
     from bim2rdt.bus.nats_bus import NatsBus
     from bim2rdt.cli.common import stop_requested
     from bim2rdt.cli.hav import _leave, _password, watch
-    from bim2rdt.cli.hav_output import open_monitor
-    from bim2rdt.safety import BusSink
+    from bim2rdt.bus.partitions import partition_of
+    from bim2rdt.safety import BusSink, HavMonitor
 
     user = settings.mqtt.username
     bus = NatsBus(url, user, _password(settings, user), settings.mqtt.site, partition=partition,
                   partitions=partitions, ack_wait_s=settings.hav.ack_wait_s, max_deliver=settings.hav.max_deliver)
     with stop_requested() as stop:
-        monitor = open_monitor(settings, sinks + [BusSink(bus, settings.mqtt.site)],
-                               data_dir=partition_data_dir(settings, partition, partitions))
+        site = settings.mqtt.site  # a store shared by the partitions (hav.store_url) holds every device's streams
+        monitor = HavMonitor(partition_data_dir(settings, partition, partitions), settings.hav.site_secret,
+                             sinks + [BusSink(bus, site)], settings.hav.monitor_config(),
+                             owns=lambda device: partition_of(site, device, partitions) == partition)
         monitor.attach(bus)
         bus.accepting = lambda: monitor.failure is None  # nothing more is handled or acknowledged after a failure
         bus.connect()
-        console.print(f"partition {partition}/{partitions} of site {settings.mqtt.site!r} on {url}; "
+        console.print(f"partition {partition}/{partitions} of site {site!r} on {url} (pid {os.getpid()}); "
                       f"{len(monitor.devices())} device(s) restored")
         try:
             watch(monitor, bus, duration, max_offline, stop=stop)
@@ -49,26 +55,52 @@ def listen_partition(settings, url: str, partition: int, partitions: int, durati
 
 
 def supervise(args: list[str], partitions: int, duration: float) -> None:
-    """Start ``bim2rdt hav listen <args> --partition k/N`` for every k; restart one that exits (after
-    ``RESTART_DELAY_S``) until stopped or ``duration``; then SIGTERM them all (each commits and exits 0)."""
+    """Start ``bim2rdt hav listen <args> --partition k/N`` for every k, plus one warm standby (imported, waiting
+    for a partition on stdin); a monitor that exits is replaced at once by the standby (then a new standby
+    starts), so a partition is served again within seconds, not after a cold start. Until stopped or
+    ``duration``; then SIGTERM them all (each commits and exits 0)."""
     from bim2rdt.cli.common import stop_requested
 
     command = [sys.executable, "-m", "bim2rdt", "hav", "listen", *args]
     children: dict[int, subprocess.Popen] = {}
+    standby: subprocess.Popen | None = None
     deadline = time.monotonic() + duration if duration else float("inf")
     with stop_requested() as stop:
         try:
+            for k in range(partitions):
+                children[k] = subprocess.Popen(command + ["--partition", f"{k}/{partitions}"])
             while not stop.is_set() and time.monotonic() < deadline:
-                for k in range(partitions):
-                    child = children.get(k)
-                    if child is None or child.poll() is not None:
-                        if child is not None:
-                            console.print(f"[yellow]partition {k}/{partitions} exited ({child.returncode}); "
-                                          f"restarting[/yellow]")
-                        children[k] = subprocess.Popen(command + ["--partition", f"{k}/{partitions}"])
-                stop.wait(min(RESTART_DELAY_S, max(deadline - time.monotonic(), 0.0)))
+                if standby is None or standby.poll() is not None:
+                    standby = subprocess.Popen(command + ["--standby"], stdin=subprocess.PIPE, text=True)
+                for k, child in children.items():
+                    if child.poll() is None:
+                        continue
+                    console.print(f"[yellow]partition {k}/{partitions} exited ({child.returncode}); the standby "
+                                  f"takes it[/yellow]")
+                    children[k], standby = _hand_over(standby, k, partitions, command), None
+                    break
+                stop.wait(min(POLL_S, max(deadline - time.monotonic(), 0.0)))
         finally:
-            _stop_all(list(children.values()))
+            _stop_all(list(children.values()) + ([standby] if standby is not None else []))
+
+
+def _hand_over(standby: subprocess.Popen | None, k: int, partitions: int, command: list[str]) -> subprocess.Popen:
+    """The standby serving partition ``k`` now, else (it died) a cold start."""
+    if standby is not None and standby.poll() is None:
+        try:
+            standby.stdin.write(f"{k}/{partitions}\n")
+            standby.stdin.close()
+            return standby
+        except OSError:
+            pass
+    time.sleep(RESTART_DELAY_S)
+    return subprocess.Popen(command + ["--partition", f"{k}/{partitions}"])
+
+
+def wait_for_partition() -> str | None:
+    """A standby's partition 'K/N', read from stdin (None when the supervisor closed it: exit quietly)."""
+    line = sys.stdin.readline().strip()
+    return line or None
 
 
 def _stop_all(children: list[subprocess.Popen], timeout_s: float = 30.0) -> None:

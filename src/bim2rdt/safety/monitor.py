@@ -50,12 +50,14 @@ class HavMonitor:
     """Streaming ISO 5349-1 exposure for many wearables; thread-safe (one lock around each call)."""
 
     def __init__(self, data_dir: Path | None, site_secret: str, sinks: Sequence[EventSink] = (),
-                 config: MonitorConfig = MonitorConfig(), clock: Callable[[], float] = time.time):
+                 config: MonitorConfig = MonitorConfig(), clock: Callable[[], float] = time.time,
+                 owns: Callable[[str], bool] | None = None):
         """State under ``data_dir`` (``hav.sqlite``, ``private/identity.sqlite``), or in the database at
         ``config.store_url`` (the identity map stays under ``data_dir``); ``data_dir`` None (and no URL) keeps it
         in memory, for a throw-away monitor that must write nothing (``hav analyze``). ``sinks`` with an
-        ``outbox`` name are durable (see :meth:`add_sink`)."""
-        self.config, self.sinks, self.clock = config, [], clock
+        ``outbox`` name are durable (see :meth:`add_sink`). ``owns(device)``: the devices this monitor serves
+        when several share one store (a partition of the NATS path); only their streams are restored."""
+        self.config, self.sinks, self.clock, self._owns = config, [], clock, owns
         folder = Path(data_dir) if data_dir is not None else None
         self.store = ExposureStore.for_folder(folder, config.store_url)
         self.identity = IdentityMap(folder / "private" / "identity.sqlite" if folder else None, role="monitor")
@@ -63,7 +65,7 @@ class HavMonitor:
         self._deliveries: dict[str, OutboxDelivery] = {}
         self._sessions = SessionBook(site_secret, self.identity, self._journal.corrections())
         self._engine = ExposureEngine(config, self._sessions, clock)
-        self._journal.restore(self._engine)
+        self._journal.restore(self._engine, self._owns)
         self._dead = DeadLetters({d: MalformedMessages(*row) for d, row in self.store.malformed().items()})
         self.failure: str | None = None
         """Why the monitor cannot go on (its store failed), else None: ``hav listen`` exits non-zero on it."""
@@ -268,7 +270,7 @@ class HavMonitor:
         self._engine = ExposureEngine(self.config, self._sessions, self.clock)
         self._engine.stats.update(stats)
         self._engine.timeline.extend(timeline)
-        self._journal.restore(self._engine)
+        self._journal.restore(self._engine, self._owns)
 
     # --- reading -----------------------------------------------------------------------------------------
     def day(self, subject: str, day: str | None = None) -> DayState:
