@@ -103,12 +103,13 @@ def test_a_killed_monitor_process_loses_and_doubles_nothing_on_a_shared_postgres
         supervisor = subprocess.Popen([sys.executable, "-m", "bim2rdt", "hav", "listen", "--nats", server.url,
                                        "--partitions", str(PARTITIONS)], env=env, stdout=subprocess.PIPE,
                                       stderr=subprocess.STDOUT, text=True)
-        out = Output(supervisor)
+        out, started = Output(supervisor), time.monotonic()
         try:
             pids = {}
             for k in range(PARTITIONS):
                 match = out.wait_for(rf"partition {k}/{PARTITIONS} of site .* \(pid (\d+)\)", 60)
                 pids[k] = int(match.group(1))
+            print(f"\nmonitors up after {time.monotonic() - started:.1f} s")
             buses = {device: wearable(server, device, password) for device, password in devices.items()}
             t0, total = time.time(), max(sum(s for _, s in p.pieces) for p in plans)
             killed = {}
@@ -136,17 +137,21 @@ def test_a_killed_monitor_process_loses_and_doubles_nothing_on_a_shared_postgres
             assert killed, "the kill never happened"
             watcher.join(35)
             assert killed.get("pid") not in (None, pids[1])
+            print(f"published after {time.monotonic() - started:.1f} s")
             want_batches = _batches_per_device(plans)
             deadline = time.monotonic() + 60
             while sum(applied_per_device(store_url).values()) < sum(want_batches.values()) and \
                     time.monotonic() < deadline:
                 time.sleep(0.5)
+            print(f"all applied after {time.monotonic() - started:.1f} s")
         finally:
             supervisor.send_signal(signal.SIGTERM)
             supervisor.wait(timeout=60)
     assert supervisor.returncode == 0, "".join(out.lines)[-2000:]
     applied = applied_per_device(store_url)
     assert applied == want_batches  # each batch applied exactly once: none missing, none twice (a key is unique)
+    print(f"\nlive: {sum(applied.values())} batches from {len(applied)} devices applied once each; partition 1 "
+          f"served again {killed['back_at'] - killed['at']:.1f} s after its SIGKILL")
     assert killed["back_at"] - killed["at"] <= 10.0  # the partition is served again within 10 s
     monitor = HavMonitor(tmp_path / "check", SECRET, config=MonitorConfig(site=SITE, store_url=store_url))
     got = {(d, day): (monitor.day(monitor.session(d).subject, day).a8,
