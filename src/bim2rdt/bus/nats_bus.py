@@ -1,8 +1,8 @@
 """The HAV monitor's side of the NATS path: one partition of the wearable stream through a durable JetStream pull
 consumer, with the same ``subscribe``/``publish`` interface as :class:`~bim2rdt.bus.mqtt.MqttBus`.
 
-nats-py is asyncio; the bus runs its own event loop on a thread and calls handlers there, one message at a time in
-stream order, as ``handler(topic, payload, ack)`` with the MQTT topic the wearable used. ``ack()`` (callable from
+nats-py is asyncio; the bus runs its own event loop on a thread that fetches (one batch ahead) and a dispatcher
+thread that calls handlers, one message at a time in stream order, as ``handler(topic, payload, ack)`` with the MQTT topic the wearable used. ``ack()`` (callable from
 any thread, once) acknowledges the message to JetStream: the monitor calls it after its commit, so whatever a crash
 interrupts is redelivered (after ``ack_wait_s``, up to ``max_deliver`` times) to the partition's next consumer.
 A handler that raises leaves its message unacknowledged (it comes again); messages no handler takes are
@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import asyncio
 import logging
+import queue
 import threading
 from collections.abc import Callable
 from concurrent.futures import Future
@@ -24,6 +25,10 @@ from bim2rdt.bus.partitions import PREFIX, STREAM, partition_filter, topic_of
 from bim2rdt.bus.topics import topic_matches
 
 Handler = Callable[..., object]
+PREFETCH = 2
+FOLLOW_S = 0.02
+"""Seconds a fetch waits for the messages following one that came alone (the latency an idle stream adds)."""
+"""Fetched batches waiting for the dispatcher: the next fetch travels while the monitor commits the last."""
 log = logging.getLogger(__name__)
 
 
@@ -89,8 +94,13 @@ class NatsBus:
         self._thread = threading.Thread(target=self._loop.run_forever, name="nats-bus", daemon=True)
         self._nc = None
         self._fetcher: Future | None = None
+        self._dispatcher: threading.Thread | None = None
+        self._fetched: queue.Queue = queue.Queue(maxsize=PREFETCH)
         self._closing = False
         self._acks: set = set()
+        self.on_fetched: Callable[[], object] | None = None
+        """Called after each fetched batch of messages was handed to the handlers: ``monitor.flush`` makes every
+        fetch one group commit (as large as the backlog, a single message when idle: no waiting for a group)."""
         self.accepting: Callable[[], bool] = lambda: True
         """False stops dispatching (and fetching): set it to ``lambda: monitor.failure is None``, so a monitor whose
         store failed handles and acknowledges nothing more; what it had not committed comes again to its restart."""
@@ -107,6 +117,8 @@ class NatsBus:
             raise BusError(f"cannot use NATS at {self.url}: {type(error).__name__}: {error}") from None
         if self.partition is not None:
             self._fetcher = asyncio.run_coroutine_threadsafe(self._fetch_loop(), self._loop)
+            self._dispatcher = threading.Thread(target=self._dispatch_loop, name="nats-dispatch", daemon=True)
+            self._dispatcher.start()
         return self
 
     def subscribe(self, pattern: str, handler: Handler, qos: int = 1, manual_ack: bool = False) -> int:
@@ -124,7 +136,8 @@ class NatsBus:
     @property
     def alive(self) -> bool:
         """The event loop runs and the fetch loop has not died."""
-        return self._thread.is_alive() and not (self._fetcher is not None and self._fetcher.done())
+        return self._thread.is_alive() and not (self._fetcher is not None and self._fetcher.done()) and not (
+            self._dispatcher is not None and not self._dispatcher.is_alive())
 
     @property
     def connected(self) -> bool:
@@ -135,6 +148,8 @@ class NatsBus:
         if not self._thread.is_alive():
             return
         self._closing = True
+        if self._dispatcher is not None:
+            self._dispatcher.join(self.timeout_s)
         if self._fetcher is not None:
             try:
                 self._fetcher.result(self.timeout_s)
@@ -185,21 +200,58 @@ class NatsBus:
         self._sub = await js.pull_subscribe(subject, durable=durable, stream=STREAM, config=config)
 
     async def _fetch_loop(self) -> None:
+        """Fetch while the dispatcher handles what came before (up to ``PREFETCH`` batches ahead)."""
         import nats.errors
 
+        backlog = False
         while not self._closing and self.accepting():
-            try:
-                messages = await self._sub.fetch(self.fetch_batch, timeout=0.5)
-            except nats.errors.TimeoutError:
+            if self._fetched.full():
+                await asyncio.sleep(0.001)
                 continue
+            try:
+                messages = await self._take(backlog)
             except (nats.errors.ConnectionClosedError, nats.errors.ConnectionReconnectingError,
                     nats.errors.NoRespondersError):
                 await asyncio.sleep(0.2)
                 continue
+            backlog = len(messages) >= self.fetch_batch
+            if messages:
+                self._fetched.put_nowait(messages)
+
+    async def _take(self, backlog: bool) -> list:
+        """The next messages. A fetch of many that finds the stream idle lingers until its batch fills or it
+        expires; so, without a backlog, wait for ONE message (returned as it arrives), then take what follows
+        it within ``FOLLOW_S``; with a backlog, full batches."""
+        import nats.errors
+
+        try:
+            first = await self._sub.fetch(self.fetch_batch if backlog else 1, timeout=FOLLOW_S if backlog else 0.5)
+        except nats.errors.TimeoutError:
+            return []
+        if backlog:
+            return first
+        try:
+            return first + await self._sub.fetch(self.fetch_batch - 1, timeout=FOLLOW_S)
+        except nats.errors.TimeoutError:
+            return first
+
+    def _dispatch_loop(self) -> None:
+        """Hand each fetched batch to the handlers in order, then ``on_fetched`` (one group commit per fetch)."""
+        while not self._closing and self.accepting():
+            try:
+                messages = self._fetched.get(timeout=0.1)
+            except queue.Empty:
+                continue
             for message in messages:
-                if not self.accepting():
-                    return
+                if self._closing or not self.accepting():
+                    return  # the rest stays unacknowledged: the partition's next start gets it again
                 self._dispatch(message)
+            if self.on_fetched is not None:
+                try:
+                    self.on_fetched()
+                except Exception:  # e.g. the store failed: the monitor reports it; the messages stay unacknowledged
+                    self.handler_errors += 1
+                    log.exception("committing a fetched batch failed")
 
     def _dispatch(self, message) -> None:
         found = topic_of(message.subject)

@@ -253,12 +253,19 @@ def bench_hav(
     latency: bool = typer.Option(True, "--latency/--no-latency", help="Measure latency through Mosquitto."),
     store: bool = typer.Option(True, "--store/--no-store", help="Measure the exposure store over a shift."),
     store_minutes: float = typer.Option(10.0, "--store-minutes", min=1.0, help="Minutes of the store's shift."),
+    scale: bool = typer.Option(False, "--scale", help="The NATS path instead: raw batches/s through nats-server to 1 "
+                               "and 2 monitor processes, publish-to-commit latency, summaries/s per process."),
+    devices: int = typer.Option(100, "--devices", min=2, help="With --scale: simulated wearables."),
     as_json: bool = typer.Option(False, "--json", help="Print JSON instead of tables."),
 ) -> None:
     """Streams processed in real time on one core vs the bare sosfilt floor; the store's commits and reads per
-    batch vs a bare SQLite insert; publish-to-event latency."""
+    batch vs a bare SQLite insert; publish-to-event latency. With --scale, the NATS path's monitor processes."""
     from bim2rdt.bench.hav import run_latency, run_store, run_throughput, targets
     from bim2rdt.config import get_settings, settings_record
+
+    if scale:
+        _bench_scale(devices, fs, as_json)
+        return
 
     if hasattr(os, "sched_setaffinity"):
         os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
@@ -305,5 +312,31 @@ def _show_bench(result: dict) -> None:
                     ["messages", "p50 ms", "p99 ms", "max ms", "with events", "events p50 ms", "events p99 ms"],
                     [(lat["messages"], lat["p50_ms"], lat["p99_ms"], lat["max_ms"], lat["event_messages"],
                       lat["event_p50_ms"], lat["event_p99_ms"])])
+    for name, ok in result["targets"].items():
+        console.print(f"{name}: {'[green]PASS[/green]' if ok else '[red]FAIL[/red]'}")
+
+
+def _bench_scale(devices: int, fs: float, as_json: bool) -> None:
+    from bim2rdt.bench.hav_scale import run_scale, targets
+    from bim2rdt.config import get_settings, settings_record
+
+    with progress(4, f"{devices} wearables through nats-server: 1 and 2 monitors, summaries, latency") as tick:
+        counter = iter(range(1, 5))
+        result = run_scale(devices=devices, fs=fs, tick=lambda: tick(next(counter)))
+    result["targets"] = targets(result)
+    result["settings"] = settings_record(get_settings())
+    if as_json:
+        print_json(result)
+        return
+    t, s, lat = result["throughput"], result["summaries"], result["latency"]
+    print_table(f"NATS path: {t['messages']} raw batches ({t['bytes_per_message'] / 1000:.1f} kB, 0.5 s at "
+                f"{t['fs']:g} Hz) from {t['devices']} wearables, backlog consumed on {result['cpus']} CPUs",
+                ["monitor processes", "msgs/s", "x one process"],
+                [(1, t["one_process_msgs_per_s"], 1.0), (2, t["two_processes_msgs_per_s"], t["scaling"])])
+    print_table("On-device summaries (1 Hz), one process", ["messages", "bytes each", "msgs/s"],
+                [(s["messages"], s["bytes_per_message"], s["msgs_per_s_per_process"])])
+    print_table(f"Publish-to-commit latency, 2 processes, {lat['rate_msgs_per_s']:g} msgs/s in real time",
+                ["messages", "committed", "p50 ms", "p99 ms", "max ms"],
+                [(lat["messages"], lat["committed"], lat["p50_ms"], lat["p99_ms"], lat["max_ms"])])
     for name, ok in result["targets"].items():
         console.print(f"{name}: {'[green]PASS[/green]' if ok else '[red]FAIL[/red]'}")

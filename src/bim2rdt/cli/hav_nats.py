@@ -45,6 +45,7 @@ def listen_partition(settings, url: str, partition: int, partitions: int, durati
                              owns=lambda device: partition_of(site, device, partitions) == partition)
         monitor.attach(bus)
         bus.accepting = lambda: monitor.failure is None  # nothing more is handled or acknowledged after a failure
+        bus.on_fetched = monitor.flush  # each fetch is one group commit: no waiting for a group to fill
         bus.connect()
         console.print(f"partition {partition}/{partitions} of site {site!r} on {url} (pid {os.getpid()}); "
                       f"{len(monitor.devices())} device(s) restored")
