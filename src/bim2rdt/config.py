@@ -58,6 +58,13 @@ class HavSettings(MonitorConfig):
     max_deliver: int = Field(20, ge=2, le=10_000, description="NATS path: deliveries of one message at most (a "
                              "message whose commit keeps failing is then dropped by JetStream, with an advisory).")
 
+    stream_replicas: int = Field(1, ge=1, le=5, description="NATS path: replicas of the HAV stream when a monitor "
+                                 "creates it (3 on a 3-node cluster).")
+    stream_max_age_s: float = Field(24 * 3600.0, gt=0, description="NATS path: JetStream keeps wearable messages "
+                                    "at most this long, seconds (then the oldest go).")
+    stream_max_bytes: int = Field(2**30, gt=0, description="NATS path: JetStream keeps at most this many bytes of "
+                                  "wearable messages (then the oldest go).")
+
     def monitor_config(self, **overrides) -> MonitorConfig:
         """The monitor's part with ``overrides``, without the secret (the monitor takes it as its own argument)."""
         return MonitorConfig(**{**self.model_dump(include=set(MonitorConfig.model_fields)), **overrides})

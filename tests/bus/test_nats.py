@@ -93,3 +93,29 @@ def test_the_rendered_config_pins_each_device_to_its_partition_subjects_and_is_v
     (tmp_path / "n.conf").write_text(text)
     check = subprocess.run([NATS_SERVER, "-t", "-c", str(tmp_path / "n.conf")], capture_output=True, text=True)
     assert check.returncode == 0, check.stderr + check.stdout
+
+
+def test_the_shipped_production_configs_are_rendered_by_the_code_hold_no_secret_and_nats_server_accepts_them():
+    import os
+    import subprocess
+    from pathlib import Path
+
+    from bim2rdt.bus.nats_broker import NATS_SERVER, NatsLayout, password_variable, render_nats_config
+
+    folder = Path(__file__).resolve().parents[2] / "docs" / "deploy" / "nats"
+    devices = {f"w{i}": "" for i in range(1, 4)}
+    routes = [f"nats-route://nats-{i}.site.internal:6222" for i in range(1, 4)]
+    for i in range(1, 4):
+        layout = NatsLayout("demo", devices, {"monitor": ""}, partitions=3, port=4222, mqtt_port=1883,
+                            host="0.0.0.0", store_dir="/var/lib/nats", max_file_store=200 * 2**30,
+                            server_name=f"nats-{i}", cluster={"name": "bim2rdt-hav", "listen": "0.0.0.0:6222",
+                                                              "routes": [r for r in routes if f"nats-{i}." not in r]})
+        assert (folder / f"nats-{i}.conf").read_text() == render_nats_config(layout, passwords_from_env=True)
+    env = {**os.environ, **{password_variable(user): "x" for user in ["monitor", *devices]}}
+    for path in sorted(folder.glob("*.conf")):
+        assert '"password": "' not in path.read_text()  # every password is a variable of the server's environment
+        check = subprocess.run([NATS_SERVER, "-t", "-c", str(path)], capture_output=True, text=True, env=env)
+        assert check.returncode == 0, check.stderr + check.stdout
+        unset = subprocess.run([NATS_SERVER, "-t", "-c", str(path)], capture_output=True, text=True,
+                               env={k: v for k, v in os.environ.items() if not k.startswith("BIM2RDT_NATS_")})
+        assert unset.returncode != 0 and "BIM2RDT_NATS_PASSWORD_MONITOR" in unset.stderr + unset.stdout

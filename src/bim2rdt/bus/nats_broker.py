@@ -66,14 +66,23 @@ def device_permissions(site: str, device: str, partitions: int) -> dict:
     return {"publish": {"allow": device_subjects(site, device, partitions)}, "subscribe": {"deny": [">"]}}
 
 
-def render_nats_config(layout: NatsLayout) -> str:
-    """The nats-server configuration of ``layout`` (nats-server 2.9 syntax; JSON values are valid there)."""
+def password_variable(user: str) -> str:
+    """The environment variable a shipped config reads ``user``'s password from (nats-server resolves ``$NAME``)."""
+    return "BIM2RDT_NATS_PASSWORD_" + "".join(c if c.isalnum() else "_" for c in user).upper()
+
+
+def render_nats_config(layout: NatsLayout, passwords_from_env: bool = False) -> str:
+    """The nats-server configuration of ``layout`` (nats-server 2.9 syntax; JSON values are valid there). With
+    ``passwords_from_env`` no secret is written: each password is ``$BIM2RDT_NATS_PASSWORD_<USER>``, read from the
+    server's environment (:func:`password_variable`); the given passwords are ignored."""
     check_subject_level(layout.site, "site")
     users = [{"user": name, "password": password, "permissions": monitor_permissions(layout.site)}
              for name, password in layout.monitors.items()]
     users += [{"user": device, "password": password,
                "permissions": device_permissions(layout.site, device, layout.partitions)}
               for device, password in layout.devices.items()]
+    if passwords_from_env:
+        users = [{**user, "password": f"${password_variable(user['user'])}"} for user in users]
     source, destination = partition_mapping(layout.partitions)
     lines = [
         "# bim2rdt: nats-server 2.9 for the HAV monitor's scaled path (rendered by bim2rdt.bus.nats_broker).",
@@ -98,9 +107,16 @@ def render_nats_config(layout: NatsLayout) -> str:
                   f"  listen: {json.dumps(layout.cluster.get('listen', '0.0.0.0:6222'))}",
                   f"  routes: [{routes}]", "}"]
     lines += ["authorization {", "  users = ["]
-    lines += [f"    {json.dumps(user)}," for user in users]
+    lines += [f"    {_user_line(user, passwords_from_env)}," for user in users]
     lines += ["  ]", "}"]
     return "\n".join(lines) + "\n"
+
+
+def _user_line(user: dict, password_is_variable: bool) -> str:
+    text = json.dumps(user)
+    if password_is_variable:  # a variable reference is unquoted in nats-server's config language
+        text = text.replace(json.dumps(user["password"]), user["password"], 1)
+    return text
 
 
 class NatsServer:
