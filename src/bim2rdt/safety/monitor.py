@@ -264,6 +264,13 @@ class HavMonitor:
                 self.refuse(batch.device, reason, self.clock())
             self._reload()
 
+    def refresh(self) -> None:
+        """Reload days, streams, sessions and refused-message counts from the store: for a reader (``serve --nats``)
+        of a store that other processes (the partitions' monitors) write; such a reader ingests nothing."""
+        with self._lock:
+            self._reload()
+            self._dead = DeadLetters({d: MalformedMessages(*row) for d, row in self.store.malformed().items()})
+
     def _reload(self) -> None:
         """Rebuild the engine from the store (counts and timeline carried over)."""
         stats, timeline = self._engine.stats, self._engine.timeline
