@@ -42,3 +42,15 @@ def test_partitions_on_one_store_restore_their_own_devices_and_a_reader_sees_eve
     assert again.day(ann, day).energy == reader.day(ann, day).energy
     for monitor in (again, two, reader):
         monitor.close()
+
+
+def test_serve_nats_without_a_shared_store_is_refused_in_one_line(tmp_path):
+    import os
+    import subprocess
+    import sys
+
+    result = subprocess.run([sys.executable, "-m", "bim2rdt", "serve", "--nats", "nats://127.0.0.1:1", "--out",
+                             str(tmp_path / "demo")], capture_output=True, text=True, timeout=120,
+                            env={k: v for k, v in os.environ.items() if k != "BIM2RDT_HAV__STORE_URL"})
+    assert result.returncode == 1 and "BIM2RDT_HAV__STORE_URL" in result.stderr
+    assert len(result.stderr.strip().splitlines()) == 1

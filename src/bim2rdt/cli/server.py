@@ -52,6 +52,11 @@ def serve_command(
     status.start()
     if nats is not None and mqtt is not None:
         raise typer.BadParameter("give --mqtt or --nats, not both", param_hint="--nats")
+    if nats is not None and not settings.hav.store_url:
+        from bim2rdt.safety import HavError
+
+        raise HavError("serve --nats reads the partitions' shared store: set BIM2RDT_HAV__STORE_URL to the URL "
+                       "their monitors use")
     live = LiveServe(settings, config, out, twin_url, ifc, address, speed, all_roles,
                      progress=lambda stage: status.update(stage), nats=nats)
     try:
