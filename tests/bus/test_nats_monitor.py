@@ -74,7 +74,9 @@ def wait_delivered(buses, count: int, timeout_s: float = 60.0) -> None:
     deadline = time.monotonic() + timeout_s
     while sum(bus.delivered for bus in buses) < count and time.monotonic() < deadline:
         time.sleep(0.1)
-    assert sum(bus.delivered for bus in buses) >= count
+    assert sum(bus.delivered for bus in buses) >= count, [
+        (bus.delivered, bus.handler_errors, bus.alive, bus._fetched.qsize(),
+         bus._fetcher.exception() if bus._fetcher is not None and bus._fetcher.done() else None) for bus in buses]
 
 
 def test_three_partition_monitors_count_what_one_in_memory_monitor_counts(nats_server, tmp_path):

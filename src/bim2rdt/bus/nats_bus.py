@@ -89,6 +89,7 @@ class NatsBus:
         self.ack_wait_s, self.max_deliver, self.limits = ack_wait_s, max_deliver, limits
         self.fetch_batch, self.timeout_s = fetch_batch, timeout_s
         self.handler_errors, self.delivered, self.redelivered, self.disconnects = 0, 0, 0, 0
+        self.fetch_errors = 0
         self._handlers: list[tuple[str, Handler, bool]] = []
         self._loop = asyncio.new_event_loop()
         self._thread = threading.Thread(target=self._loop.run_forever, name="nats-bus", daemon=True)
@@ -214,6 +215,11 @@ class NatsBus:
                     nats.errors.NoRespondersError):
                 await asyncio.sleep(0.2)
                 continue
+            except Exception as error:  # never let the fetch loop die: what it fetched and lost comes again
+                self.fetch_errors += 1  # (unacknowledged) after ack_wait
+                log.warning("fetching from %s failed: %s: %s", self.url, type(error).__name__, error)
+                await asyncio.sleep(0.2)
+                continue
             backlog = len(messages) >= self.fetch_batch
             if messages:
                 self._fetched.put_nowait(messages)
@@ -224,15 +230,16 @@ class NatsBus:
         it within ``FOLLOW_S``; with a backlog, full batches."""
         import nats.errors
 
+        timeouts = (nats.errors.TimeoutError, asyncio.TimeoutError)  # nats-py raises either
         try:
             first = await self._sub.fetch(self.fetch_batch if backlog else 1, timeout=FOLLOW_S if backlog else 0.5)
-        except nats.errors.TimeoutError:
+        except timeouts:
             return []
         if backlog:
             return first
         try:
             return first + await self._sub.fetch(self.fetch_batch - 1, timeout=FOLLOW_S)
-        except nats.errors.TimeoutError:
+        except timeouts:
             return first
 
     def _dispatch_loop(self) -> None:
