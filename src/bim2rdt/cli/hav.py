@@ -64,11 +64,12 @@ def hav_listen(
     from bim2rdt.safety import BusSink, CallbackSink
 
     settings = get_settings()
-    require_own_secrets(settings, dev, "site", "monitor")
     if nats is not None:
+        require_own_secrets(settings, dev, "site", "monitor")
         _listen_nats(settings, nats, partition, partitions, duration, max_offline, ifc, out, dev, standby)
         return
     host, port = parse_address(mqtt or _configured_broker(settings))
+    require_own_secrets(settings, dev, "site", "monitor")
     bus = MqttBus(host, port, client_id=settings.mqtt.username, username=settings.mqtt.username,
                   password=_password(settings, settings.mqtt.username), session_expiry_s=settings.mqtt.session_expiry_s,
                   manual_ack=True)
