@@ -1,4 +1,5 @@
-"""Shared fixtures: where the real IFC samples are, and a per-test cache folder."""
+"""Shared fixtures: where the real IFC samples are, a per-test cache folder, and the PostgreSQL server of the
+session (the twin's and the exposure store's tests)."""
 
 from __future__ import annotations
 
@@ -49,3 +50,20 @@ def _isolated_cache(tmp_path_factory, monkeypatch):
     get_settings.cache_clear()
     yield
     get_settings.cache_clear()
+
+
+@pytest.fixture(scope="session")
+def postgres_admin_url():
+    """The PostgreSQL server of the session: CI's (its URL in $BIM2RDT_TEST_POSTGRES_URL), else a private one.
+    In CI a missing server fails the suite: these tests are never silently skipped there."""
+    from postgres_server import ENV_URL, pg_bindir, private_cluster
+
+    if url := os.environ.get(ENV_URL):
+        yield url
+        return
+    bindir = pg_bindir()
+    if bindir is None:
+        message = f"no PostgreSQL: set {ENV_URL} or install Debian's postgresql (.ci/run does)"
+        pytest.fail(message) if os.environ.get("CI") else pytest.skip(message)
+    with private_cluster(bindir) as url:
+        yield url

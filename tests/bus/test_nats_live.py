@@ -20,24 +20,16 @@ from bim2rdt.bus.nats_broker import NATS_SERVER, NatsServer
 from bim2rdt.safety import HavMonitor, MonitorConfig
 from bim2rdt.sim.wearables import default_plans, publish_plans
 from tests.bus.nats_helpers import wearable
-from tests.twin.postgres_server import ENV_URL, fresh_database, pg_bindir, private_cluster
+from tests.postgres_server import fresh_database
 
 SITE, SECRET, FS, SPEED = "live", "live-site-secret", 2500.0, 8.0
 DEVICES, PARTITIONS, MINUTES = 60, 3, 2.0
 
 
 @pytest.fixture
-def store_url(tmp_path):
-    """A fresh PostgreSQL database: CI's server ($BIM2RDT_TEST_POSTGRES_URL), else a private cluster."""
-    if url := os.environ.get(ENV_URL):
-        with fresh_database(url) as fresh:
-            yield fresh
-        return
-    bindir = pg_bindir()
-    if bindir is None:
-        message = f"no PostgreSQL: set {ENV_URL} or install Debian's postgresql (.ci/run does)"
-        pytest.fail(message) if os.environ.get("CI") else pytest.skip(message)
-    with private_cluster(bindir) as admin, fresh_database(admin) as fresh:
+def store_url(postgres_admin_url):
+    """A fresh PostgreSQL database on the session's server (tests/conftest.py)."""
+    with fresh_database(postgres_admin_url) as fresh:
         yield fresh
 
 

@@ -31,3 +31,15 @@ def make_monitor(tmp_path, clock) -> Callable[..., tuple[HavMonitor, ListSink]]:
         monitor.close()
 
 
+
+
+@pytest.fixture(params=["sqlite", pytest.param("postgresql", marks=pytest.mark.postgres)])
+def store_url(request, tmp_path):
+    """A URL of an empty exposure store on each backend (an SQLite file; a fresh PostgreSQL database)."""
+    if request.param == "sqlite":
+        yield f"sqlite:///{tmp_path / 'shared' / 'hav.sqlite'}"
+        return
+    from postgres_server import fresh_database
+
+    with fresh_database(request.getfixturevalue("postgres_admin_url")) as url:
+        yield url

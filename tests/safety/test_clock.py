@@ -119,3 +119,27 @@ def test_an_offline_boot_clock_device_ends_its_activity_at_its_last_sample_on_th
 def test_a_device_time_moves_onto_the_wall_clock_only_when_it_is_none_and_the_offset_gives_one(device_time, offset,
                                                                                                 shift):
     assert DeviceClock(offset).shift(device_time) == shift
+
+
+def test_a_clock_reset_within_one_boot_files_the_rest_of_the_shift_on_the_receive_clock(make_monitor):
+    """60 batches on wall time, then the same boot with device time restarting from 0 (its real-time clock lost
+    its setting): the 90 s after the reset count on the day they were received, as after a reboot."""
+    items = plan_batches("dev-1", [("idle", 30), ("grinder", 90), ("idle", 5)], a_hv={"grinder": 8.0})
+    control, _ = make_monitor("control")
+    reset, reset_sink = make_monitor("reset")
+    subject = control.start_session("dev-1", "kai", "grinder")
+    reset.start_session("dev-1", "kai", "grinder")
+    for monitor in (control, reset):
+        monitor.announce_boot("dev-1", "boot-1")
+    for k, batch in enumerate(items):
+        received = batch.device_time + batch.duration_s + DELAY
+        control.ingest_many([batch], now=received)
+        sent = batch if k < 60 else dataclasses.replace(batch, device_time=(k - 60) * batch.duration_s)
+        reset.ingest_many([sent], now=received)
+    assert reset.days_of(subject) == control.days_of(subject) == [DAY]  # before: 90 s on 1970-01-01
+    # the same A(8) to the displayed 0.01 m/s^2 (0.447 against 0.448): the jump starts a segment whose weighting
+    # filter restarts settled, as after a reboot, so the first half-second of grinding is weighed afresh
+    assert reset.day(subject, DAY).a8 == pytest.approx(control.day(subject, DAY).a8, rel=5e-3)
+    assert reset.day(subject, DAY).seconds == pytest.approx(control.day(subject, DAY).seconds, abs=0.5)
+    assert all(e.time >= T0 for e in reset_sink.events)
+    assert reset.stream_status("dev-1")["time_base"] == "receive"

@@ -22,7 +22,7 @@ def _vm_steps_per_commit(monitor, batches, clock) -> float:
 
 
 def test_a_commit_late_in_the_shift_costs_what_an_early_one_did(make_monitor, clock):
-    monitor, _ = make_monitor()  # raw batches kept for the default retention (a week)
+    monitor, _ = make_monitor(raw_recent_s=86400.0)  # every raw batch kept (a day of recent samples)
     monitor.start_session("dev-1", "una", "grinder")
     quiet = np.full((500, 3), [0.0, 0.0, 9.81], np.float32)
     batches = [AccelBatch("dev-1", seq, T0 + 0.1 * seq, 5000.0, quiet, 2000.0) for seq in range(1200)]

@@ -125,7 +125,7 @@ def _hav_day(twin: DigitalTwin, state_dir: Path, workers: int, minutes: float, f
     settings = demo_settings()  # what config.json records: the demo's raw retention unless the environment sets one
     events = ListSink()
     monitor = HavMonitor(state_dir, settings.hav.site_secret, [events, TwinSink(twin)],
-                         settings.hav.monitor_config(keep_timeline=True))
+                         settings.hav.monitor_config(keep_timeline=True, store_url=None))  # its own folder
     bus = LocalBus().connect()
     monitor.attach(bus)
     publish_plans(lambda device: bus, default_plans(workers, minutes, zone), settings.mqtt.site, fs,

@@ -10,6 +10,11 @@ restarted at 1970 or 2000) sends times before ``WALL_CLOCK_FROM``. Its samples a
 device time + the estimated offset, so its exposure counts on the day it was taken (off by the least delivery
 delay seen, milliseconds on a site network), not on 1970-01-01. The buffer still orders, de-duplicates and
 finds gaps on the device's own times; only the times events and days are given move.
+
+A clock that jumps back into that range within one boot (its real-time clock lost its setting and restarted at 0
+while the device ran on) is treated as a reboot's clock is: the estimate the wall-time batches built cannot place
+the new times (their lag is the whole epoch), so it is dropped and the next batch's lag taken at once, and its
+samples land on the receive clock too.
 """
 
 from __future__ import annotations
@@ -36,8 +41,16 @@ class DeviceClock:
         """Take one in-order batch's lag into the estimate; returns the new offset, seconds."""
         lag = received_time - last_sample_time
         previous = self.offset_s
+        if previous is not None and self._jumped_back(last_sample_time, received_time):
+            previous = None  # the clock went back out of wall time: the old estimate cannot place it
         self.offset_s = lag if previous is None or lag < previous else KEEP_WEIGHT * previous + RISE_WEIGHT * lag
         return self.offset_s
+
+    def _jumped_back(self, last_sample_time: float, received_time: float) -> bool:
+        """Whether a sample time that is no wall time cannot be placed by the estimate while the receive clock
+        could place it (it is wall time): the device's clock went back within its boot."""
+        return (last_sample_time < WALL_CLOCK_FROM <= received_time
+                and last_sample_time + self.offset_s < WALL_CLOCK_FROM)
 
     def shift(self, device_time: float) -> float:
         """Seconds to add to ``device_time`` to place it on the wall clock: 0 when it is wall time already; the

@@ -60,7 +60,15 @@ class MonitorConfig(BaseModel):
     reorder_s: float = Field(2.0, ge=0, le=3600, description="Seconds a batch waits for a missing predecessor "
                              "before a gap is declared.")
     raw_retention_s: float = Field(7 * 24 * 3600.0, ge=0, description="Raw batches are deleted this long after "
-                                   "receipt once framed, seconds (0: as soon as framed).")
+                                   "receipt once framed, seconds (0: as soon as framed); until then only the recent "
+                                   "ones and those around events are kept (raw_recent_s, raw_event_margin_s).")
+    raw_recent_s: float = Field(60.0, ge=0, le=86400, description="Every raw batch within this many seconds of its "
+                                "device's newest sample (device time) is kept: the dashboard's live raw view.")
+    raw_event_margin_s: float = Field(10.0, ge=0, le=3600, description="Older raw batches are kept (compressed) "
+                                      "only within this many seconds of an activity start or end, an EAV/ELV "
+                                      "crossing or an artefact on their device.")
+    raw_max_mb: float = Field(256.0, gt=0, description="Raw samples in the store are bounded by this size (MB); "
+                              "the oldest received go first.")
     store_url: str | None = Field(None, min_length=1, description="SQLAlchemy URL of the exposure store: "
                                   "sqlite:///path/hav.sqlite for one monitor process, postgresql+psycopg://user:"
                                   "password@host/db for several; None: hav.sqlite in the monitor's data folder.")

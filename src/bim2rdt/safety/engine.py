@@ -168,7 +168,8 @@ class ExposureEngine:
             stream.count("gap_s", seconds)
             self.count("gaps")
             stream.tracker.gap(seconds)
-            events.append(self.event(stream, (GAP, gap.start + shift, {"end": gap.end + shift, "seconds": seconds,
+            end = gap.end + stream.clock.shift(gap.end)  # a clock that jumped back: its end is placed apart
+            events.append(self.event(stream, (GAP, gap.start + shift, {"end": end, "seconds": seconds,
                                                                 "reason": gap.reason,
                                                                 "missing_batches": gap.missing_seqs})))
         return events

@@ -34,6 +34,7 @@ from bim2rdt.safety.mounting import MountingCorrection
 from bim2rdt.safety.outbox import OutboxDelivery, outbox_name
 from bim2rdt.safety.persistence import MonitorJournal
 from bim2rdt.safety.reads import MonitorReads
+from bim2rdt.safety.retention import RawRetention
 from bim2rdt.safety.privacy import IdentityMap
 from bim2rdt.safety.sessions import ISO_POSITIONS, Session, SessionBook
 from bim2rdt.safety.sinks import EventSink, emit_each
@@ -61,7 +62,9 @@ class HavMonitor:
         folder = Path(data_dir) if data_dir is not None else None
         self.store = ExposureStore.for_folder(folder, config.store_url)
         self.identity = IdentityMap(folder / "private" / "identity.sqlite" if folder else None, role="monitor")
-        self._journal = MonitorJournal(self.store, config.raw_retention_s)
+        retention = RawRetention(self.store, config.raw_recent_s, config.raw_event_margin_s, config.raw_retention_s,
+                                 config.raw_max_mb * 1e6)
+        self._journal = MonitorJournal(self.store, config.raw_retention_s, retention)
         self._deliveries: dict[str, OutboxDelivery] = {}
         self._sessions = SessionBook(site_secret, self.identity, self._journal.corrections())
         self._engine = ExposureEngine(config, self._sessions, clock)

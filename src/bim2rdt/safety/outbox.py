@@ -8,7 +8,9 @@ queue to the sink in commit order, a group at a time, and removes a group only a
 fails (the twin is write-locked, its server is down) is retried every ``retry_s`` until it takes the group. The
 monitor never waits for it: its accounting goes on, and its lock is never held while a sink works.
 
-None lost: a group leaves the queue only after the sink returned. None doubled: every delivered event carries its
+On PostgreSQL several monitor processes share the queue: the one holding the sink's advisory lock delivers it, the
+others stand by (:meth:`ExposureStore.outbox_lease`). None lost: a group leaves the queue only after the sink
+returned. None doubled: every delivered event carries its
 queue id (``data["outbox_id"]``); when a delivery's outcome is unknown (the sink raised, or the process died
 between the sink's commit and the queue's), the sink's ``delivered(events)`` (if it has one) says which ids it
 already holds, and those are removed without being sent again.
@@ -86,6 +88,8 @@ class OutboxDelivery:
     def deliver_once(self) -> int:
         """Hand the oldest group to the sink; returns how many events it took (0: nothing waits). Raises what
         the sink raised (the group stays queued)."""
+        if not self.store.outbox_lease(self.name):  # another monitor process delivers this queue
+            return 0
         queued = self.store.outbox(self.name, GROUP)
         if not queued:
             return 0

@@ -17,6 +17,7 @@ from bim2rdt.bus.payloads import AccelBatch
 from bim2rdt.safety.activity import ACTIVITY_ENDED, ACTIVITY_STARTED, ActivityState, DayState
 from bim2rdt.safety.engine import ExposureEngine, Stream
 from bim2rdt.safety.mounting import MountingCorrection
+from bim2rdt.safety.retention import RawRetention
 from bim2rdt.safety.sessions import Session
 from bim2rdt.safety.store import ExposureStore
 from bim2rdt.safety.weighing import FilterState
@@ -25,8 +26,9 @@ from bim2rdt.safety.weighing import FilterState
 class MonitorJournal:
     """Writes an engine's changes to the exposure store and reads them back after a restart."""
 
-    def __init__(self, store: ExposureStore, raw_retention_s: float):
-        self.store, self.raw_retention_s = store, raw_retention_s
+    def __init__(self, store: ExposureStore, raw_retention_s: float, retention: RawRetention | None = None):
+        """``retention`` None keeps raw batches for ``raw_retention_s`` after receipt, all of them."""
+        self.store, self.raw_retention_s, self.retention = store, raw_retention_s, retention
         self._raw_devices: set[str] = set()  # streams that may have raw rows to drop
         self.outbox: list[str] = []
         """Names of the durable sinks: each commit's events are queued for each of them."""
@@ -37,6 +39,8 @@ class MonitorJournal:
     def restore(self, engine: ExposureEngine, owns: Callable[[str], bool] | None = None) -> None:
         """Put the saved days and streams (with their sessions and waiting batches) back into ``engine``; only the
         streams of the devices it ``owns`` (all by default: a store shared by partitions holds others' too)."""
+        if self.retention is not None:
+            self.retention.restore()
         engine.days.update({key: DayState(*row) for key, row in self.store.days().items()})  # (hands, eav, elv)
         sessions = self.store.sessions()
         for device, ((buffer_state, activity, clock_offset_s, counters), blob) in self.store.streams().items():
@@ -63,11 +67,15 @@ class MonitorJournal:
         self._raw_devices.update(b.device for b in batches)
         with self.store.transaction():
             self.store.mark_applied(applied, now)
-            self.store.save_raw(batches)
+            saved = self.store.save_raw(batches)
+            if self.retention is not None:
+                self.retention.saved(saved)
             self.store.save_streams((s.device, _stream_state(s), s.filter.to_bytes()) for s in streams)
             self.store.save_activities([_open_activity(engine.streams[e.source]) for e in events
                                         if e.kind == ACTIVITY_STARTED])
-            self._drop_raw(engine, now)
+            if self.retention is not None and self.raw_retention_s > 0:
+                self.retention.note_events(events, _offsets(engine, events), now)
+            self._drop_raw(engine, now, streams)
             self.store.save_days([(subject, day, engine.days[(subject, day)])
                                   for subject, day in engine.touched_days])
             self.store.add_events(events, self.outbox)
@@ -82,12 +90,25 @@ class MonitorJournal:
         with self.store.transaction():
             self.store.save_correction(correction.subject, correction.position, correction.to_json())
 
-    def _drop_raw(self, engine: ExposureEngine, now: float) -> None:
-        """Delete processed raw batches past retention, of every stream that stored any."""
+    def _drop_raw(self, engine: ExposureEngine, now: float, touched: list[Stream]) -> None:
+        """Delete processed raw batches past retention, of every stream that stored any; then the recent, event
+        and size rules (:mod:`~bim2rdt.safety.retention`) on the streams touched."""
         stored = [engine.streams[d] for d in self._raw_devices if engine.streams[d].buffer.next_seq is not None]
         self.store.drop_raw([(s.device, s.buffer.next_seq) for s in stored], now - self.raw_retention_s)
         if self.raw_retention_s <= 0:
             self._raw_devices.difference_update(s.device for s in stored if not s.buffer.pending)
+        elif self.retention is not None:
+            self.retention.prune([(s.device, s.buffer.next_seq, s.buffer.last_end) for s in touched
+                                  if s.buffer.next_seq is not None], now,
+                                 lambda device: engine.streams[device].buffer.next_seq
+                                 if device in engine.streams else None)
+
+
+def _offsets(engine: ExposureEngine, events: list[Event]) -> dict[str, float]:
+    """Seconds each event source's times were moved onto the receive clock (0 for a device on wall time)."""
+    streams = {e.source: engine.streams.get(e.source) for e in events}
+    return {device: (s.clock.offset_s or 0.0) if s is not None and s.time_base == "receive" else 0.0
+            for device, s in streams.items()}
 
 
 def _stream_state(stream: Stream) -> list:

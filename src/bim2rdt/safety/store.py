@@ -13,6 +13,7 @@ outbox of events for durable sinks. Workers appear only as pseudonyms; the ident
 from __future__ import annotations
 
 import json
+import re
 import threading
 import time
 import zlib
@@ -24,7 +25,7 @@ from typing import Any
 import numpy as np
 import sqlalchemy as sa
 from sqlalchemy.engine import Connection
-from sqlalchemy.exc import IntegrityError, SQLAlchemyError
+from sqlalchemy.exc import SQLAlchemyError
 
 from bim2rdt import sqlstore
 from bim2rdt.bus.event import Event
@@ -35,16 +36,19 @@ PAGE_SIZE = 16384
 """Bytes per SQLite page. A 0.5 s int16 batch at 5 kHz is 15 kB: on 4 kB pages it spans an overflow chain of
 four pages, each written to the WAL and again at the checkpoint; 16 kB pages cut the commit cost per batch from
 58 to 38 us (2 wearables x 15 min, median of 3 interleaved runs) without making small-row updates heavy."""
-SQLITE_PRAGMAS = (f"page_size={PAGE_SIZE}", "synchronous=NORMAL")
-"""A committed ingest survives a process crash (WAL, synchronous=NORMAL); page_size applies to a new file only."""
+SQLITE_PRAGMAS = (f"page_size={PAGE_SIZE}", "synchronous=NORMAL", "journal_size_limit=16777216", "cache_size=-32768")
+"""A committed ingest survives a process crash (WAL, synchronous=NORMAL); page_size applies to a new file only;
+the WAL file is cut back to 16 MB after a checkpoint (it would keep its largest size)."""
 LEDGER_KEEP_S = 3 * 3600.0
 """Seconds an applied batch's key stays in the ledger: longer than any redelivery (an MQTT session queues for an
 hour by default; a JetStream redelivery comes within ack_wait x max_deliver); older duplicates are still found by
 each stream's own memory of the times it took."""
-LEDGER_PRUNE_EVERY_S = 60.0
-"""The ledger is pruned at most this often (seconds of the monitor's clock)."""
+LEDGER_PRUNE_EVERY_S = 600.0
+"""The ledger is pruned at most this often (seconds of the monitor's clock): a scan of its keys (it has no index
+on time, so each commit writes one b-tree only)."""
 RAW_PLAIN, RAW_ZLIB = 0, 1
-"""Codecs of a raw blob: as packed, or zlib-compressed (level 1) byte-planes of the packed samples."""
+"""Codecs of a raw blob: as packed, or the packed samples' low bytes as they are and their high bytes through zlib
+(level 1)."""
 
 metadata = sa.MetaData()
 _ID = sa.BigInteger().with_variant(sa.Integer(), "sqlite")
@@ -79,15 +83,15 @@ malformed_table = sa.Table(
 applied_table = sa.Table(
     "applied", metadata, sa.Column("device", sa.Text, primary_key=True), sa.Column("boot", sa.Text, primary_key=True),
     sa.Column("seq", sa.BigInteger, primary_key=True), sa.Column("received_time", sa.Double, nullable=False),
-    sa.Index("applied_received", "received_time"))
+    sqlite_with_rowid=False)
 outbox_table = sa.Table(
     "outbox", metadata, sa.Column("id", _ID, primary_key=True, autoincrement=True),
     sa.Column("sink", sa.Text, nullable=False), sa.Column("event", sa.Text, nullable=False),
     sa.Index("outbox_sink", "sink", "id"), sqlite_autoincrement=True)
 keep_table = sa.Table(
-    "raw_keep", metadata, sa.Column("device", sa.Text, nullable=False), sa.Column("start", sa.Double, nullable=False),
-    sa.Column("end", sa.Double, nullable=False), sa.Column("until", sa.Double, nullable=False),
-    sa.Index("raw_keep_device", "device", "start"))
+    "raw_keep", metadata, sa.Column("device", sa.Text, nullable=False),
+    sa.Column("window_start", sa.Double, nullable=False), sa.Column("window_end", sa.Double, nullable=False),
+    sa.Column("keep_until", sa.Double, nullable=False), sa.Index("raw_keep_until", "keep_until"))
 version_table = sa.Table("hav_schema", metadata, sa.Column("version", sa.Integer, nullable=False))
 
 
@@ -143,12 +147,15 @@ class ExposureStore:
         self.engine = sqlstore.make_engine(self.url, StoreError, "the exposure store", SQLITE_PRAGMAS, busy_timeout_s)
         self._guard = threading.RLock() if sqlstore.is_memory(self.url) else nullcontext()
         """An in-memory store is one connection shared by all threads: one of them uses it at a time."""
-        self._insert = sa.dialects.postgresql.insert if self.dialect == "postgresql" else sa.dialects.sqlite.insert
+        self._dbapi = self.engine.dialect.loaded_dbapi
+        self._sql: dict[str, str] = {}
+        self._cursor = None
         with self._errors("cannot open"):
             self._writer = self.engine.connect()
             migrate(self._writer)
-        self._conn: Connection | None = None
         self._owner: int | None = None
+        self._leases: set[str] = set()
+        self._lease_conn: Connection | None = None
         self._pruned_at = -float("inf")
         self.commits, self.commit_s = 0, 0.0
         """Transactions committed, and the thread CPU seconds spent inside them (``bench hav`` reads both)."""
@@ -163,24 +170,33 @@ class ExposureStore:
         """All writes inside commit together or not at all (the monitor's writer connection)."""
         start = time.thread_time()
         with self._guard, self._errors("could not write"):
-            with self._writer.begin():
-                self._conn, self._owner = self._writer, threading.get_ident()
-                try:
-                    yield self
-                finally:
-                    self._conn = None
+            raw = self._writer.connection.dbapi_connection
+            self._cursor, self._owner = raw.cursor(), threading.get_ident()
+            try:
+                if self.dialect == "sqlite":
+                    self._cursor.execute("BEGIN")
+                yield self
+            except BaseException:
+                raw.rollback()
+                raise
+            else:
+                raw.commit()
+            finally:
+                self._cursor.close()
+                self._cursor = None
         self.commits += 1
         self.commit_s += time.thread_time() - start
 
     # raw batches ---------------------------------------------------------------------------------------
-    def save_raw(self, batches: Iterable[AccelBatch], compress: bool = False) -> None:
+    def save_raw(self, batches: Iterable[AccelBatch], compress: bool = False) -> int:
         """Samples as they came: int16 counts (half the bytes) when the batch has a count ``scale``, else float32;
-        with ``compress``, zlib over the samples' byte planes (lossless)."""
+        with ``compress``, zlib over the samples' byte planes (lossless). Returns the bytes of samples written."""
         rows = [{"device": b.device, "seq": b.seq, "device_time": b.device_time, "received_time": b.received_time,
                  "fs": b.fs, "full_scale": b.full_scale, "n": b.xyz.shape[0], **_packed(b, compress)}
                 for b in batches]
         if rows:
-            self._exec(self._insert(raw_table).on_conflict_do_nothing(), rows)
+            self._exec(_insert_sql(raw_table, rows[0], conflict=" ON CONFLICT DO NOTHING"), rows)
+        return sum(len(row["samples"]) for row in rows)
 
     def raw_batches(self, device: str, from_seq: int) -> list[AccelBatch]:
         t = raw_table.c
@@ -189,49 +205,56 @@ class ExposureStore:
 
     def drop_raw(self, streams: Iterable[tuple[str, int]], received_by: float) -> None:
         """Delete each (device, next seq) stream's processed batches (seq < next seq) received at or before
-        ``received_by``, but those kept around an event (``kept``).
+        ``received_by``.
 
         The candidates come from the covering index on (received_time, device, seq): only rows past retention
         are visited, never a stream's whole history. Searching by (device, seq < next seq) instead read every
         stored row of the stream on every commit (each one a page read): quadratic in the shift's length."""
         before = dict(streams)
-        expired = self._exec(sa.text(_expired_sql(self.dialect, "kept = 0")), {"by": received_by}).fetchall()
+        expired = self._exec(_expired_sql(self.dialect), {"by": received_by}).fetchall()
         gone = [{"d": device, "s": seq} for device, seq in expired if seq < before.get(device, seq)]
         if gone:
-            self._exec(sa.text("DELETE FROM raw WHERE device = :d AND seq = :s"), gone)
+            self._exec("DELETE FROM raw WHERE device = :d AND seq = :s", gone)
 
-    def expired_raw(self, received_by: float) -> list[tuple[str, int, float, float]]:
-        """(device, seq, device time, end device time) of unmarked raw batches received at or before
-        ``received_by`` (the candidates of the retention rule)."""
-        rows = self._exec(sa.text(_expired_sql(self.dialect, "kept = 0", more=", device_time, n / fs")),
-                          {"by": received_by}).fetchall()
-        return [(d, s, t, t + duration) for d, s, t, duration in rows]
+    def unkept_between(self, device: str, low: float, cut: float) -> list[tuple[int, float, float, int]]:
+        """(seq, start, end device time, blob bytes) of the device's unmarked batches starting in device time
+        [low, cut)."""
+        rows = self._exec("SELECT seq, device_time, device_time + n / fs, LENGTH(samples) FROM raw WHERE "
+                          "device = :d AND device_time >= :low AND device_time < :cut AND kept = 0",
+                          {"d": device, "low": low, "cut": cut}).fetchall()
+        return [(int(seq), start, end, int(size)) for seq, start, end, size in rows]
 
-    def mark_kept(self, rows: Iterable[tuple[str, int]]) -> None:
-        """Keep these (device, seq) raw batches for the event retention (they lie in an event's window)."""
+    def keep_raw(self, rows: Iterable[tuple[str, int]], compress: bool) -> int:
+        """Mark these (device, seq) batches kept around an event; with ``compress``, their samples compressed.
+        Returns the bytes saved."""
         rows = [{"d": d, "s": s} for d, s in rows]
-        if rows:
-            self._exec(sa.text("UPDATE raw SET kept = 1 WHERE device = :d AND seq = :s"), rows)
+        if not rows:
+            return 0
+        if not compress:
+            self._exec("UPDATE raw SET kept = 1 WHERE device = :d AND seq = :s", rows)
+            return 0
+        found = [self._exec("SELECT samples, scale, codec FROM raw WHERE device = :d AND seq = :s", row).fetchone()
+                 for row in rows]
+        rows = [{**row, "b": _compressed(bytes(blob), scale, codec), "n": len(blob)}
+                for row, (blob, scale, codec) in zip(rows, found)]
+        self._exec(f"UPDATE raw SET kept = 1, codec = {RAW_ZLIB}, samples = :b WHERE device = :d AND seq = :s",
+                   [{k: row[k] for k in ("b", "d", "s")} for row in rows])
+        return sum(row["n"] - len(row["b"]) for row in rows)
 
     def delete_raw(self, rows: Iterable[tuple[str, int]]) -> None:
         rows = [{"d": d, "s": s} for d, s in rows]
         if rows:
-            self._exec(sa.text("DELETE FROM raw WHERE device = :d AND seq = :s"), rows)
-
-    def drop_kept_raw(self, received_by: float) -> None:
-        """Delete the batches kept around events that were received at or before ``received_by``."""
-        self._exec(sa.text("DELETE FROM raw WHERE kept = 1 AND received_time <= :by"), {"by": received_by})
+            self._exec("DELETE FROM raw WHERE device = :d AND seq = :s", rows)
 
     def raw_bytes(self) -> int:
-        """Bytes of raw samples stored (blobs only)."""
-        return int(self._read(sa.select(sa.func.coalesce(sa.func.sum(sa.func.length(raw_table.c.samples)), 0)))
-                   .scalar_one())
+        """Bytes of raw samples stored (blobs only; inside a transaction)."""
+        return int(self._exec("SELECT COALESCE(SUM(LENGTH(samples)), 0) FROM raw", {}).fetchone()[0])
 
-    def oldest_raw(self, limit: int) -> list[tuple[str, int, int]]:
-        """(device, seq, blob bytes) of the ``limit`` raw batches received first."""
-        t = raw_table.c
-        query = sa.select(t.device, t.seq, sa.func.length(t.samples)).order_by(t.received_time).limit(limit)
-        return [(d, s, int(n)) for d, s, n in self._read(query)]
+    def oldest_raw(self, limit: int = 2000) -> list[tuple[str, int, int]]:
+        """(device, seq, blob bytes) of the ``limit`` raw batches received first (inside a transaction)."""
+        rows = self._exec("SELECT device, seq, LENGTH(samples) FROM raw ORDER BY received_time LIMIT :n",
+                          {"n": limit}).fetchall()
+        return [(d, int(s), int(n)) for d, s, n in rows]
 
     def raw_seqs(self, device: str) -> list[int]:
         t = raw_table.c
@@ -256,16 +279,16 @@ class ExposureStore:
     # windows of raw data kept around events ------------------------------------------------------------
     def add_keep_windows(self, rows: Iterable[tuple[str, float, float, float]]) -> None:
         """(device, start, end device time, keep until (receive clock)) windows whose raw batches are kept."""
-        rows = [{"device": d, "start": s, "end": e, "until": u} for d, s, e, u in rows]
+        rows = [{"device": d, "window_start": s, "window_end": e, "keep_until": u} for d, s, e, u in rows]
         if rows:
-            self._exec(keep_table.insert(), rows)
+            self._exec(_insert_sql(keep_table, rows[0]), rows)
 
     def keep_windows(self) -> list[tuple[str, float, float, float]]:
         t = keep_table.c
-        return [tuple(row) for row in self._read(sa.select(t.device, t.start, t.end, t.until))]
+        return [tuple(row) for row in self._read(sa.select(t.device, t.window_start, t.window_end, t.keep_until))]
 
     def drop_keep_windows(self, received_by: float) -> None:
-        self._exec(keep_table.delete().where(keep_table.c.until <= received_by))
+        self._exec("DELETE FROM raw_keep WHERE keep_until <= :by", {"by": received_by})
 
     # the ledger of applied batches ---------------------------------------------------------------------
     def mark_applied(self, keys: Iterable[tuple[str, str, int, float]], now: float) -> None:
@@ -274,13 +297,13 @@ class ExposureStore:
         rows = [{"device": d, "boot": b, "seq": s, "received_time": r} for d, b, s, r in keys]
         if rows:
             try:
-                self._exec(applied_table.insert(), rows)
-            except IntegrityError:
+                self._exec(_insert_sql(applied_table, rows[0]), rows)
+            except self._dbapi.IntegrityError:
                 raise AlreadyApplied("a batch of this commit was applied before (another monitor process, or a "
                                      "redelivery): reload and retry") from None
         if now - self._pruned_at >= LEDGER_PRUNE_EVERY_S:
             self._pruned_at = now
-            self._exec(applied_table.delete().where(applied_table.c.received_time < now - LEDGER_KEEP_S))
+            self._exec("DELETE FROM applied WHERE received_time < :by", {"by": now - LEDGER_KEEP_S})
 
     def applied_count(self) -> int:
         return int(self._read(sa.select(sa.func.count()).select_from(applied_table)).scalar_one())
@@ -347,12 +370,13 @@ class ExposureStore:
         events, sinks = list(events), list(outbox)
         if not events:
             return
-        self._exec(events_table.insert(), [
+        self._exec(_insert_sql(events_table, _EVENT_ROW), [
             {"kind": e.kind, "time": e.time, "subject": e.subject, "source": e.source,
              "data": json.dumps(e.data, default=float), "received": e.received} for e in events])
         if sinks:
             payloads = [e.to_json().decode() for e in events]
-            self._exec(outbox_table.insert(), [{"sink": sink, "event": p} for sink in sinks for p in payloads])
+            self._exec(_insert_sql(outbox_table, _OUTBOX_ROW), [{"sink": sink, "event": p} for sink in sinks
+                                                                 for p in payloads])
 
     def events(self, kind: str | None = None, since: float | None = None) -> list[Event]:
         """The events in commit order, of ``kind`` (default all), that happened after ``since`` (UTC s)."""
@@ -378,6 +402,22 @@ class ExposureStore:
                     conn.begin():
                 conn.execute(outbox_table.delete().where(outbox_table.c.id.in_(ids)))
 
+    def outbox_lease(self, sink: str) -> bool:
+        """Whether this process delivers ``sink``'s queue: always on SQLite (one process owns the file); on
+        PostgreSQL the one holding a session advisory lock per sink (released when its connection ends, so a
+        standby process takes over after a crash)."""
+        if self.dialect != "postgresql":
+            return True
+        if sink in self._leases:
+            return True
+        with self._errors("could not lease the outbox of"):
+            if self._lease_conn is None:
+                self._lease_conn = self.engine.connect().execution_options(isolation_level="AUTOCOMMIT")
+            key = zlib.crc32(f"bim2rdt-hav-outbox:{sink}".encode())
+            if self._lease_conn.execute(sa.text("SELECT pg_try_advisory_lock(:k)"), {"k": key}).scalar():
+                self._leases.add(sink)
+        return sink in self._leases
+
     def outbox_count(self, sink: str | None = None) -> int:
         query = sa.select(sa.func.count()).select_from(outbox_table)
         if sink is not None:
@@ -394,37 +434,45 @@ class ExposureStore:
 
     def close(self) -> None:
         with self._guard:
+            if self._lease_conn is not None:
+                self._lease_conn.close()
             self._writer.close()
             self.engine.dispose()
 
     # internals -----------------------------------------------------------------------------------------
-    def _exec(self, statement, params=None):
-        """Run a write inside the open transaction."""
-        if self._conn is None:
+    def _exec(self, sql: str, params: dict | list[dict]):
+        """Run a write (``:name`` parameters; a list runs it once per row) inside the open transaction, straight
+        on the driver's cursor: the commit path's statements are fixed text, so SQLAlchemy's per-statement work
+        would be its largest cost."""
+        if self._cursor is None:
             raise StoreError("the exposure store writes only inside transaction()")
-        return self._conn.execute(statement, params) if params is not None else self._conn.execute(statement)
+        text = self._sql.get(sql)
+        if text is None:
+            text = self._sql[sql] = re.sub(r":(\w+)", r"%(\1)s", sql) if self.dialect == "postgresql" else sql
+        if isinstance(params, list):
+            self._cursor.executemany(text, params)
+        else:
+            self._cursor.execute(text, params)
+        return self._cursor
 
     def _read(self, statement, params: dict | None = None):
         """Run a read: inside the open transaction when the writing thread reads, else on a pooled connection
         (its rows fetched before the connection goes back)."""
-        if self._conn is not None and self._owner == threading.get_ident():
-            return self._conn.execute(statement, params or {})
+        if self._cursor is not None and self._owner == threading.get_ident():
+            raise StoreError("a read inside the store's own transaction must use _exec")
         with self._guard, self._errors("could not read"), self.engine.connect() as conn:
             return _Buffered(conn.execute(statement, params or {}))
 
     def _upsert(self, table: sa.Table, rows: list[dict], keys: tuple[str, ...]) -> None:
-        if not rows:
-            return
-        insert = self._insert(table)
-        statement = insert.on_conflict_do_update(
-            index_elements=list(keys), set_={c.name: insert.excluded[c.name] for c in table.c if c.name not in keys})
-        self._exec(statement, rows)
+        if rows:
+            updates = ", ".join(f"{c} = excluded.{c}" for c in rows[0] if c not in keys)
+            self._exec(_insert_sql(table, rows[0], f" ON CONFLICT ({', '.join(keys)}) DO UPDATE SET {updates}"), rows)
 
     @contextmanager
     def _errors(self, what: str) -> Iterator[None]:
         try:
             yield
-        except SQLAlchemyError as error:
+        except (SQLAlchemyError, self._dbapi.Error) as error:
             raise StoreError(f"{what} the exposure store at {self.label}: "
                              f"{sqlstore.reason(error, self.url.password)}") from error
 
@@ -474,10 +522,20 @@ class _Buffered:
         return self._rows[0][0]
 
 
-def _expired_sql(dialect: str, condition: str, more: str = "") -> str:
-    """Unmarked raw rows received at or before :by, from the covering expiry index."""
+_EVENT_ROW = dict.fromkeys(("kind", "time", "subject", "source", "data", "received"))
+_OUTBOX_ROW = dict.fromkeys(("sink", "event"))
+
+
+def _insert_sql(table: sa.Table, row: dict, conflict: str = "") -> str:
+    """INSERT of ``row``'s columns into ``table`` with named parameters (SQLite and PostgreSQL share the syntax,
+    ON CONFLICT included)."""
+    return (f"INSERT INTO {table.name} ({', '.join(row)}) VALUES ({', '.join(':' + c for c in row)}){conflict}")
+
+
+def _expired_sql(dialect: str) -> str:
+    """Raw rows received at or before :by, from the covering expiry index."""
     hint = " INDEXED BY raw_expiry" if dialect == "sqlite" else ""
-    return f"SELECT device, seq{more} FROM raw{hint} WHERE received_time <= :by AND {condition}"
+    return f"SELECT device, seq FROM raw{hint} WHERE received_time <= :by"
 
 
 def _raw_columns():
@@ -505,15 +563,27 @@ def _packed(batch: AccelBatch, compress: bool) -> dict:
         blob = np.ascontiguousarray(batch.xyz, dtype=np.float32).tobytes()
     if not compress:
         return {"samples": blob, "scale": scale, "codec": RAW_PLAIN}
+    return {"samples": _compressed(blob, scale, RAW_PLAIN), "scale": scale, "codec": RAW_ZLIB}
+
+
+def _compressed(blob: bytes, scale: float | None, codec: int) -> bytes:
+    """A stored blob, compressed (as it is when it already was): the samples' low bytes as they are (sensor noise
+    does not compress), their high bytes through zlib (level 1): ~0.6 of the size at a third of zlib's time over
+    all bytes."""
+    if codec == RAW_ZLIB:
+        return blob
     width = 2 if scale is not None else 4
-    planes = np.frombuffer(blob, np.uint8).reshape(-1, width).T.tobytes()  # high bytes of noise repeat: planes
-    return {"samples": zlib.compress(planes, 1), "scale": scale, "codec": RAW_ZLIB}
+    planes = np.frombuffer(blob, np.uint8).reshape(-1, width)
+    return planes[:, :width // 2].tobytes() + zlib.compress(planes[:, width // 2:].tobytes(), 1)
 
 
 def _xyz(blob: bytes, n: int, scale: float | None, codec: int | None = RAW_PLAIN) -> np.ndarray:
     width = 2 if scale is not None else 4
     if codec == RAW_ZLIB:
-        blob = np.frombuffer(zlib.decompress(blob), np.uint8).reshape(width, -1).T.tobytes()
+        low_size = n * 3 * (width // 2)
+        low = np.frombuffer(blob[:low_size], np.uint8).reshape(-1, width // 2)
+        high = np.frombuffer(zlib.decompress(blob[low_size:]), np.uint8).reshape(-1, width - width // 2)
+        blob = np.concatenate([low, high], axis=1).tobytes()
     if scale is None:
         return np.frombuffer(blob, np.float32).reshape(n, 3)
     return np.frombuffer(blob, "<i2").reshape(n, 3).astype(np.float32) * np.float32(scale)

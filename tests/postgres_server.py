@@ -1,6 +1,6 @@
-"""A PostgreSQL server for the twin's tests: the one CI starts (``BIM2RDT_TEST_POSTGRES_URL``), else a private
-throwaway cluster started from Debian's binaries on a free port (as the postgres user when run as root), and a
-fresh database per test."""
+"""A PostgreSQL server for the tests of the twin and the exposure store: the one CI starts
+(``BIM2RDT_TEST_POSTGRES_URL``), else a private throwaway cluster started from Debian's binaries on a free port (as
+the postgres user when run as root), and a fresh database per test."""
 
 from __future__ import annotations
 
