@@ -53,6 +53,18 @@ class HavSettings(MonitorConfig):
     site_secret: str = Field("change-me", min_length=1, description="Key for worker pseudonyms (keyed hash); the "
                              "shipped default is refused outside --dev.")
 
+    ack_wait_s: float = Field(30.0, gt=0, le=3600, description="NATS path: seconds JetStream waits for a monitor's "
+                              "acknowledgement (sent after the commit) before redelivering a message.")
+    max_deliver: int = Field(20, ge=2, le=10_000, description="NATS path: deliveries of one message at most (a "
+                             "message whose commit keeps failing is then dropped by JetStream, with an advisory).")
+
+    stream_replicas: int = Field(1, ge=1, le=5, description="NATS path: replicas of the HAV stream when a monitor "
+                                 "creates it (3 on a 3-node cluster).")
+    stream_max_age_s: float = Field(24 * 3600.0, gt=0, description="NATS path: JetStream keeps wearable messages "
+                                    "at most this long, seconds (then the oldest go).")
+    stream_max_bytes: int = Field(2**30, gt=0, description="NATS path: JetStream keeps at most this many bytes of "
+                                  "wearable messages (then the oldest go).")
+
     def monitor_config(self, **overrides) -> MonitorConfig:
         """The monitor's part with ``overrides``, without the secret (the monitor takes it as its own argument)."""
         return MonitorConfig(**{**self.model_dump(include=set(MonitorConfig.model_fields)), **overrides})

@@ -24,3 +24,19 @@ def broker(tmp_path_factory):
         pytest.fail("Debian's mosquitto is required for the bus tests (.ci/run installs it)")
     with MosquittoBroker(USERS, folder=tmp_path_factory.mktemp("mosquitto"), site=SITE, monitors=MONITORS) as running:
         yield running
+
+
+NATS_DEVICES = {f"w{i}": f"w{i}-pw" for i in range(1, 7)}
+NATS_MONITORS = {"monitor": "monitor-pw"}
+
+
+@pytest.fixture
+def nats_server(tmp_path):
+    """nats-server (Debian's) with JetStream and MQTT on free loopback ports, site "s", 3 partitions; one per test
+    (its JetStream files go with it)."""
+    from bim2rdt.bus.nats_broker import NATS_SERVER, NatsServer
+
+    if not Path(NATS_SERVER).exists():
+        pytest.fail("Debian's nats-server is required for the NATS tests (.ci/run installs it)")
+    with NatsServer(SITE, NATS_DEVICES, NATS_MONITORS, partitions=3, folder=tmp_path / "nats") as running:
+        yield running

@@ -41,10 +41,13 @@ class MqttBus:
 
     def __init__(self, host: str, port: int, client_id: str | None = None, username: str | None = None,
                  password: str | None = None, will: tuple[str, bytes] | None = None, timeout_s: float = 10.0,
-                 session_expiry_s: int = 0, manual_ack: bool = False):
+                 session_expiry_s: int = 0, manual_ack: bool = False, mqtt_version: int = 5):
+        """``mqtt_version`` 3 speaks MQTT 3.1.1 (nats-server's MQTT listener; a clean session, no expiry)."""
         self.host, self.port, self.timeout_s, self.session_expiry_s = host, port, timeout_s, session_expiry_s
+        self.mqtt_version = mqtt_version
         self.manual_ack, self.handler_errors, self.disconnects = manual_ack, 0, 0
-        self._client = mqtt.Client(mqtt.CallbackAPIVersion.VERSION2, protocol=mqtt.MQTTv5, manual_ack=manual_ack,
+        self._client = mqtt.Client(mqtt.CallbackAPIVersion.VERSION2, manual_ack=manual_ack,
+                                   protocol=mqtt.MQTTv5 if mqtt_version == 5 else mqtt.MQTTv311,
                                    client_id=client_id or f"bim2rdt-{uuid.uuid4().hex[:8]}")
         if username is not None:
             self._client.username_pw_set(username, password)
@@ -70,9 +73,9 @@ class MqttBus:
         if self.session_expiry_s:
             properties = Properties(PacketTypes.CONNECT)
             properties.SessionExpiryInterval = self.session_expiry_s
+        v5 = {"clean_start": not self.session_expiry_s, "properties": properties} if self.mqtt_version == 5 else {}
         try:
-            self._client.connect(self.host, self.port, keepalive=30, clean_start=not self.session_expiry_s,
-                                 properties=properties)
+            self._client.connect(self.host, self.port, keepalive=30, **v5)
         except OSError as error:
             raise BusError(f"cannot reach MQTT broker {self.host}:{self.port}: {error}") from error
         self._client.loop_start()
@@ -113,6 +116,16 @@ class MqttBus:
         with self._lock:
             self._acks.pop(mid, None)
             return self._ack_codes.pop(mid, 0)
+
+    def drain(self, timeout_s: float | None = None) -> bool:
+        """Wait until the broker acknowledged every QoS 1 message published so far (before a close, which would
+        drop what is still in flight); False if ``timeout_s`` (default ``self.timeout_s``) passed first."""
+        import time
+
+        deadline = time.monotonic() + (self.timeout_s if timeout_s is None else timeout_s)
+        while getattr(self._client, "_out_messages", None) and time.monotonic() < deadline:  # paho 2.x: unacked
+            time.sleep(0.01)
+        return not getattr(self._client, "_out_messages", None)
 
     @property
     def alive(self) -> bool:

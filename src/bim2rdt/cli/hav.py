@@ -45,17 +45,29 @@ def hav_listen(
     out: Path | None = typer.Option(None, "--out", help="Where the twin IFC goes (default: <ifc>_hav.ifc)."),
     max_offline: float = typer.Option(300.0, "--max-offline", min=1.0, help="Exit non-zero after this many seconds "
                                       "without the broker (a supervisor restarts the monitor; nothing is lost)."),
+    nats: str | None = typer.Option(None, "--nats", help="nats://HOST:PORT: consume one partition of the NATS path's "
+                                    "wearable stream instead of MQTT (see --partition, --partitions)."),
+    partition: str = typer.Option("0/1", "--partition", help="With --nats: the partition K/N this process serves."),
+    partitions: int = typer.Option(0, "--partitions", min=0, max=1024, help="With --nats: start and supervise N "
+                                   "monitor processes here, one per partition, restarting any that dies."),
+    standby: bool = typer.Option(False, "--standby", hidden=True, help="With --nats: import, then wait for the "
+                                 "partition K/N on stdin (the supervisor's warm standby)."),
     dev: bool = typer.Option(False, "--dev", help=DEV_HELP),
 ) -> None:
     """Run the HAV monitor against a broker: print events, publish them on site/<site>/safety/events. Ctrl-C, SIGTERM
     or SIGHUP commit what waits, print the day's summary and exit 0. Exits non-zero if the network thread dies, the
-    broker stays away for --max-offline seconds, or the store fails."""
+    broker stays away for --max-offline seconds, or the store fails. With --nats, each message is acknowledged to
+    JetStream after its commit (BIM2RDT_HAV__ACK_WAIT_S, BIM2RDT_HAV__MAX_DELIVER)."""
     from bim2rdt.bus.credentials import parse_address
     from bim2rdt.bus.mqtt import MqttBus
     from bim2rdt.config import get_settings
     from bim2rdt.safety import BusSink, CallbackSink
 
     settings = get_settings()
+    if nats is not None:
+        require_own_secrets(settings, dev, "site", "monitor")
+        _listen_nats(settings, nats, partition, partitions, duration, max_offline, ifc, out, dev, standby)
+        return
     host, port = parse_address(mqtt or _configured_broker(settings))
     require_own_secrets(settings, dev, "site", "monitor")
     bus = MqttBus(host, port, client_id=settings.mqtt.username, username=settings.mqtt.username,
@@ -71,6 +83,33 @@ def hav_listen(
             watch(monitor, bus, duration, max_offline, stop=stop)
         finally:
             _leave(monitor, bus)
+
+
+def _listen_nats(settings, url: str, partition: str, partitions: int, duration: float, max_offline: float,
+                 ifc: Path | None, out: Path | None, dev: bool, standby: bool = False) -> None:
+    from bim2rdt.bus.partitions import parse_partition
+    from bim2rdt.cli.hav_nats import listen_partition, supervise, wait_for_partition
+    from bim2rdt.safety import CallbackSink
+
+    if not url.startswith(("nats://", "tls://")):
+        raise typer.BadParameter(f"--nats wants nats://HOST:PORT, got {url!r}")
+    if partitions:
+        if ifc is not None:
+            raise typer.BadParameter("--ifc takes one monitor: run one `--partition K/N` per process for it")
+        supervise(["--nats", url, "--max-offline", str(max_offline)] + (["--dev"] if dev else []), partitions,
+                  duration)
+        return
+    if standby:
+        import bim2rdt.bus.nats_bus  # noqa: F401  the heavy imports now, not when a partition needs us
+        import bim2rdt.safety.monitor  # noqa: F401
+
+        partition = wait_for_partition()
+        if partition is None:
+            return
+    k, n = parse_partition(partition)
+    with twin_sink(ifc, out) as ifc_sink:
+        listen_partition(settings, url, k, n, duration, max_offline,
+                         [CallbackSink(event_line)] + ([ifc_sink] if ifc_sink else []))
 
 
 def watch(monitor, bus, duration: float, max_offline: float, period_s: float = 1.0,
@@ -159,26 +198,51 @@ def _print_day(report, name: str, fs: float, plot: Path) -> None:
 
 @hav_app.command("broker")
 def hav_broker(
-    port: int = typer.Option(18830, "--port", help="Loopback port (never 1883: a system broker may own it)."),
+    port: int | None = typer.Option(None, "--port", help="Loopback port (default 18830 for Mosquitto, 14222 for "
+                                    "NATS; never 1883: a system broker may own it)."),
     devices: int = typer.Option(3, "--devices", min=1, help="Provision devices w1..wN (dev passwords)."),
     duration: float = typer.Option(0.0, "--duration", min=0.0, help="Stop after this many seconds (0: Ctrl-C)."),
+    nats: bool = typer.Option(False, "--nats", help="Run nats-server (JetStream + its MQTT 3.1.1 listener) for the "
+                              "scaled path instead of Mosquitto."),
+    mqtt_port: int = typer.Option(18831, "--mqtt-port", help="With --nats: the wearables' MQTT 3.1.1 port."),
+    partitions: int = typer.Option(1, "--partitions", min=1, max=1024, help="With --nats: partitions of the "
+                                   "wearable stream (one monitor each: `hav listen --nats URL --partition K/N`)."),
     dev: bool = typer.Option(False, "--dev", help=DEV_HELP),
 ) -> None:
     """Run the shipped Mosquitto config (password per device, per-device ACL pinned to the site) on 127.0.0.1 for
-    local runs; exits non-zero if mosquitto does not start or dies."""
-    from bim2rdt.bus.broker import MosquittoBroker
+    local runs, or with --nats a nats-server with JetStream whose per-device permissions pin each device to its
+    site and partition; exits non-zero if the broker does not start or dies."""
     from bim2rdt.config import get_settings
 
     settings = get_settings()
     require_own_secrets(settings, dev, "devices", "monitor")
     names = [settings.mqtt.username, "dashboard"] + [f"w{i + 1}" for i in range(devices)]
-    with stop_requested() as stop, MosquittoBroker({name: _password(settings, name) for name in names}, port=port,
-                                                   site=settings.mqtt.site, monitors=(settings.mqtt.username,)) as broker:
-        console.print(f"mosquitto on 127.0.0.1:{broker.port} for site {settings.mqtt.site!r}; users "
-                      f"{', '.join(names)}")
+    broker, banner = _broker(settings, names, port, nats, mqtt_port, partitions)
+    with stop_requested() as stop, broker:
+        console.print(banner)
         deadline = time.monotonic() + duration if duration else float("inf")
         while time.monotonic() < deadline and not stop.wait(min(0.5, max(deadline - time.monotonic(), 0.0))):
-            broker.check()  # terminated, interrupted or its terminal closed: the with stops mosquitto, no orphan
+            broker.check()  # terminated, interrupted or its terminal closed: the with stops the broker, no orphan
+
+
+def _broker(settings, names: list[str], port: int | None, nats: bool, mqtt_port: int, partitions: int):
+    """The broker `hav broker` runs (not started yet) and the line that says what it is."""
+    from bim2rdt.bus.broker import MosquittoBroker
+
+    passwords = {name: _password(settings, name) for name in names}
+    if not nats:
+        broker = MosquittoBroker(passwords, port=port or 18830, site=settings.mqtt.site,
+                                 monitors=(settings.mqtt.username,))
+        return broker, f"mosquitto on 127.0.0.1:{broker.port} for site {settings.mqtt.site!r}; users {', '.join(names)}"
+    from bim2rdt.bus.nats_broker import NatsServer
+
+    monitor = settings.mqtt.username
+    devices = {name: password for name, password in passwords.items() if name not in (monitor, "dashboard")}
+    broker = NatsServer(settings.mqtt.site, devices, {monitor: passwords[monitor]}, partitions=partitions,
+                        port=port or 14222, mqtt_port=mqtt_port)
+    return broker, (f"nats-server on {broker.url} (wearables: MQTT 3.1.1 on 127.0.0.1:{broker.mqtt_port}) for site "
+                    f"{settings.mqtt.site!r}, {partitions} partition(s); monitor {monitor!r}, devices "
+                    f"{', '.join(devices)}")
 
 
 def bench_hav(
@@ -190,12 +254,19 @@ def bench_hav(
     latency: bool = typer.Option(True, "--latency/--no-latency", help="Measure latency through Mosquitto."),
     store: bool = typer.Option(True, "--store/--no-store", help="Measure the exposure store over a shift."),
     store_minutes: float = typer.Option(10.0, "--store-minutes", min=1.0, help="Minutes of the store's shift."),
+    scale: bool = typer.Option(False, "--scale", help="The NATS path instead: raw batches/s through nats-server to 1 "
+                               "and 2 monitor processes, publish-to-commit latency, summaries/s per process."),
+    devices: int = typer.Option(100, "--devices", min=2, help="With --scale: simulated wearables."),
     as_json: bool = typer.Option(False, "--json", help="Print JSON instead of tables."),
 ) -> None:
     """Streams processed in real time on one core vs the bare sosfilt floor; the store's commits and reads per
-    batch vs a bare SQLite insert; publish-to-event latency."""
+    batch vs a bare SQLite insert; publish-to-event latency. With --scale, the NATS path's monitor processes."""
     from bim2rdt.bench.hav import run_latency, run_store, run_throughput, targets
     from bim2rdt.config import get_settings, settings_record
+
+    if scale:
+        _bench_scale(devices, fs, as_json)
+        return
 
     if hasattr(os, "sched_setaffinity"):
         os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
@@ -242,5 +313,31 @@ def _show_bench(result: dict) -> None:
                     ["messages", "p50 ms", "p99 ms", "max ms", "with events", "events p50 ms", "events p99 ms"],
                     [(lat["messages"], lat["p50_ms"], lat["p99_ms"], lat["max_ms"], lat["event_messages"],
                       lat["event_p50_ms"], lat["event_p99_ms"])])
+    for name, ok in result["targets"].items():
+        console.print(f"{name}: {'[green]PASS[/green]' if ok else '[red]FAIL[/red]'}")
+
+
+def _bench_scale(devices: int, fs: float, as_json: bool) -> None:
+    from bim2rdt.bench.hav_scale import run_scale, targets
+    from bim2rdt.config import get_settings, settings_record
+
+    with progress(4, f"{devices} wearables through nats-server: 1 and 2 monitors, summaries, latency") as tick:
+        counter = iter(range(1, 5))
+        result = run_scale(devices=devices, fs=fs, tick=lambda: tick(next(counter)))
+    result["targets"] = targets(result)
+    result["settings"] = settings_record(get_settings())
+    if as_json:
+        print_json(result)
+        return
+    t, s, lat = result["throughput"], result["summaries"], result["latency"]
+    print_table(f"NATS path: {t['messages']} raw batches ({t['bytes_per_message'] / 1000:.1f} kB, 0.5 s at "
+                f"{t['fs']:g} Hz) from {t['devices']} wearables, backlog consumed on {result['cpus']} CPUs",
+                ["monitor processes", "msgs/s", "x one process"],
+                [(1, t["one_process_msgs_per_s"], 1.0), (2, t["two_processes_msgs_per_s"], t["scaling"])])
+    print_table("On-device summaries (1 Hz), one process", ["messages", "bytes each", "msgs/s"],
+                [(s["messages"], s["bytes_per_message"], s["msgs_per_s_per_process"])])
+    print_table(f"Publish-to-commit latency, 2 processes, {lat['rate_msgs_per_s']:g} msgs/s in real time",
+                ["messages", "committed", "p50 ms", "p99 ms", "max ms"],
+                [(lat["messages"], lat["committed"], lat["p50_ms"], lat["p99_ms"], lat["max_ms"])])
     for name, ok in result["targets"].items():
         console.print(f"{name}: {'[green]PASS[/green]' if ok else '[red]FAIL[/red]'}")

@@ -25,6 +25,8 @@ def serve_command(
     ifc: Path | None = typer.Option(None, "--ifc", help="The BIM the --twin is kept over."),
     mqtt: str | None = typer.Option(None, "--mqtt", help="Take real wearables from this broker, HOST:PORT "
                                     "(default: simulated wearables for the demo, none for --twin)."),
+    nats: str | None = typer.Option(None, "--nats", help="The NATS path (nats://HOST:PORT): show every partition's "
+                                    "workers from the monitors' shared store (BIM2RDT_HAV__STORE_URL)."),
     host: str | None = typer.Option(None, "--host", help="Address to bind (default BIM2RDT_SERVER__HOST, "
                                     "127.0.0.1: this machine only)."),
     port: int | None = typer.Option(None, "--port", min=0, max=65535, help="Port (default BIM2RDT_SERVER__PORT, "
@@ -55,8 +57,15 @@ def serve_command(
 
     status = console.status("starting the server")
     status.start()
+    if nats is not None and mqtt is not None:
+        raise typer.BadParameter("give --mqtt or --nats, not both", param_hint="--nats")
+    if nats is not None and not settings.hav.store_url:
+        from bim2rdt.safety import HavError
+
+        raise HavError("serve --nats reads the partitions' shared store: set BIM2RDT_HAV__STORE_URL to the URL "
+                       "their monitors use")
     live = LiveServe(settings, config, out, twin_url, ifc, address, speed, all_roles,
-                     progress=lambda stage: status.update(stage))
+                     progress=lambda stage: status.update(stage), nats=nats)
     try:
         live.start()
     finally:

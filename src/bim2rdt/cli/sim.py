@@ -41,6 +41,10 @@ def sim_wearables(
                                              "time; the monitor places them on its receive clock)."),
     reboot_after: float = typer.Option(0.0, "--reboot-after", min=0.0, help="Minutes into its plan at which each "
                                        "device restarts (last will, 10 s off, new boot id, seq from 0); 0: never."),
+    summaries: bool = typer.Option(False, "--summaries", help="The devices weigh their own samples (ISO 5349-1 Wh) "
+                                   "and send a 1 Hz summary (~200 B) instead of raw batches."),
+    mqtt3: bool = typer.Option(False, "--mqtt3", help="Speak MQTT 3.1.1 (nats-server's MQTT listener: "
+                               "`hav broker --nats`) instead of MQTT 5."),
     dev: bool = typer.Option(False, "--dev", help=DEV_HELP),
 ) -> None:
     """Publish simulated hammer drill / grinder / breaker sessions (realistic spectra and magnitudes)."""
@@ -61,12 +65,13 @@ def sim_wearables(
     total = max(plan_seconds(p) for p in plans)
     with progress(total, f"{workers} wearables, {total / 60:.0f} min each") as tick:
         if mqtt is None:
-            _in_process(plans, fs, speed, tick, ifc, out)
+            _in_process(plans, fs, speed, tick, ifc, out, summaries)
         else:
-            _over_mqtt(plans, fs, speed, tick, mqtt)
+            _over_mqtt(plans, fs, speed, tick, mqtt, summaries, 3 if mqtt3 else 5)
 
 
-def _in_process(plans, fs: float, speed: float, tick, ifc: Path | None, out: Path | None) -> None:
+def _in_process(plans, fs: float, speed: float, tick, ifc: Path | None, out: Path | None,
+                summaries: bool = False) -> None:
     from bim2rdt.config import get_settings
     from bim2rdt.safety import CallbackSink
     from bim2rdt.sim.wearables import run_in_process
@@ -74,12 +79,13 @@ def _in_process(plans, fs: float, speed: float, tick, ifc: Path | None, out: Pat
     settings = get_settings()
     with twin_sink(ifc, out) as ifc_sink:
         monitor = open_monitor(settings, [CallbackSink(event_line)] + ([ifc_sink] if ifc_sink else []))
-        run_in_process(plans, monitor, settings.mqtt.site, fs, speed, tick)
+        run_in_process(plans, monitor, settings.mqtt.site, fs, speed, tick, summaries=summaries)
         print_summary(monitor, [p.device for p in plans])
         monitor.close()
 
 
-def _over_mqtt(plans, fs: float, speed: float, tick, mqtt: str) -> None:
+def _over_mqtt(plans, fs: float, speed: float, tick, mqtt: str, summaries: bool = False,
+               mqtt_version: int = 5) -> None:
     from bim2rdt.bus.credentials import device_password, parse_address
     from bim2rdt.config import get_settings
     from bim2rdt.sim.wearables import run_over_mqtt
@@ -87,7 +93,8 @@ def _over_mqtt(plans, fs: float, speed: float, tick, mqtt: str) -> None:
     settings = get_settings()
     host, port = parse_address(mqtt)
     sent = run_over_mqtt(plans, settings.mqtt.site, fs, host, port,
-                         lambda device: device_password(settings.mqtt.device_secret, device), speed, tick)
+                         lambda device: device_password(settings.mqtt.device_secret, device), speed, tick,
+                         mqtt_version=mqtt_version, summaries=summaries)
     console.print(f"published {sent} messages to {host}:{port}")
 
 

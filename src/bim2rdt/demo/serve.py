@@ -9,6 +9,7 @@ below sim and demo): the wiring lives here, above both.
 
 from __future__ import annotations
 
+import logging
 import shutil
 import signal
 import threading
@@ -102,6 +103,33 @@ class LiveWearables:
             self.monitor.tick()
 
 
+REFRESH_S = 2.0
+"""Seconds between a store reader's reloads (serve --nats)."""
+
+
+class StoreReader:
+    """Reloads a monitor from the store the partitions' monitors write, every ``REFRESH_S`` (it ingests nothing)."""
+
+    def __init__(self, monitor):
+        self.monitor, self._stop = monitor, threading.Event()
+        self._thread = threading.Thread(target=self._run, name="hav-store-reader", daemon=True)
+
+    def start(self) -> StoreReader:
+        self._thread.start()
+        return self
+
+    def stop(self) -> None:
+        self._stop.set()
+        self._thread.join(5)
+
+    def _run(self) -> None:
+        while not self._stop.wait(REFRESH_S):
+            try:
+                self.monitor.refresh()
+            except Exception:  # a store hiccup: the next refresh tries again; the page keeps the last figures
+                logging.getLogger(__name__).exception("refreshing from the shared store failed")
+
+
 def fresh_folder(path: Path) -> Path:
     """An empty folder at ``path`` (the live monitor's store: it simulates a new day each time). Never the audit
     log's folder: nothing may remove an audit log."""
@@ -117,8 +145,11 @@ class LiveServe:
 
     def __init__(self, settings, config, out_dir: Path, twin_url: str | None, ifc: Path | None,
                  mqtt: tuple[str, int] | None, speed: float = LIVE_SPEED, all_roles: bool = False,
-                 progress: Callable[[str], None] = lambda stage: None):
+                 progress: Callable[[str], None] = lambda stage: None, nats: str | None = None):
+        """``nats``: the NATS path's URL; the monitor is then a reader of the partitions' shared store
+        (``hav.store_url``), refreshed every ``REFRESH_S``: it shows every partition's workers."""
         self.settings, self.config, self.out_dir = settings, config, Path(out_dir)
+        self.nats = nats
         self.twin_url, self.ifc, self.mqtt, self.speed = twin_url, ifc, mqtt, speed
         self.all_roles, self.progress = all_roles, progress
         self.demo = twin_url is None
@@ -197,11 +228,14 @@ class LiveServe:
         return twin
 
     def _open_monitor(self):
-        if not (self.demo or self.mqtt):
+        if not (self.demo or self.mqtt or self.nats):
             return None, None
-        from bim2rdt.safety import HavMonitor, IdentityMap
+        from bim2rdt.safety import HavError, HavMonitor, IdentityMap
 
-        folder = fresh_folder(self.out_dir / "live" / "hav") if self.demo and not self.mqtt \
+        if self.nats and not self.settings.hav.store_url:
+            raise HavError("serve --nats reads the partitions' shared store: set BIM2RDT_HAV__STORE_URL to the URL "
+                           "their monitors use")
+        folder = fresh_folder(self.out_dir / "live" / "hav") if self.demo and not (self.mqtt or self.nats) \
             else self.settings.data_dir / "hav"
         monitor = HavMonitor(folder, self.settings.hav.site_secret, [], self.settings.hav.monitor_config())
         self._closers.append(monitor.close)
@@ -214,6 +248,10 @@ class LiveServe:
         if monitor is None:
             return "no HAV monitor (give --mqtt HOST:PORT for wearables)"
         site = self.settings.mqtt.site
+        if self.nats:
+            reader = StoreReader(monitor).start()
+            self._closers.append(reader.stop)
+            return f"every partition's workers from the shared store of {self.nats} (site {site})"
         if self.mqtt:
             from bim2rdt.bus.credentials import user_password
             from bim2rdt.bus.mqtt import MqttBus

@@ -40,6 +40,7 @@ from bim2rdt.safety.sessions import ISO_POSITIONS, Session, SessionBook
 from bim2rdt.safety.sinks import EventSink, emit_each
 from bim2rdt.safety.store import ExposureStore
 from bim2rdt.safety.subscriber import BusSubscriber
+from bim2rdt.safety.summary import merge_outcomes, push_summaries, split_summaries, stream_kind
 from bim2rdt.safety.weighting import require_weighable_rate
 
 __all__ = ["ISO_POSITIONS", "HavMonitor", "MalformedMessages", "MonitorConfig", "Session"]
@@ -50,12 +51,14 @@ class HavMonitor:
     """Streaming ISO 5349-1 exposure for many wearables; thread-safe (one lock around each call)."""
 
     def __init__(self, data_dir: Path | None, site_secret: str, sinks: Sequence[EventSink] = (),
-                 config: MonitorConfig = MonitorConfig(), clock: Callable[[], float] = time.time):
+                 config: MonitorConfig = MonitorConfig(), clock: Callable[[], float] = time.time,
+                 owns: Callable[[str], bool] | None = None):
         """State under ``data_dir`` (``hav.sqlite``, ``private/identity.sqlite``), or in the database at
         ``config.store_url`` (the identity map stays under ``data_dir``); ``data_dir`` None (and no URL) keeps it
         in memory, for a throw-away monitor that must write nothing (``hav analyze``). ``sinks`` with an
-        ``outbox`` name are durable (see :meth:`add_sink`)."""
-        self.config, self.sinks, self.clock = config, [], clock
+        ``outbox`` name are durable (see :meth:`add_sink`). ``owns(device)``: the devices this monitor serves
+        when several share one store (a partition of the NATS path); only their streams are restored."""
+        self.config, self.sinks, self.clock, self._owns = config, [], clock, owns
         folder = Path(data_dir) if data_dir is not None else None
         self.store = ExposureStore.for_folder(folder, config.store_url)
         self.identity = IdentityMap(folder / "private" / "identity.sqlite" if folder else None, role="monitor")
@@ -65,7 +68,7 @@ class HavMonitor:
         self._deliveries: dict[str, OutboxDelivery] = {}
         self._sessions = SessionBook(site_secret, self.identity, self._journal.corrections())
         self._engine = ExposureEngine(config, self._sessions, clock)
-        self._journal.restore(self._engine)
+        self._journal.restore(self._engine, self._owns)
         self._dead = DeadLetters({d: MalformedMessages(*row) for d, row in self.store.malformed().items()})
         self.failure: str | None = None
         """Why the monitor cannot go on (its store failed), else None: ``hav listen`` exits non-zero on it."""
@@ -145,10 +148,11 @@ class HavMonitor:
         return self.ingest_many([batch])
 
     def ingest_many(self, batches: Iterable[AccelBatch], now: float | None = None) -> list[Event]:
-        """Take batches from any devices in any order; returns (and emits) the events they caused. HavError,
+        """Take batches (and on-device summaries, :mod:`~bim2rdt.safety.summary`) from any devices in any order;
+        returns (and emits) the events they caused. HavError,
         before any state changes, if a batch's rate is too low to weigh or it holds more than ``MAX_BATCH_S``
         of samples (as the bus refuses: the store finds a raw window's batches within that reach)."""
-        batches = list(batches)
+        batches, summaries = split_summaries(batches)  # on-device summaries (safety.summary) ride along
         for batch in batches:
             require_weighable_rate(batch.fs)
             if not batch.duration_s <= MAX_BATCH_S:
@@ -156,15 +160,19 @@ class HavMonitor:
                                f"most {MAX_BATCH_S:g} s")
         with self._lock:
             now = self.clock() if now is None else now
-            outcome = self._engine.push(batches, now)
+            outcome = self._push(batches, summaries, now)
             try:
                 self._commit(outcome, now)
             except AlreadyApplied:  # memory was behind the store: reload it; what was applied is now a duplicate
                 log.warning("a batch was already applied to the store; reloading the engine from it")
                 self._reload()
-                outcome = self._engine.push(batches, now)
+                outcome = self._push(batches, summaries, now)
                 self._commit(outcome, now)
             return outcome.events
+
+    def _push(self, batches: list[AccelBatch], summaries: list, now: float) -> Outcome:
+        outcome = self._engine.push(batches, now)
+        return merge_outcomes(outcome, push_summaries(self._engine, summaries, now)) if summaries else outcome
 
     def ingest_payload(self, topic: str, payload: bytes, received: float | None = None) -> list[Event]:
         """An MQTT accel message, ingested now; ignored (and counted) if malformed, too slowly sampled to weigh,
@@ -259,13 +267,20 @@ class HavMonitor:
                 self.refuse(batch.device, reason, self.clock())
             self._reload()
 
+    def refresh(self) -> None:
+        """Reload days, streams, sessions and refused-message counts from the store: for a reader (``serve --nats``)
+        of a store that other processes (the partitions' monitors) write; such a reader ingests nothing."""
+        with self._lock:
+            self._reload()
+            self._dead = DeadLetters({d: MalformedMessages(*row) for d, row in self.store.malformed().items()})
+
     def _reload(self) -> None:
         """Rebuild the engine from the store (counts and timeline carried over)."""
         stats, timeline = self._engine.stats, self._engine.timeline
         self._engine = ExposureEngine(self.config, self._sessions, self.clock)
         self._engine.stats.update(stats)
         self._engine.timeline.extend(timeline)
-        self._journal.restore(self._engine)
+        self._journal.restore(self._engine, self._owns)
 
     # --- reading -----------------------------------------------------------------------------------------
     def day(self, subject: str, day: str | None = None) -> DayState:
@@ -290,14 +305,16 @@ class HavMonitor:
             return stream.session if stream else None
 
     def stream_status(self, device: str) -> dict | None:
-        """Where a device's stream stands: next expected seq, batches waiting, counters, clock offset (s), and the
-        time base its events and days are on ('receive' for a device without wall time, else 'device')."""
+        """Where a device's stream stands: next expected seq, batches waiting, counters, clock offset (s), the
+        time base its events and days are on ('receive' for a device without wall time, else 'device') and what
+        the device sends ('stream': 'raw' batches, on-device 'summary' seconds, 'mixed' or 'none')."""
         with self._lock:
             stream = self._engine.streams.get(device)
             if stream is None:
                 return None
             return {"next_seq": stream.buffer.next_seq, "waiting": sorted(stream.buffer.pending),
-                    "clock_offset_s": stream.clock.offset_s, "time_base": stream.time_base, **stream.counters}
+                    "clock_offset_s": stream.clock.offset_s, "time_base": stream.time_base,
+                    "stream": stream_kind(stream.counters), **stream.counters}
 
     def activity(self, device: str) -> ActivityState | None:
         """The activity running on ``device``'s stream (``id`` None when idle); None for an unknown device."""

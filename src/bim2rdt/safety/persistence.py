@@ -10,7 +10,7 @@ HavMonitor` for the group-commit window).
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 
 from bim2rdt.bus.event import Event
 from bim2rdt.bus.payloads import AccelBatch
@@ -36,13 +36,16 @@ class MonitorJournal:
     def corrections(self) -> list[MountingCorrection]:
         return [MountingCorrection.from_json(text) for text in self.store.corrections()]
 
-    def restore(self, engine: ExposureEngine) -> None:
-        """Put the saved days and streams (with their sessions and waiting batches) back into ``engine``."""
+    def restore(self, engine: ExposureEngine, owns: Callable[[str], bool] | None = None) -> None:
+        """Put the saved days and streams (with their sessions and waiting batches) back into ``engine``; only the
+        streams of the devices it ``owns`` (all by default: a store shared by partitions holds others' too)."""
         if self.retention is not None:
             self.retention.restore()
         engine.days.update({key: DayState(*row) for key, row in self.store.days().items()})  # (hands, eav, elv)
         sessions = self.store.sessions()
         for device, ((buffer_state, activity, clock_offset_s, counters), blob) in self.store.streams().items():
+            if owns is not None and not owns(device):
+                continue
             buffer = engine.new_buffer()
             next_seq = buffer_state[0]
             buffer.load(buffer_state, self.store.raw_batches(device, next_seq) if next_seq is not None else [])

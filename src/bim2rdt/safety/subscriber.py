@@ -29,6 +29,7 @@ from typing import TYPE_CHECKING
 
 from bim2rdt.bus.event import Event
 from bim2rdt.bus.payloads import AccelBatch, PayloadError, decode_accel
+from bim2rdt.bus.summaries import DeviceSummary, decode_summary
 from bim2rdt.bus.topics import device_of, wearable_pattern
 from bim2rdt.safety.errors import HavError, StoreError
 from bim2rdt.safety.weighting import require_weighable_rate
@@ -59,6 +60,7 @@ class BusSubscriber:
         site = self.monitor.config.site
         bus.subscribe(wearable_pattern(site, "status"), self.on_status, qos=1, manual_ack=True)
         bus.subscribe(wearable_pattern(site, "accel"), self.on_accel, qos=1, manual_ack=True)
+        bus.subscribe(wearable_pattern(site, "summary"), self.on_summary, qos=1, manual_ack=True)
         if self._flusher is None and self.commit_delay_s > 0:
             self._flusher = threading.Thread(target=self._flush_when_due, name="hav-group-commit", daemon=True)
             self._flusher.start()
@@ -85,11 +87,29 @@ class BusSubscriber:
             return None
         return batch.received_at(received)
 
-    def on_accel(self, topic: str, payload: bytes, ack: Ack | None = None) -> list[Event]:
+    def accept_summary(self, topic: str, payload: bytes, received: float) -> DeviceSummary | None:
+        """The on-device summary, stamped ``received``; None (dead-lettered) if malformed or not the topic's device."""
+        device = device_of(topic) or "?"
+        try:
+            summary = decode_summary(payload)
+        except PayloadError as error:
+            self.monitor.refuse(device, str(error), received)
+            return None
+        if summary.device != device:
+            self.monitor.refuse(device, f"summary device id {summary.device!r} is not the topic's", received,
+                                kind="mismatched")
+            return None
+        return summary.received_at(received)
+
+    def on_summary(self, topic: str, payload: bytes, ack: Ack | None = None) -> list[Event]:
+        """Hold a good on-device summary for the next group commit (with the batches)."""
+        return self.on_accel(topic, payload, ack, accept=self.accept_summary)
+
+    def on_accel(self, topic: str, payload: bytes, ack: Ack | None = None, accept=None) -> list[Event]:
         """Hold a good batch for the next group commit; commit if the group is full or old enough."""
         with self._lock:
             now = self.monitor.clock()
-            batch = self.accept(topic, payload, now)
+            batch = (accept or self.accept)(topic, payload, now)
             if batch is None and not self._waiting:
                 _call(ack)  # dead-lettered: acknowledged, never redelivered
                 return []

@@ -22,8 +22,10 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from bim2rdt.bus.payloads import encode_accel
+from bim2rdt.bus.summaries import encode_summary, summary_topic
 from bim2rdt.bus.topics import accel_topic, status_topic
-from bim2rdt.sim.vibration import TOOLS, ToolSignal, batches
+from bim2rdt.safety.summary import SummaryDevice
+from bim2rdt.sim.vibration import TOOLS, WEARABLE_RANGE, ToolSignal, batches
 
 TOOL_ORDER = ("grinder", "hammer_drill", "breaker")
 PAUSE_S = 30.0
@@ -87,10 +89,11 @@ def boot_id(power_up: float) -> str:
 
 
 def timed_messages(plans: list[WorkerPlan], site: str, fs: float, t0: float, batch_s: float = 0.5,
-                   seed: int = 0) -> Iterator[tuple[float, str, str, bytes, bool]]:
+                   seed: int = 0, summaries: bool = False) -> Iterator[tuple[float, str, str, bytes, bool]]:
     """(wall time, device, topic, payload, retain) of every device's messages, in time order (on a wall clock
-    the wall time is the device time)."""
-    streams = [_device_messages(plan, site, fs, t0, batch_s, seed + i) for i, plan in enumerate(plans)]
+    the wall time is the device time). ``summaries``: the devices weigh their own samples and send one on-device
+    summary per second (safety.summary) instead of raw batches."""
+    streams = [_device_messages(plan, site, fs, t0, batch_s, seed + i, summaries) for i, plan in enumerate(plans)]
     heads = [next(s, None) for s in streams]
     while any(h is not None for h in heads):
         i = min((k for k, h in enumerate(heads) if h is not None), key=lambda k: heads[k][0])
@@ -99,15 +102,18 @@ def timed_messages(plans: list[WorkerPlan], site: str, fs: float, t0: float, bat
 
 
 def _device_messages(plan: WorkerPlan, site: str, fs: float, t0: float, batch_s: float,
-                     seed: int) -> Iterator[tuple[float, str, str, bytes, bool]]:
+                     seed: int, summaries: bool = False) -> Iterator[tuple[float, str, str, bytes, bool]]:
     """(wall time, device, topic, payload, retain) of one device; the device powers up at ``t0``."""
     when, seq, tool, power_up = t0, 0, plan.pieces[0][0], t0
     status = status_topic(site, plan.device)
+    weigher = SummaryDevice(plan.device, fs, WEARABLE_RANGE) if summaries else None
     for i, (piece, seconds) in enumerate(plan.pieces):
         if piece == REBOOT:  # its last will, then a new power-up announced at once
             yield when, plan.device, status, status_payload(plan, tool, online=False), True
             when += seconds
             seq, power_up = 0, when
+            if weigher is not None:
+                weigher.restart(0)
             yield when, plan.device, status, status_payload(plan, _named(tool), boot=boot_id(power_up)), True
             continue
         if piece != "idle":
@@ -115,6 +121,12 @@ def _device_messages(plan: WorkerPlan, site: str, fs: float, t0: float, batch_s:
             yield when, plan.device, status, status_payload(plan, tool, boot=boot_id(power_up)), True
         signal = _piece_signal(plan, piece, seconds, fs, seed * 100 + i)
         start = when - power_up if plan.clock == "boot" else when
+        if weigher is not None:
+            for summary in weigher.feed(signal.samples(), start):
+                yield when + summary.end_time - start, plan.device, summary_topic(site, plan.device), \
+                    encode_summary(summary), False
+            when += signal.n / fs
+            continue
         for batch in batches(plan.device, signal, fs, start, batch_s, seq):
             yield when + batch.device_time - start, plan.device, accel_topic(site, plan.device), encode_accel(batch), \
                 False
@@ -130,11 +142,11 @@ def _named(tool: str) -> str:
 
 def publish_plans(bus_for: Callable[[str], object], plans: list[WorkerPlan], site: str, fs: float,
                   batch_s: float = 0.5, speed: float = 0.0, t0: float | None = None,
-                  tick: Callable[[float], None] | None = None) -> int:
+                  tick: Callable[[float], None] | None = None, summaries: bool = False) -> int:
     """Publish every plan through ``bus_for(device)`` (QoS 1); returns the number of messages sent."""
     start_wall, t0 = time.time(), time.time() if t0 is None else t0
     sent = 0
-    for when, device, topic, payload, retain in timed_messages(plans, site, fs, t0, batch_s):
+    for when, device, topic, payload, retain in timed_messages(plans, site, fs, t0, batch_s, summaries=summaries):
         if speed > 0:
             delay = (when - t0) / speed - (time.time() - start_wall)
             if delay > 0:
@@ -162,23 +174,25 @@ def _piece_signal(plan: WorkerPlan, tool: str, seconds: float, fs: float, seed: 
 
 
 def run_in_process(plans: list[WorkerPlan], monitor, site: str, fs: float, speed: float = 0.0,
-                   tick: Callable[[float], None] | None = None) -> int:
+                   tick: Callable[[float], None] | None = None, summaries: bool = False) -> int:
     """Publish every plan on an in-process bus that ``monitor`` (a :class:`~bim2rdt.safety.HavMonitor`) is
     attached to, then commit what waits; returns the number of messages sent."""
     from bim2rdt.bus.local import LocalBus
 
     bus = LocalBus().connect()
     monitor.attach(bus)
-    sent = publish_plans(lambda device: bus, plans, site, fs, speed=speed, tick=tick)
+    sent = publish_plans(lambda device: bus, plans, site, fs, speed=speed, tick=tick, summaries=summaries)
     monitor.flush()
     return sent
 
 
 def run_over_mqtt(plans: list[WorkerPlan], site: str, fs: float, host: str, port: int,
                   password_of: Callable[[str], str], speed: float = 0.0,
-                  tick: Callable[[float], None] | None = None) -> int:
+                  tick: Callable[[float], None] | None = None, mqtt_version: int = 5,
+                  summaries: bool = False) -> int:
     """Publish every plan to a broker, each device logged in as itself (``password_of(device)``) with its
-    retained offline status as last will; returns the number of messages sent."""
+    retained offline status as last will; returns the number of messages sent. ``mqtt_version`` 3: MQTT 3.1.1
+    (nats-server's MQTT listener)."""
     from bim2rdt.bus.mqtt import MqttBus
 
     buses = {}
@@ -186,8 +200,12 @@ def run_over_mqtt(plans: list[WorkerPlan], site: str, fs: float, host: str, port
         for plan in plans:
             will = (status_topic(site, plan.device), status_payload(plan, "", False))
             buses[plan.device] = MqttBus(host, port, client_id=plan.device, username=plan.device,
-                                         password=password_of(plan.device), will=will).connect()
-        return publish_plans(buses.__getitem__, plans, site, fs, speed=speed, tick=tick)
+                                         password=password_of(plan.device), will=will,
+                                         mqtt_version=mqtt_version).connect()
+        sent = publish_plans(buses.__getitem__, plans, site, fs, speed=speed, tick=tick, summaries=summaries)
+        for bus in buses.values():
+            bus.drain(60.0)  # a close drops what the broker has not acknowledged yet
+        return sent
     finally:
         for bus in buses.values():
             bus.close()

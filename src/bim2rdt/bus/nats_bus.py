@@ -1,0 +1,317 @@
+"""The HAV monitor's side of the NATS path: one partition of the wearable stream through a durable JetStream pull
+consumer, with the same ``subscribe``/``publish`` interface as :class:`~bim2rdt.bus.mqtt.MqttBus`.
+
+nats-py is asyncio; the bus runs its own event loop on a thread that fetches (one batch ahead) and a dispatcher
+thread that calls handlers, one message at a time in stream order, as ``handler(topic, payload, ack)`` with the MQTT topic the wearable used. ``ack()`` (callable from
+any thread, once) acknowledges the message to JetStream: the monitor calls it after its commit, so whatever a crash
+interrupts is redelivered (after ``ack_wait_s``, up to ``max_deliver`` times) to the partition's next consumer.
+A handler that raises leaves its message unacknowledged (it comes again); messages no handler takes are
+acknowledged at once. The consumer is durable (``hav-<site>-<k>-of-<n>``): a restarted monitor resumes where the
+last acknowledgement left off.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import queue
+import threading
+from collections.abc import Callable
+from concurrent.futures import Future
+from dataclasses import dataclass
+
+from bim2rdt.bus.mqtt import BusError
+from bim2rdt.bus.partitions import PREFIX, STREAM, partition_filter, topic_of
+from bim2rdt.bus.topics import topic_matches
+
+Handler = Callable[..., object]
+PREFETCH = 2
+FOLLOW_S = 0.02
+"""Seconds a fetch waits for the messages following one that came alone (the latency an idle stream adds)."""
+"""Fetched batches waiting for the dispatcher: the next fetch travels while the monitor commits the last."""
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class StreamLimits:
+    """How much of the wearable stream JetStream keeps: the oldest messages go first past either bound."""
+
+    max_age_s: float = 24 * 3600.0
+    max_bytes: int = 2**30
+    replicas: int = 1
+
+
+def consumer_name(site: str, partition: int, partitions: int) -> str:
+    return f"hav-{site}-{partition}-of-{partitions}"
+
+
+async def ensure_stream(js, limits: StreamLimits = StreamLimits()) -> None:
+    """Create the HAV stream (file storage, bounded by age and size; the oldest messages go first) if missing."""
+    from nats.js.api import DiscardPolicy, RetentionPolicy, StorageType, StreamConfig
+    from nats.js.errors import NotFoundError
+
+    config = StreamConfig(name=STREAM, subjects=[f"{PREFIX}.>"], storage=StorageType.FILE,
+                          retention=RetentionPolicy.LIMITS, discard=DiscardPolicy.OLD, max_age=limits.max_age_s,
+                          max_bytes=limits.max_bytes, num_replicas=limits.replicas)
+    try:
+        await js.stream_info(STREAM)
+    except NotFoundError:
+        await js.add_stream(config)
+
+
+async def _resume_from(js, durable: str) -> int | None:
+    """Where a (re)starting partition consumer begins: just after its acknowledgement floor, in stream order.
+
+    The durable consumer is recreated there (with the current ack_wait and max_deliver): what a killed monitor
+    had fetched but not acknowledged comes again at once and in order, not after ``ack_wait`` behind newer
+    messages (which the monitor's reorder window would have declared a gap). None: no consumer yet, start at
+    the stream's beginning. The monitor drops what it had committed as duplicates."""
+    from nats.js.errors import NotFoundError
+
+    try:
+        info = await js.consumer_info(STREAM, durable)
+    except NotFoundError:
+        return None
+    floor = info.ack_floor.stream_seq if info.ack_floor is not None else 0
+    await js.delete_consumer(STREAM, durable)
+    return (floor or 0) + 1
+
+
+class NatsBus:
+    """A connection to nats-server; with ``partition`` (k of ``partitions``) a durable pull consumer of the site's
+    wearable messages in that partition."""
+
+    def __init__(self, url: str, user: str | None, password: str | None, site: str, partition: int | None = None,
+                 partitions: int = 1, ack_wait_s: float = 30.0, max_deliver: int = 20,
+                 limits: StreamLimits = StreamLimits(), fetch_batch: int = 256, timeout_s: float = 10.0):
+        self.url, self.user, self.password, self.site = url, user, password, site
+        self.partition, self.partitions = partition, partitions
+        self.ack_wait_s, self.max_deliver, self.limits = ack_wait_s, max_deliver, limits
+        self.fetch_batch, self.timeout_s = fetch_batch, timeout_s
+        self.handler_errors, self.delivered, self.redelivered, self.disconnects = 0, 0, 0, 0
+        self.fetch_errors = 0
+        self._handlers: list[tuple[str, Handler, bool]] = []
+        self._loop = asyncio.new_event_loop()
+        self._thread = threading.Thread(target=self._loop.run_forever, name="nats-bus", daemon=True)
+        self._nc = None
+        self._fetcher: Future | None = None
+        self._dispatcher: threading.Thread | None = None
+        self._fetched: queue.Queue = queue.Queue(maxsize=PREFETCH)
+        self._closing = False
+        self._acks: set = set()
+        self.on_fetched: Callable[[], object] | None = None
+        """Called after each fetched batch of messages was handed to the handlers: ``monitor.flush`` makes every
+        fetch one group commit (as large as the backlog, a single message when idle: no waiting for a group)."""
+        self.accepting: Callable[[], bool] = lambda: True
+        """False stops dispatching (and fetching): set it to ``lambda: monitor.failure is None``, so a monitor whose
+        store failed handles and acknowledges nothing more; what it had not committed comes again to its restart."""
+
+    # --- the MqttBus interface ------------------------------------------------------------------------------
+    def connect(self) -> NatsBus:
+        """Connect, make sure the stream (and this partition's consumer) exist, start fetching; BusError in one
+        line when the server cannot be reached or refuses us."""
+        self._thread.start()
+        try:
+            self._run(self._connect(), self.timeout_s * 2)
+        except Exception as error:
+            self.close()
+            raise BusError(f"cannot use NATS at {self.url}: {type(error).__name__}: {error}") from None
+        if self.partition is not None:
+            self._fetcher = asyncio.run_coroutine_threadsafe(self._fetch_loop(), self._loop)
+            self._dispatcher = threading.Thread(target=self._dispatch_loop, name="nats-dispatch", daemon=True)
+            self._dispatcher.start()
+        return self
+
+    def subscribe(self, pattern: str, handler: Handler, qos: int = 1, manual_ack: bool = False) -> int:
+        """Call ``handler(topic, payload[, ack])`` for this partition's messages whose MQTT topic matches."""
+        self._handlers.append((pattern, handler, manual_ack))
+        return 0
+
+    def publish(self, topic: str, payload: bytes, qos: int = 0, retain: bool = False, wait: bool = False) -> int:
+        """Publish on the subject of ``topic`` ('/' -> '.'); with ``wait``, after the server has it."""
+        future = asyncio.run_coroutine_threadsafe(self._publish(topic.replace("/", "."), payload, wait), self._loop)
+        if wait:
+            future.result(self.timeout_s)
+        return 0
+
+    @property
+    def alive(self) -> bool:
+        """The event loop runs and the fetch loop has not died."""
+        return self._thread.is_alive() and not (self._fetcher is not None and self._fetcher.done()) and not (
+            self._dispatcher is not None and not self._dispatcher.is_alive())
+
+    @property
+    def connected(self) -> bool:
+        return self._nc is not None and self._nc.is_connected
+
+    def close(self) -> None:
+        """Stop fetching, send the acknowledgements made so far, close the connection and the loop."""
+        if not self._thread.is_alive():
+            return
+        self._closing = True
+        if self._dispatcher is not None:
+            self._dispatcher.join(self.timeout_s)
+        if self._fetcher is not None:
+            try:
+                self._fetcher.result(self.timeout_s)
+            except Exception:
+                pass
+        try:
+            self._run(self._close(), self.timeout_s)
+        except Exception as error:
+            log.warning("closing NATS: %s", error)
+        self._loop.call_soon_threadsafe(self._loop.stop)
+        self._thread.join(self.timeout_s)
+
+    def __enter__(self) -> NatsBus:
+        return self.connect()
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    # --- internals ----------------------------------------------------------------------------------------
+    def _run(self, coroutine, timeout: float):
+        return asyncio.run_coroutine_threadsafe(coroutine, self._loop).result(timeout)
+
+    async def _connect(self) -> None:
+        import nats
+        from nats.js.api import AckPolicy, ConsumerConfig, DeliverPolicy
+
+        async def on_disconnect() -> None:
+            self.disconnects += 1
+
+        async def on_error(error: Exception) -> None:
+            log.warning("NATS: %s", error)
+
+        self._nc = await nats.connect(self.url, user=self.user, password=self.password, name=self.user or "bim2rdt",
+                                      connect_timeout=self.timeout_s, max_reconnect_attempts=-1,
+                                      reconnect_time_wait=0.5, allow_reconnect=True, disconnected_cb=on_disconnect,
+                                      error_cb=on_error)
+        js = self._nc.jetstream(timeout=self.timeout_s)
+        await ensure_stream(js, self.limits)
+        if self.partition is None:
+            return
+        subject = partition_filter(self.site, self.partition)
+        durable = consumer_name(self.site, self.partition, self.partitions)
+        start = await _resume_from(js, durable)
+        config = ConsumerConfig(ack_policy=AckPolicy.EXPLICIT, ack_wait=self.ack_wait_s, max_deliver=self.max_deliver,
+                                max_ack_pending=max(4 * self.fetch_batch, 1024), filter_subject=subject,
+                                deliver_policy=DeliverPolicy.ALL if start is None else DeliverPolicy.BY_START_SEQUENCE,
+                                opt_start_seq=start)
+        self._sub = await js.pull_subscribe(subject, durable=durable, stream=STREAM, config=config)
+
+    async def _fetch_loop(self) -> None:
+        """Fetch while the dispatcher handles what came before (up to ``PREFETCH`` batches ahead)."""
+        import nats.errors
+
+        backlog = False
+        while not self._closing and self.accepting():
+            if self._fetched.full():
+                await asyncio.sleep(0.001)
+                continue
+            try:
+                messages = await self._take(backlog)
+            except (nats.errors.ConnectionClosedError, nats.errors.ConnectionReconnectingError,
+                    nats.errors.NoRespondersError):
+                await asyncio.sleep(0.2)
+                continue
+            except Exception as error:  # never let the fetch loop die: what it fetched and lost comes again
+                self.fetch_errors += 1  # (unacknowledged) after ack_wait
+                log.warning("fetching from %s failed: %s: %s", self.url, type(error).__name__, error)
+                await asyncio.sleep(0.2)
+                continue
+            backlog = len(messages) >= self.fetch_batch
+            if messages:
+                self._fetched.put_nowait(messages)
+
+    async def _take(self, backlog: bool) -> list:
+        """The next messages. A fetch of many that finds the stream idle lingers until its batch fills or it
+        expires; so, without a backlog, wait for ONE message (returned as it arrives), then take what follows
+        it within ``FOLLOW_S``; with a backlog, full batches."""
+        import nats.errors
+
+        timeouts = (nats.errors.TimeoutError, asyncio.TimeoutError)  # nats-py raises either
+        try:
+            first = await self._sub.fetch(self.fetch_batch if backlog else 1, timeout=FOLLOW_S if backlog else 0.5)
+        except timeouts:
+            return []
+        if backlog:
+            return first
+        try:
+            return first + await self._sub.fetch(self.fetch_batch - 1, timeout=FOLLOW_S)
+        except timeouts:
+            return first
+
+    def _dispatch_loop(self) -> None:
+        """Hand each fetched batch to the handlers in order, then ``on_fetched`` (one group commit per fetch)."""
+        while not self._closing and self.accepting():
+            try:
+                messages = self._fetched.get(timeout=0.1)
+            except queue.Empty:
+                continue
+            for message in messages:
+                if self._closing or not self.accepting():
+                    return  # the rest stays unacknowledged: the partition's next start gets it again
+                self._dispatch(message)
+            if self.on_fetched is not None:
+                try:
+                    self.on_fetched()
+                except Exception:  # e.g. the store failed: the monitor reports it; the messages stay unacknowledged
+                    self.handler_errors += 1
+                    log.exception("committing a fetched batch failed")
+
+    def _dispatch(self, message) -> None:
+        found = topic_of(message.subject)
+        self.delivered += 1
+        if message.metadata.num_delivered > 1:
+            self.redelivered += 1
+        ack = _Ack(self, message)
+        if found is None or found[0] != self.partition:  # not ours: nothing to do with it
+            ack()
+            return
+        topic, handed_over, failed = found[1], False, False
+        for pattern, handler, takes_ack in self._handlers:
+            if not topic_matches(pattern, topic):
+                continue
+            try:
+                handler(topic, message.data, ack) if takes_ack else handler(topic, message.data)
+                handed_over |= takes_ack
+            except Exception:  # unacknowledged: JetStream redelivers it after ack_wait
+                self.handler_errors += 1
+                failed = True
+                log.exception("handler for %s failed; the message stays unacknowledged", topic)
+        if not handed_over and not failed:
+            ack()
+
+    def _send_ack(self, message) -> None:
+        task = self._loop.create_task(message.ack())
+        self._acks.add(task)
+        task.add_done_callback(self._acks.discard)
+
+    async def _publish(self, subject: str, payload: bytes, wait: bool) -> None:
+        await self._nc.publish(subject, payload)
+        if wait:
+            await self._nc.flush(self.timeout_s)
+
+    async def _close(self) -> None:
+        if self._acks:
+            await asyncio.gather(*list(self._acks), return_exceptions=True)
+        if self._nc is not None and not self._nc.is_closed:
+            try:
+                await self._nc.flush(self.timeout_s)
+            finally:
+                await self._nc.close()
+
+
+class _Ack:
+    """Acknowledges one JetStream message once, from any thread."""
+
+    __slots__ = ("_bus", "_message", "_done")
+
+    def __init__(self, bus: NatsBus, message):
+        self._bus, self._message, self._done = bus, message, False
+
+    def __call__(self) -> None:
+        if not self._done:
+            self._done = True
+            self._bus._loop.call_soon_threadsafe(self._bus._send_ack, self._message)
