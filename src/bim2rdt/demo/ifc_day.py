@@ -66,7 +66,8 @@ def run_ifc_day(ifc_path: Path, out_dir: Path, seed: int = 0, workers: int = 1, 
     perceive = DemoPerception(detector, model, reality, priors, seed, yoloe)
     mission = run_mission(targets, route.plan.stations, perceive, priors, mesh_for_family, route.config, icp,
                           tick=lambda: tick("station"), route=route.route, frame_of=perceive.station_frame,
-                          tolerances=twin_config.tolerance_policy(), building=building_surfaces(model))
+                          tolerances=twin_config.tolerance_policy(), building=building_surfaces(model),
+                          min_fitness=twin_config.min_fitness)
     record_mission(twin, mission.observations, mission.stations, times=route.route.arrivals, missing=mission.missing)
     tick("twin")
     files = export_day_twin(twin, out_dir)

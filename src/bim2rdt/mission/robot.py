@@ -33,6 +33,7 @@ from bim2rdt.mission.explained import KnownSurface, building_surfaces
 from bim2rdt.mission.records import MissionResult, Target
 from bim2rdt.mission.route import DirectRoute, Route
 from bim2rdt.mission.run import run_mission
+from bim2rdt.mission.verdict import DEFAULT_MIN_FITNESS
 from bim2rdt.perception.camera import look_at
 from bim2rdt.perception.detection import Detection
 from bim2rdt.perception.frame import Frame
@@ -95,7 +96,8 @@ class StationLocalization:
 class MissionContext:
     """What a mission works on and with: the BIM ``targets`` and the ``stations`` (T_world_camera) to see them
     from, the ``model``, the families' upright ``priors``, ``new_object_mesh(family)`` for objects the BIM lacks,
-    and the settings (``config``, ``icp``, the twin's ``tolerances``, the robot's ``localization``). ``building``:
+    and the settings (``config``, ``icp``, the twin's ``tolerances`` and ``min_fitness``, the robot's
+    ``localization``). ``building``:
     the BIM's permanent surfaces (default: :func:`~bim2rdt.mission.explained.building_surfaces` of ``model``);
     ``tick`` is called after each station."""
 
@@ -107,6 +109,7 @@ class MissionContext:
     config: MissionConfig = MissionConfig()
     icp: IcpConfig = IcpConfig()
     tolerances: TolerancePolicy | None = None
+    min_fitness: float = DEFAULT_MIN_FITNESS
     localization: LocalizationConfig | None = None
     building: Sequence[KnownSurface] | None = None
     tick: Callable[[], None] = lambda: None
@@ -213,5 +216,6 @@ def run_robot_mission(context: MissionContext, robot: Robot, detect: Detect, doc
     looking = LocalizedRobot(robot, detect, context.model, dock, anchored, context.localization, route)
     result = run_mission(context.targets, context.stations, looking, context.priors, context.new_object_mesh,
                          context.config, context.icp, tick=context.tick, route=route or DirectRoute(),
-                         frame_of=looking.station_frame, tolerances=context.tolerances, building=context.building)
+                         frame_of=looking.station_frame, tolerances=context.tolerances, building=context.building,
+                         min_fitness=context.min_fitness)
     return RobotMission(result, looking.stations)

@@ -36,7 +36,7 @@ from bim2rdt.mission.ground import off_slab
 from bim2rdt.mission.merging import RegisteredObject, repeated_view
 from bim2rdt.mission.records import MissionResult, Observation, Target
 from bim2rdt.mission.route import DirectRoute, Locate, Route
-from bim2rdt.mission.verdict import judge, tolerance_of
+from bim2rdt.mission.verdict import DEFAULT_MIN_FITNESS, judge, tolerance_of
 from bim2rdt.perception.detection import Detection
 from bim2rdt.perception.frame import Frame
 from bim2rdt.perception.visibility import DepthView, see_through_fraction
@@ -54,7 +54,8 @@ def run_mission(targets: Sequence[Target], stations: Sequence[np.ndarray],
                 config: MissionConfig = MissionConfig(), icp: IcpConfig = IcpConfig(),
                 tick: Callable[[], None] = lambda: None, route: Route = DirectRoute(),
                 frame_of: Callable[[int], Frame | None] | None = None,
-                tolerances: TolerancePolicy | None = None, building: Sequence[KnownSurface] = ()) -> MissionResult:
+                tolerances: TolerancePolicy | None = None, building: Sequence[KnownSurface] = (),
+                min_fitness: float = DEFAULT_MIN_FITNESS) -> MissionResult:
     """Visit ``stations``; ``perceive(station_index, T_world_camera)`` returns that frame's detections. Each
     object is registered once, from its detection with the most points; a detection its registered neighbours
     already explain is another view of them (:mod:`bim2rdt.mission.merging`). Returns every verdict.
@@ -62,7 +63,8 @@ def run_mission(targets: Sequence[Target], stations: Sequence[np.ndarray],
     ``frame_of(station_index)``, when given, is the frame (depth, intrinsics, camera pose) the station's
     detections were read from: with it, a planned element whose place a frame shows empty is missing.
     ``tolerances`` judges as planned vs deviating (the twin's presets: pass ``Settings.twin.tolerance_policy()``
-    so the mission and the twin agree; default ``TwinConfig()``'s). ``building`` holds the surfaces of the BIM's
+    so the mission and the twin agree; default ``TwinConfig()``'s), and ``min_fitness`` whether a fit can be judged
+at all (``Settings.twin.min_fitness``). ``building`` holds the surfaces of the BIM's
     permanent elements (:func:`bim2rdt.mission.explained.building_surfaces`): a fit whose points lie on one of
     them, or on an object registered before it, shows that surface, not an object
     (:mod:`bim2rdt.mission.explained`): a planned element's fit is then unverified, and a detection of no planned
@@ -73,7 +75,7 @@ def run_mission(targets: Sequence[Target], stations: Sequence[np.ndarray],
     def locate(detection: Detection) -> tuple[Observation, trimesh.Trimesh]:
         target = associate(detection, targets, set(), config)
         mesh = target.mesh_body if target else new_object_mesh(detection.family)
-        return _observe(detection, target, mesh, priors, config, icp, tolerances)[0], mesh
+        return _observe(detection, target, mesh, priors, config, icp, tolerances, min_fitness=min_fitness)[0], mesh
 
     detections = _capture(result, perceive, config, tick, route, locate, frame_of, views)
     claimed: set[str] = set()
@@ -89,7 +91,7 @@ def run_mission(targets: Sequence[Target], stations: Sequence[np.ndarray],
         target = associate(detection, targets, claimed, config, preferred)
         mesh = target.mesh_body if target else new_object_mesh(detection.family)
         observation, model_pts, owner = _observe(detection, target, mesh, priors, config, icp, tolerances,
-                                                 views.get(detection.station), known)
+                                                 views.get(detection.station), known, min_fitness)
         if owner is not None and target is None:  # a known surface, not an object the BIM lacks
             result.set_aside.append(observation)
             continue
@@ -141,7 +143,8 @@ def _observe(detection: Detection, target: Target | None, mesh: trimesh.Trimesh,
              config: MissionConfig, icp: IcpConfig,
              tolerances: TolerancePolicy | None = None,
              view: DepthView | None = None,
-             known: Sequence[KnownSurface] = ()) -> tuple[Observation, np.ndarray, Explanation | None]:
+             known: Sequence[KnownSurface] = (),
+             min_fitness: float = DEFAULT_MIN_FITNESS) -> tuple[Observation, np.ndarray, Explanation | None]:
     """Register one object and judge it (against its tolerance preset under ``tolerances``); also returns the
     model's surface samples (body frame) and, when at least ``explained_fraction`` of the fit's inliers lie on
     one of the ``known`` surfaces, that surface: the fit is then unverified. With ``view`` (the depth of the
@@ -151,7 +154,8 @@ def _observe(detection: Detection, target: Target | None, mesh: trimesh.Trimesh,
     object_pts = off_slab(detection.points_world, config)
     fit = fit_target(detection, target, model_pts, model_normals, object_pts, prior, config, icp,
                      _free_space(model_pts, model_normals, view, config))
-    judged = judge(target, fit, prior.symmetry, config, tolerance_of(target, tolerances) if target else None)
+    judged = judge(target, fit, prior.symmetry, config, tolerance_of(target, tolerances) if target else None,
+                   min_fitness)
     reason = judged.reason  # the verdict's own: too few points explained, or a direction the view cannot see
     if not math.isfinite(fit.rmse):  # a partial view behind a wall: no point lies on the fitted model
         reason = (f"(no inlier: none of its {len(object_pts)} points lies within {100 * icp.score_distance:.0f} cm "
