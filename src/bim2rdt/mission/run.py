@@ -32,7 +32,7 @@ from bim2rdt.mission.association import associate, preferred_targets
 from bim2rdt.mission.config import MissionConfig
 from bim2rdt.mission.explained import Explanation, KnownSurface, explaining_surface, fit_inliers
 from bim2rdt.mission.fitting import fit_target
-from bim2rdt.mission.ground import off_slab
+from bim2rdt.mission.ground import object_points
 from bim2rdt.mission.merging import RegisteredObject, repeated_view
 from bim2rdt.mission.records import MissionResult, Observation, Target
 from bim2rdt.mission.route import DirectRoute, Locate, Route
@@ -151,7 +151,7 @@ def _observe(detection: Detection, target: Target | None, mesh: trimesh.Trimesh,
     detection's station) a fit that stands where the camera saw through is set aside for a consistent one."""
     prior = priors[detection.family]
     model_pts, model_normals = sample_model(mesh, icp.sample_count, seed=icp.seed)
-    object_pts = off_slab(detection.points_world, config)
+    object_pts = object_points(detection.points_world, config)
     fit = fit_target(detection, target, model_pts, model_normals, object_pts, prior, config, icp,
                      _free_space(model_pts, model_normals, view, config))
     judged = judge(target, fit, prior.symmetry, config, tolerance_of(target, tolerances) if target else None,

@@ -15,7 +15,7 @@ from bim2rdt.twin.status import ElementStatus
 from bim2rdt.twin.tolerance import Tolerance
 
 
-def judge(pose: np.ndarray, fitness: float, element: BimElement | None, tolerance: Tolerance | None,
+def judge_observation(pose: np.ndarray, fitness: float, element: BimElement | None, tolerance: Tolerance | None,
           symmetry: float, min_fitness: float) -> tuple[ElementStatus, Deviation | None]:
     """The status and the deviation from the BIM pose (None for an object the BIM lacks)."""
     deviation = pose_deviation(element.placement, pose, symmetry) if element is not None else None
