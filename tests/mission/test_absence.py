@@ -12,8 +12,9 @@ from bim2rdt.mission import MissionConfig, Target, run_mission
 from bim2rdt.perception.camera import look_at
 from bim2rdt.semantics import KnowledgeBasePriors
 from bim2rdt.sim.meshes import mesh_for_family
-from bim2rdt.sim.reality import Reality, SimulatedPerception, TrueObject
+from bim2rdt.sim.reality import Reality, TrueObject
 from bim2rdt.sim.scene import PlacedObject, SiteScene, ground_pose
+from mission_perception import SimulatedPerception
 
 DRUM = "Steel_Drum_55gal"
 EYE = look_at(np.array([2.6, 0.0, 1.1]), np.array([0.0, 0.0, 0.35]))

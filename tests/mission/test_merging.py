@@ -12,8 +12,9 @@ from bim2rdt.mission import MissionConfig, Target, run_mission
 from bim2rdt.perception.camera import look_at
 from bim2rdt.semantics import KnowledgeBasePriors
 from bim2rdt.sim.meshes import mesh_for_family
-from bim2rdt.sim.reality import Reality, SimulatedPerception, TrueObject
+from bim2rdt.sim.reality import Reality, TrueObject
 from bim2rdt.sim.scene import PlacedObject, SiteScene, ground_pose
+from mission_perception import SimulatedPerception
 
 CRATE, DRUM = "Wooden_Crate_1200x800x600", "Steel_Drum_55gal"
 

@@ -82,13 +82,15 @@ at all (``Settings.twin.min_fitness``). ``building`` holds the surfaces of the B
     preferred = preferred_targets(detections, targets, config)
     registered: list[RegisteredObject] = []
     known = list(building)
-    for detection in sorted(detections, key=lambda d: -len(d.points_world)):
+    for detection, choice in sorted(zip(detections, preferred), key=lambda seen: -len(seen[0].points_world)):
         seen_before = repeated_view(detection, registered, config)
         if seen_before is not None:
             if seen_before.family == detection.family:
                 seen_before.seen_from(detection.station)
             continue
-        target = associate(detection, targets, claimed, config, preferred)
+        target = associate(detection, targets, claimed, config, choice)
+        if target is not None:
+            claimed.add(target.global_id)
         mesh = target.mesh_body if target else new_object_mesh(detection.family)
         observation, model_pts, owner = _observe(detection, target, mesh, priors, config, icp, tolerances,
                                                  views.get(detection.station), known, min_fitness)
