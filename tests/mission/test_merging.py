@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from bim2rdt.mission import MissionConfig, Target, run_mission
+from bim2rdt.mission import MissionConfig, MissionContext, Target, run_mission
 from bim2rdt.perception.camera import look_at
 from bim2rdt.semantics import KnowledgeBasePriors
 from bim2rdt.sim.meshes import mesh_for_family
@@ -31,8 +31,9 @@ def _stations(*eyes: tuple[float, float]) -> list[np.ndarray]:
 
 def _mission(reality: Reality, stations: list[np.ndarray], targets=()):
     families = sorted({t.family for t in reality.truth})
-    return run_mission(list(targets), stations, SimulatedPerception(reality, seed=0),
-                       KnowledgeBasePriors().priors(families), mesh_for_family, MissionConfig())
+    context = MissionContext(list(targets), stations, None, KnowledgeBasePriors().priors(families),
+                             mesh_for_family, MissionConfig())
+    return run_mission(context, SimulatedPerception(reality, seed=0))
 
 
 def test_one_object_seen_from_two_stations_without_truth_gives_one_observation():
