@@ -86,7 +86,7 @@ def _along(path, fractions):
 
 def test_the_report_gets_the_plan_map_and_a_nav2_map_with_what_the_twin_found(day, tmp_path):
     from bim2rdt.demo.routes import write_route_files
-    from bim2rdt.planning.nav2 import read_pgm
+    from nav2_maps import read_pgm
 
     written = write_route_files(day, tmp_path)
     assert written["plan_map"] == tmp_path / "plan_map.png" and written["plan_map"].stat().st_size > 10_000

@@ -8,12 +8,13 @@ from __future__ import annotations
 import numpy as np
 import trimesh
 
-from bim2rdt.mission import MissionConfig, Target, run_mission
+from bim2rdt.mission import MissionConfig, MissionContext, Target, run_mission
 from bim2rdt.perception.camera import look_at
 from bim2rdt.semantics import KnowledgeBasePriors
 from bim2rdt.sim.meshes import mesh_for_family
-from bim2rdt.sim.reality import Reality, SimulatedPerception, TrueObject
+from bim2rdt.sim.reality import Reality, TrueObject
 from bim2rdt.sim.scene import PlacedObject, SiteScene, ground_pose
+from mission_perception import SimulatedPerception
 
 DRUM = "Steel_Drum_55gal"
 EYE = look_at(np.array([2.6, 0.0, 1.1]), np.array([0.0, 0.0, 0.35]))
@@ -38,8 +39,9 @@ def _mission(objects: list[PlacedObject], stations: list[np.ndarray], detect: bo
     reality = Reality(SiteScene(objects, ground_size=30.0), [TrueObject(None, o.family, o.T_world_model, "unplanned")
                                                              for o in objects])
     camera = (SimulatedPerception if detect else _Camera)(reality, seed=0)
-    return run_mission([drum], stations, camera, KnowledgeBasePriors().priors([DRUM]), mesh_for_family,
-                       MissionConfig(), frame_of=camera.station_frame)
+    context = MissionContext([drum], stations, None, KnowledgeBasePriors().priors([DRUM]), mesh_for_family,
+                             MissionConfig())
+    return run_mission(context, camera, frame_of=camera.station_frame)
 
 
 def _drum_at(x: float) -> PlacedObject:

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from bim2rdt.mission import KnownSurface, MissionConfig, Target, building_surfaces, run_mission
+from bim2rdt.mission import KnownSurface, MissionConfig, MissionContext, Target, building_surfaces, run_mission
 from bim2rdt.mission.explained import explaining_surface
 from bim2rdt.perception.detection import Detection
 from bim2rdt.semantics import KnowledgeBasePriors
@@ -51,8 +51,8 @@ def _drum_side(rng: np.random.Generator, centre_xy, camera_xy, count=300) -> np.
 
 def _mission(detection: Detection, building=()):
     priors = KnowledgeBasePriors().priors([detection.family])
-    return run_mission([], [np.eye(4)], lambda station, T: [detection], priors, mesh_for_family, MissionConfig(),
-                       building=building)
+    context = MissionContext([], [np.eye(4)], None, priors, mesh_for_family, MissionConfig(), building=building)
+    return run_mission(context, lambda station, T: [detection])
 
 
 def test_a_tripod_fitted_to_a_columns_edge_is_set_aside_naming_the_column():
@@ -72,8 +72,9 @@ def test_a_planned_tripod_whose_points_show_a_column_is_unverified_not_set_aside
     detection = Detection(TRIPOD, _column_edge_strip(rng), 0)
     planned = Target("2tripodGlobalId00000000", TRIPOD, ground_pose(0.05, 0.05, 0.0), mesh_for_family(TRIPOD))
     priors = KnowledgeBasePriors().priors([TRIPOD])
-    result = run_mission([planned], [np.eye(4)], lambda station, T: [detection], priors, mesh_for_family,
-                         MissionConfig(), building=[_column()])
+    context = MissionContext([planned], [np.eye(4)], None, priors, mesh_for_family, MissionConfig(),
+                             building=[_column()])
+    result = run_mission(context, lambda station, T: [detection])
     (observation,) = result.observations
     assert result.set_aside == [] and observation.global_id == planned.global_id
     assert observation.status is ElementStatus.UNVERIFIED

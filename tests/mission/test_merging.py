@@ -8,12 +8,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from bim2rdt.mission import MissionConfig, Target, run_mission
+from bim2rdt.mission import MissionConfig, MissionContext, Target, run_mission
 from bim2rdt.perception.camera import look_at
 from bim2rdt.semantics import KnowledgeBasePriors
 from bim2rdt.sim.meshes import mesh_for_family
-from bim2rdt.sim.reality import Reality, SimulatedPerception, TrueObject
+from bim2rdt.sim.reality import Reality, TrueObject
 from bim2rdt.sim.scene import PlacedObject, SiteScene, ground_pose
+from mission_perception import SimulatedPerception
 
 CRATE, DRUM = "Wooden_Crate_1200x800x600", "Steel_Drum_55gal"
 
@@ -30,8 +31,9 @@ def _stations(*eyes: tuple[float, float]) -> list[np.ndarray]:
 
 def _mission(reality: Reality, stations: list[np.ndarray], targets=()):
     families = sorted({t.family for t in reality.truth})
-    return run_mission(list(targets), stations, SimulatedPerception(reality, seed=0),
-                       KnowledgeBasePriors().priors(families), mesh_for_family, MissionConfig())
+    context = MissionContext(list(targets), stations, None, KnowledgeBasePriors().priors(families),
+                             mesh_for_family, MissionConfig())
+    return run_mission(context, SimulatedPerception(reality, seed=0))
 
 
 def test_one_object_seen_from_two_stations_without_truth_gives_one_observation():

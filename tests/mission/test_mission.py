@@ -61,12 +61,12 @@ def test_pose_delta_reports_shift_wrapped_yaw_and_tilt():
 def test_a_detection_far_from_every_element_of_its_family_is_a_new_object():
     cones = [target("near", "Traffic_Cone_Orange_70cm", 0.0, 0.0), target("far", "Traffic_Cone_Orange_70cm", 9, 9)]
     points = np.random.default_rng(0).normal([4.0, 0.0, 0.3], 0.05, (50, 3))
-    claimed: set[str] = set()
-    assert associate(Detection("Traffic_Cone_Orange_70cm", points, 0), cones, claimed, MissionConfig()) is None
+    assert associate(Detection("Traffic_Cone_Orange_70cm", points, 0), cones, set(), MissionConfig()) is None
     close = points - [3.5, 0.0, 0.0]
+    claimed: set[str] = set()
     found = associate(Detection("Traffic_Cone_Orange_70cm", close, 0), cones, claimed, MissionConfig())
-    assert found.global_id == "near" and claimed == {"near"}
-    assert associate(Detection("Traffic_Cone_Orange_70cm", close, 0), cones, claimed, MissionConfig()) is None
+    assert found.global_id == "near" and claimed == set()  # the caller claims it, not associate
+    assert associate(Detection("Traffic_Cone_Orange_70cm", close, 0), cones, {"near"}, MissionConfig()) is None
 
 
 def _fit(T, fitness=0.9):
@@ -144,10 +144,9 @@ def test_two_moved_drums_of_one_frame_are_assigned_jointly_not_nearest_first():
     rng = np.random.default_rng(0)
     seen_a, seen_b = (Detection(drum, rng.normal([x, y, 0.4], [0.05, 0.05, 0.2], (80, 3)), 7)
                       for x, y in ((15.96, 2.85), (17.22, 2.94)))
-    greedy: set[str] = set()
-    assert associate(seen_a, [a, b], greedy, MissionConfig()).global_id == "B"
-    assert associate(seen_b, [a, b], greedy, MissionConfig()) is None
+    assert associate(seen_a, [a, b], set(), MissionConfig()).global_id == "B"
+    assert associate(seen_b, [a, b], {"B"}, MissionConfig()) is None
     preferred = preferred_targets([seen_a, seen_b], [a, b], MissionConfig())
-    joint: set[str] = set()
-    assert associate(seen_a, [a, b], joint, MissionConfig(), preferred).global_id == "A"
-    assert associate(seen_b, [a, b], joint, MissionConfig(), preferred).global_id == "B"
+    assert [p.global_id for p in preferred] == ["A", "B"]  # one per detection, in their order
+    assert associate(seen_a, [a, b], set(), MissionConfig(), preferred[0]).global_id == "A"
+    assert associate(seen_b, [a, b], {"A"}, MissionConfig(), preferred[1]).global_id == "B"

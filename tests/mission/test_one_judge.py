@@ -64,3 +64,20 @@ def test_a_preset_set_in_the_twins_settings_is_what_the_mission_judges_by():
                                 "structural": {"translation": 0.01, "rotation_deg": 0.5}}).tolerance_policy()
     assert judge(crate, fit, 2, MissionConfig()).status is ElementStatus.AS_PLANNED
     assert judge(crate, fit, 2, MissionConfig(), tolerance_of(crate, tight)).status is ElementStatus.DEVIATING
+
+
+@pytest.mark.parametrize("fitness", [0.3, 0.49, 0.5, 0.7])
+def test_the_mission_and_the_twin_trust_a_fit_by_the_same_fitness_setting(site_model, tmp_path, fitness):
+    """Whether a fit can be judged at all is one rule with one setting (``Settings.twin.min_fitness``): the
+    same fit is unverified for both under it and judged by both at or over it, at the default and at a raised
+    setting; the mission has no threshold of its own left to disagree with."""
+    proxy = _target(site_model, "IfcBuildingElementProxy")
+    fit = SimpleNamespace(pose=proxy.placement.copy(), fitness=fitness, rmse=0.004)
+    assert "min_fitness" not in MissionConfig.model_fields
+    for config in (TwinConfig(), TwinConfig(min_fitness=0.6)):
+        mission = judge(proxy, fit, 1, MissionConfig(), min_fitness=config.min_fitness).status
+        with DigitalTwin.open(f"sqlite:///{tmp_path / f'twin-{config.min_fitness}.db'}", site_model,
+                              min_fitness=config.min_fitness) as twin:
+            state = twin.record(Observation(proxy.family, proxy.global_id, fit.pose, 0.004, fitness, 200), 0.0)
+        expected = ElementStatus.AS_PLANNED if fitness >= config.min_fitness else ElementStatus.UNVERIFIED
+        assert mission is state.status is expected

@@ -37,16 +37,16 @@ def demo_command(
     from rich.progress import Progress
 
     from bim2rdt.cli.registration import show_run
-    from bim2rdt.demo.perceivers import DETECTORS
     from bim2rdt.demo.run import run_demo
+    from bim2rdt.perception.detectors import DEFAULT_DETECTOR, check_detector
+    from bim2rdt.perception.errors import PerceptionError
 
-    detector = detector or "geometric"
-    if detector not in DETECTORS:
-        raise typer.BadParameter(f"--detector must be one of {', '.join(DETECTORS)}, not {detector!r}")
-    if detector == "yoloe" and (yoloe_weights is None or yoloe_embeddings is None):
-        raise typer.BadParameter("--detector yoloe needs --yoloe-weights and --yoloe-embeddings (local files: "
-                                 "nothing is downloaded)")
+    detector = detector or DEFAULT_DETECTOR
     yoloe = (yoloe_weights, yoloe_embeddings) if detector == "yoloe" else None
+    try:
+        check_detector(detector, yoloe)
+    except PerceptionError as error:
+        raise typer.BadParameter(str(error)) from None
 
     stages = {"bim": "site model read", "site": "site objects placed", "station": "robot station",
               "twin": "twin updated", "hav": "vibration day monitored", "trial": "registration trial"}

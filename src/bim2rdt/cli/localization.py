@@ -44,7 +44,7 @@ def bench_localization(
     from bim2rdt.bench.localization.peers import Open3dPointToPlane
     from bim2rdt.bench.localization.run import run_record, run_tour
     from bim2rdt.bench.localization.summary import plot_errors
-    from bim2rdt.cli.registration import _open3d_available, progress
+    from bim2rdt.cli.registration import _open3d_available, step_progress
     from bim2rdt.config import get_settings
     from bim2rdt.sim.tour import tour_poses
 
@@ -55,7 +55,7 @@ def bench_localization(
     if tour:
         methods = [Open3dPointToPlane(config, visible_only=False), Open3dPointToPlane(config, visible_only=True)] \
             if (_open3d_available() if peers is None else peers) else []
-        with progress(len(tour_poses(distance)), "localization tour") as tick:
+        with step_progress(len(tour_poses(distance)), "localization tour") as tick:
             run = run_tour(out, seed, distance, config, methods, tick=tick, tolerance=tolerance)
         record = run_record(run)
         plot = plot_errors(run, out / "errors.png")

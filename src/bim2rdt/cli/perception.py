@@ -46,11 +46,11 @@ def bench_perception(
     if one_core and hasattr(os, "sched_setaffinity"):
         os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
     logging.getLogger("bim2rdt.perception").setLevel(logging.ERROR)  # dropped detections are scored, not shown
-    from bim2rdt.cli.registration import progress
+    from bim2rdt.cli.registration import step_progress
 
     record: dict = {}
     if seeds > 0:
-        with tempfile.TemporaryDirectory() as scratch, progress(seeds * 10, "perception frames") as tick:
+        with tempfile.TemporaryDirectory() as scratch, step_progress(seeds * 10, "perception frames") as tick:
             record = run_bench(Path(scratch), list(range(seed, seed + seeds)), workers, flying_trials,
                                (yoloe_weights, yoloe_embeddings) if yoloe_weights else None, tick)
     if sensors is not None:

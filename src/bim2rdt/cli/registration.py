@@ -44,7 +44,7 @@ def bench_registration(
     use_peers = _open3d_available() if peers is None else peers
     settings = get_settings()
     names = FAMILY_NAMES if families else ()
-    with progress((4 + len(names)) * trials, "registration scenarios and families") as tick:
+    with step_progress((4 + len(names)) * trials, "registration scenarios and families") as tick:
         run = run_registration_scenarios(out, trials, seed, settings.registration, use_peers, families=names,
                                          tick=tick)
     save_run(run, out, settings_record(settings))
@@ -165,8 +165,9 @@ def _open3d_available() -> bool:
     return True
 
 
-class progress:
-    """A rich progress bar whose ``tick()`` advances one trial."""
+class step_progress:
+    """A rich progress bar on stderr whose ``tick()`` advances one step (a trial, a frame, a station); the
+    HAV commands' :func:`bim2rdt.cli.hav_output.progress` is told the count done instead."""
 
     def __init__(self, total: int, label: str) -> None:
         from rich.console import Console

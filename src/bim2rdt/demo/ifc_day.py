@@ -23,7 +23,7 @@ from bim2rdt.demo.perceivers import DemoPerception
 from bim2rdt.demo.routes import plan_day_route
 from bim2rdt.demo.site_day import SiteDay, _hav_day, _model_cache, _shift_start, objects_of_interest
 from bim2rdt.demo.site_twin import export_day_twin, ifc_records, open_day_twin, record_mission
-from bim2rdt.mission import MissionConfig, building_surfaces, run_mission
+from bim2rdt.mission import MissionConfig, MissionContext, building_surfaces, run_mission
 from bim2rdt.planning import OccupancyGrid, PlanningError
 from bim2rdt.registration import IcpConfig
 from bim2rdt.semantics import KnowledgeBasePriors
@@ -64,9 +64,10 @@ def run_ifc_day(ifc_path: Path, out_dir: Path, seed: int = 0, workers: int = 1, 
     config = mission_config.model_copy(update={"standoff": min(mission_config.standoff, IFC_DAY_STANDOFF)})
     route = plan_day_route(model, targets, layout.dock_xy, config, events, _shift_start(), spots=layout.worker_spots)
     perceive = DemoPerception(detector, model, reality, priors, seed, yoloe)
-    mission = run_mission(targets, route.plan.stations, perceive, priors, mesh_for_family, route.config, icp,
-                          tick=lambda: tick("station"), route=route.route, frame_of=perceive.station_frame,
-                          tolerances=twin_config.tolerance_policy(), building=building_surfaces(model))
+    context = MissionContext(targets, route.plan.stations, model, priors, mesh_for_family, route.config, icp,
+                             twin_config.tolerance_policy(), twin_config.min_fitness,
+                             building=building_surfaces(model), tick=lambda: tick("station"))
+    mission = run_mission(context, perceive, route.route, perceive.station_frame)
     record_mission(twin, mission.observations, mission.stations, times=route.route.arrivals, missing=mission.missing)
     tick("twin")
     files = export_day_twin(twin, out_dir)

@@ -1,11 +1,9 @@
 """The demo robot's eyes: the simulated RGB-D camera inside the building, and the detector that reads its frames.
 
 Each station's frame is rendered as a robot would send it (the IFC's building around the objects, RGB, time-of-
-flight flying pixels and dropouts, a worker walking through some frames), then handed to the chosen detector:
-
-- ``geometric`` (default): scan-vs-BIM, no weights (:class:`~bim2rdt.perception.GeometricDetector`);
-- ``yoloe``: YOLOE on local weights and prompt embeddings (extra ``yoloe``);
-- ``ideal``: the renderer's own masks with the true families: the upper bound, for comparison only.
+flight flying pixels and dropouts, a worker walking through some frames), then handed to the chosen detector
+(:mod:`bim2rdt.perception.detectors`: ``geometric`` by default, ``yoloe``, or ``ideal``, the renderer's own masks
+with the true families: the upper bound, for comparison only).
 
 Objects perception cannot name ("unknown": a worker, clutter) are not registered against the BIM: they are not
 site objects the BIM could have, and must not become phantom proxies in the twin.
@@ -20,8 +18,8 @@ from pathlib import Path
 import numpy as np
 
 from bim2rdt.bim import BimModel
-from bim2rdt.perception import UNKNOWN_FAMILY, Detection, Frame, GeometricDetector, Intrinsics, YoloeDetector, \
-    locate_detections
+from bim2rdt.perception import UNKNOWN_FAMILY, Detection, Frame, Intrinsics, locate_detections
+from bim2rdt.perception.detectors import make_detector
 from bim2rdt.semantics import UprightPrior
 from bim2rdt.sim.ideal import IdealDetector
 from bim2rdt.sim.reality import Reality
@@ -30,7 +28,6 @@ from bim2rdt.sim.scene import SiteScene
 from bim2rdt.sim.tof import TofEffects
 from bim2rdt.sim.workers import worker_in_view
 
-DETECTORS = ("geometric", "yoloe", "ideal")
 WORKER_FRACTION = 0.3
 """Share of the demo's frames a worker walks through."""
 log = logging.getLogger(__name__)
@@ -44,7 +41,8 @@ class DemoPerception:
     def __init__(self, detector: str, model: BimModel, reality: Reality, priors: dict[str, UprightPrior],
                  seed: int = 0, yoloe: tuple[Path, Path] | None = None, intrinsics: Intrinsics = Intrinsics()):
         self.model, self.reality, self.intrinsics = model, reality, intrinsics
-        self.detector = _detector(detector, model, reality, priors, yoloe)
+        self.detector = make_detector(detector, model, priors, yoloe,
+                                      ideal=lambda: IdealDetector([t.family for t in reality.truth]))
         self.rng = np.random.default_rng([seed, 5])
         self.frames: list = []
         self.unknown = 0
@@ -94,19 +92,4 @@ class DemoPerception:
         clear = [o.T_world_model[:3, 3] for o in scene.objects]
         person = worker_in_view(T_world_camera, self.rng, clear, self._footprints)
         return SiteScene(scene.objects, scene.ground_size, scene.building, [person] if person else [])
-
-
-def _detector(name: str, model: BimModel, reality: Reality, priors: dict[str, UprightPrior],
-              yoloe: tuple[Path, Path] | None):
-    if name == "geometric":
-        return GeometricDetector(model, priors)
-    if name == "ideal":
-        return IdealDetector([t.family for t in reality.truth])
-    if name == "yoloe":
-        if yoloe is None:
-            from bim2rdt.perception import PerceptionError
-
-            raise PerceptionError("demo --detector yoloe needs --yoloe-weights and --yoloe-embeddings (local files)")
-        return YoloeDetector(yoloe[0], yoloe[1], sorted(priors))
-    raise ValueError(f"unknown detector {name!r}; choose one of {', '.join(DETECTORS)}")
 

@@ -100,7 +100,7 @@ def run_site_day(out_dir: Path, seed: int = 0, workers: int = 2, minutes: float 
 
     route = route_for_today()
     context = MissionContext(targets, route.plan.stations, model, priors, mesh_for_family, route.config, icp,
-                             twin_config.tolerance_policy(), tick=lambda: tick("station"))
+                             twin_config.tolerance_policy(), twin_config.min_fitness, tick=lambda: tick("station"))
     mission, localization = localized_mission(context, perception, ROBOT_START_XY, seed, route=route.route,
                                               comparison_route=route_for_today().route)
     record_mission(twin, mission.observations, mission.stations, times=route.route.arrivals, missing=mission.missing)

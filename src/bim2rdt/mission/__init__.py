@@ -7,11 +7,12 @@ explains, ``verdict`` judges it against the BIM, ``run`` is the mission over det
 loop (walk, capture, localize, detect) on any :class:`Robot` and :class:`Detect`, the simulator being one."""
 
 from bim2rdt.mission.config import MissionConfig
+from bim2rdt.mission.context import MissionContext
 from bim2rdt.mission.explained import KnownSurface, building_surfaces
 from bim2rdt.mission.record import record_mission
 from bim2rdt.mission.records import MissingElement, MissionResult, Observation, Target
-from bim2rdt.mission.robot import (Detect, LocalizedRobot, MissionContext, Robot, RobotMission, StationLocalization,
-                                   dock_pose, run_robot_mission)
+from bim2rdt.mission.robot import (Detect, LocalizedRobot, Robot, RobotMission, StationLocalization, dock_pose,
+                                   run_robot_mission)
 from bim2rdt.mission.route import DirectRoute, PlannedRoute, RoutePlan, plan_route
 from bim2rdt.mission.run import run_mission
 from bim2rdt.mission.stations import plan_stations

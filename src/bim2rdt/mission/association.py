@@ -9,7 +9,7 @@ detection takes its preferred element when that is still unclaimed."""
 from __future__ import annotations
 
 from collections import defaultdict
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Sequence
 
 import numpy as np
 from scipy.optimize import linear_sum_assignment
@@ -23,14 +23,13 @@ OUT_OF_REACH = 1e6
 """The assignment's cost of a pair farther apart than ``association_radius`` (dropped afterwards)."""
 
 
-def associate(detection: Detection, targets: Sequence[Target], claimed: set[str], config: MissionConfig,
-              preferred: Mapping[int, Target] | None = None) -> Target | None:
-    """The element ``detection`` shows (claimed by it), or None for an object the BIM lacks: its
-    ``preferred[id(detection)]`` element when unclaimed, else the nearest unclaimed one of its family in reach."""
-    choice = (preferred or {}).get(id(detection))
-    if choice is not None and choice.global_id not in claimed:
-        claimed.add(choice.global_id)
-        return choice
+def associate(detection: Detection, targets: Sequence[Target], claimed: Collection[str], config: MissionConfig,
+              preferred: Target | None = None) -> Target | None:
+    """The element ``detection`` shows, or None for an object the BIM lacks: its ``preferred`` element (its
+    frame's joint assignment, :func:`preferred_targets`) when that is not in ``claimed`` (GlobalIds), else the
+    nearest unclaimed one of its family in reach. The caller claims what it returns."""
+    if preferred is not None and preferred.global_id not in claimed:
+        return preferred
     centre = object_centroid(detection.points_world, config)
     candidates = [t for t in targets if t.family == detection.family and t.global_id not in claimed]
     if not candidates:
@@ -38,26 +37,28 @@ def associate(detection: Detection, targets: Sequence[Target], claimed: set[str]
     nearest = min(candidates, key=lambda t: np.linalg.norm(t.placement[:2, 3] - centre[:2]))
     if np.linalg.norm(nearest.placement[:2, 3] - centre[:2]) > config.association_radius:
         return None
-    claimed.add(nearest.global_id)
     return nearest
 
 
 def preferred_targets(detections: Sequence[Detection], targets: Sequence[Target],
-                      config: MissionConfig) -> dict[int, Target]:
-    """{id(detection): element}: per station and family, the assignment of that frame's detections to the BIM's
-    elements with the most pairs within ``association_radius`` and, among those, the least total distance."""
-    frames: dict[tuple, list[Detection]] = defaultdict(list)
-    for detection in detections:
-        frames[(detection.station, detection.family)].append(detection)
-    preferred = {}
+                      config: MissionConfig) -> list[Target | None]:
+    """Each detection's element (None: none in reach), in the order of ``detections``: per station and family,
+    the assignment of that frame's detections to the BIM's elements with the most pairs within
+    ``association_radius`` and, among those, the least total distance."""
+    frames: dict[tuple, list[int]] = defaultdict(list)
+    for index, detection in enumerate(detections):
+        frames[(detection.station, detection.family)].append(index)
+    preferred: list[Target | None] = [None] * len(detections)
     for (_, family), group in frames.items():
         candidates = [t for t in targets if t.family == family]
         if not candidates:
             continue
-        centres = np.array([object_centroid(d.points_world, config)[:2] for d in group])
+        centres = np.array([object_centroid(detections[i].points_world, config)[:2] for i in group])
         places = np.array([t.placement[:2, 3] for t in candidates])
         distance = np.linalg.norm(centres[:, None, :] - places[None, :, :], axis=2)
         reach = distance <= config.association_radius
         rows, cols = linear_sum_assignment(np.where(reach, distance, OUT_OF_REACH))
-        preferred.update({id(group[r]): candidates[c] for r, c in zip(rows, cols) if reach[r, c]})
+        for r, c in zip(rows, cols):
+            if reach[r, c]:
+                preferred[group[r]] = candidates[c]
     return preferred

@@ -2,7 +2,8 @@
 
 How densely models are sampled is the registration's ``IcpConfig.sample_count``, one field for both. How far an
 element may sit from its BIM pose and still be as planned is the twin's tolerance preset (``Settings.twin``), the
-one judge the mission, the twin and the reports share."""
+one judge the mission, the twin and the reports share; so is the fitness under which a fit cannot be judged
+(``Settings.twin.min_fitness``)."""
 
 from __future__ import annotations
 
@@ -25,7 +26,6 @@ class MissionConfig(BaseModel):
                                                           "slab stands on it (registration pulls it onto the slab).")
     ground_clearance: float = Field(SLAB_CLEARANCE, ge=0.0, description="ROI points below this height are slab, not object.")
     association_radius: float = Field(1.5, gt=0.0, description="Farthest a detection may be from its BIM element.")
-    min_fitness: float = Field(0.5, ge=0.0, le=1.0, description="Below this inlier fraction (of the points above the slab) the fit is unverified.")
     tie_ratio: float = Field(1.15, ge=1.0, description="A fit from the BIM pose within this factor of the best "
                                                         "score wins (the BIM is the prior).")
     merge_distance: float = Field(0.05, gt=0.0, description="A point this close to a registered object's surface "

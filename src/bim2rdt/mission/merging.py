@@ -16,7 +16,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from bim2rdt.mission.config import MissionConfig
-from bim2rdt.mission.ground import off_slab
+from bim2rdt.mission.ground import object_points
 from bim2rdt.mission.records import Observation
 from bim2rdt.perception.detection import Detection
 
@@ -53,7 +53,7 @@ def repeated_view(detection: Detection, registered: Sequence[RegisteredObject],
     (or, when none of its family does, the object that does: a label on an object already registered)."""
     if not registered:
         return None
-    points = off_slab(detection.points_world, config, least=1)
+    points = object_points(detection.points_world, config, least=1)
     distances = np.stack([obj.surface_world.query(points, distance_upper_bound=config.merge_distance)[0]
                           for obj in registered])  # (objects, N), inf beyond the bound
     on_surface = distances <= config.merge_distance

@@ -18,27 +18,22 @@ when one view leaves a direction free. Each fix is kept as a :class:`StationLoca
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Protocol
 
 import numpy as np
-import trimesh
 
 from bim2rdt.bim import BimModel
 from bim2rdt.localization import LocalizationConfig, OdometryNoise, PoseFilter, StationFix, Turned, localize_station
 from bim2rdt.localization.checkshots import StationCheck, check_shots
 from bim2rdt.localization.planar import between, from_planar, to_planar
-from bim2rdt.mission.config import MissionConfig
-from bim2rdt.mission.explained import KnownSurface, building_surfaces
-from bim2rdt.mission.records import MissionResult, Target
+from bim2rdt.mission.context import MissionContext
+from bim2rdt.mission.records import MissionResult
 from bim2rdt.mission.route import DirectRoute, Route
 from bim2rdt.mission.run import run_mission
 from bim2rdt.perception.camera import look_at
 from bim2rdt.perception.detection import Detection
 from bim2rdt.perception.frame import Frame
-from bim2rdt.registration import IcpConfig
-from bim2rdt.semantics import UprightPrior
-from bim2rdt.twin.tolerance import TolerancePolicy
 
 DOCK_SIGMA = (0.01, np.deg2rad(0.1))
 """The robot leaves a surveyed dock: 1 cm and 0.1 degree (1 sigma)."""
@@ -89,31 +84,6 @@ class StationLocalization:
     capture: int
     looks: list[StationFix] = field(default_factory=list)
     check: StationCheck = field(default_factory=StationCheck)
-
-
-@dataclass(frozen=True)
-class MissionContext:
-    """What a mission works on and with: the BIM ``targets`` and the ``stations`` (T_world_camera) to see them
-    from, the ``model``, the families' upright ``priors``, ``new_object_mesh(family)`` for objects the BIM lacks,
-    and the settings (``config``, ``icp``, the twin's ``tolerances``, the robot's ``localization``). ``building``:
-    the BIM's permanent surfaces (default: :func:`~bim2rdt.mission.explained.building_surfaces` of ``model``);
-    ``tick`` is called after each station."""
-
-    targets: Sequence[Target]
-    stations: Sequence[np.ndarray]
-    model: BimModel
-    priors: dict[str, UprightPrior]
-    new_object_mesh: Callable[[str], trimesh.Trimesh]
-    config: MissionConfig = MissionConfig()
-    icp: IcpConfig = IcpConfig()
-    tolerances: TolerancePolicy | None = None
-    localization: LocalizationConfig | None = None
-    building: Sequence[KnownSurface] | None = None
-    tick: Callable[[], None] = lambda: None
-
-    def with_building(self) -> MissionContext:
-        """This context with the building's surfaces computed (once, for several runs)."""
-        return self if self.building is not None else replace(self, building=building_surfaces(self.model))
 
 
 @dataclass
@@ -211,7 +181,5 @@ def run_robot_mission(context: MissionContext, robot: Robot, detect: Detect, doc
     reads each station's frame, and that frame (depth, intrinsics, the estimated pose) decides missing elements."""
     context = context.with_building()
     looking = LocalizedRobot(robot, detect, context.model, dock, anchored, context.localization, route)
-    result = run_mission(context.targets, context.stations, looking, context.priors, context.new_object_mesh,
-                         context.config, context.icp, tick=context.tick, route=route or DirectRoute(),
-                         frame_of=looking.station_frame, tolerances=context.tolerances, building=context.building)
+    result = run_mission(context, looking, route or DirectRoute(), looking.station_frame)
     return RobotMission(result, looking.stations)

@@ -30,9 +30,10 @@ import trimesh
 from bim2rdt.mission.absence import depth_view, seen_empty
 from bim2rdt.mission.association import associate, preferred_targets
 from bim2rdt.mission.config import MissionConfig
+from bim2rdt.mission.context import MissionContext
 from bim2rdt.mission.explained import Explanation, KnownSurface, explaining_surface, fit_inliers
 from bim2rdt.mission.fitting import fit_target
-from bim2rdt.mission.ground import off_slab
+from bim2rdt.mission.ground import object_points
 from bim2rdt.mission.merging import RegisteredObject, repeated_view
 from bim2rdt.mission.records import MissionResult, Observation, Target
 from bim2rdt.mission.route import DirectRoute, Locate, Route
@@ -41,55 +42,54 @@ from bim2rdt.perception.detection import Detection
 from bim2rdt.perception.frame import Frame
 from bim2rdt.perception.visibility import DepthView, see_through_fraction
 from bim2rdt.registration import IcpConfig, RegistrationResult, sample_model
-from bim2rdt.semantics import UprightPrior
 from bim2rdt.twin.status import ElementStatus
-from bim2rdt.twin.tolerance import TolerancePolicy
 
 log = logging.getLogger(__name__)
 
 
-def run_mission(targets: Sequence[Target], stations: Sequence[np.ndarray],
-                perceive: Callable[[int, np.ndarray], list[Detection]],
-                priors: dict[str, UprightPrior], new_object_mesh: Callable[[str], trimesh.Trimesh],
-                config: MissionConfig = MissionConfig(), icp: IcpConfig = IcpConfig(),
-                tick: Callable[[], None] = lambda: None, route: Route = DirectRoute(),
-                frame_of: Callable[[int], Frame | None] | None = None,
-                tolerances: TolerancePolicy | None = None, building: Sequence[KnownSurface] = ()) -> MissionResult:
-    """Visit ``stations``; ``perceive(station_index, T_world_camera)`` returns that frame's detections. Each
-    object is registered once, from its detection with the most points; a detection its registered neighbours
+def run_mission(context: MissionContext, perceive: Callable[[int, np.ndarray], list[Detection]],
+                route: Route = DirectRoute(), frame_of: Callable[[int], Frame | None] | None = None) -> MissionResult:
+    """Visit the ``context``'s stations to see its targets (:class:`~bim2rdt.mission.context.MissionContext`:
+    also the priors, the mesh of a new object, the settings and ``tick``, called after each station);
+    ``perceive(station_index, T_world_camera)`` returns that frame's detections. Each object is registered once, from its detection with the most points; a detection its registered neighbours
     already explain is another view of them (:mod:`bim2rdt.mission.merging`). Returns every verdict.
     ``route`` gets the robot to each station and hears what it saw (:mod:`bim2rdt.mission.route`).
     ``frame_of(station_index)``, when given, is the frame (depth, intrinsics, camera pose) the station's
     detections were read from: with it, a planned element whose place a frame shows empty is missing.
-    ``tolerances`` judges as planned vs deviating (the twin's presets: pass ``Settings.twin.tolerance_policy()``
-    so the mission and the twin agree; default ``TwinConfig()``'s). ``building`` holds the surfaces of the BIM's
-    permanent elements (:func:`bim2rdt.mission.explained.building_surfaces`): a fit whose points lie on one of
+    The context's ``tolerances`` judge as planned vs deviating (the twin's presets: pass
+    ``Settings.twin.tolerance_policy()`` so the mission and the twin agree; default ``TwinConfig()``'s), and its
+    ``min_fitness`` whether a fit can be judged at all (``Settings.twin.min_fitness``). Its ``building`` holds the
+    surfaces of the BIM's permanent elements (:func:`bim2rdt.mission.explained.building_surfaces`): a fit whose points lie on one of
     them, or on an object registered before it, shows that surface, not an object
     (:mod:`bim2rdt.mission.explained`): a planned element's fit is then unverified, and a detection of no planned
     element is ``set_aside`` (no new object); such a fit explains nothing for the detections after it."""
-    result = MissionResult(list(stations))
+    context = context.with_building()
+    targets, config, icp, new_object_mesh = context.targets, context.config, context.icp, context.new_object_mesh
+    result = MissionResult(list(context.stations))
     views: dict[int, DepthView] = {}
 
     def locate(detection: Detection) -> tuple[Observation, trimesh.Trimesh]:
         target = associate(detection, targets, set(), config)
         mesh = target.mesh_body if target else new_object_mesh(detection.family)
-        return _observe(detection, target, mesh, priors, config, icp, tolerances)[0], mesh
+        return _observe(detection, target, mesh, context)[0], mesh
 
-    detections = _capture(result, perceive, config, tick, route, locate, frame_of, views)
+    detections = _capture(result, perceive, config, context.tick, route, locate, frame_of, views)
     claimed: set[str] = set()
     preferred = preferred_targets(detections, targets, config)
     registered: list[RegisteredObject] = []
-    known = list(building)
-    for detection in sorted(detections, key=lambda d: -len(d.points_world)):
+    known = list(context.building)
+    for detection, choice in sorted(zip(detections, preferred), key=lambda seen: -len(seen[0].points_world)):
         seen_before = repeated_view(detection, registered, config)
         if seen_before is not None:
             if seen_before.family == detection.family:
                 seen_before.seen_from(detection.station)
             continue
-        target = associate(detection, targets, claimed, config, preferred)
+        target = associate(detection, targets, claimed, config, choice)
+        if target is not None:
+            claimed.add(target.global_id)
         mesh = target.mesh_body if target else new_object_mesh(detection.family)
-        observation, model_pts, owner = _observe(detection, target, mesh, priors, config, icp, tolerances,
-                                                 views.get(detection.station), known)
+        observation, model_pts, owner = _observe(detection, target, mesh, context, views.get(detection.station),
+                                                 known)
         if owner is not None and target is None:  # a known surface, not an object the BIM lacks
             result.set_aside.append(observation)
             continue
@@ -137,21 +137,21 @@ def _seen(detections: list[Detection], config: MissionConfig) -> list[Detection]
     return [d for d in detections if len(d.points_world) >= config.min_points]
 
 
-def _observe(detection: Detection, target: Target | None, mesh: trimesh.Trimesh, priors: dict[str, UprightPrior],
-             config: MissionConfig, icp: IcpConfig,
-             tolerances: TolerancePolicy | None = None,
+def _observe(detection: Detection, target: Target | None, mesh: trimesh.Trimesh, context: MissionContext,
              view: DepthView | None = None,
              known: Sequence[KnownSurface] = ()) -> tuple[Observation, np.ndarray, Explanation | None]:
-    """Register one object and judge it (against its tolerance preset under ``tolerances``); also returns the
-    model's surface samples (body frame) and, when at least ``explained_fraction`` of the fit's inliers lie on
-    one of the ``known`` surfaces, that surface: the fit is then unverified. With ``view`` (the depth of the
+    """Register one object and judge it (against its tolerance preset under the context's ``tolerances``, and
+    its ``min_fitness``); also returns the model's surface samples (body frame) and, when at least
+    ``explained_fraction`` of the fit's inliers lie on one of the ``known`` surfaces, that surface: the fit is then unverified. With ``view`` (the depth of the
     detection's station) a fit that stands where the camera saw through is set aside for a consistent one."""
-    prior = priors[detection.family]
+    config, icp = context.config, context.icp
+    prior = context.priors[detection.family]
     model_pts, model_normals = sample_model(mesh, icp.sample_count, seed=icp.seed)
-    object_pts = off_slab(detection.points_world, config)
+    object_pts = object_points(detection.points_world, config)
     fit = fit_target(detection, target, model_pts, model_normals, object_pts, prior, config, icp,
                      _free_space(model_pts, model_normals, view, config))
-    judged = judge(target, fit, prior.symmetry, config, tolerance_of(target, tolerances) if target else None)
+    judged = judge(target, fit, prior.symmetry, config, tolerance_of(target, context.tolerances) if target else None,
+                   context.min_fitness)
     reason = judged.reason  # the verdict's own: too few points explained, or a direction the view cannot see
     if not math.isfinite(fit.rmse):  # a partial view behind a wall: no point lies on the fitted model
         reason = (f"(no inlier: none of its {len(object_pts)} points lies within {100 * icp.score_distance:.0f} cm "

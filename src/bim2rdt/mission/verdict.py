@@ -18,7 +18,10 @@ from bim2rdt.twin.config import TwinConfig
 from bim2rdt.twin.deviation import Deviation, pose_deviation
 from bim2rdt.twin.status import ElementStatus
 from bim2rdt.twin.tolerance import Tolerance, TolerancePolicy
-from bim2rdt.twin.verdict import against_tolerance
+from bim2rdt.twin.verdict import against_tolerance, fit_trusted
+
+DEFAULT_MIN_FITNESS = TwinConfig().min_fitness
+"""The twin's default ``min_fitness``, for a mission run without the twin's settings."""
 
 
 def pose_delta(T_ref: np.ndarray, T: np.ndarray) -> tuple[float, float, float]:
@@ -45,28 +48,31 @@ class Verdict:
 
 
 def judge(target: Target | None, fit: RegistrationResult, symmetry: float, config: MissionConfig,
-          tolerance: Tolerance | None = None) -> Verdict:
+          tolerance: Tolerance | None = None, min_fitness: float = DEFAULT_MIN_FITNESS) -> Verdict:
     """The verdict on ``fit`` against ``target``'s placement (its own pose for a new object). The fit is first
     turned by the symmetry (the prior's rotational order about up) that brings it closest to the BIM, so a drum
     turned about its own axis, or a pallet turned end for end, has not deviated. As planned or deviating is the
-    twin's call: ``tolerance`` is the element's preset (default: ``TwinConfig()``'s for its class and family)."""
+    twin's call: ``tolerance`` is the element's preset (default: ``TwinConfig()``'s for its class and family), and
+    so is whether the fit can be judged at all (``min_fitness``, the twin's: ``Settings.twin.min_fitness``)."""
     reference = target.placement if target else fit.pose
     deviation = pose_deviation(reference, fit.pose, symmetry)
-    status, reason = verdict(target, fit, deviation, config, tolerance, symmetry)
+    status, reason = verdict(target, fit, deviation, config, tolerance, symmetry, min_fitness)
     return Verdict(status, deviation.translation, deviation.yaw_deg, deviation.tilt_deg, reason)
 
 
 def verdict(target: Target | None, fit: RegistrationResult, deviation: Deviation, config: MissionConfig,
-            tolerance: Tolerance | None = None, symmetry: float = 1.0) -> tuple[ElementStatus, str]:
-    """(status, reason). UNVERIFIED when the fit explains too few points to trust; NEW for an object the BIM
+            tolerance: Tolerance | None = None, symmetry: float = 1.0,
+            min_fitness: float = DEFAULT_MIN_FITNESS) -> tuple[ElementStatus, str]:
+    """(status, reason). UNVERIFIED when the fit explains too few points to trust (the twin's rule,
+    :func:`bim2rdt.twin.verdict.fit_trusted`, under ``min_fitness``); NEW for an object the BIM
     lacks; else the twin's judgement (:func:`bim2rdt.twin.verdict.against_tolerance`, the element's tolerance
     preset) of the part of ``deviation`` the view pins down: DEVIATING when that is beyond the preset,
     UNVERIFIED when the view leaves a horizontal direction (or the yaw of a body without symmetry) unconstrained
     that could hide a deviation (the registration's unobservable directions: a box seen on one face may have
     slid along it, and an estimate along that face is the start, not evidence), else AS_PLANNED."""
-    if fit.fitness < config.min_fitness:
+    if not fit_trusted(fit.fitness, min_fitness):
         return ElementStatus.UNVERIFIED, (f"(the fit explains {fit.fitness:.0%} of its points, under "
-                                          f"{config.min_fitness:.0%})")
+                                          f"{min_fitness:.0%})")
     if target is None:
         return ElementStatus.NEW, ""
     free, free_yaw = unconstrained_motion(fit, symmetry)

@@ -26,10 +26,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from bim2rdt.frames import UP
 from bim2rdt.registration import IcpConfig, RegistrationResult, register
 from bim2rdt.semantics import DEFAULT_UPRIGHT_BIAS, UprightPrior
-
-UP = np.array([0.0, 0.0, 1.0])
 
 Plausible = Callable[[RegistrationResult], bool]
 """A fit's free-space test (a model whose far side faces the camera is not), see

@@ -13,14 +13,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from bim2rdt.frames import UP
 from bim2rdt.perception.fitting import along_long_axis, slid
 from bim2rdt.perception.library import FamilyModel, ModelLibrary
 from bim2rdt.perception.observation import UNKNOWN_FAMILY
 from bim2rdt.perception.visibility import DepthView, see_through_fraction
 from bim2rdt.registration import IcpConfig, RegistrationResult, register
 from bim2rdt.semantics import DEFAULT_UPRIGHT_BIAS, UprightPrior
-
-UP = np.array([0.0, 0.0, 1.0])
 
 
 @dataclass(frozen=True)

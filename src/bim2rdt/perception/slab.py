@@ -11,12 +11,14 @@ from __future__ import annotations
 
 import numpy as np
 
+from bim2rdt.frames import UP
+
 SLAB_CLEARANCE = 0.015
 """Points less than this (m) above the slab are slab: about 3-4 sigma of the depth noise at 3-4 m."""
 
 
 def off_the_slab(points_world: np.ndarray, slab_height: float = 0.0, clearance: float = SLAB_CLEARANCE,
-                 up: np.ndarray = np.array([0.0, 0.0, 1.0]), least: int = 0) -> np.ndarray:
+                 up: np.ndarray = UP, least: int = 0) -> np.ndarray:
     """The points (N, 3) more than ``clearance`` above the slab at height ``slab_height`` along ``up``; all of
     them when fewer than ``least`` would remain (a flat object seen edge-on is better registered on its ROI
     than not at all)."""

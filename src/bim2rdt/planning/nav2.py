@@ -46,27 +46,6 @@ def save_nav2(grid: OccupancyGrid, folder: Path, name: str) -> dict[str, Path]:
     return written
 
 
-def read_pgm(path: Path) -> np.ndarray:
-    """A binary (P5) 8-bit PGM as uint8 (rows, cols), first row at the image's top."""
-    data = Path(path).read_bytes()
-    fields, position = [], 0
-    while len(fields) < 4:
-        while data[position:position + 1].isspace():
-            position += 1
-        if data[position:position + 1] == b"#":
-            position = data.index(b"\n", position) + 1
-            continue
-        end = position
-        while not data[end:end + 1].isspace():
-            end += 1
-        fields.append(data[position:end])
-        position = end
-    if fields[0] != b"P5" or int(fields[3]) > 255:
-        raise PlanningError(f"{path}: not an 8-bit binary PGM")
-    width, height = int(fields[1]), int(fields[2])
-    return np.frombuffer(data[position + 1:position + 1 + width * height], np.uint8).reshape(height, width)
-
-
 def _write_map(folder: Path, name: str, occupied: np.ndarray, grid: OccupancyGrid, mode: str) -> dict[str, Path]:
     pixels = np.where(occupied, OCCUPIED, FREE).astype(np.uint8)[::-1]
     header = f"P5\n# bim2rdt occupancy, {grid.resolution:g} m/cell\n{pixels.shape[1]} {pixels.shape[0]}\n255\n"

@@ -43,7 +43,7 @@ from bim2rdt.twin.store import EventStore, NewEvent, Writer
 from bim2rdt.twin.config import TwinConfig
 from bim2rdt.twin.text import checked_text
 from bim2rdt.twin.tolerance import TolerancePolicy
-from bim2rdt.twin.verdict import judge
+from bim2rdt.twin.verdict import judge_observation
 
 FamilyMesh = Callable[[str], tuple[np.ndarray, np.ndarray] | None]
 """family -> (vertices (N,3) in the body frame, metres; faces (M,3)): the mesh of an object the BIM lacks (None
@@ -122,8 +122,8 @@ class DigitalTwin:
                 global_id = self._match_new(family, pose) or ifcopenshell.guid.new()
                 element = None
             tolerance = self.tolerances.for_element(element.ifc_class, element.family) if element else None
-            status, deviation = judge(pose, observation.fitness, element, tolerance,
-                                      self.symmetry.get(observation.family, 1), self.min_fitness)
+            status, deviation = judge_observation(pose, observation.fitness, element, tolerance,
+                                                  self.symmetry.get(observation.family, 1), self.min_fitness)
             if no_inlier:
                 status = ElementStatus.UNVERIFIED  # nothing of the view lies on the fitted model: nothing measured
             elif getattr(observation, "status", None) is ElementStatus.UNVERIFIED:

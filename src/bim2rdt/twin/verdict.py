@@ -15,15 +15,22 @@ from bim2rdt.twin.status import ElementStatus
 from bim2rdt.twin.tolerance import Tolerance
 
 
-def judge(pose: np.ndarray, fitness: float, element: BimElement | None, tolerance: Tolerance | None,
+def judge_observation(pose: np.ndarray, fitness: float, element: BimElement | None, tolerance: Tolerance | None,
           symmetry: float, min_fitness: float) -> tuple[ElementStatus, Deviation | None]:
     """The status and the deviation from the BIM pose (None for an object the BIM lacks)."""
     deviation = pose_deviation(element.placement, pose, symmetry) if element is not None else None
-    if fitness < min_fitness:
+    if not fit_trusted(fitness, min_fitness):
         return ElementStatus.UNVERIFIED, deviation
     if element is None:
         return ElementStatus.NEW, None
     return against_tolerance(deviation, tolerance), deviation
+
+
+def fit_trusted(fitness: float, min_fitness: float) -> bool:
+    """Whether a fit explains enough of its points (``fitness``, a fraction) to be judged at all: the one rule
+    the twin and the mission share, with the one setting ``Settings.twin.min_fitness``. Under it the object is
+    unverified, however close it lands."""
+    return fitness >= min_fitness
 
 
 def against_tolerance(deviation: Deviation, tolerance: Tolerance) -> ElementStatus:

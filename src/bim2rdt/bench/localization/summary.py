@@ -3,11 +3,11 @@ peers, time per frame, check shots, and the issue's targets with PASS/FAIL."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from bim2rdt.bench.checks import TargetCheck
 from bim2rdt.bench.localization.run import LocalizationRun
 
 BIM_MEDIAN_POSITION = 0.02
@@ -16,13 +16,6 @@ FUSED_WORST_POSITION = 0.05
 SECONDS_PER_FRAME = 0.3
 LOCKED = 0.1
 """A fix more than 10 cm off counts as locked onto the wrong surface (a wall's back face is 15-30 cm away)."""
-
-
-@dataclass(frozen=True)
-class Target:
-    name: str
-    passed: bool
-    detail: str
 
 
 def _median(values) -> float:
@@ -73,25 +66,25 @@ def _peer(stations, name: str) -> dict:
             "median_seconds": _median([s.peers[name][1] for s in stations])}
 
 
-def targets(summary: dict) -> list[Target]:
+def targets(summary: dict) -> list[TargetCheck]:
     """The issue's targets after the tour, each with the figure that decides it."""
     bim, fused = summary["bim"], summary["fused"]
     walked = f"after {summary['walked']:.0f} m"
     out = [
-        Target("BIM-anchored median position <= 2 cm", bim["median_position"] <= BIM_MEDIAN_POSITION,
-               f"{bim['median_position'] * 100:.2f} cm over {bim['fixes']} fixes {walked}"),
-        Target("BIM-anchored median yaw <= 0.3 deg", bim["median_yaw_deg"] <= BIM_MEDIAN_YAW_DEG,
-               f"{bim['median_yaw_deg']:.3f} deg"),
-        Target("fused worst station <= 5 cm", fused["worst_position"] <= FUSED_WORST_POSITION,
-               f"{fused['worst_position'] * 100:.2f} cm {walked}"),
-        Target("<= 0.3 s per frame on one core", bim["worst_seconds"] <= SECONDS_PER_FRAME,
-               f"every frame: worst {bim['worst_seconds']:.3f} s, median {bim['median_seconds']:.3f} s CPU over "
-               f"{bim['frames']} frames"),
+        TargetCheck("BIM-anchored median position <= 2 cm", bim["median_position"] <= BIM_MEDIAN_POSITION,
+                   f"{bim['median_position'] * 100:.2f} cm over {bim['fixes']} fixes {walked}"),
+        TargetCheck("BIM-anchored median yaw <= 0.3 deg", bim["median_yaw_deg"] <= BIM_MEDIAN_YAW_DEG,
+                   f"{bim['median_yaw_deg']:.3f} deg"),
+        TargetCheck("fused worst station <= 5 cm", fused["worst_position"] <= FUSED_WORST_POSITION,
+                   f"{fused['worst_position'] * 100:.2f} cm {walked}"),
+        TargetCheck("<= 0.3 s per frame on one core", bim["worst_seconds"] <= SECONDS_PER_FRAME,
+                   f"every frame: worst {bim['worst_seconds']:.3f} s, median {bim['median_seconds']:.3f} s CPU over "
+                   f"{bim['frames']} frames"),
     ]
     for name, peer in summary["peers"].items():
-        out.append(Target(f"better than {name}", bim["median_position"] < peer["median_position"],
-                          f"median {peer['median_position'] * 100:.2f} cm, {peer['locked']} stations > 10 cm off, "
-                          f"{peer['median_seconds'] / max(bim['median_seconds'], 1e-9):.2f}x our time"))
+        out.append(TargetCheck(f"better than {name}", bim["median_position"] < peer["median_position"],
+                               f"median {peer['median_position'] * 100:.2f} cm, {peer['locked']} stations > 10 cm off, "
+                               f"{peer['median_seconds'] / max(bim['median_seconds'], 1e-9):.2f}x our time"))
     return out
 
 
