@@ -103,3 +103,44 @@ def stop_requested() -> Iterator[threading.Event]:
     finally:
         for number, handler in previous.items():
             signal.signal(number, handler)
+
+
+INCOMPLETE_MARKER = "INCOMPLETE.txt"
+"""Left in a run's output folder when the run failed or was interrupted: what is there is partial."""
+
+_run_folders: list[tuple[Path, bool]] = []
+"""The output folders of this process's command, each with whether the command created it."""
+
+
+def run_folder(path: Path) -> Path:
+    """Callback of ``--out`` options whose folder holds a run's product (``demo``, benchmarks, exports): checked as
+    :func:`writable_folder`, and remembered, so a run that fails or is interrupted leaves no empty folder it made
+    behind and marks a folder with partial output (:func:`close_run_folders`). A marker from an earlier run goes:
+    this run writes its own verdict."""
+    created = not path.exists()
+    writable_folder(path)
+    (path / INCOMPLETE_MARKER).unlink(missing_ok=True)
+    _run_folders.append((path, created))
+    return path
+
+
+def close_run_folders(reason: str) -> list[Path]:
+    """After a failed or interrupted run: remove the empty folders it created, mark the others incomplete with
+    ``reason``; returns the folders that hold partial output."""
+    import datetime
+
+    partial = []
+    for path, created in _run_folders:
+        try:
+            if created and path.is_dir() and not any(path.iterdir()):
+                path.rmdir()
+                continue
+            if path.is_dir():
+                stamp = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
+                (path / INCOMPLETE_MARKER).write_text(f"incomplete: the run {reason} at {stamp}; the files here "
+                                                      "are partial\n", encoding="utf-8")
+                partial.append(path)
+        except OSError:  # a folder we cannot tidy (a full disk, a removed mount): say nothing more than the error
+            partial.append(path)
+    _run_folders.clear()
+    return partial

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import typer
 
-from bim2rdt.cli.common import console, out_path, print_table, writable_folder
+from bim2rdt.cli.common import console, out_path, print_table, run_folder
 
 
 def register(app: typer.Typer, bench_app: typer.Typer) -> None:
@@ -14,7 +14,7 @@ def register(app: typer.Typer, bench_app: typer.Typer) -> None:
 
 
 def demo_command(
-    out: Path = typer.Option(Path("out/demo"), "--out", parser=out_path, callback=writable_folder,
+    out: Path = typer.Option(Path("out/demo"), "--out", parser=out_path, callback=run_folder,
                               help="Output folder (twin IFC, report, plots, JSON)."),
     trials: int = typer.Option(6, "--trials", min=1, help="Seeded trials per registration scenario."),
     workers: int = typer.Option(2, "--workers", min=1, help="Workers with vibration wearables."),

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import typer
 
-from bim2rdt.cli.common import console, out_path, print_json, print_table, writable_folder
+from bim2rdt.cli.common import console, out_path, print_json, print_table, run_folder
 
 twin_app = typer.Typer(help="The site's digital twin: its state (now or at a past time), an element's history, "
                        "and exports to IFC, BCF and JSON.", no_args_is_help=True)
@@ -62,7 +62,7 @@ def history_command(
 def export_command(
     ifc_file: Path = typer.Argument(..., help="The BIM the twin is kept over."),
     url: str | None = typer.Option(None, "--url", help=URL_HELP),
-    out: Path = typer.Option(Path("out/twin"), "--out", parser=out_path, callback=writable_folder,
+    out: Path = typer.Option(Path("out/twin"), "--out", parser=out_path, callback=run_folder,
                              help="Folder for twin.ifc, issues.bcf and twin.json."),
 ) -> None:
     """Write the twin as IFC (IFC4/IFC4X3 models), BCF issues (one topic per deviating, missing or new element)
