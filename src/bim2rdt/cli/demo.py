@@ -69,9 +69,22 @@ def demo_command(
         show_run(result.registration, targets=False)
         console.print(f"(registration: {trials} trials per scenario, a quick look; the paper's targets are judged "
                       "on 50 trials by `bim2rdt bench registration`)")
+    _fail_without_a_station(result.site_day, out)
     twin = result.site_day.twin_path or f"not written back ({result.site_day.model.schema}: IFC write-back needs IFC4)"
     console.print(f"twin: {twin} (history {out / 'twin.db'}, issues {out / 'site_issues.bcf'}); report: "
                   f"{result.report['html']} and {result.report['report']}; plots and JSON in {out}")
+
+
+def _fail_without_a_station(day, out: Path) -> None:
+    """A day on which the robot visited no station verified nothing: an error (exit 1) that says why, not an
+    empty table and exit 0."""
+    from bim2rdt.demo.routes import why_no_station
+    from bim2rdt.planning import PlanningError
+
+    why = why_no_station(day.route) if day.route is not None else None
+    if why is not None:
+        raise PlanningError(f"the robot visited no station, so nothing was verified: {why} (report: "
+                            f"{out / 'report.md'})")
 
 
 def _show_site_day(result) -> None:

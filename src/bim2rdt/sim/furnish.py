@@ -34,6 +34,7 @@ from scipy import ndimage
 from bim2rdt.bim import BimModel
 from bim2rdt.bim.atomic import atomic_write_ifc
 from bim2rdt.bim.ifc_values import add_typed_pset
+from bim2rdt.bim.spatial import storey_name
 from bim2rdt.planning import OccupancyGrid, reachable
 from bim2rdt.planning.raster import mesh_cells
 from bim2rdt.sim.meshes import mesh_for_family
@@ -104,7 +105,7 @@ def write_furnished(model: BimModel, layout: Layout, path: Path) -> Path:
     """A copy of ``model``'s file with the layout's objects as proxies on its storey, written atomically."""
     ifc = ifcopenshell.open(str(model.path))
     first_new = max(entity.id() for entity in ifc) + 1
-    storey = next(s for s in ifc.by_type("IfcBuildingStorey") if s.Name == layout.storey)
+    storey = next(s for s in ifc.by_type("IfcBuildingStorey") if storey_name(s) == layout.storey)
     context = _body_context(ifc)
     for item in layout.objects:
         _add_object(ifc, storey, context, item, layout.floor_z, model.unit_scale)
@@ -169,8 +170,8 @@ def _add_object(ifc: ifcopenshell.file, storey, context, item: SiteObject, floor
     ifcopenshell.api.type.assign_type(ifc, related_objects=[proxy], relating_type=kind,
                                       should_map_representations=False)
     mesh = mesh_for_family(item.family)
-    body = ifcopenshell.api.geometry.add_mesh_representation(
-        ifc, context=context, vertices=[(mesh.vertices / unit_scale).tolist()], faces=[mesh.faces.tolist()])
+    body = ifcopenshell.api.geometry.add_mesh_representation(  # metres in; the api divides by the file's scale
+        ifc, context=context, vertices=[mesh.vertices.tolist()], faces=[mesh.faces.tolist()], unit_scale=unit_scale)
     ifcopenshell.api.geometry.assign_representation(ifc, product=proxy, representation=body)
     ifcopenshell.api.geometry.edit_object_placement(ifc, product=proxy, is_si=True,
                                                     matrix=yaw_pose(item.x, item.y, floor_z, item.yaw_deg))
