@@ -34,11 +34,11 @@ def demo_command(
     """Run a simulated day on the embedded site: the robot verifies the BIM's site objects with SG-ICP, the twin
     is updated and hand-arm vibration exposure becomes IfcEvent/IfcTask records; then the paper's registration
     scenarios. Writes site.ifc, site_twin.ifc, report.md, plots and JSON into --out."""
-    from rich.progress import Progress
-
+    from bim2rdt.cli.progress import StageProgress
     from bim2rdt.cli.registration import show_run
     from bim2rdt.demo.perceivers import DETECTORS
     from bim2rdt.demo.run import run_demo
+    from bim2rdt.sim.scenarios import SCENARIOS
 
     detector = detector or "geometric"
     if detector not in DETECTORS:
@@ -50,12 +50,8 @@ def demo_command(
 
     stages = {"bim": "site model read", "site": "site objects placed", "station": "robot station",
               "twin": "twin updated", "hav": "vibration day monitored", "trial": "registration trial"}
-    with Progress(console=console, transient=True) as bar:
-        task = bar.add_task("site day", total=None)
-
-        def tick(stage: str) -> None:
-            bar.update(task, advance=1, description=stages.get(stage, stage))
-
+    totals = {"bim": 1, "site": 1, "hav": 1, "twin": 1} | ({"trial": len(SCENARIOS) * trials} if ifc is None else {})
+    with StageProgress(console, stages, totals) as tick:
         if ifc is not None:
             from bim2rdt.demo.ifc_day import run_ifc_demo
 
