@@ -186,3 +186,17 @@ def test_the_day_is_recorded_in_the_twin_and_exported_as_ifc_bcf_json_and_html(d
     assert page.count("data:image/png;base64,") >= 6 and 'src="http' not in page
     for name in ("site_twin.ifc", "site_issues.bcf", "twin.json"):
         assert f'href="{name}"' in page
+
+
+def test_the_demo_ends_with_the_exact_command_that_shows_its_twin_and_that_command_works(demo_out):
+    import shlex
+
+    out, stdout = demo_out
+    (line,) = [line for line in stdout.splitlines() if line.startswith("see the twin: ")]
+    command = shlex.split(line.removeprefix("see the twin: "))
+    assert command[:3] == ["bim2rdt", "twin", "state"]
+    shown = subprocess.run([sys.executable, "-m", "bim2rdt", *command[1:]], capture_output=True, text=True,
+                           timeout=300)
+    assert shown.returncode == 0, shown.stderr
+    rows = json.loads((out / "site_day.json").read_text())["observations"]
+    assert all(row["global_id"] in shown.stdout for row in rows if row["global_id"])  # whole, never cut

@@ -1,6 +1,6 @@
 """`demo --ifc` on every sample building: the robot visits at least one station, or the command exits 1 with
 one line saying why (never exit 0 with empty tables). Kept affordable with the cheapest settings of the same
-code path: one worker, one minute of tool work."""
+code path: one site object (so one station), one worker, one minute of tool work."""
 
 from __future__ import annotations
 
@@ -20,9 +20,9 @@ BUILDINGS = sorted(p.name for p in samples_dir().glob("*.ifc")) if samples_dir()
 @pytest.mark.parametrize("name", BUILDINGS)
 def test_demo_ifc_visits_a_station_or_exits_1_saying_why(samples, tmp_path, name):
     out = tmp_path / "out"
-    result = subprocess.run([sys.executable, "-m", "bim2rdt", "demo", "--ifc", str(samples / name), "--out",
-                             str(out), "--workers", "1", "--minutes", "1"], capture_output=True, text=True,
-                            timeout=900)
+    command = ["demo", "--ifc", str(samples / name), "--out", str(out), "--objects", "1", "--workers", "1",
+               "--minutes", "1"]
+    result = subprocess.run([sys.executable, "-m", "bim2rdt", *command], capture_output=True, text=True, timeout=900)
     assert "Traceback" not in result.stderr
     if result.returncode == 0:
         route = json.loads((out / "site_day.json").read_text())["route"]

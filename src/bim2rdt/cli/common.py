@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 import sys
 import tempfile
 import threading
@@ -50,11 +51,20 @@ def print_json(payload: Any) -> None:
 def print_table(title: str, columns: Sequence[str], rows: Sequence[Sequence[Any]]) -> None:
     """A rich table; floats are shown with 4 significant digits."""
     table = Table(title=title)
-    for column in columns:
-        table.add_column(column)
-    for row in rows:
-        table.add_row(*[_cell(value) for value in row])
+    cells = [[_cell(value) for value in row] for row in rows]
+    for index, column in enumerate(columns):
+        ids = [row[index] for row in cells if index < len(row) and IFC_GUID.fullmatch(row[index])]
+        if ids:  # an identifier is copied into the next command: never cut, never wrapped
+            table.add_column(column, no_wrap=True, min_width=max(map(len, ids)), overflow="fold")
+        else:
+            table.add_column(column)
+    for row in cells:
+        table.add_row(*row)
     console.print(table)
+
+
+IFC_GUID = re.compile(r"[0-9A-Za-z_$]{22}")
+"""An IFC GlobalId: 22 characters of IFC's base-64 alphabet."""
 
 
 def _cell(value: Any) -> str:

@@ -30,12 +30,16 @@ def demo_command(
     ifc: Path | None = typer.Option(None, "--ifc", exists=True, dir_okay=False,
                                     help="Run the loop on this building instead (IFC4; IFC2X3 runs without IFC "
                                          "write-back): site objects are placed on its ground floor."),
+    objects: int = typer.Option(7, "--objects", min=1, max=7,
+                                help="With --ifc: site objects placed, one per room (fewer: fewer stations, a "
+                                     "quicker look at the same loop)."),
 ) -> None:
     """Run a simulated day on the embedded site: the robot verifies the BIM's site objects with SG-ICP, the twin
     is updated and hand-arm vibration exposure becomes IfcEvent/IfcTask records; then the paper's registration
     scenarios. Writes site.ifc, site_twin.ifc, report.md, plots and JSON into --out."""
     from bim2rdt.cli.progress import StageProgress
     from bim2rdt.cli.registration import show_run
+    from bim2rdt.cli.twin import follow_up_command
     from bim2rdt.demo.perceivers import DETECTORS
     from bim2rdt.demo.run import run_demo
     from bim2rdt.sim.scenarios import SCENARIOS
@@ -56,7 +60,7 @@ def demo_command(
             from bim2rdt.demo.ifc_day import run_ifc_demo
 
             result = run_ifc_demo(ifc, out, seed=seed, workers=workers, minutes=minutes, tick=tick, detector=detector,
-                                  yoloe=yoloe)
+                                  yoloe=yoloe, objects=objects)
         else:
             result = run_demo(out, trials=trials, seed=seed, workers=workers, minutes=minutes, tick=tick,
                               detector=detector, yoloe=yoloe)
@@ -69,6 +73,8 @@ def demo_command(
     twin = result.site_day.twin_path or f"not written back ({result.site_day.model.schema}: IFC write-back needs IFC4)"
     console.print(f"twin: {twin} (history {out / 'twin.db'}, issues {out / 'site_issues.bcf'}); report: "
                   f"{result.report['html']} and {result.report['report']}; plots and JSON in {out}")
+    console.print(f"see the twin: {follow_up_command(result.site_day.model.path, out / 'twin.db')}", markup=False,
+                  highlight=False, soft_wrap=True)
 
 
 def _fail_without_a_station(day, out: Path) -> None:

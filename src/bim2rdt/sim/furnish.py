@@ -68,8 +68,11 @@ class Layout:
     worker_spots: dict[str, tuple[float, float]] = field(default_factory=dict)
 
 
-def furnish(model: BimModel, grid: OccupancyGrid, workers: int = 1, seed: int = 0) -> Layout:
-    """Spots for the site objects, the dock, an unplanned drum and ``workers`` on ``grid``'s storey."""
+def furnish(model: BimModel, grid: OccupancyGrid, workers: int = 1, seed: int = 0,
+            objects: int = len(FAMILIES)) -> Layout:
+    """Spots for up to ``objects`` site objects (one per room, far rooms first), the dock, an unplanned drum and
+    ``workers`` on ``grid``'s storey."""
+    wanted = max(1, min(objects, len(FAMILIES)))
     rng = np.random.default_rng(seed)
     clearance = ndimage.distance_transform_edt(~grid.occupied) * grid.resolution
     spaces = _rooms(model, grid, ~grid.blocked)
@@ -79,14 +82,14 @@ def furnish(model: BimModel, grid: OccupancyGrid, workers: int = 1, seed: int = 
     free = reachable(grid, dock)
     rooms = [room for room in spaces if (room & free).any()]
     taken: list[np.ndarray] = [dock]
-    objects = []
+    placed = []
     for room in sorted(rooms, key=lambda mask: -_distance(grid, mask, dock)):
-        family = FAMILIES[len(objects) % len(FAMILIES)]
+        family = FAMILIES[len(placed) % len(FAMILIES)]
         spot = _spot(grid, clearance, room & free, _radius(family) + CLEARANCE, taken, rng)
         if spot is not None:
-            objects.append(SiteObject(family, float(spot[0]), float(spot[1]), float(rng.uniform(-60.0, 60.0))))
+            placed.append(SiteObject(family, float(spot[0]), float(spot[1]), float(rng.uniform(-60.0, 60.0))))
             taken.append(spot)
-        if len(objects) == len(FAMILIES):
+        if len(placed) == wanted:
             break
     unplanned = _spot(grid, clearance, free, _radius("Steel_Drum_55gal") + CLEARANCE, taken, rng,
                       apart=UNPLANNED_APART)
@@ -97,7 +100,7 @@ def furnish(model: BimModel, grid: OccupancyGrid, workers: int = 1, seed: int = 
         if spot is not None:
             spots[f"w{k + 1}"] = (float(spot[0]), float(spot[1]))
             taken.append(spot)
-    return Layout(grid.storey, grid.floor_z, tuple(objects), (float(dock[0]), float(dock[1])),
+    return Layout(grid.storey, grid.floor_z, tuple(placed), (float(dock[0]), float(dock[1])),
                   None if unplanned is None else (float(unplanned[0]), float(unplanned[1])), spots)
 
 
