@@ -200,3 +200,30 @@ def test_the_demo_ends_with_the_exact_command_that_shows_its_twin_and_that_comma
     assert shown.returncode == 0, shown.stderr
     rows = json.loads((out / "site_day.json").read_text())["observations"]
     assert all(row["global_id"] in shown.stdout for row in rows if row["global_id"])  # whole, never cut
+
+
+def test_report_html_is_the_complete_one_with_route_localization_and_safety_and_stations_from_1(demo_out):
+    import re
+
+    out = demo_out[0]
+    page = (out / "report.html").read_text()
+    for section in ("Robot route and replans", "Robot localization", "Safety events"):
+        assert f"<h2>{section}" in page, section
+    assert "hav.eav_reached" in page and "stations planned" in page and "Verdicts against the truth" in page
+    deviations = page[page.index("<h2>Deviations against the BIM"):page.index("<h3>Tolerance presets")]
+    header = re.findall(r"<th[^>]*>([^<]*)</th>", deviations)
+    column = header.index("station")
+    shown = []
+    for row in re.findall(r"<tr>(<td.*?)</tr>", deviations):
+        cells = re.findall(r"<td[^>]*>(.*?)</td>", row)
+        shown.append((re.sub("<[^>]+>", "", cells[2]), cells[column]))
+    observed = json.loads((out / "site_day.json").read_text())["observations"]
+    expected = {(o["global_id"], str(o["frames"][0] + 1)) for o in observed
+                if o["global_id"] and o["status"] != "missing"}  # frames[0]: the station it was registered from
+    assert expected and expected <= set(shown)  # station numbers count from 1, as on the maps
+
+
+def test_report_html_lets_text_columns_wrap_instead_of_cutting_the_last_one():
+    from bim2rdt.demo.html_report import STYLE
+
+    assert "max-width:1300px" not in STYLE and "td.l{white-space:normal" in STYLE
