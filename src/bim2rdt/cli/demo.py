@@ -53,7 +53,8 @@ def demo_command(
     yoloe = (yoloe_weights, yoloe_embeddings) if detector == "yoloe" else None
 
     stages = {"bim": "site model read", "site": "site objects placed", "station": "robot station",
-              "twin": "objects registered, twin updated", "hav": "vibration day monitored", "trial": "registration trial"}
+              "twin": "objects registered, twin updated", "hav": "vibration day monitored",
+              "trial": "registration trial"}
     totals = {"bim": 1, "site": 1, "hav": 1, "twin": 1} | ({"trial": len(SCENARIOS) * trials} if ifc is None else {})
     with StageProgress(console, stages, totals) as tick:
         if ifc is not None:

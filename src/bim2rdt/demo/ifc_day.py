@@ -96,7 +96,8 @@ def run_ifc_demo(ifc_path: Path, out_dir: Path, seed: int = 0, workers: int = 1,
                       detector=detector, yoloe=yoloe, objects=objects)
     report = write_site_report(day, out_dir)
     resolved = {"settings": settings_record(settings), "ifc": str(Path(ifc_path).resolve()),
-                "schema": day.model.schema, "objects": objects, "seed": seed, "workers": workers, "minutes": minutes, "detector": detector,
+                "schema": day.model.schema, "objects": objects, "seed": seed, "workers": workers, "minutes": minutes,
+                "detector": detector,
                 "yoloe": [str(p) for p in yoloe] if yoloe else None,
                 "mission": day.route.config.model_dump(), "versions": versions()}
     write_bytes_atomic(out_dir / "config.json", json.dumps(resolved, indent=2).encode("utf-8"))

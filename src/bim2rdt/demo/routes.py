@@ -49,7 +49,8 @@ class DayRoute:
         """What the report records: stations, metres walked, replans with their reasons, skipped stations, and
         every leg walked (world metres, the shift's clock)."""
         walked = [leg.path for leg in self.navigator.legs]
-        return {"stations": len(self.plan.stations), "visited": len(self.route.arrivals), "walked_m": round(sum(path_length(p) for p in walked), 2),
+        return {"stations": len(self.plan.stations), "visited": len(self.route.arrivals),
+                "walked_m": round(sum(path_length(p) for p in walked), 2),
                 "minutes": round((self.navigator.time - self.navigator.legs[0].start_time) / 60.0, 1)
                 if self.navigator.legs else 0.0,
                 "replans": [{"time": r.time, "x": r.xy[0], "y": r.xy[1], "reason": r.reason}
