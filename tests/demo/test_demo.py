@@ -217,9 +217,12 @@ def test_report_html_is_the_complete_one_with_route_localization_and_safety_and_
     for row in re.findall(r"<tr>(<td.*?)</tr>", deviations):
         cells = re.findall(r"<td[^>]*>(.*?)</td>", row)
         shown.append((re.sub("<[^>]+>", "", cells[2]), cells[column]))
-    observed = json.loads((out / "site_day.json").read_text())["observations"]
-    expected = {(o["global_id"], str(o["frames"][0] + 1)) for o in observed
-                if o["global_id"] and o["status"] != "missing"}  # frames[0]: the station it was registered from
+    from bim2rdt.twin import DigitalTwin
+
+    with DigitalTwin.open(f"sqlite:///{out / 'twin.db'}", load_ifc(out / "site.ifc", geometry=False)) as twin:
+        evidence = {gid: s.evidence.station for gid, s in twin.state().items()
+                    if s.evidence is not None and s.evidence.station is not None}
+    expected = {(gid, str(station + 1)) for gid, station in evidence.items()}  # the twin counts from 0
     assert expected and expected <= set(shown)  # station numbers count from 1, as on the maps
 
 
