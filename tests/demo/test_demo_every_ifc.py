@@ -5,16 +5,19 @@ code path: one site object (so one station), one worker, one minute of tool work
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
-from conftest import samples_dir
-
 pytestmark = pytest.mark.samples
 
-BUILDINGS = sorted(p.name for p in samples_dir().glob("*.ifc")) if samples_dir().is_dir() else []
+_SAMPLES = Path(os.environ.get("BIM2RDT_SAMPLES",
+                               Path(__file__).resolve().parents[2].parent / "shared" / "data" / "ifc"))
+BUILDINGS = sorted(p.name for p in _SAMPLES.glob("*.ifc")) if _SAMPLES.is_dir() else []
+"""Every sample building, listed when the tests are collected (the ``samples`` fixture skips when absent)."""
 
 
 @pytest.mark.parametrize("name", BUILDINGS)
