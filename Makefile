@@ -7,9 +7,13 @@ STAMP := $(VENV)/.installed
 .PHONY: demo test bench setup clean web
 
 $(STAMP): pyproject.toml
+	@echo "make: creating the virtual environment $(VENV) (once; again when pyproject.toml changes)"
 	$(PYTHON) -m venv $(VENV)
+	@echo "make: updating pip"
 	$(PY) -m pip install -q --upgrade pip
+	@echo "make: installing bim2rdt and its dependencies (ifcopenshell, open3d, ...: a few minutes the first time)"
 	$(PY) -m pip install -q -e ".[llm,bench,sensors,nats,dev]"
+	@echo "make: $(VENV) is ready"
 	touch $(STAMP)
 
 setup: $(STAMP)

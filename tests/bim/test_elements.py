@@ -33,5 +33,5 @@ def test_bulk_psets_and_cached_placements_match_ifcopenshell_per_element(samples
         storey = ifcopenshell.util.element.get_container(element, ifc_class="IfcBuildingStorey")
         if storey is None and (parent := ifcopenshell.util.element.get_aggregate(element)) is not None:
             storey = parent if parent.is_a("IfcBuildingStorey") else None  # spaces are aggregated, not contained
-        assert index.storey_of(element) == (storey.Name if storey is not None else None)
+        assert index.storey_of(element) == ((storey.Name or storey.GlobalId) if storey is not None else None)
         assert index.type_of(element) == ifcopenshell.util.element.get_type(element)

@@ -55,3 +55,17 @@ def test_a_real_revit_model_has_families_and_storeys_but_no_tagged_off_limits_zo
     assert checks["elements without family"].status == PASS
     assert checks["elements without storey"].status == PASS
     assert checks["off-limits zones tagged"].status == WARN
+
+
+def test_elements_of_an_unnamed_storey_count_as_contained_and_the_storey_goes_by_its_globalid(site_ifc, tmp_path):
+    """IfcOpenHouse's storey has no Name and no Elevation; its elements are contained in it all the same."""
+    ifc = ifcopenshell.open(str(site_ifc))
+    storey = ifc.by_type("IfcBuildingStorey")[0]
+    storey.Name, storey.Elevation = None, None
+    ifc.write(str(tmp_path / "unnamed.ifc"))
+    model = load_ifc(tmp_path / "unnamed.ifc", cache_dir=tmp_path)
+    checks = _by_name(check_readiness(model, KnowledgeBasePriors()))
+    assert checks["elements without storey"].count == 0
+    assert checks["storeys without elevation"].examples == (storey.GlobalId,)
+    assert model.storeys[0].name == storey.GlobalId
+    assert {el.storey for el in model.elements} == {storey.GlobalId}

@@ -186,3 +186,47 @@ def test_the_day_is_recorded_in_the_twin_and_exported_as_ifc_bcf_json_and_html(d
     assert page.count("data:image/png;base64,") >= 6 and 'src="http' not in page
     for name in ("site_twin.ifc", "site_issues.bcf", "twin.json"):
         assert f'href="{name}"' in page
+
+
+def test_the_demo_ends_with_the_exact_command_that_shows_its_twin_and_that_command_works(demo_out):
+    import shlex
+
+    out, stdout = demo_out
+    (line,) = [line for line in stdout.splitlines() if line.startswith("see the twin: ")]
+    command = shlex.split(line.removeprefix("see the twin: "))
+    assert command[:3] == ["bim2rdt", "twin", "state"]
+    shown = subprocess.run([sys.executable, "-m", "bim2rdt", *command[1:]], capture_output=True, text=True,
+                           timeout=300)
+    assert shown.returncode == 0, shown.stderr
+    rows = json.loads((out / "site_day.json").read_text())["observations"]
+    assert all(row["global_id"] in shown.stdout for row in rows if row["global_id"])  # whole, never cut
+
+
+def test_report_html_is_the_complete_one_with_route_localization_and_safety_and_stations_from_1(demo_out):
+    import re
+
+    out = demo_out[0]
+    page = (out / "report.html").read_text()
+    for section in ("Robot route and replans", "Robot localization", "Safety events"):
+        assert f"<h2>{section}" in page, section
+    assert "hav.eav_reached" in page and "stations planned" in page and "Verdicts against the truth" in page
+    deviations = page[page.index("<h2>Deviations against the BIM"):page.index("<h3>Tolerance presets")]
+    header = re.findall(r"<th[^>]*>([^<]*)</th>", deviations)
+    column = header.index("station")
+    shown = []
+    for row in re.findall(r"<tr>(<td.*?)</tr>", deviations):
+        cells = re.findall(r"<td[^>]*>(.*?)</td>", row)
+        shown.append((re.sub("<[^>]+>", "", cells[2]), cells[column]))
+    from bim2rdt.twin import DigitalTwin
+
+    with DigitalTwin.open(f"sqlite:///{out / 'twin.db'}", load_ifc(out / "site.ifc", geometry=False)) as twin:
+        evidence = {gid: s.evidence.station for gid, s in twin.state().items()
+                    if s.evidence is not None and s.evidence.station is not None}
+    expected = {(gid, str(station + 1)) for gid, station in evidence.items()}  # the twin counts from 0
+    assert expected and expected <= set(shown)  # station numbers count from 1, as on the maps
+
+
+def test_report_html_lets_text_columns_wrap_instead_of_cutting_the_last_one():
+    from bim2rdt.demo.html_report import STYLE
+
+    assert "max-width:1300px" not in STYLE and "td.l{white-space:normal" in STYLE

@@ -142,6 +142,21 @@ def test_a_frame_without_depth_is_refused(site_model, bare):
         localize(blind, site_model, CORNER_VIEW)
 
 
+@pytest.mark.parametrize("holes", ["rows", "columns"])
+def test_a_frame_whose_inliers_have_no_normal_is_refused_saying_why(site_model, bare, holes):
+    """Every third depth row (or column) lost, as a sensor's interlaced dropouts do: points remain, but none has
+    the neighbours a surface normal needs, so nothing says what the view constrains."""
+    seen = frame(bare, CORNER_VIEW)
+    depth = seen.depth.copy()
+    if holes == "rows":
+        depth[::3] = np.nan
+    else:
+        depth[:, ::3] = np.nan
+    holed = type(seen)(seen.rgb, depth, seen.intrinsics, seen.T_world_camera)
+    with pytest.raises(LocalizationError, match=r"none of its \d+ inliers has a surface normal"):
+        localize(holed, site_model, CORNER_VIEW)
+
+
 def test_a_building_set_out_a_centimetre_off_its_bim_still_gives_a_centimetre_fix(site_model):
     from bim2rdt.sim.tour import tour_scene
 

@@ -41,3 +41,19 @@ def test_shi_tomasi_finds_the_four_corners_of_a_square_inside_the_roi_only():
 def test_look_at_refuses_a_view_whose_image_axes_are_undefined(eye, target, message):
     with pytest.raises(CameraError, match=message):
         look_at(eye, target)
+
+
+@pytest.mark.parametrize(("field", "value", "reason"), [
+    ("fx", 0.0, "fx must be positive"), ("fy", -525.0, "fy must be positive"),
+    ("fx", float("nan"), "fx must be a finite number"), ("fy", float("inf"), "fy must be a finite number"),
+    ("cx", float("nan"), "cx must be a finite number"), ("cy", "239.5", "cy must be a finite number"),
+    ("width", 0, "width must be a positive whole number"), ("height", 480.5, "height must be a positive whole"),
+])
+def test_intrinsics_no_camera_has_are_refused_where_they_are_made(field, value, reason):
+    with pytest.raises(CameraError, match=f"intrinsics: {reason}"):
+        Intrinsics(**{field: value})
+
+
+def test_intrinsics_a_camera_has_are_taken_as_given():
+    camera = Intrinsics(width=np.int64(160), height=120, fx=np.float32(130.0), fy=130, cx=79.5, cy=59.5)
+    assert camera.fx == 130.0 and camera.width == 160

@@ -60,3 +60,20 @@ def test_the_copy_holds_the_objects_on_the_storey_and_is_the_same_bytes_each_tim
         item = next(o for o in layout.objects if np.allclose(el.position[:2], (o.x, o.y), atol=1e-6))
         assert el.storey == "Erdgeschoss" and el.family == item.family and copy.has_mesh(el.global_id)
         assert el.psets["BIM2RDT_SiteObject"]["Movable"] is True
+
+
+def test_objects_placed_in_a_millimetre_model_keep_their_size_in_metres(samples, tmp_path):
+    """TestModel_IFC4Add2 is in millimetres: a 55-gallon drum stays 0.6 m wide and 0.9 m tall (not 609 m)."""
+    from bim2rdt.sim.meshes import mesh_for_family
+
+    model = load_ifc(samples / "TestModel_IFC4Add2.ifc", cache_dir=tmp_path / "cache")
+    assert model.unit_scale == pytest.approx(0.001)
+    layout = furnish(model, OccupancyGrid.from_bim(model).with_zones(model.zones), workers=1, seed=0)
+    copy = load_ifc(write_furnished(model, layout, tmp_path / "site.ifc"), cache_dir=tmp_path / "cache")
+    proxies = [el for el in copy.elements if el.ifc_class == "IfcBuildingElementProxy"]
+    assert proxies
+    for el in proxies:
+        size = np.ptp(copy.mesh(el.global_id)[0], axis=0)
+        designed = mesh_for_family(el.family).extents
+        assert np.sort(size[:2]) == pytest.approx(np.sort(designed[:2]), abs=0.01) and size[2] == \
+            pytest.approx(designed[2], abs=0.01)

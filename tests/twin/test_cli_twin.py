@@ -73,3 +73,18 @@ def test_a_missing_twin_is_a_one_line_error_and_is_not_created(site_ifc, tmp_pat
 def test_a_time_that_is_no_time_is_a_usage_error(recorded, site_ifc):
     result = _cli("state", site_ifc, "--url", recorded[0], "--at", "yesterday")
     assert result.returncode == 2 and "neither ISO 8601 nor Unix seconds" in result.stderr
+
+
+def test_a_plain_path_is_taken_as_the_sqlite_file_and_globalids_are_shown_whole(recorded, site_ifc, tmp_path):
+    _, cone = recorded
+    result = _cli("state", site_ifc, "--url", tmp_path / "twin.db")
+    assert result.returncode == 0, result.stderr
+    assert cone.global_id in result.stdout and f"{cone.global_id[:-1]}…" not in result.stdout
+
+
+def test_twin_url_keeps_urls_and_makes_a_plain_path_sqlite(tmp_path):
+    from bim2rdt.cli.twin import twin_url
+
+    assert twin_url("postgresql+psycopg://u:p@h/db") == "postgresql+psycopg://u:p@h/db"
+    assert twin_url("sqlite:///x/twin.db") == "sqlite:///x/twin.db"
+    assert twin_url(str(tmp_path / "twin.db")) == f"sqlite:///{tmp_path / 'twin.db'}"

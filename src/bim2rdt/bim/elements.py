@@ -12,7 +12,7 @@ import numpy as np
 from bim2rdt.bim.family import resolve_family
 from bim2rdt.bim.psets import read_all_psets
 from bim2rdt.bim.records import BimElement, BimStorey, BimZone, Psets
-from bim2rdt.bim.spatial import PlacementResolver, SpatialIndex
+from bim2rdt.bim.spatial import PlacementResolver, SpatialIndex, storey_name
 
 ZONE_PSET = "BIM2RDT_Zone"
 """The property set that tags a space or zone: ``OffLimits`` (bool) and ``ZoneKind`` (label)."""
@@ -35,7 +35,7 @@ def read_elements(ifc: ifcopenshell.file, unit_scale: float, psets: dict[int, Ps
 
 def read_storeys(ifc: ifcopenshell.file, unit_scale: float) -> list[BimStorey]:
     """Storeys sorted by elevation (metres); storeys without an Elevation sort last."""
-    storeys = [BimStorey(s.GlobalId, s.Name, s.Elevation * unit_scale if s.Elevation is not None else None)
+    storeys = [BimStorey(s.GlobalId, storey_name(s), s.Elevation * unit_scale if s.Elevation is not None else None)
                for s in ifc.by_type("IfcBuildingStorey")]
     return sorted(storeys, key=lambda s: (s.elevation is None, s.elevation or 0.0))
 

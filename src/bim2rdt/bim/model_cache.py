@@ -23,7 +23,8 @@ from bim2rdt.bim.records import BimElement, BimProcess, BimStorey, BimWarning, B
 from bim2rdt.bim.site_frame import SiteFrame
 from bim2rdt.bim.tessellation import MeshSet
 
-CACHE_FORMAT = 3
+CACHE_FORMAT = 4
+"""4: an unnamed storey is named by its GlobalId (was None)."""
 
 
 def cache_file(cache_dir: Path, digest: str) -> Path:

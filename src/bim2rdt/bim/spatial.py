@@ -65,13 +65,20 @@ class SpatialIndex:
             if parent is None:
                 return None
             if parent.is_a("IfcBuildingStorey"):
-                return parent.Name
+                return storey_name(parent)
             current = parent
         return None
 
     def type_of(self, product: ifcopenshell.entity_instance) -> ifcopenshell.entity_instance | None:
         """The product's type object (IfcRelDefinesByType), if any."""
         return self._type.get(product.id())
+
+
+def storey_name(storey: ifcopenshell.entity_instance) -> str:
+    """How a storey is named everywhere (elements' ``storey``, ``BimStorey.name``, maps, errors): its Name, or its
+    GlobalId when the file leaves it unnamed (IfcOpenHouse's storey has no Name: its elements are contained all
+    the same)."""
+    return storey.Name or storey.GlobalId
 
 
 def placement_matrix(product: ifcopenshell.entity_instance, unit_scale: float) -> np.ndarray:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 import sys
 import tempfile
 import threading
@@ -50,11 +51,20 @@ def print_json(payload: Any) -> None:
 def print_table(title: str, columns: Sequence[str], rows: Sequence[Sequence[Any]]) -> None:
     """A rich table; floats are shown with 4 significant digits."""
     table = Table(title=title)
-    for column in columns:
-        table.add_column(column)
-    for row in rows:
-        table.add_row(*[_cell(value) for value in row])
+    cells = [[_cell(value) for value in row] for row in rows]
+    for index, column in enumerate(columns):
+        ids = [row[index] for row in cells if index < len(row) and IFC_GUID.fullmatch(row[index])]
+        if ids:  # an identifier is copied into the next command: never cut, never wrapped
+            table.add_column(column, no_wrap=True, min_width=max(map(len, ids)), overflow="fold")
+        else:
+            table.add_column(column)
+    for row in cells:
+        table.add_row(*row)
     console.print(table)
+
+
+IFC_GUID = re.compile(r"[0-9A-Za-z_$]{22}")
+"""An IFC GlobalId: 22 characters of IFC's base-64 alphabet."""
 
 
 def _cell(value: Any) -> str:
@@ -103,3 +113,44 @@ def stop_requested() -> Iterator[threading.Event]:
     finally:
         for number, handler in previous.items():
             signal.signal(number, handler)
+
+
+INCOMPLETE_MARKER = "INCOMPLETE.txt"
+"""Left in a run's output folder when the run failed or was interrupted: what is there is partial."""
+
+_run_folders: list[tuple[Path, bool]] = []
+"""The output folders of this process's command, each with whether the command created it."""
+
+
+def run_folder(path: Path) -> Path:
+    """Callback of ``--out`` options whose folder holds a run's product (``demo``, benchmarks, exports): checked as
+    :func:`writable_folder`, and remembered, so a run that fails or is interrupted leaves no empty folder it made
+    behind and marks a folder with partial output (:func:`close_run_folders`). A marker from an earlier run goes:
+    this run writes its own verdict."""
+    created = not path.exists()
+    writable_folder(path)
+    (path / INCOMPLETE_MARKER).unlink(missing_ok=True)
+    _run_folders.append((path, created))
+    return path
+
+
+def close_run_folders(reason: str) -> list[Path]:
+    """After a failed or interrupted run: remove the empty folders it created, mark the others incomplete with
+    ``reason``; returns the folders that hold partial output."""
+    import datetime
+
+    partial = []
+    for path, created in _run_folders:
+        try:
+            if created and path.is_dir() and not any(path.iterdir()):
+                path.rmdir()
+                continue
+            if path.is_dir():
+                stamp = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
+                (path / INCOMPLETE_MARKER).write_text(f"incomplete: the run {reason} at {stamp}; the files here "
+                                                      "are partial\n", encoding="utf-8")
+                partial.append(path)
+        except OSError:  # a folder we cannot tidy (a full disk, a removed mount): say nothing more than the error
+            partial.append(path)
+    _run_folders.clear()
+    return partial

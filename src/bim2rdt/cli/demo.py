@@ -6,7 +6,7 @@ from pathlib import Path
 
 import typer
 
-from bim2rdt.cli.common import console, out_path, print_table, writable_folder
+from bim2rdt.cli.common import console, out_path, print_table, run_folder
 
 
 def register(app: typer.Typer, bench_app: typer.Typer) -> None:
@@ -14,7 +14,7 @@ def register(app: typer.Typer, bench_app: typer.Typer) -> None:
 
 
 def demo_command(
-    out: Path = typer.Option(Path("out/demo"), "--out", parser=out_path, callback=writable_folder,
+    out: Path = typer.Option(Path("out/demo"), "--out", parser=out_path, callback=run_folder,
                               help="Output folder (twin IFC, report, plots, JSON)."),
     trials: int = typer.Option(6, "--trials", min=1, help="Seeded trials per registration scenario."),
     workers: int = typer.Option(2, "--workers", min=1, help="Workers with vibration wearables."),
@@ -30,16 +30,20 @@ def demo_command(
     ifc: Path | None = typer.Option(None, "--ifc", exists=True, dir_okay=False,
                                     help="Run the loop on this building instead (IFC4; IFC2X3 runs without IFC "
                                          "write-back): site objects are placed on its ground floor."),
+    objects: int = typer.Option(7, "--objects", min=1, max=7,
+                                help="With --ifc: site objects placed, one per room (fewer: fewer stations, a "
+                                     "quicker look at the same loop)."),
 ) -> None:
     """Run a simulated day on the embedded site: the robot verifies the BIM's site objects with SG-ICP, the twin
     is updated and hand-arm vibration exposure becomes IfcEvent/IfcTask records; then the paper's registration
     scenarios. Writes site.ifc, site_twin.ifc, report.md, plots and JSON into --out."""
-    from rich.progress import Progress
-
+    from bim2rdt.cli.progress import StageProgress
     from bim2rdt.cli.registration import show_run
+    from bim2rdt.cli.twin import follow_up_command
     from bim2rdt.demo.run import run_demo
     from bim2rdt.perception.detectors import DEFAULT_DETECTOR, check_detector
     from bim2rdt.perception.errors import PerceptionError
+    from bim2rdt.sim.scenarios import SCENARIOS
 
     detector = detector or DEFAULT_DETECTOR
     yoloe = (yoloe_weights, yoloe_embeddings) if detector == "yoloe" else None
@@ -49,18 +53,15 @@ def demo_command(
         raise typer.BadParameter(str(error)) from None
 
     stages = {"bim": "site model read", "site": "site objects placed", "station": "robot station",
-              "twin": "twin updated", "hav": "vibration day monitored", "trial": "registration trial"}
-    with Progress(console=console, transient=True) as bar:
-        task = bar.add_task("site day", total=None)
-
-        def tick(stage: str) -> None:
-            bar.update(task, advance=1, description=stages.get(stage, stage))
-
+              "twin": "objects registered, twin updated", "hav": "vibration day monitored",
+              "trial": "registration trial"}
+    totals = {"bim": 1, "site": 1, "hav": 1, "twin": 1} | ({"trial": len(SCENARIOS) * trials} if ifc is None else {})
+    with StageProgress(console, stages, totals) as tick:
         if ifc is not None:
             from bim2rdt.demo.ifc_day import run_ifc_demo
 
             result = run_ifc_demo(ifc, out, seed=seed, workers=workers, minutes=minutes, tick=tick, detector=detector,
-                                  yoloe=yoloe)
+                                  yoloe=yoloe, objects=objects)
         else:
             result = run_demo(out, trials=trials, seed=seed, workers=workers, minutes=minutes, tick=tick,
                               detector=detector, yoloe=yoloe)
@@ -69,9 +70,24 @@ def demo_command(
         show_run(result.registration, targets=False)
         console.print(f"(registration: {trials} trials per scenario, a quick look; the paper's targets are judged "
                       "on 50 trials by `bim2rdt bench registration`)")
+    _fail_without_a_station(result.site_day, out)
     twin = result.site_day.twin_path or f"not written back ({result.site_day.model.schema}: IFC write-back needs IFC4)"
     console.print(f"twin: {twin} (history {out / 'twin.db'}, issues {out / 'site_issues.bcf'}); report: "
                   f"{result.report['html']} and {result.report['report']}; plots and JSON in {out}")
+    console.print(f"see the twin: {follow_up_command(result.site_day.model.path, out / 'twin.db')}", markup=False,
+                  highlight=False, soft_wrap=True)
+
+
+def _fail_without_a_station(day, out: Path) -> None:
+    """A day on which the robot visited no station verified nothing: an error (exit 1) that says why, not an
+    empty table and exit 0."""
+    from bim2rdt.demo.routes import why_no_station
+    from bim2rdt.planning import PlanningError
+
+    why = why_no_station(day.route) if day.route is not None else None
+    if why is not None:
+        raise PlanningError(f"the robot visited no station, so nothing was verified: {why} (report: "
+                            f"{out / 'report.md'})")
 
 
 def _show_site_day(result) -> None:

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import typer
 
-from bim2rdt.cli.common import console, print_json, print_table, writable_folder
+from bim2rdt.cli.common import console, print_json, print_table, run_folder
 
 
 def register(app: typer.Typer, bench_app: typer.Typer) -> None:
@@ -24,7 +24,7 @@ def bench_localization(
     seed: int = typer.Option(0, "--seed", min=0, help="Seed of the odometry drift, moved site objects and noise."),
     tolerance: float = typer.Option(0.01, "--tolerance", min=0.0, help="How far the built walls, columns and slab "
                                     "stand off the BIM (1 sigma per axis, m); 0 = built exactly as modelled."),
-    out: Path = typer.Option(Path("out/bench/localization"), "--out", callback=writable_folder,
+    out: Path = typer.Option(Path("out/bench/localization"), "--out", callback=run_folder,
                              help="Folder for the plot, results.json and the site it ran on."),
     peers: bool | None = typer.Option(None, "--peers/--no-peers",
                                       help="Run Open3D too (default: when open3d is importable)."),

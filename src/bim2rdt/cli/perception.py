@@ -11,7 +11,7 @@ from pathlib import Path
 
 import typer
 
-from bim2rdt.cli.common import console, print_json, print_table, writable_folder
+from bim2rdt.cli.common import console, print_json, print_table, run_folder
 
 
 def register(app: typer.Typer, bench_app: typer.Typer) -> None:
@@ -33,7 +33,7 @@ def bench_perception(
                                         help="The real sensor data folder (pcl/office1.*): scores the real office "
                                              "frame too (default: $BIM2RDT_SENSORS; skipped when absent)."),
     one_core: bool = typer.Option(True, "--one-core/--all-cores", help="Pin the process to one CPU."),
-    out: Path = typer.Option(Path("out/bench/perception"), "--out", callback=writable_folder,
+    out: Path = typer.Option(Path("out/bench/perception"), "--out", callback=run_folder,
                               help="Folder for results.json."),
     as_json: bool = typer.Option(False, "--json", help="Print JSON instead of tables."),
 ) -> None:

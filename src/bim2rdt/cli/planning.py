@@ -7,7 +7,7 @@ from pathlib import Path
 import typer
 from rich.console import Console
 
-from bim2rdt.cli.common import console, out_path, print_json, print_table, sample_file, writable_folder
+from bim2rdt.cli.common import console, out_path, print_json, print_table, sample_file, run_folder
 
 BENCH_FILE = "Office_A_20110811.ifc"
 _status = Console(stderr=True)
@@ -37,7 +37,7 @@ def plan_command(
     robot_radius: float = typer.Option(0.35, "--robot-radius", help="The robot's radius, metres."),
     doors: str = typer.Option("open", "--doors", help="'open', 'closed', or closed doors' names/GlobalIds, comma-separated."),
     off_limits: bool = typer.Option(True, "--off-limits/--no-off-limits", help="Keep out of zones tagged off-limits."),
-    out: Path | None = typer.Option(None, "--out", parser=out_path, callback=lambda p: p and writable_folder(p),
+    out: Path | None = typer.Option(None, "--out", parser=out_path, callback=lambda p: p and run_folder(p),
                                     help="Write the Nav2 map (map.pgm/.yaml, keep-out mask) and plan.png here."),
     as_json: bool = typer.Option(False, "--json", help="Print JSON instead of text."),
 ) -> None:

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import typer
 
-from bim2rdt.cli.common import console, out_path, print_json, print_table, writable_folder
+from bim2rdt.cli.common import console, out_path, print_json, print_table, run_folder
 
 PEER_COLUMNS = ("SG-ICP upright only", "Open3D pt-pt", "Open3D pt-plane", "small_gicp plane 1T",
                 "small_gicp GICP 1T", "small_gicp plane allT", "small_gicp GICP allT")
@@ -21,7 +21,7 @@ def register(app: typer.Typer, bench_app: typer.Typer) -> None:
 def bench_registration(
     trials: int = typer.Option(50, "--trials", min=1, help="Seeded trials per scenario (3 objects each)."),
     seed: int = typer.Option(0, "--seed", min=0, help="Seed of scenes, noise, corners and initial poses."),
-    out: Path = typer.Option(Path("out/bench/registration"), "--out", parser=out_path, callback=writable_folder,
+    out: Path = typer.Option(Path("out/bench/registration"), "--out", parser=out_path, callback=run_folder,
                               help="Folder for plots and results.json."),
     peers: bool | None = typer.Option(None, "--peers/--no-peers",
                                       help="Run Open3D too (default: when open3d is importable)."),

@@ -7,13 +7,13 @@ from pathlib import Path
 
 import typer
 
-from bim2rdt.cli.common import console, out_path, print_json, print_table, writable_folder
+from bim2rdt.cli.common import console, out_path, print_json, print_table, run_folder
 
 twin_app = typer.Typer(help="The site's digital twin: its state (now or at a past time), an element's history, "
                        "and exports to IFC, BCF and JSON.", no_args_is_help=True)
 
-URL_HELP = ("Twin history URL: sqlite:///path/twin.db or postgresql+psycopg://user:password@host/db "
-            "(default: BIM2RDT_TWIN__URL, else BIM2RDT_DATA_DIR/twin.db).")
+URL_HELP = ("Twin history: a SQLite file (out/demo/twin.db), or a URL: sqlite:///path/twin.db or "
+            "postgresql+psycopg://user:password@host/db (default: BIM2RDT_TWIN__URL, else BIM2RDT_DATA_DIR/twin.db).")
 
 
 def register(app: typer.Typer, bench_app: typer.Typer) -> None:
@@ -62,7 +62,7 @@ def history_command(
 def export_command(
     ifc_file: Path = typer.Argument(..., help="The BIM the twin is kept over."),
     url: str | None = typer.Option(None, "--url", help=URL_HELP),
-    out: Path = typer.Option(Path("out/twin"), "--out", parser=out_path, callback=writable_folder,
+    out: Path = typer.Option(Path("out/twin"), "--out", parser=out_path, callback=run_folder,
                              help="Folder for twin.ifc, issues.bcf and twin.json."),
 ) -> None:
     """Write the twin as IFC (IFC4/IFC4X3 models), BCF issues (one topic per deviating, missing or new element)
@@ -85,9 +85,21 @@ def _open(ifc_file: Path, url: str | None):
 
     settings = get_settings()
     model = load_ifc(ifc_file, cache_dir=ifc_cache_dir(settings))
-    return DigitalTwin.open(url or settings.twin.resolved_url(settings.data_dir), model,
+    return DigitalTwin.open(twin_url(url) if url else settings.twin.resolved_url(settings.data_dir), model,
                             tolerances=settings.twin.tolerance_policy(), min_fitness=settings.twin.min_fitness,
                             create=False)
+
+
+def twin_url(given: str) -> str:
+    """``--url`` as the store takes it: a URL as given, a plain path (no ``scheme://``) as a SQLite file."""
+    return given if "://" in given else f"sqlite:///{Path(given).resolve()}"
+
+
+def follow_up_command(ifc_file: Path, history: Path) -> str:
+    """The command that shows the twin a run wrote, ready to paste."""
+    import shlex
+
+    return f"bim2rdt twin state {shlex.quote(str(ifc_file))} --url {shlex.quote(str(history))}"
 
 
 def _time(text: str) -> float:

@@ -4,6 +4,7 @@ worker's A(8), and links to the files written beside it."""
 
 from __future__ import annotations
 
+import html
 from pathlib import Path
 
 from bim2rdt.demo.html_report import HtmlReport, WorkerExposure, write_html_report
@@ -35,8 +36,62 @@ def write_day_html(day, registration, out_dir: Path) -> Path:
     report = HtmlReport("bim2rdt site day", summary=summary, plan_png=_read(plan), states=states,
                         tolerances=day.twin.tolerances, registration=registration,
                         exposure_png=_read(out_dir / "exposure.png"), workers=worker_exposures(day.exposure_timeline),
-                        links=present_links(out_dir))
+                        links=present_links(out_dir), sections=day_sections(day))
     return write_html_report(report, out_dir / "report.html")
+
+
+def day_sections(day) -> list[tuple[str, str]]:
+    """What report.md and the terminal tell beyond the deviations: the robot's route and replans, its
+    localization, and the HAV monitor's safety events. Stations count from 1, as on the maps."""
+    sections = []
+    if day.route is not None:
+        sections.append(("Robot route and replans", route_html(day.route)))
+    if getattr(day, "localization", None) is not None:
+        sections.append(("Robot localization", localization_html(day)))
+    sections.append(("Safety events (HAV monitor, written to the twin)", safety_html(day.hav_events)))
+    return sections
+
+
+def route_html(day_route) -> str:
+    from bim2rdt.demo.html_report import plain_table
+    from bim2rdt.demo.routes import route_rows
+
+    summary = day_route.summary()
+    lines = [f"{summary['stations']} stations planned, {summary.get('visited', summary['stations'])} visited, "
+             f"{summary['walked_m']} m walked on planned paths in {summary['minutes']} min."]
+    missed = [*summary["unplaced"].values(), *summary["skipped"].values()]
+    if missed:
+        lines.append("Not visited: " + "; ".join(missed) + ".")
+    text = "".join(f"<p>{html.escape(line)}</p>" for line in lines)
+    rows = route_rows(day_route)
+    return text + (plain_table(("time (UTC)", "at (x, y) m", "why"), rows, left_last=True) if rows
+                   else '<p class="note">No replan.</p>')
+
+
+def localization_html(day) -> str:
+    from bim2rdt.demo.html_report import plain_table
+    from bim2rdt.demo.localization_report import localization_record, localization_tables
+
+    record = localization_record(day.localization, day.mission, day.reality.truth)
+    parts = []
+    for title, columns, rows in localization_tables(record):
+        if columns and columns[0] == "station":
+            rows = [(row[0] + 1, *row[1:]) for row in rows]  # 1 first, as on the maps
+        parts.append(f"<h3>{html.escape(title)}</h3>" + plain_table(columns, rows))
+    return "".join(parts)
+
+
+def safety_html(events) -> str:
+    from datetime import datetime, timezone
+
+    from bim2rdt.demo.html_report import plain_table
+
+    shown = sorted((e for e in events if not e.kind.endswith("predicted")), key=lambda e: e.time)
+    if not shown:
+        return '<p class="note">No safety event.</p>'
+    rows = [(datetime.fromtimestamp(e.time, timezone.utc).strftime("%H:%M:%S"), e.kind, e.subject,
+             f"{e.data.get('day_a8', float('nan')):.2f}") for e in shown]
+    return plain_table(("time (UTC)", "event", "worker", "A(8) m/s²"), rows, left=3)
 
 
 def worker_exposures(timeline) -> list[WorkerExposure]:

@@ -20,10 +20,10 @@ from bim2rdt.atomic import write_bytes_atomic
 from bim2rdt.safety import EAV, ELV
 from bim2rdt.twin import STATUS_COLOURS, ElementState, ElementStatus, TolerancePolicy
 
-STYLE = """body{font-family:system-ui,sans-serif;margin:2em auto;max-width:1300px;padding:0 1em;color:#222}
+STYLE = """body{font-family:system-ui,sans-serif;margin:2em auto;max-width:min(1800px,96vw);padding:0 1em;color:#222}
 .scroll{overflow-x:auto}table{border-collapse:collapse;margin:.5em 0 1.5em;font-size:.85em}
 th,td{border:1px solid #ccc;padding:.2em .5em;text-align:right;white-space:nowrap}th{background:#f3f3f3}
-td.l,th.l{text-align:left}img{max-width:100%;border:1px solid #ddd}
+td.l,th.l{text-align:left}td.l{white-space:normal;min-width:8em}img{max-width:100%;border:1px solid #ddd}
 .badge{display:inline-block;padding:0 .5em;border-radius:.6em;color:#fff;font-size:.85em}.note{color:#666}
 .fail{color:#b00}.ok{color:#070}"""
 
@@ -52,6 +52,8 @@ class HtmlReport:
     workers: Sequence[WorkerExposure] = ()
     links: Mapping[str, str] = field(default_factory=dict)
     notes: Sequence[str] = ()
+    sections: Sequence[tuple[str, str]] = ()
+    """More sections (title, HTML), after the deviations: the robot's route, its localization, safety events."""
 
 
 def write_html_report(report: HtmlReport, path: Path) -> Path:
@@ -59,6 +61,7 @@ def write_html_report(report: HtmlReport, path: Path) -> Path:
     body = [f"<h1>{_e(report.title)}</h1>", *(f"<p>{_e(line)}</p>" for line in report.summary),
             _links(report.links), _section("Plan map", _image(report.plan_png, "plan map")),
             _section("Deviations against the BIM", deviation_table(report.states) + preset_table(report.tolerances)),
+            *(_section(title, content) for title, content in report.sections),
             _section("Registration: ICP vs SG-ICP", registration_table(report.registration)),
             _section("Hand-arm vibration: A(8) per worker", exposure_table(report.workers)
                      + _image(report.exposure_png, "A(8) through the day")),
@@ -88,7 +91,7 @@ def _deviation_row(state: ElementState) -> list[str]:
             _num(d and 100 * d.translation, 1), _num(d and d.tilt_deg, 1), _num(d and d.yaw_deg, 1),
             _e(f"{t.name} ({100 * t.translation:g} cm / {t.rotation_deg:g}°)") if t else "-",
             _num(f and f.fitness, 2), _num(100 * f.rmse if f and f.rmse is not None else None, 2), _e(state.robot or "-"),
-            _e("-" if e is None or e.station is None else str(e.station)),
+            _e("-" if e is None or e.station is None else str(e.station + 1)),  # 1 first, as on the maps
             _e(datetime.fromtimestamp(e.time, timezone.utc).strftime("%H:%M:%S") if e else "-")]
 
 
@@ -134,6 +137,12 @@ def exposure_table(workers: Sequence[WorkerExposure]) -> str:
         rows.append([f"<code>{_e(w.worker)}</code>", f"{w.a8:.2f}", f"{w.points:.0f}", f"{100 * w.a8 / EAV:.0f} %",
                      f'<span class="{css}">{verdict}</span>'])
     return _table(("worker", "A(8) m/s²", "HSE points", "of EAV", f"EAV {EAV:g} / ELV {ELV:g} m/s²"), rows, left=1)
+
+
+def plain_table(header: Sequence[str], rows: Sequence[Sequence[object]], left: int = 1,
+                left_last: bool = False) -> str:
+    """A table of plain values (escaped here), for sections other modules fill."""
+    return _table(header, [[_e(v) for v in row] for row in rows], left=left, left_last=left_last)
 
 
 def _section(title: str, content: str) -> str:

@@ -27,7 +27,7 @@ from bim2rdt.mission import MissionConfig, MissionContext, building_surfaces, ru
 from bim2rdt.planning import OccupancyGrid, PlanningError
 from bim2rdt.registration import IcpConfig
 from bim2rdt.semantics import KnowledgeBasePriors
-from bim2rdt.sim.furnish import furnish, write_furnished
+from bim2rdt.sim.furnish import FAMILIES, furnish, write_furnished
 from bim2rdt.sim.meshes import mesh_for_family
 from bim2rdt.sim.reality import simulate_reality
 from bim2rdt.twin import TwinConfig
@@ -40,15 +40,17 @@ whole pallet at that distance)."""
 def run_ifc_day(ifc_path: Path, out_dir: Path, seed: int = 0, workers: int = 1, minutes: float = 10.0,
                 fs: float = 5000.0, mission_config: MissionConfig = MissionConfig(), icp: IcpConfig = IcpConfig(),
                 twin_config: TwinConfig = TwinConfig(), tick: Callable[[str], None] = lambda stage: None,
-                detector: str = "geometric", yoloe: tuple[Path, Path] | None = None) -> SiteDay:
+                detector: str = "geometric", yoloe: tuple[Path, Path] | None = None,
+                objects: int = len(FAMILIES)) -> SiteDay:
     """Run the day on ``ifc_path`` into ``out_dir``: ``site.ifc`` (the building with its planned site objects),
     the day's twin and its exports (``site_twin.ifc`` only for IFC4), and the monitor's state under ``state/``.
+    Up to ``objects`` site objects are placed (fewer: fewer stations, a quicker look at the same loop).
     The mission's standoff is capped at ``IFC_DAY_STANDOFF``. The robot's camera sees the building and reads
     its frames with ``detector``, as on the embedded day (:mod:`bim2rdt.demo.perceivers`)."""
     out_dir.mkdir(parents=True, exist_ok=True)
     source = load_ifc(ifc_path, cache_dir=_model_cache())
     tick("bim")
-    layout = furnish(source, OccupancyGrid.from_bim(source).with_zones(source.zones), workers, seed)
+    layout = furnish(source, OccupancyGrid.from_bim(source).with_zones(source.zones), workers, seed, objects)
     if not layout.objects:
         raise PlanningError(f"{source.path.name}: no free floor reachable from the dock on storey "
                             f"{layout.storey!r} to place site objects on")
@@ -77,7 +79,7 @@ def run_ifc_day(ifc_path: Path, out_dir: Path, seed: int = 0, workers: int = 1, 
 
 def run_ifc_demo(ifc_path: Path, out_dir: Path, seed: int = 0, workers: int = 1, minutes: float = 10.0,
                  tick: Callable[[str], None] = lambda stage: None, detector: str = "geometric",
-                 yoloe: tuple[Path, Path] | None = None):
+                 yoloe: tuple[Path, Path] | None = None, objects: int = len(FAMILIES)):
     """The ``demo --ifc`` job: the IFC day, its reports (``report.md``, ``report.html``) and the settings that ran
     in ``config.json`` (no registration scenarios: they do not depend on the building)."""
     import json
@@ -92,10 +94,11 @@ def run_ifc_demo(ifc_path: Path, out_dir: Path, seed: int = 0, workers: int = 1,
     out_dir, settings = Path(out_dir), demo_settings()
     day = run_ifc_day(Path(ifc_path), out_dir, seed=seed, workers=workers, minutes=minutes,
                       mission_config=settings.mission, icp=settings.registration, twin_config=settings.twin, tick=tick,
-                      detector=detector, yoloe=yoloe)
+                      detector=detector, yoloe=yoloe, objects=objects)
     report = write_site_report(day, out_dir)
     resolved = {"settings": settings_record(settings), "ifc": str(Path(ifc_path).resolve()),
-                "schema": day.model.schema, "seed": seed, "workers": workers, "minutes": minutes, "detector": detector,
+                "schema": day.model.schema, "objects": objects, "seed": seed, "workers": workers, "minutes": minutes,
+                "detector": detector,
                 "yoloe": [str(p) for p in yoloe] if yoloe else None,
                 "mission": day.route.config.model_dump(), "versions": versions()}
     write_bytes_atomic(out_dir / "config.json", json.dumps(resolved, indent=2).encode("utf-8"))

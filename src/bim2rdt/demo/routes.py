@@ -49,7 +49,8 @@ class DayRoute:
         """What the report records: stations, metres walked, replans with their reasons, skipped stations, and
         every leg walked (world metres, the shift's clock)."""
         walked = [leg.path for leg in self.navigator.legs]
-        return {"stations": len(self.plan.stations), "walked_m": round(sum(path_length(p) for p in walked), 2),
+        return {"stations": len(self.plan.stations), "visited": len(self.route.arrivals),
+                "walked_m": round(sum(path_length(p) for p in walked), 2),
                 "minutes": round((self.navigator.time - self.navigator.legs[0].start_time) / 60.0, 1)
                 if self.navigator.legs else 0.0,
                 "replans": [{"time": r.time, "x": r.xy[0], "y": r.xy[1], "reason": r.reason}
@@ -58,6 +59,15 @@ class DayRoute:
                 "located": sorted(self.route.located),
                 "legs": [{"start": leg.start_time, "end": leg.end_time, "replanned": leg.replanned,
                           "path": np.round(leg.path, 4).tolist()} for leg in self.navigator.legs]}
+
+
+def why_no_station(day_route: DayRoute) -> str | None:
+    """Why the robot visited no station (each object's reason, or that there was none to visit); None when it
+    visited at least one."""
+    if day_route.route.arrivals:
+        return None
+    reasons = [*day_route.plan.unplaced.values(), *day_route.route.skipped.values()]
+    return "; ".join(reasons) if reasons else "no site object to visit"
 
 
 def plan_day_route(model: BimModel, targets: Sequence[Target], start_xy, config: MissionConfig, hav_events,

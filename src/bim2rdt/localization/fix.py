@@ -159,6 +159,11 @@ def _judge(points_cam: np.ndarray, normals_cam: np.ndarray, surfaces: PermanentM
                                 "beyond the basin; rejected")
     residual = float(np.sqrt(np.mean(along[inlier] ** 2)))
     used = inlier & agree
+    if not used.any():
+        raise LocalizationError(f"the fix moved the camera {moved:.2f} m and turned it {turned:.1f} deg from the "
+                                f"prior, but none of its {count} inliers has a surface normal (each needs finite "
+                                "depth at its grid neighbours; this frame's returns are too broken up), so nothing "
+                                "says what the view constrains: rejected")
     seen = _observability(placed[used], model_normals[used], pose[:3, 3], up_world, residual, cfg)
     return Localization(pose=pose, covariance=seen.covariance, inliers=count, degenerate=seen.degenerate_translations,
                         residual=residual, degenerate_yaw=bool(seen.degenerate_rotations), information=seen.information,

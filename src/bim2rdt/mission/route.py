@@ -29,7 +29,7 @@ from scipy import ndimage
 
 from bim2rdt.mission.config import MissionConfig
 from bim2rdt.mission.records import Observation, Target
-from bim2rdt.mission.stations import station_pose, view_directions
+from bim2rdt.mission.stations import nearly, station_pose, view_directions
 from bim2rdt.perception.camera import look_at
 from bim2rdt.perception.detection import Detection
 from bim2rdt.planning import Navigator, OccupancyGrid, PlanningError, Replan, pick_viewpoint, plan_tour, reachable
@@ -93,7 +93,7 @@ def viewpoint_poses(target: Target, centre: np.ndarray, config: MissionConfig) -
     towards = centre - target.placement[:2, 3]
     preferred = view_directions(target, towards)
     angles = np.linspace(0.0, 2 * np.pi, AROUND, endpoint=False)
-    around = sorted((np.array([np.cos(a), np.sin(a)]) for a in angles), key=lambda d: -float(d @ towards))
+    around = sorted((np.array([np.cos(a), np.sin(a)]) for a in angles), key=lambda d: -nearly(float(d @ towards)))
     return [station_pose(target, view, config, scale) for views in (preferred, around) for scale in SCALES
             for view in views]
 

@@ -10,6 +10,16 @@ from bim2rdt.mission.config import MissionConfig
 from bim2rdt.mission.records import Target
 from bim2rdt.perception.camera import look_at
 
+SAME_EXTENT = 1e-6
+"""Plan extents closer than this (m) are equal: a round object's x and y extents differ only in the last bits,
+which differ between machines (BLAS kernels), and must not pick its "long side" differently on each."""
+
+
+def nearly(value: float, decimals: int = 9) -> float:
+    """``value`` rounded to ``decimals``: a sort key that keeps near-ties (last-bit noise, which differs between
+    machines) in their given order, as exact ties are."""
+    return round(value, decimals)
+
 
 def plan_stations(targets: Sequence[Target], start_xy: Sequence[float], config: MissionConfig) -> list[np.ndarray]:
     """One camera pose per target, in nearest-neighbour order from ``start_xy``. Each looks at its object
@@ -35,7 +45,8 @@ def view_directions(target: Target, towards: np.ndarray) -> list[np.ndarray]:
     """Unit (2,) directions from the object to its camera, best first: broadside +-35 degrees, the one nearest
     ``towards`` first, then the other three."""
     extents = target.mesh_body.extents
-    long_axis = target.placement[:2, 0] if extents[0] >= extents[1] else target.placement[:2, 1]
+    round_in_plan = abs(extents[0] - extents[1]) <= SAME_EXTENT  # a drum, a cone: no long side, take its x
+    long_axis = target.placement[:2, 0] if round_in_plan or extents[0] > extents[1] else target.placement[:2, 1]
     broadside = np.array([-long_axis[1], long_axis[0]]) / np.linalg.norm(long_axis)
     candidates = []
     for sign in (1.0, -1.0):
@@ -43,7 +54,7 @@ def view_directions(target: Target, towards: np.ndarray) -> list[np.ndarray]:
             c, s = np.cos(turn), np.sin(turn)
             candidates.append(sign * np.array([c * broadside[0] - s * broadside[1], s * broadside[0] + c * broadside[1]]))
     towards = towards / np.linalg.norm(towards) if np.linalg.norm(towards) > 1e-6 else np.array([0.0, -1.0])
-    return sorted(candidates, key=lambda d: -float(d @ towards))
+    return sorted(candidates, key=lambda d: -nearly(float(d @ towards)))
 
 
 def _tour(poses: list[np.ndarray], start_xy: np.ndarray) -> list[np.ndarray]:

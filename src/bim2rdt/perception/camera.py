@@ -6,6 +6,7 @@ Depth is the z coordinate in the camera frame (what RGB-D sensors report), not t
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -27,6 +28,23 @@ class Intrinsics:
     fy: float = 525.0
     cx: float = 319.5
     cy: float = 239.5
+
+    def __post_init__(self) -> None:
+        """Refuse what no camera has, where the intrinsics are made (else a zero, negative or non-finite focal
+        length surfaces much later as "the frame sees no permanent element")."""
+        for name in ("width", "height"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int | np.integer) or value <= 0:
+                raise CameraError(f"intrinsics: {name} must be a positive whole number of pixels, got {value!r}")
+        for name in ("fx", "fy", "cx", "cy"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating) \
+                    or not math.isfinite(value):
+                raise CameraError(f"intrinsics: {name} must be a finite number of pixels, got {value!r}")
+        for name in ("fx", "fy"):
+            if getattr(self, name) <= 0:
+                raise CameraError(f"intrinsics: {name} must be positive (a focal length in pixels), got "
+                                  f"{getattr(self, name)!r}")
 
     def pixel_rays(self) -> np.ndarray:
         """Camera-frame ray directions with z = 1 for every pixel, (H, W, 3), row-major (v, u)."""

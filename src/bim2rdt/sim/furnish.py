@@ -34,6 +34,7 @@ from scipy import ndimage
 from bim2rdt.bim import BimModel
 from bim2rdt.bim.atomic import atomic_write_ifc
 from bim2rdt.bim.ifc_values import add_typed_pset
+from bim2rdt.bim.spatial import storey_name
 from bim2rdt.planning import OccupancyGrid, reachable
 from bim2rdt.planning.raster import mesh_cells
 from bim2rdt.sim.meshes import mesh_for_family
@@ -67,8 +68,11 @@ class Layout:
     worker_spots: dict[str, tuple[float, float]] = field(default_factory=dict)
 
 
-def furnish(model: BimModel, grid: OccupancyGrid, workers: int = 1, seed: int = 0) -> Layout:
-    """Spots for the site objects, the dock, an unplanned drum and ``workers`` on ``grid``'s storey."""
+def furnish(model: BimModel, grid: OccupancyGrid, workers: int = 1, seed: int = 0,
+            objects: int = len(FAMILIES)) -> Layout:
+    """Spots for up to ``objects`` site objects (one per room, far rooms first), the dock, an unplanned drum and
+    ``workers`` on ``grid``'s storey."""
+    wanted = max(1, min(objects, len(FAMILIES)))
     rng = np.random.default_rng(seed)
     clearance = ndimage.distance_transform_edt(~grid.occupied) * grid.resolution
     spaces = _rooms(model, grid, ~grid.blocked)
@@ -78,14 +82,14 @@ def furnish(model: BimModel, grid: OccupancyGrid, workers: int = 1, seed: int = 
     free = reachable(grid, dock)
     rooms = [room for room in spaces if (room & free).any()]
     taken: list[np.ndarray] = [dock]
-    objects = []
+    placed = []
     for room in sorted(rooms, key=lambda mask: -_distance(grid, mask, dock)):
-        family = FAMILIES[len(objects) % len(FAMILIES)]
+        family = FAMILIES[len(placed) % len(FAMILIES)]
         spot = _spot(grid, clearance, room & free, _radius(family) + CLEARANCE, taken, rng)
         if spot is not None:
-            objects.append(SiteObject(family, float(spot[0]), float(spot[1]), float(rng.uniform(-60.0, 60.0))))
+            placed.append(SiteObject(family, float(spot[0]), float(spot[1]), float(rng.uniform(-60.0, 60.0))))
             taken.append(spot)
-        if len(objects) == len(FAMILIES):
+        if len(placed) == wanted:
             break
     unplanned = _spot(grid, clearance, free, _radius("Steel_Drum_55gal") + CLEARANCE, taken, rng,
                       apart=UNPLANNED_APART)
@@ -96,7 +100,7 @@ def furnish(model: BimModel, grid: OccupancyGrid, workers: int = 1, seed: int = 
         if spot is not None:
             spots[f"w{k + 1}"] = (float(spot[0]), float(spot[1]))
             taken.append(spot)
-    return Layout(grid.storey, grid.floor_z, tuple(objects), (float(dock[0]), float(dock[1])),
+    return Layout(grid.storey, grid.floor_z, tuple(placed), (float(dock[0]), float(dock[1])),
                   None if unplanned is None else (float(unplanned[0]), float(unplanned[1])), spots)
 
 
@@ -104,7 +108,7 @@ def write_furnished(model: BimModel, layout: Layout, path: Path) -> Path:
     """A copy of ``model``'s file with the layout's objects as proxies on its storey, written atomically."""
     ifc = ifcopenshell.open(str(model.path))
     first_new = max(entity.id() for entity in ifc) + 1
-    storey = next(s for s in ifc.by_type("IfcBuildingStorey") if s.Name == layout.storey)
+    storey = next(s for s in ifc.by_type("IfcBuildingStorey") if storey_name(s) == layout.storey)
     context = _body_context(ifc)
     for item in layout.objects:
         _add_object(ifc, storey, context, item, layout.floor_z, model.unit_scale)
@@ -169,8 +173,8 @@ def _add_object(ifc: ifcopenshell.file, storey, context, item: SiteObject, floor
     ifcopenshell.api.type.assign_type(ifc, related_objects=[proxy], relating_type=kind,
                                       should_map_representations=False)
     mesh = mesh_for_family(item.family)
-    body = ifcopenshell.api.geometry.add_mesh_representation(
-        ifc, context=context, vertices=[(mesh.vertices / unit_scale).tolist()], faces=[mesh.faces.tolist()])
+    body = ifcopenshell.api.geometry.add_mesh_representation(  # metres in; the api divides by the file's scale
+        ifc, context=context, vertices=[mesh.vertices.tolist()], faces=[mesh.faces.tolist()], unit_scale=unit_scale)
     ifcopenshell.api.geometry.assign_representation(ifc, product=proxy, representation=body)
     ifcopenshell.api.geometry.edit_object_placement(ifc, product=proxy, is_si=True,
                                                     matrix=yaw_pose(item.x, item.y, floor_z, item.yaw_deg))

@@ -1,0 +1,53 @@
+"""`demo --ifc` on every sample building: the robot visits at least one station, or the command exits 1 with
+one line saying why (never exit 0 with empty tables). Kept affordable with the cheapest settings of the same
+code path: one site object (so one station), one worker, one minute of tool work."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+pytestmark = pytest.mark.samples
+
+_SAMPLES = Path(os.environ.get("BIM2RDT_SAMPLES",
+                               Path(__file__).resolve().parents[2].parent / "shared" / "data" / "ifc"))
+BUILDINGS = sorted(p.name for p in _SAMPLES.glob("*.ifc")) if _SAMPLES.is_dir() else []
+"""Every sample building, listed when the tests are collected (the ``samples`` fixture skips when absent)."""
+
+
+@pytest.mark.parametrize("name", BUILDINGS)
+def test_demo_ifc_visits_a_station_or_exits_1_saying_why(samples, tmp_path, name):
+    out = tmp_path / "out"
+    command = ["demo", "--ifc", str(samples / name), "--out", str(out), "--objects", "1", "--workers", "1",
+               "--minutes", "1"]
+    result = subprocess.run([sys.executable, "-m", "bim2rdt", *command], capture_output=True, text=True, timeout=900)
+    assert "Traceback" not in result.stderr
+    if result.returncode == 0:
+        route = json.loads((out / "site_day.json").read_text())["route"]
+        assert route["visited"] >= 1 and route["visited"] == route["stations"] - len(route["skipped"])
+    else:
+        assert result.returncode == 1, result.stderr
+        lines = result.stderr.strip().splitlines()
+        assert len(lines) == 1 and lines[0].startswith("error: ") and len(lines[0]) > len("error: ") + 20
+
+
+def test_a_day_that_visits_no_station_is_an_error_saying_why(tmp_path):
+    from types import SimpleNamespace
+
+    from bim2rdt.cli.demo import _fail_without_a_station
+    from bim2rdt.demo.routes import why_no_station
+    from bim2rdt.planning import PlanningError
+
+    route = SimpleNamespace(plan=SimpleNamespace(unplaced={"a": "Steel_Drum_55gal: no free, reachable viewpoint"}),
+                            route=SimpleNamespace(arrivals={}, skipped={1: "no path to (3.0, 4.0)"}))
+    assert why_no_station(route) == "Steel_Drum_55gal: no free, reachable viewpoint; no path to (3.0, 4.0)"
+    with pytest.raises(PlanningError, match="visited no station.*Steel_Drum_55gal: no free"):
+        _fail_without_a_station(SimpleNamespace(route=route), tmp_path)
+    route.route.arrivals[0] = 0.0
+    assert why_no_station(route) is None
+    _fail_without_a_station(SimpleNamespace(route=route), tmp_path)
