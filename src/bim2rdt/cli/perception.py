@@ -19,7 +19,8 @@ def register(app: typer.Typer, bench_app: typer.Typer) -> None:
 
 
 def bench_perception(
-    seeds: int = typer.Option(5, "--seeds", min=1, help="Seeded realities of the embedded site (10 frames each)."),
+    seeds: int = typer.Option(5, "--seeds", min=0, help="Seeded realities of the embedded site (10 frames each; 0: "
+                              "only the real office frame)."),
     seed: int = typer.Option(0, "--seed", min=0, help="First seed."),
     workers: float = typer.Option(0.3, "--workers", min=0.0, max=1.0,
                                   help="Fraction of frames a worker walks through."),
@@ -28,6 +29,9 @@ def bench_perception(
     yoloe_weights: Path | None = typer.Option(None, "--yoloe-weights", help="Local YOLOE .pt (scored if given)."),
     yoloe_embeddings: Path | None = typer.Option(None, "--yoloe-embeddings",
                                                  help="Local .npz prompt embeddings for --yoloe-weights."),
+    sensors: Path | None = typer.Option(None, "--sensors", envvar="BIM2RDT_SENSORS",
+                                        help="The real sensor data folder (pcl/office1.*): scores the real office "
+                                             "frame too (default: $BIM2RDT_SENSORS; skipped when absent)."),
     one_core: bool = typer.Option(True, "--one-core/--all-cores", help="Pin the process to one CPU."),
     out: Path = typer.Option(Path("out/bench/perception"), "--out", callback=writable_folder,
                               help="Folder for results.json."),
@@ -44,9 +48,15 @@ def bench_perception(
     logging.getLogger("bim2rdt.perception").setLevel(logging.ERROR)  # dropped detections are scored, not shown
     from bim2rdt.cli.registration import progress
 
-    with tempfile.TemporaryDirectory() as scratch, progress(seeds * 10, "perception frames") as tick:
-        record = run_bench(Path(scratch), list(range(seed, seed + seeds)), workers, flying_trials,
-                           (yoloe_weights, yoloe_embeddings) if yoloe_weights else None, tick)
+    record: dict = {}
+    if seeds > 0:
+        with tempfile.TemporaryDirectory() as scratch, progress(seeds * 10, "perception frames") as tick:
+            record = run_bench(Path(scratch), list(range(seed, seed + seeds)), workers, flying_trials,
+                               (yoloe_weights, yoloe_embeddings) if yoloe_weights else None, tick)
+    if sensors is not None:
+        from bim2rdt.bench.perception.office import office_bench
+
+        record["office"] = office_bench(sensors)
     (out / "results.json").write_text(json.dumps(record, indent=2, default=float))
     if as_json:
         print_json(record)
@@ -56,6 +66,10 @@ def bench_perception(
 
 
 def show(record: dict) -> None:
+    if record.get("office"):
+        show_office(record["office"])
+    if "detectors" not in record:
+        return
     rows = []
     for s in record["detectors"]:
         stages = ", ".join(f"{k} {1000 * v:.0f}" for k, v in s["stage_seconds_median"].items())
@@ -80,3 +94,14 @@ def show(record: dict) -> None:
                 f"pipeline's {1000 * record['ideal_seconds_per_frame']:.0f} ms in the same run)",
                 ("target", "result", "detail"),
                 [(name, "PASS" if passed else "FAIL", detail) for name, passed, detail in record["targets"]])
+
+
+def show_office(office: dict) -> None:
+    """The real office frame: recall and precision against the as-built IFC's furniture, for both pipelines."""
+    print_table(f"Real frame: {office['frame']}, {office['boxes']} furniture boxes (found: within 5 cm of the "
+                f"as-built IFC); verify's fix {100 * (office['localization_error_m'] or float('nan')):.1f} cm / "
+                f"{office['localization_error_deg'] or float('nan'):.2f} deg from the truth",
+                ("pipeline", "recall", "precision", "claims", "new", "trans cm (median)", "CPU s/frame"),
+                [(p["pipeline"], f"{p['recall']:.2f}", f"{p['precision']:.2f}", p["claims"], p["new"],
+                  "-" if p["translation_m_median"] is None else f"{100 * p['translation_m_median']:.1f}",
+                  f"{p['cpu_seconds']:.2f}") for p in office["pipelines"]])

@@ -8,8 +8,9 @@ an engineer can tape."""
 from bim2rdt.localization.config import LocalizationConfig
 from bim2rdt.localization.errors import LocalizationError
 from bim2rdt.localization.filter import OdometryNoise, PoseFilter, StationFix, fuse_frame
+from bim2rdt.localization.cloud import localize_cloud
 from bim2rdt.localization.fix import Localization, localize
 from bim2rdt.localization.station import Turned, localize_station, pinned
 
 __all__ = ["Localization", "LocalizationConfig", "LocalizationError", "OdometryNoise", "PoseFilter", "StationFix",
-           "Turned", "fuse_frame", "localize", "localize_station", "pinned"]
+           "Turned", "fuse_frame", "localize", "localize_cloud", "localize_station", "pinned"]

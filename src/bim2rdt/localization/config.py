@@ -96,3 +96,19 @@ class LocalizationConfig(BaseModel):
         (70.0, -70.0),
         description="Turns (deg, from the station's heading, tried in order) for another look when a station's fix "
                     "leaves a direction free or is refused; empty = never look around.")
+    cloud_voxel: float = Field(
+        0.05, gt=0.0,
+        description="localize_cloud thins the cloud to one point per cube of this size, m: surfaces, not the "
+                    "sensor's sampling (dense near it), weigh in the fix.")
+    cloud_points: int = Field(
+        6000, ge=100, description="localize_cloud uses at most this many thinned points (an even draw).")
+    cloud_normal_neighbours: int = Field(
+        12, ge=4, le=64, description="Neighbours of a thinned point whose spread gives its normal (PCA).")
+    cloud_ray_deg: float = Field(
+        0.5, gt=0.0, le=10.0,
+        description="Angular spacing of the rays localize_cloud casts at the BIM from the sensor, degrees (the coarse "
+                    "pass twice that): 0.5 deg is 4 cm at 5 m, as dense as the thinned points.")
+    cloud_margin_deg: float = Field(
+        8.0, ge=0.0, le=90.0,
+        description="localize_cloud keeps the BIM's surface in the directions the cloud covers, widened by this, "
+                    "degrees: what the true pose sees but the prior's just misses (the yaw basin and then some).")

@@ -1,0 +1,268 @@
+"""``verify``: a real recording or scan checked against its BIM, frame by frame.
+
+For each frame: its points (sensor frame) -> :func:`~bim2rdt.localization.localize_cloud` on the permanent
+elements from the prior -> the depth check (:mod:`.depth_check`) -> the points the permanent structure does not
+explain -> each planned object in view checked by its own body (:mod:`.planned`) -> what is left, clustered,
+as new objects (:mod:`.new_objects`). The observations are recorded into a twin by the caller
+(:mod:`.outputs`). A frame whose fix is refused carries the reason; a frame whose depth looks miscalibrated
+has its observations unverified, with the reason.
+"""
+
+from __future__ import annotations
+
+import time as clock
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from bim2rdt.bim import BimModel
+from bim2rdt.localization import LocalizationConfig, LocalizationError, localize_cloud
+from bim2rdt.localization.cloud import OccludedMap, scan_points
+from bim2rdt.perception.background import explained, structure_for
+from bim2rdt.perception.frame import Frame
+from bim2rdt.perception.observation import Observation
+from bim2rdt.twin import ElementStatus
+from bim2rdt.verify.depth_check import DepthCheck, DepthCheckConfig, check_depth, check_depth_from_prior
+from bim2rdt.verify.errors import VerifyError
+from bim2rdt.verify.new_objects import NewObjectConfig, new_objects
+from bim2rdt.verify.planned import PlannedConfig, check_planned, planned_in_view
+from bim2rdt.verify.priors import levelled
+from bim2rdt.verify.rays import RangeLookup
+
+
+def real_sensor_localization() -> LocalizationConfig:
+    """Localization settings for consumer RGB-D cameras and scanners at up to ~5 m: a Kinect's depth noise is
+    ~3 cm at 4.7 m (structured light grows with z^2), so inliers reach 5 cm and the Huber scale 2.5 cm; a real
+    room has its furniture in front of half the walls, so 30 % of the points near the map suffice."""
+    return LocalizationConfig(inlier_distance=0.05, huber_delta=0.025, min_inlier_fraction=0.3)
+
+
+@dataclass(frozen=True)
+class VerifyConfig:
+    """The knobs of verify. ``depth_noise`` (a, b): the sensor's depth sigma is a + b z^2 metres at depth z
+    (Kinect v1, Khoshelham & Elberink 2012: ~1.4 mm/m^2), used where a point is judged on or off a wall."""
+
+    localization: LocalizationConfig = field(default_factory=real_sensor_localization)
+    planned: PlannedConfig = field(default_factory=PlannedConfig)
+    new: NewObjectConfig = field(default_factory=NewObjectConfig)
+    depth: DepthCheckConfig = field(default_factory=DepthCheckConfig)
+    depth_noise: tuple[float, float] = (0.002, 0.0015)
+    surface_tolerance: float = 0.03
+    """A point this close to a permanent surface (plus 3 sigma of depth noise) is the building's."""
+    find_new: bool = True
+    """Cluster what neither the building nor a planned object explains into new objects."""
+
+
+@dataclass
+class FrameResult:
+    """One frame or scan: where it came from, the fix (or why not), the depth check, what was found, seconds."""
+
+    index: int
+    source: str
+    time: float | None
+    prior: np.ndarray | None
+    pose: np.ndarray | None = None
+    covariance: np.ndarray | None = None
+    degenerate: list = field(default_factory=list)
+    residual: float | None = None
+    inliers: int = 0
+    accepted: bool = False
+    reason: str = ""
+    depth: DepthCheck | None = None
+    observations: list[Observation] = field(default_factory=list)
+    seconds: float = 0.0
+
+    def to_dict(self) -> dict:
+        """Its entry in localization.json."""
+        entry = {"source": self.source, "time": self.time,
+                 "pose": None if self.pose is None else self.pose.tolist(),
+                 "covariance": None if self.covariance is None else self.covariance.tolist(),
+                 "degenerate": [np.asarray(d).tolist() for d in self.degenerate], "residual": self.residual,
+                 "inliers": self.inliers, "accepted": self.accepted,
+                 "prior": None if self.prior is None else self.prior.tolist(),
+                 "depth_check": self.depth.to_dict() if self.depth else None, "seconds": round(self.seconds, 3)}
+        if not self.accepted:
+            entry["reason"] = self.reason
+        return entry
+
+
+@dataclass
+class VerifyResult:
+    """Every frame's result in source order."""
+
+    frames: list[FrameResult]
+
+    @property
+    def miscalibrated(self) -> bool:
+        return any(f.depth is not None and f.depth.miscalibrated for f in self.frames)
+
+    @property
+    def warnings(self) -> list[str]:
+        return [f"frame {f.index} ({f.source}): {f.depth.reason}" for f in self.frames
+                if f.depth is not None and f.depth.miscalibrated]
+
+
+@dataclass
+class Unverified(Observation):
+    """An observation its frame cannot vouch for: the twin records it unverified with ``reason``."""
+
+    status: ElementStatus = ElementStatus.UNVERIFIED
+    reason: str = ""
+
+
+def verify_frames(frames: Iterable, model: BimModel, prior: np.ndarray | None = None,
+                  config: VerifyConfig = VerifyConfig(),
+                  progress: Callable[[FrameResult], None] | None = None) -> VerifyResult:
+    """Each frame of ``frames`` localized on ``model`` and checked (see the module's note). An item is a
+    :class:`Frame` or a scan (anything with ``.points`` (N, 3) in the sensor frame, and ``.path``: a
+    ``sources.Cloud``). Each item's prior:
+
+    - with ``prior`` (4, 4 T_world_sensor, the model's frame) and frames that carry poses (a recording's own,
+      in whatever frame it keeps them): those poses are odometry, anchored at the last accepted fix (at first,
+      ``prior`` for the first frame): prior_i = T_fix_k @ inv(T_own_k) @ T_own_i;
+    - with ``prior`` and no poses: the last accepted fix, else ``prior``;
+    - without ``prior``: the frame's own pose, taken as in the model's frame (none: refused with the reason).
+
+    Raises :class:`VerifyError` for no frames or a model with nothing to localize on."""
+    try:
+        scene = OccludedMap.of(model)
+    except LocalizationError as error:
+        raise VerifyError(str(error)) from None
+    results: list[FrameResult] = []
+    anchor: tuple[np.ndarray | None, np.ndarray] | None = None if prior is None else (None, np.asarray(prior))
+    for index, frame in enumerate(frames):
+        own = frame.T_world_camera if isinstance(frame, Frame) else None
+        result = verify_frame(index, frame, model, scene, _prior_for(own, anchor), config)
+        if anchor is not None and result.accepted:
+            anchor = (own, result.pose)
+        elif anchor is not None and anchor[0] is None and own is not None:
+            anchor = (own, anchor[1])  # the user's prior is where the sensor was at its first pose
+        results.append(result)
+        if progress is not None:
+            progress(result)
+    if not results:
+        raise VerifyError("the source holds no frames")
+    return VerifyResult(results)
+
+
+def _prior_for(own: np.ndarray | None, anchor) -> np.ndarray | None:
+    """A frame's prior from its own pose and the anchor (see :func:`verify_frames`)."""
+    if anchor is None:
+        return own
+    anchor_own, anchor_world = anchor
+    if own is None or anchor_own is None:  # no odometry to carry the anchor forward (or the first frame)
+        return anchor_world
+    return anchor_world @ np.linalg.inv(anchor_own) @ own
+
+
+def verify_frame(index: int, frame, model: BimModel, scene: OccludedMap, prior: np.ndarray | None,
+                 config: VerifyConfig) -> FrameResult:
+    """One frame or scan from ``prior`` (see :func:`verify_frames`); a frame's IMU ``up`` sets the prior's roll
+    and pitch."""
+    start = clock.perf_counter()
+    if isinstance(frame, Frame):
+        name, when, points_sensor = frame.source, frame.time, frame_points(frame)
+        if prior is not None and frame.up is not None:
+            prior = levelled(prior, frame.up)
+    else:
+        points = np.asarray(frame.points, dtype=np.float64)
+        name, when = getattr(getattr(frame, "path", None), "name", None), None
+        points_sensor = points[np.all(np.isfinite(points), axis=1)] if points.ndim == 2 else points
+    result = FrameResult(index, name or f"frame {index}", when, prior)
+    if prior is None:
+        result.reason = "no prior pose: give --prior X,Y,Z,YAW_DEG or --prior-file, or a source with poses"
+        return _timed(result, start)
+    try:
+        scan = scan_points(_Cloud(points_sensor), config.localization)
+    except LocalizationError as error:
+        result.reason = str(error)
+        return _timed(result, start)
+    try:
+        loc = localize_cloud(scan, model, prior, (0.0, 0.0, 1.0), config.localization)
+    except LocalizationError as error:
+        result.reason = str(error)
+        result.depth = _depth_at_best_fit(scan, model, scene, prior, config)
+        if result.depth is not None and result.depth.miscalibrated:
+            result.reason += f"; at its best rigid fit {result.depth.reason} (or the prior is far off)"
+        return _timed(result, start)
+    result.pose, result.covariance, result.degenerate = loc.pose, loc.covariance, list(loc.degenerate)
+    result.residual, result.inliers, result.accepted = loc.residual, loc.inliers, True
+    result.depth = check_depth(scan, scene, loc.pose, config.localization.max_range, config.depth)
+    result.observations = _observe(index, points_sensor, loc.pose, model, scene, config)
+    if result.depth.miscalibrated:
+        result.observations = [Unverified(**_fields(o), reason=f"(sensor looks miscalibrated: {result.depth.reason})")
+                               for o in result.observations]
+    return _timed(result, start)
+
+
+def _depth_at_best_fit(scan, model: BimModel, scene: OccludedMap, prior: np.ndarray,
+                       config: VerifyConfig) -> DepthCheck | None:
+    """The depth check at the best rigid fit the localizer finds without its acceptance tests (three times the
+    basin's reach, four times its turn, no inlier share, walls see-through): a frame refused because its depth is
+    bent (office1 raw: its best rigid fit lies 0.34 m and 7.7 deg from the true pose) still says why; without
+    even that fit, the angle test from the prior (``check_depth_from_prior``)."""
+    loose = config.localization.model_copy(update={
+        "max_correction": 3 * config.localization.max_correction,
+        "max_correction_deg": 4 * config.localization.max_correction_deg, "min_inlier_fraction": 0.0,
+        "min_inliers": 6, "max_behind_fraction": 1.0})
+    try:
+        best = localize_cloud(scan, model, prior, (0.0, 0.0, 1.0), loose)
+    except LocalizationError:
+        return check_depth_from_prior(scan, scene, prior, config.localization.max_range, config.depth)
+    return check_depth(scan, scene, best.pose, config.localization.max_range, config.depth)
+
+
+def frame_points(frame: Frame) -> np.ndarray:
+    """The frame's valid depth pixels as camera-frame points (N, 3), metres."""
+    valid = frame.valid_depth
+    v, u = np.nonzero(valid)
+    depth = frame.depth[valid].astype(np.float64)
+    return frame.intrinsics.backproject(np.stack([u, v], axis=1).astype(np.float64), depth)
+
+
+@dataclass(frozen=True)
+class _Cloud:
+    points: np.ndarray
+
+
+def _observe(index: int, points_sensor: np.ndarray, pose: np.ndarray, model: BimModel, scene: OccludedMap,
+             config: VerifyConfig) -> list[Observation]:
+    """The planned objects in view checked, and the new ones, from the fixed ``pose``."""
+    points_sensor = points_sensor[:: max(1, len(points_sensor) // 90_000)]
+    points_sensor = points_sensor[np.linalg.norm(points_sensor, axis=1) > 1e-6]
+    located = points_sensor @ pose[:3, :3].T + pose[:3, 3]
+    structure = structure_for(model)
+    slab = structure.slab_height(pose[:3, 3])
+    a, b = config.depth_noise
+    ranges = np.linalg.norm(points_sensor, axis=1)
+    directions = points_sensor / ranges[:, None]  # unit rays: a scan looks all round, no camera z to divide by
+    building = explained(structure, pose[:3, 3], directions @ pose[:3, :3].T, ranges, config.surface_tolerance,
+                         a + b * ranges**2, slab, config.surface_tolerance)
+    left = located[~building]
+    hits = scene.occluder_hits(pose, directions[:: max(1, len(directions) // 20_000)], 0.5,
+                               config.localization.max_range)
+    elements = planned_in_view(model, hits, config.planned)
+    lookup = RangeLookup.of(points_sensor, pose)
+
+    def behind_walls(points_world: np.ndarray) -> np.ndarray:
+        offset = points_world - pose[:3, 3]
+        distance = np.linalg.norm(offset, axis=1)
+        return scene.permanent.first_hit(pose[:3, 3], offset / distance[:, None]) < distance - 0.03
+
+    fits = check_planned(left, elements, model, slab, index, pose[:3, 3], behind_walls, lookup.seen_through,
+                         config.planned)
+    observations = [f.observation for f in fits]
+    if config.find_new:
+        observations += new_objects(left, [(f.element.global_id, f.observation.pose) for f in fits], model, slab,
+                                    index, config.new)
+    return observations
+
+
+def _fields(observation: Observation) -> dict:
+    return {name: getattr(observation, name) for name in Observation.__dataclass_fields__}
+
+
+def _timed(result: FrameResult, start: float) -> FrameResult:
+    result.seconds = clock.perf_counter() - start
+    return result

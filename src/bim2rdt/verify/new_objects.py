@@ -1,0 +1,66 @@
+"""New objects: what neither the building nor a planned object explains, in clusters.
+
+The located points the permanent structure leaves, less those on a checked planned object's surface (at the
+pose kept for it), are thinned on a voxel grid and linked when closer than ``link`` m; a cluster large enough
+and standing above the slab is an object the BIM lacks (family "unknown": no detector named it). Its pose is
+the centre of its box on the slab, level.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+from scipy.spatial import cKDTree
+
+from bim2rdt.bim import BimModel
+from bim2rdt.localization.cloud import voxel_means
+from bim2rdt.perception.library import element_body_mesh
+from bim2rdt.perception.observation import UNKNOWN_FAMILY, Observation
+from bim2rdt.registration import sample_model
+
+
+@dataclass(frozen=True)
+class NewObjectConfig:
+    """Knobs of the new-object clusters (metres)."""
+
+    voxel: float = 0.03
+    link: float = 0.07
+    """Thinned points closer than this are one object."""
+    min_points: int = 150
+    """Clusters of fewer thinned points (~0.14 m^2 of surface at 3 cm) are clutter too small to report."""
+    min_height: float = 0.1
+    """Clusters whose top is less than this above the slab are floor noise, cables, a rug."""
+    on_planned: float = 0.06
+    """Points this close to a checked planned object's surface are that object's."""
+
+
+def new_objects(points_world: np.ndarray, kept: list[tuple[str, np.ndarray]], model: BimModel, slab: float,
+                frame_index: int, config: NewObjectConfig = NewObjectConfig()) -> list[Observation]:
+    """Observations of the objects the BIM lacks among ``points_world`` (located, structure removed); ``kept``:
+    (GlobalId, pose kept for it) of the planned objects checked in this frame."""
+    points = voxel_means(points_world, config.voxel) if len(points_world) else points_world
+    for global_id, pose in kept:
+        if len(points) == 0:
+            break
+        body, _ = sample_model(element_body_mesh(model, global_id), 3000, drop_resting_face=False)
+        gap, _ = cKDTree(body @ pose[:3, :3].T + pose[:3, 3]).query(points, distance_upper_bound=config.on_planned)
+        points = points[~np.isfinite(gap)]
+    if len(points) < config.min_points:
+        return []
+    pairs = cKDTree(points).query_pairs(config.link, output_type="ndarray")
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(len(points), len(points)))
+    count, labels = connected_components(graph, directed=False)
+    out = []
+    for label in range(count):
+        members = points[labels == label]
+        if len(members) < config.min_points or members[:, 2].max() - slab < config.min_height:
+            continue
+        low, high = members.min(axis=0), members.max(axis=0)
+        pose = np.eye(4)
+        pose[:3, 3] = [(low[0] + high[0]) / 2, (low[1] + high[1]) / 2, slab]
+        out.append(Observation(UNKNOWN_FAMILY, None, pose, 0.0, 1.0, len(members), score=1.0, detector="cluster",
+                               frames=(frame_index,), bbox=None))
+    return sorted(out, key=lambda o: -o.points)

@@ -1,0 +1,74 @@
+"""verify_frames on a scan: a synthetic 360 degree scan of the embedded site, its objects where the BIM puts
+them, localized from a prior off by 25 cm and 5 degrees; nothing called deviating, and every item refused with
+its reason rather than an exception."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+import trimesh
+
+from bim2rdt.bim import load_ifc
+from bim2rdt.perception import look_at
+from bim2rdt.sim.site import build_site_ifc
+from bim2rdt.verify import VerifyError, verify_frames
+
+
+@pytest.fixture(scope="module")
+def site_model(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("site")
+    return load_ifc(build_site_ifc(folder / "site.ifc"), cache_dir=folder / "cache")
+
+
+def _scan(model, T_world_sensor, step_deg=0.7, noise=0.004):
+    """Points (sensor frame) where rays all round first hit the model's bodies: built here, not by verify."""
+    meshes = [trimesh.Trimesh(*model.mesh(el.global_id), process=False) for el in model.elements
+              if model.has_mesh(el.global_id) and el.ifc_class not in ("IfcSpace", "IfcOpeningElement")]
+    mesh = trimesh.util.concatenate(meshes)
+    azimuth, elevation = np.meshgrid(np.deg2rad(np.arange(0, 360, step_deg)), np.deg2rad(np.arange(-60, 60, step_deg)))
+    directions = np.stack([np.cos(elevation) * np.cos(azimuth), np.cos(elevation) * np.sin(azimuth),
+                           np.sin(elevation)], axis=-1).reshape(-1, 3)
+    origin = T_world_sensor[:3, 3]
+    hits, rays, _ = mesh.ray.intersects_location(np.broadcast_to(origin, directions.shape), directions,
+                                                 multiple_hits=False)
+    near = np.linalg.norm(hits - origin, axis=1) < 8.0
+    points = hits[near] + directions[rays[near]] * np.random.default_rng(0).normal(0, noise, (near.sum(), 1))
+    return (points - origin) @ T_world_sensor[:3, :3]
+
+
+def test_a_360_degree_scan_is_localized_and_its_planned_objects_are_not_deviating(site_model, tmp_path):
+    T_true = look_at((8.5, 2.0, 1.1), (11.85, 6.5, 1.1))
+    cloud = SimpleNamespace(points=_scan(site_model, T_true), path=tmp_path / "scan.ply")
+    prior = T_true.copy()
+    prior[:3, 3] += (0.2, -0.15, 0.0)
+    result = verify_frames([cloud], site_model, prior)
+    frame = result.frames[0]
+    assert frame.accepted and frame.source == "scan.ply", frame.reason
+    assert np.linalg.norm(frame.pose[:3, 3] - T_true[:3, 3]) < 0.03
+    assert not result.miscalibrated
+    planned = [o for o in frame.observations if o.global_id is not None]
+    assert planned, "no planned object checked in a scan all round the site"
+    for o in planned:
+        assert np.linalg.norm(o.pose[:3, 3] - site_model.element(o.global_id).placement[:3, 3]) < 0.05, o.family
+
+
+def test_a_scan_without_a_prior_is_refused_with_its_reason_and_no_frames_is_an_error(site_model):
+    result = verify_frames([SimpleNamespace(points=np.zeros((10, 3)))], site_model, None)
+    assert not result.frames[0].accepted and "no prior" in result.frames[0].reason
+    with pytest.raises(VerifyError, match="no frames"):
+        verify_frames([], site_model, np.eye(4))
+
+
+def test_a_recordings_own_poses_carry_the_last_fix_forward_as_odometry():
+    from bim2rdt.verify.chain import _prior_for
+
+    shift = np.eye(4)
+    shift[:3, 3] = (1.0, 0.0, 0.0)
+    own_0, own_1 = np.eye(4), shift  # the recording moved 1 m along its own x
+    fix_0 = look_at((5.0, 5.0, 1.2), (5.0, 9.0, 1.2))  # where the BIM put its first frame
+    prior_1 = _prior_for(own_1, (own_0, fix_0))
+    assert np.allclose(prior_1, fix_0 @ shift)  # 1 m along the fixed frame's own x
+    assert np.allclose(_prior_for(None, (None, fix_0)), fix_0)
+    assert _prior_for(own_1, None) is own_1
