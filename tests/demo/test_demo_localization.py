@@ -11,7 +11,7 @@ from bim2rdt.demo.localization_report import localization_markdown, localization
 from bim2rdt.demo.localized import localized_mission
 from bim2rdt.demo.perceivers import DemoPerception
 from bim2rdt.demo.site_day import ROBOT_START_XY, objects_of_interest
-from bim2rdt.mission import MissionConfig, plan_stations
+from bim2rdt.mission import MissionConfig, MissionContext, plan_stations
 from bim2rdt.semantics import KnowledgeBasePriors
 from bim2rdt.sim.meshes import mesh_for_family
 from bim2rdt.sim.reality import simulate_reality
@@ -26,9 +26,10 @@ def runs(tmp_path_factory):
     reality = simulate_reality(model, [t.global_id for t in targets], seed=0, building=True)
     priors = KnowledgeBasePriors().priors(sorted({t.family for t in reality.truth}))
     stations = plan_stations(targets, ROBOT_START_XY, MissionConfig())
-    mission, localization = localized_mission(targets, stations, model,
+    context = MissionContext(targets, stations, model, priors, mesh_for_family, MissionConfig())
+    mission, localization = localized_mission(context,
                                               lambda: DemoPerception("ideal", model, reality, priors, seed=0),
-                                              priors, mesh_for_family, MissionConfig(), ROBOT_START_XY, seed=0)
+                                              ROBOT_START_XY, seed=0)
     return reality, mission, localization
 
 

@@ -88,19 +88,19 @@ def test_a_fit_standing_where_the_camera_saw_through_is_set_aside_or_unverified(
     import dataclasses
     from types import SimpleNamespace
 
-    from bim2rdt.mission import fitting
     from bim2rdt.mission import run as mission_run
+    from bim2rdt.perception import fitting
     from bim2rdt.twin import ElementStatus
 
     starts = [np.eye(4), np.eye(4) * 2]
     monkeypatch.setattr(fitting, "register", lambda *a, init, **k: SimpleNamespace(pose=init, score=float(init[0, 0])))
-    pick = fitting.best_fit(np.zeros((1, 3)), np.zeros((1, 3)), np.zeros((1, 3)), starts,
-                            SimpleNamespace(upright_bias=0.5, yaw_only=False), MissionConfig(), None,
-                            local_first=False, plausible=lambda fit: fit.score > 1.5)
+    pick = fitting.fit_detection(np.zeros((1, 3)), np.zeros((1, 3)), np.zeros((1, 3)), None, starts,
+                                 SimpleNamespace(upright_bias=0.5, yaw_only=False), 0.0,
+                                 fitting.FitRules(refine_detector_pose=True), plausible=lambda fit: fit.score > 1.5)
     assert pick.pose is starts[1]
     monkeypatch.undo()
 
-    real_fit = mission_run.best_fit
+    real_fit = mission_run.fit_target
 
     def towards_camera(*args, **kwargs):
         fit = real_fit(*args, **kwargs)
@@ -108,7 +108,7 @@ def test_a_fit_standing_where_the_camera_saw_through_is_set_aside_or_unverified(
         pose[0, 3] += 0.5  # the camera stands at +x
         return dataclasses.replace(fit, pose=pose)
 
-    monkeypatch.setattr(mission_run, "best_fit", towards_camera)
+    monkeypatch.setattr(mission_run, "fit_target", towards_camera)
     result = _mission([_drum_at(0.0)], [EYE], detect=True)
     observation = result.observations[0]
     assert observation.status is ElementStatus.UNVERIFIED and "saw through" in observation.reason

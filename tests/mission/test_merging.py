@@ -71,12 +71,12 @@ def test_a_fit_with_no_inlier_is_unverified_with_the_reason_and_the_twin_takes_i
     from bim2rdt.mission import run as mission_run
     from bim2rdt.twin import DigitalTwin, ElementStatus
 
-    real_fit = mission_run.best_fit
+    real_fit = mission_run.fit_target
 
     def no_inlier(*args, **kwargs):
         return dataclasses.replace(real_fit(*args, **kwargs), rmse=math.inf, fitness=0.0)
 
-    monkeypatch.setattr(mission_run, "best_fit", no_inlier)
+    monkeypatch.setattr(mission_run, "fit_target", no_inlier)
     result = _mission(_reality((CRATE, 0.0, 0.0, 0.3)), _stations((2.6, -0.6)))
     observation = result.observations[0]
     assert observation.status is ElementStatus.UNVERIFIED and observation.reason.startswith("(no inlier")

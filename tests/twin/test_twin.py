@@ -99,14 +99,10 @@ def test_a_poor_fit_is_unverified_however_close_it_lands(twin, site_model):
 def test_an_observation_its_observer_could_not_judge_stays_unverified_with_the_reason(twin, site_model):
     """The mission's verdict on a view blind along one axis (issue 13) is kept, not overruled by a pose that
     merely stayed where the BIM put it."""
-    from bim2rdt.mission.records import Observation as MissionObservation
-    from bim2rdt.perception.observation import Observation as Perceived
-
     pallet = _element(site_model, "Pallet_Wood_EUR")
     seen = _seen(pallet)
-    blind = MissionObservation(**{f.name: getattr(seen, f.name) for f in dataclasses.fields(Perceived)},
-                               status=ElementStatus.UNVERIFIED, shift=0.0, yaw_deg=0.0, tilt_deg=0.0,
-                               upright_bias=0.9, reason="along x (the view does not pin the pose down there)")
+    blind = dataclasses.replace(seen, status=ElementStatus.UNVERIFIED, shift=0.0, yaw_deg=0.0, tilt_deg=0.0,
+                                upright_bias=0.9, reason="along x (the view does not pin the pose down there)")
     assert twin.record(blind, T0).status is ElementStatus.UNVERIFIED
     observation = [e for e in twin.history(pallet.global_id) if e.kind == "observation"][-1]
     assert observation.data["reason"].startswith("along x")

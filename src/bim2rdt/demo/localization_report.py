@@ -17,7 +17,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from bim2rdt.demo.localized import MissionLocalization, StationLocalization  # noqa: E402
+from bim2rdt.demo.localized import MissionLocalization, ScoredStation  # noqa: E402
 from bim2rdt.twin.status import ElementStatus  # noqa: E402
 
 RIGHT = {(ElementStatus.DEVIATING, "moved"), (ElementStatus.DEVIATING, "knocked"),
@@ -46,7 +46,7 @@ def verdict_tally(observations, truth, new_radius: float = 0.5) -> dict[str, int
     return tally
 
 
-def station_rows(stations: list[StationLocalization]) -> list[dict]:
+def station_rows(stations: list[ScoredStation]) -> list[dict]:
     """One row per station: how far the belief was from the truth, the looks and fixes, the check shots."""
     rows = []
     for s in stations:

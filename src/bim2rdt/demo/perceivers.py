@@ -67,7 +67,16 @@ class DemoPerception:
         camera was, which on drifting odometry is not where it was rendered (:mod:`bim2rdt.demo.localized`)."""
         if isinstance(self.detector, IdealDetector):
             self.detector.bind(rendered)
-        frame = replace(rendered, T_world_camera=T_world_camera).as_frame(self.intrinsics)
+        return self._named(station, replace(rendered, T_world_camera=T_world_camera).as_frame(self.intrinsics))
+
+    def detect_frame(self, station: int, frame: Frame) -> list[Detection]:
+        """The robot loop's ``detect`` (:class:`bim2rdt.mission.robot.Detect`): the named detections in
+        ``frame``, the frame this camera rendered last, placed where the robot believes it was."""
+        if isinstance(self.detector, IdealDetector):
+            self.detector.bind(self.frames[-1])  # the renderer's masks of the frame the robot captured last
+        return self._named(station, frame)
+
+    def _named(self, station: int, frame: Frame) -> list[Detection]:
         self._latest[station] = frame
         found = locate_detections(frame, self.model, self.detector, station)
         named = [d for d in found if d.family != UNKNOWN_FAMILY]

@@ -28,7 +28,7 @@ from bim2rdt.bim import BimModel, load_ifc
 from bim2rdt.demo.localized import MissionLocalization, localized_mission
 from bim2rdt.demo.routes import UNPLANNED_DRUM_XY, DayRoute, plan_day_route
 from bim2rdt.demo.site_twin import TwinFiles, export_day_twin, ifc_records, open_day_twin, record_mission
-from bim2rdt.mission import MissionConfig, MissionResult, Target
+from bim2rdt.mission import MissionConfig, MissionContext, MissionResult, Target
 from bim2rdt.registration import IcpConfig
 from bim2rdt.semantics import KnowledgeBasePriors, UprightPrior
 from bim2rdt.sim.meshes import mesh_for_family
@@ -99,11 +99,10 @@ def run_site_day(out_dir: Path, seed: int = 0, workers: int = 2, minutes: float 
         return DemoPerception(detector, model, reality, priors, seed, yoloe)
 
     route = route_for_today()
-    mission, localization = localized_mission(targets, route.plan.stations, model, perception, priors,
-                                              mesh_for_family, route.config, ROBOT_START_XY, seed, icp,
-                                              tick=lambda: tick("station"), route=route.route,
-                                              comparison_route=route_for_today().route,
-                                              tolerances=twin_config.tolerance_policy())
+    context = MissionContext(targets, route.plan.stations, model, priors, mesh_for_family, route.config, icp,
+                             twin_config.tolerance_policy(), tick=lambda: tick("station"))
+    mission, localization = localized_mission(context, perception, ROBOT_START_XY, seed, route=route.route,
+                                              comparison_route=route_for_today().route)
     record_mission(twin, mission.observations, mission.stations, times=route.route.arrivals, missing=mission.missing)
     tick("twin")
     files = export_day_twin(twin, out_dir)

@@ -1,5 +1,5 @@
 """The demo's twin: a fresh SQLite twin under the demo's output folder, every mission observation recorded into
-it (with the camera of the station it was seen best from), the HAV monitor's events into its history, and the
+it (with the camera of the station it was seen best from: :func:`bim2rdt.mission.record_mission`), the HAV monitor's events into its history, and the
 exports written beside the report: ``site_twin.ifc`` (through ``export_ifc``), ``site_issues.bcf`` and
 ``twin.json``.
 
@@ -9,23 +9,20 @@ several robots in PostgreSQL) is never touched by the demo.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from bim2rdt.bim import BimModel, load_ifc
-from bim2rdt.mission import MissingElement
-from bim2rdt.perception.observation import Observation
+from bim2rdt.mission.record import STATION_SECONDS, record_mission  # noqa: F401 (the demo's names for them)
 from bim2rdt.semantics import UprightPrior
 from bim2rdt.sim.meshes import UnknownFamilyError, mesh_for_family
 from bim2rdt.twin import DigitalTwin, ElementState, ElementStatus, TwinConfig, TwinError
 
 TWIN_DB = "twin.db"
 ROBOT = "robot-1"
-STATION_SECONDS = 30.0
-"""Seconds between two stations of the simulated mission (the observations' times)."""
 
 
 @dataclass
@@ -48,23 +45,6 @@ def open_day_twin(out_dir: Path, model: BimModel, priors: Mapping[str, UprightPr
     return DigitalTwin.open(f"sqlite:///{out_dir / TWIN_DB}", model, tolerances=config.tolerance_policy(),
                             symmetry={family: prior.symmetry for family, prior in priors.items()},
                             min_fitness=config.min_fitness, robot=ROBOT, family_mesh=_family_mesh)
-
-
-def record_mission(twin: DigitalTwin, observations: Iterable[Observation], stations: list[np.ndarray],
-                   start: float = 0.0, times: Mapping[int, float] | None = None,
-                   missing: Iterable[MissingElement] = ()) -> None:
-    """Record each observation at the time its station was reached (``times[station]`` when the robot's route
-    logged it, else ``start`` + ``STATION_SECONDS`` per station), with that station's camera as the view it was
-    seen from; and each element whose place was seen empty as missing, with the station that saw it so."""
-    def when(station: int | None) -> float:
-        return times[station] if times else start + STATION_SECONDS * (station or 0)
-
-    for obs in observations:
-        camera = stations[obs.station] if obs.station is not None else None
-        twin.record(obs, when(obs.station), camera=camera)
-    for gone in missing:
-        twin.mark_missing(gone.global_id, when(gone.station), station=gone.station, frames=gone.frames,
-                          camera=stations[gone.station])
 
 
 def export_day_twin(twin: DigitalTwin, out_dir: Path) -> TwinFiles:

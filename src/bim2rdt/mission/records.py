@@ -1,4 +1,8 @@
-"""What a mission works on and what it produces: targets (BIM elements to verify), observations, the result."""
+"""What a mission works on and what it produces: targets (BIM elements to verify), observations, the result.
+
+An observation is perception's one record (:class:`bim2rdt.perception.observation.Observation`, re-exported here):
+the mission fills its verdict in it (``status``, ``shift``, ``yaw_deg``, ``tilt_deg``, ``upright_bias``,
+``reason``)."""
 
 from __future__ import annotations
 
@@ -7,8 +11,9 @@ from dataclasses import dataclass, field
 import numpy as np
 import trimesh
 
-from bim2rdt.perception.observation import Observation as PerceivedObject
-from bim2rdt.twin.status import ElementStatus
+from bim2rdt.perception.observation import Observation
+
+__all__ = ["MissingElement", "MissionResult", "Observation", "Target"]
 
 
 @dataclass(frozen=True)
@@ -21,23 +26,6 @@ class Target:
     placement: np.ndarray
     mesh_body: trimesh.Trimesh
     ifc_class: str | None = None
-
-
-@dataclass(kw_only=True)
-class Observation(PerceivedObject):
-    """One registered object and the mission's verdict on it: the shared perception record (family, global_id,
-    pose, rmse, fitness, points, ..., station it was seen best from, every station in ``frames``, the ``fit``)
-    plus the verdict ``status`` and the deltas behind it: ``shift`` (m, horizontal), ``yaw_deg`` and ``tilt_deg``
-    against the BIM placement, modulo the family's symmetry (0 for new objects), the prior's ``upright_bias``,
-    and ``reason``: what follows "unverified" (e.g. "along x (the view does not pin the pose down there,
-    ...)"), empty for the other statuses."""
-
-    status: ElementStatus
-    shift: float
-    yaw_deg: float
-    tilt_deg: float
-    upright_bias: float
-    reason: str = ""
 
 
 @dataclass(frozen=True)

@@ -31,7 +31,7 @@ from bim2rdt.mission.absence import depth_view, seen_empty
 from bim2rdt.mission.association import associate, preferred_targets
 from bim2rdt.mission.config import MissionConfig
 from bim2rdt.mission.explained import Explanation, KnownSurface, explaining_surface, fit_inliers
-from bim2rdt.mission.fitting import best_fit, initial_poses, rests_on_slab
+from bim2rdt.mission.fitting import fit_target
 from bim2rdt.mission.ground import off_slab
 from bim2rdt.mission.merging import RegisteredObject, repeated_view
 from bim2rdt.mission.records import MissionResult, Observation, Target
@@ -149,10 +149,8 @@ def _observe(detection: Detection, target: Target | None, mesh: trimesh.Trimesh,
     prior = priors[detection.family]
     model_pts, model_normals = sample_model(mesh, icp.sample_count, seed=icp.seed)
     object_pts = off_slab(detection.points_world, config)
-    fit = best_fit(model_pts, model_normals, object_pts, initial_poses(detection, target, model_pts, config),
-                   prior, config, icp, local_first=target is not None,
-                   support_height=config.slab_height if rests_on_slab(target, model_pts, config) else None,
-                   plausible=_free_space(model_pts, model_normals, view, config))
+    fit = fit_target(detection, target, model_pts, model_normals, object_pts, prior, config, icp,
+                     _free_space(model_pts, model_normals, view, config))
     judged = judge(target, fit, prior.symmetry, config, tolerance_of(target, tolerances) if target else None)
     reason = judged.reason  # the verdict's own: too few points explained, or a direction the view cannot see
     if not math.isfinite(fit.rmse):  # a partial view behind a wall: no point lies on the fitted model

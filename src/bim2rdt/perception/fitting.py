@@ -1,15 +1,28 @@
-"""Registering one found object with SG-ICP: where it starts, whether it rests on the slab, which fit is kept.
+"""Registering one found object with SG-ICP: the one path from a detection to a fit, for every caller
+(perception's front end, :func:`~bim2rdt.perception.perceive.perceive_frames`, and the mission's loop).
 
-Starts: the BIM pose as it is (most objects have not moved), the BIM pose slid in the plane so its box centre
-stands on the points' (a moved object), and the detector's own pose when it has one (the geometric detector
-registered the cluster to name it). Each start gets the family's upright prior and, unless the detector already
-searched yaw, the usual yaw restarts. When the BIM pose explains the points within ``tie_ratio`` of the best
-score it wins the tie: the BIM is the prior.
+:func:`fit_detection` decides, the same way for both:
+
+- **Whether it rests on the slab** (:func:`rests_on_slab`): the BIM pose's lowest point within ``slab_contact`` of
+  the slab (a beam on trestles does not); without a BIM pose the detector's; with neither, an object the robot
+  found is taken to stand on the slab. Resting, registration pulls its lowest point onto the slab.
+- **Where SG-ICP starts** (:func:`start_poses`): the BIM pose as it is (most objects have not moved), the BIM pose
+  slid in the plane so the model's box centre stands on the points' (a moved object; without a BIM pose, upright
+  at zero yaw on the slab with its plan centre on the points' median, :func:`upright_on`), the detector's own
+  poses, and for a slender object (a beam) the slid pose shifted
+  along its long axis (:func:`along_long_axis`). A detector whose pose came from its own search (the geometric
+  detector registers the cluster to name it) can be trusted to have searched: with
+  ``FitRules.refine_detector_pose`` the BIM pose and the detector's are only refined (one restart each) and no
+  slid guesses are made; otherwise every start gets the usual yaw restarts.
+- **Which fit is kept**: the lowest score among the ``plausible`` fits (all of them when none is); then the BIM
+  pose refined without restarts wins a near-tie (its score within ``tie_ratio`` of the best, and plausible):
+  when two poses explain the points equally well (a tripod's three legs), the BIM's is the likelier.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -17,6 +30,61 @@ from bim2rdt.registration import IcpConfig, RegistrationResult, register
 from bim2rdt.semantics import DEFAULT_UPRIGHT_BIAS, UprightPrior
 
 UP = np.array([0.0, 0.0, 1.0])
+
+Plausible = Callable[[RegistrationResult], bool]
+"""A fit's free-space test (a model whose far side faces the camera is not), see
+:mod:`bim2rdt.perception.visibility`."""
+
+
+@dataclass(frozen=True)
+class FitRules:
+    """The caller's settings of the one fitting path (lengths in metres): ``icp`` (the registration's),
+    ``tie_ratio`` (the BIM pose wins when its score is within this factor of the best), ``slab_contact`` (a
+    pose's lowest point this close to the slab rests on it) and ``refine_detector_pose`` (a detector's pose is
+    the result of its own search: refine it and the BIM pose, search no further)."""
+
+    icp: IcpConfig = field(default_factory=IcpConfig)
+    tie_ratio: float = 1.15
+    slab_contact: float = 0.05
+    refine_detector_pose: bool = True
+
+
+def fit_detection(model_pts: np.ndarray, model_normals: np.ndarray, points_world: np.ndarray,
+                  bim_pose: np.ndarray | None, detector_poses: Sequence[np.ndarray], prior: UprightPrior | None,
+                  slab_height: float, rules: FitRules, plausible: Plausible = lambda fit: True) -> RegistrationResult:
+    """The kept registration of a model (``model_pts``/``model_normals`` (N, 3), body frame) to one object's
+    ``points_world`` (M, 3), from the matched element's ``bim_pose`` (T_world_model, None for an object the BIM
+    lacks) and the detector's own ``detector_poses``, under the family's upright ``prior``, on the slab at
+    ``slab_height`` (m, world z). See the module docs for the rules."""
+    reference = bim_pose if bim_pose is not None else (detector_poses[0] if len(detector_poses) else None)
+    resting = rests_on_slab(reference, model_pts, slab_height, rules.slab_contact)
+    bias = prior.upright_bias if prior else DEFAULT_UPRIGHT_BIAS
+    yaw_only = prior.yaw_only if prior else False
+    local = rules.icp.model_copy(update={"restarts": 1, "yaw_jitter_deg": 0.0})
+
+    def fit_from(T: np.ndarray, cfg: IcpConfig) -> RegistrationResult:
+        return register(model_pts, model_normals, points_world, init=T, up=UP, upright_bias=bias, yaw_only=yaw_only,
+                        config=cfg, support_height=slab_height if resting else None)
+
+    refine = rules.refine_detector_pose and len(detector_poses) > 0
+    starts = start_poses(model_pts, points_world, bim_pose, detector_poses, slab_height, refine)
+    fits = [fit_from(T, local if refine else rules.icp) for T in starts]
+    best = min([f for f in fits if plausible(f)] or fits, key=lambda f: f.score)
+    if bim_pose is None:
+        return best
+    at_bim = fits[0] if refine else fit_from(bim_pose, local)
+    return at_bim if at_bim.score <= rules.tie_ratio * best.score and plausible(at_bim) else best
+
+
+def start_poses(model_pts: np.ndarray, points_world: np.ndarray, bim_pose: np.ndarray | None,
+                detector_poses: Sequence[np.ndarray], slab_height: float, refine: bool) -> list[np.ndarray]:
+    """Where SG-ICP starts (the BIM pose first, when there is one): see the module docs."""
+    bim = [bim_pose] if bim_pose is not None else []
+    if refine:
+        return bim + list(detector_poses)
+    home = slid(bim_pose, model_pts, points_world) if bim_pose is not None else \
+        upright_on(points_world, model_pts, slab_height)
+    return bim + [home] + list(detector_poses) + along_long_axis(home, model_pts, points_world)[1:]
 
 
 def slid(T: np.ndarray, model_pts: np.ndarray, points_world: np.ndarray) -> np.ndarray:
@@ -62,35 +130,10 @@ def upright_on(points_world: np.ndarray, model_pts: np.ndarray, slab_height: flo
     return T
 
 
-def rests_on_slab(T: np.ndarray, model_pts: np.ndarray, slab_height: float, contact: float) -> bool:
-    """Whether a model posed at ``T`` has its lowest point within ``contact`` m of the slab."""
+def rests_on_slab(T: np.ndarray | None, model_pts: np.ndarray, slab_height: float, contact: float) -> bool:
+    """Whether a model posed at ``T`` has its lowest point within ``contact`` m of the slab at ``slab_height``;
+    with no pose to go by (``T`` None: an object the robot found, no detector pose) it is taken to stand on it."""
+    if T is None:
+        return True
     lowest = float(np.min(model_pts @ T[:3, :3].T[:, 2] + T[2, 3]))
     return abs(lowest - slab_height) <= contact
-
-
-def best_fit(model_pts: np.ndarray, model_normals: np.ndarray, points_world: np.ndarray, bim_pose: np.ndarray | None,
-             other_starts: list[np.ndarray], prior: UprightPrior | None, icp: IcpConfig, support_height: float | None,
-             searched: bool, tie_ratio: float,
-             plausible: Callable[[RegistrationResult], bool] = lambda fit: True) -> RegistrationResult:
-    """The kept registration over all starts (see the module docs). ``searched``: the detector's pose already
-    came from a search (``other_starts``), so the BIM pose and it are refined locally (one restart each) and no
-    slid guesses are needed.
-    ``plausible`` rules fits out (a model whose far side faces the camera); if it rules out all, all count."""
-    bias = prior.upright_bias if prior else DEFAULT_UPRIGHT_BIAS
-    yaw_only = prior.yaw_only if prior else False
-    local = icp.model_copy(update={"restarts": 1, "yaw_jitter_deg": 0.0})
-
-    def fit_from(T: np.ndarray, cfg: IcpConfig) -> RegistrationResult:
-        return register(model_pts, model_normals, points_world, init=T, up=UP, upright_bias=bias, yaw_only=yaw_only,
-                        config=cfg, support_height=support_height)
-
-    guesses = [] if bim_pose is None else [bim_pose] if searched else \
-        [bim_pose, *along_long_axis(slid(bim_pose, model_pts, points_world), model_pts, points_world)]
-    starts = guesses + other_starts
-    fits = [fit_from(T, local if searched else icp) for T in starts]
-    kept = [f for f in fits if plausible(f)] or fits
-    best = min(kept, key=lambda f: f.score)
-    if bim_pose is None:
-        return best
-    at_bim = fits[0] if searched else fit_from(bim_pose, local)
-    return at_bim if at_bim.score <= tie_ratio * best.score and plausible(at_bim) else best

@@ -24,7 +24,7 @@ from bim2rdt.perception.detection import Detection
 from bim2rdt.perception.detector import Detector
 from bim2rdt.perception.edges import EdgeFilter
 from bim2rdt.perception.errors import PerceptionError
-from bim2rdt.perception.fitting import best_fit, rests_on_slab, upright_on
+from bim2rdt.perception.fitting import FitRules, fit_detection
 from bim2rdt.perception.frame import Frame
 from bim2rdt.perception.library import ModelLibrary, library_for
 from bim2rdt.perception.observation import UNKNOWN_FAMILY, Observation
@@ -64,8 +64,14 @@ class PerceiveConfig:
     """A fit is plausible when at most this fraction of its visible surface stands where a camera saw through
     (:mod:`bim2rdt.perception.visibility`: no drum seen from behind)."""
     tie_ratio: float = 1.15
+    """The BIM pose wins when its fit's score is within this factor of the best (:mod:`~bim2rdt.perception.fitting`)."""
     icp: IcpConfig = field(default_factory=IcpConfig)
     edge_filter: EdgeFilter = field(default_factory=EdgeFilter)
+
+    def fit_rules(self) -> FitRules:
+        """The fitting path's rules: a detector's pose came from its own search, so it is refined, not searched
+        again (a frame's time budget: ``bench perception``)."""
+        return FitRules(self.icp, self.tie_ratio, self.slab_contact, refine_detector_pose=True)
 
 
 @dataclass
@@ -182,19 +188,15 @@ def _observe(group: list[_Seen], library: ModelLibrary, priors: dict[str, Uprigh
                            **base)
     element = _associate(group, family, library, claimed, config)
     model_pts, model_normals = library.families[family].samples(config.model_samples, seed=config.icp.seed)
-    bim_pose = element.placement if element is not None else None
-    detector_poses = [s.detection.pose for s in group if s.detection.pose is not None]
-    others = detector_poses if detector_poses or bim_pose is not None else [upright_on(points, model_pts, slab)]
-    reference = bim_pose if bim_pose is not None else (detector_poses[0] if detector_poses else others[0])
-    support = slab if rests_on_slab(reference, model_pts, slab, config.slab_contact) else None
-    views = {s.frame: s.view for s in group}
+    views = [s.view for s in {s.frame: s for s in group}.values()]
 
     def consistent(fit) -> bool:
         return all(see_through_fraction(fit.pose, model_pts, model_normals, view) <= config.max_see_through
-                   for view in views.values())
+                   for view in views)
 
-    fit = best_fit(model_pts, model_normals, points, bim_pose, others, priors.get(family), config.icp, support,
-                   searched=bool(detector_poses), tie_ratio=config.tie_ratio, plausible=consistent)
+    fit = fit_detection(model_pts, model_normals, points, element.placement if element is not None else None,
+                        [s.detection.pose for s in group if s.detection.pose is not None], priors.get(family),
+                        slab, config.fit_rules(), plausible=consistent)
     return Observation(family, element.global_id if element is not None else None, fit.pose, float(fit.rmse),
                        float(fit.fitness), fit=fit, **base)
 

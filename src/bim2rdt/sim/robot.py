@@ -18,7 +18,8 @@ from bim2rdt.sim.render import RgbdFrame, render_rgbd
 
 class SimulatedRobot:
     """Starts at ``T_world_camera``; ``walk_to``, ``drive`` and ``turn`` move the true pose and return odometry
-    readings, ``render``/``capture`` a noisy frame from the true pose. Seeded."""
+    readings, ``render``/``capture`` a noisy frame from the true pose. Seeded. It is a
+    :class:`bim2rdt.mission.robot.Robot` (``drive``, ``capture``, ``turn``), so the library's robot loop runs on it."""
 
     def __init__(self, scene: SiteScene | None, T_world_camera: np.ndarray, seed: int = 0,
                  intrinsics: Intrinsics = Intrinsics(), renderer: Callable[[np.ndarray], RgbdFrame] | None = None):
@@ -26,6 +27,8 @@ class SimulatedRobot:
         self.T_world_camera = np.asarray(T_world_camera, dtype=float).copy()
         self.odometry = SimulatedOdometry(seed)
         self.rng = np.random.default_rng(seed)
+        self.captured: list[np.ndarray] = []
+        """The true camera pose of every capture, in order: the truth a run is scored against afterwards."""
 
     def walk_to(self, T_world_camera: np.ndarray) -> OdometryReading:
         """Walk (turn, straight, turn) to a new camera pose; the odometry reading of the leg."""
@@ -48,7 +51,8 @@ class SimulatedRobot:
         return render_rgbd(self.scene, self.intrinsics, self.T_world_camera, self.rng)
 
     def capture(self) -> Frame:
-        """What the robot sends: the frame without labels."""
+        """What the robot sends: the frame without labels (its true pose is kept in ``captured``)."""
+        self.captured.append(self.T_world_camera.copy())
         return self.render().as_frame(self.intrinsics)
 
     def turn(self, angle: float) -> Turned:

@@ -1,26 +1,11 @@
-"""The status of a BIM element in the twin, as the robot last saw it."""
+"""The status of a BIM element in the twin, as the robot last saw it: :class:`ElementStatus` (defined with the
+shared observation record, :mod:`bim2rdt.perception.observation`) and its colours."""
 
 from __future__ import annotations
 
-from enum import Enum
+from bim2rdt.perception.observation import ElementStatus
 
-
-class ElementStatus(str, Enum):
-    """What the robot's evidence says about one element against the BIM (the value is what reports print).
-
-    ``DEVIATING`` is out of tolerance (for a site object: moved or turned; for a column: out of plumb or off its
-    grid line); ``MISSING`` is its place seen empty; ``NEW`` is an object the BIM does not have;
-    ``UNVERIFIED`` is seen, but the fit is too poor (or the view too weak) to judge."""
-
-    NOT_OBSERVED = "not observed"
-    AS_PLANNED = "as planned"
-    DEVIATING = "deviating"
-    MISSING = "missing"
-    NEW = "new"
-    UNVERIFIED = "unverified"
-
-    def __str__(self) -> str:
-        return self.value
+__all__ = ["STATUS_COLOURS", "ElementStatus"]
 
 
 STATUS_COLOURS = {ElementStatus.NOT_OBSERVED: "0.75", ElementStatus.AS_PLANNED: "tab:green",
