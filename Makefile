@@ -9,7 +9,7 @@ STAMP := $(VENV)/.installed
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
-	$(PY) -m pip install -q -e ".[llm,bench,sensors,dev]"
+	$(PY) -m pip install -q -e ".[llm,bench,sensors,ros,dev]"
 	touch $(STAMP)
 
 setup: $(STAMP)
