@@ -89,6 +89,11 @@ class RosbagSource:
     def drop_counts(self) -> dict[str, int]:
         return dict(Counter(_kind(d["reason"]) for d in self.dropped))
 
+    @staticmethod
+    def drop_kind(reason: str) -> str:
+        """A drop reason without its numbers: what summaries count."""
+        return _kind(reason)
+
     # -- opening ---------------------------------------------------------------------------------------------
 
     def _reader(self):
