@@ -30,6 +30,11 @@ def demo_command(
     ifc: Path | None = typer.Option(None, "--ifc", exists=True, dir_okay=False,
                                     help="Run the loop on this building instead (IFC4; IFC2X3 runs without IFC "
                                          "write-back): site objects are placed on its ground floor."),
+    record: Path | None = typer.Option(None, "--record", help="Also write the robot's run as a ROS 2 bag (NAME.mcap: "
+                                       "the rosbag2 folder NAME/ with NAME.mcap and metadata.yaml): RealSense "
+                                       "colour + depth + CameraInfo + IMU, /tf with the drifting odometry."),
+    targets: int | None = typer.Option(None, "--targets", min=1, help="Verify only the first N site objects (a "
+                                       "short day with fewer stations)."),
 ) -> None:
     """Run a simulated day on the embedded site: the robot verifies the BIM's site objects with SG-ICP, the twin
     is updated and hand-arm vibration exposure becomes IfcEvent/IfcTask records; then the paper's registration
@@ -47,6 +52,8 @@ def demo_command(
         raise typer.BadParameter("--detector yoloe needs --yoloe-weights and --yoloe-embeddings (local files: "
                                  "nothing is downloaded)")
     yoloe = (yoloe_weights, yoloe_embeddings) if detector == "yoloe" else None
+    if ifc is not None and (record is not None or targets is not None):
+        raise typer.BadParameter("--record and --targets run on the embedded site, not with --ifc")
 
     stages = {"bim": "site model read", "site": "site objects placed", "station": "robot station",
               "twin": "twin updated", "hav": "vibration day monitored", "trial": "registration trial"}
@@ -63,13 +70,17 @@ def demo_command(
                                   yoloe=yoloe)
         else:
             result = run_demo(out, trials=trials, seed=seed, workers=workers, minutes=minutes, tick=tick,
-                              detector=detector, yoloe=yoloe)
+                              detector=detector, yoloe=yoloe, record=record, max_targets=targets)
     _show_site_day(result)
     if result.registration is not None:
         show_run(result.registration, targets=False)
         console.print(f"(registration: {trials} trials per scenario, a quick look; the paper's targets are judged "
                       "on 50 trials by `bim2rdt bench registration`)")
     twin = result.site_day.twin_path or f"not written back ({result.site_day.model.schema}: IFC write-back needs IFC4)"
+    if record is not None:
+        from bim2rdt.sources.bag_writer import bag_folder, storage_file
+
+        console.print(f"recorded the robot's run: {bag_folder(record)}/ ({storage_file(record).name} + metadata.yaml)")
     console.print(f"twin: {twin} (history {out / 'twin.db'}, issues {out / 'site_issues.bcf'}); report: "
                   f"{result.report['html']} and {result.report['report']}; plots and JSON in {out}")
 

@@ -79,12 +79,16 @@ def verify_command(
     with record_twin(result, model, out, settings.twin) as twin:
         files = write_outputs(result, twin, out)
         counts = verdict_counts(twin.state())
+        if publish is not None:
+            published = _publish(publish, result, twin.state(), model, out)
     summary = {"frames": len(result.frames), "localized": sum(f.accepted for f in result.frames),
                "verdicts": {k: v for k, v in counts.items() if k != "not observed"},
                "miscalibrated": result.miscalibrated, "warnings": result.warnings,
                "seconds_per_frame": round(sum(f.seconds for f in result.frames) / len(result.frames), 2),
                "dropped": result.drop_counts, "source_warnings": result.source_warnings,
                "out": str(out), "ifc_note": files.ifc_note}
+    if publish is not None:
+        summary["published"] = str(published)
     if as_json:
         print_json(summary)
         return
@@ -104,6 +108,16 @@ def verify_command(
                       + ", ".join(f"{n} {k}" for k, n in result.drop_counts.items()) + " (localization.json)")
     console.print(f"wrote {out}/: twin.json, issues.bcf, localization.json, report.html"
                   + (", twin.ifc" if files.ifc else f" (no twin.ifc: {files.ifc_note})"))
+
+
+def _publish(path: Path, result, states, model, out: Path) -> Path:
+    """The results bag (:mod:`bim2rdt.verify.publish`) and the Nav2 maps its grids equal (``out/maps``)."""
+    from bim2rdt.planning import OccupancyGrid
+    from bim2rdt.verify.publish import publish_results
+
+    grid = OccupancyGrid.from_bim(model).with_zones(model.zones)
+    grid.save_nav2(out / "maps", "site")
+    return publish_results(path, result.frames, states, model, grid)
 
 
 def _bad(message: str) -> Exception:

@@ -73,6 +73,8 @@ class FrameResult:
     depth: DepthCheck | None = None
     observations: list[Observation] = field(default_factory=list)
     seconds: float = 0.0
+    recorded: np.ndarray | None = None
+    """The frame's own pose as the recording gave it (a bag's camera in its world frame), or None."""
 
     def to_dict(self) -> dict:
         """Its entry in localization.json."""
@@ -149,6 +151,7 @@ def verify_frames(frames: Iterable, model: BimModel, prior: np.ndarray | None = 
     for index, frame in enumerate(frames):
         own = frame.T_world_camera if isinstance(frame, Frame) else None
         result = verify_frame(index, frame, model, scene, _prior_for(own, anchor), config)
+        result.recorded = own
         if result.accepted and (anchor is not None or own is not None):
             anchor = (own, result.pose)
         elif anchor is not None and anchor[0] is None and own is not None:
