@@ -20,11 +20,8 @@ import numpy as np
 
 from bim2rdt.localization import Turned
 from bim2rdt.localization.planar import compose, from_planar, to_planar
-from bim2rdt.sources.bag_writer import BagWriter
+from bim2rdt.sources.bag_writer import COLOUR, DEPTH, IMU, IMU_FRAME, INFO, OPTICAL, BagWriter
 
-COLOUR, DEPTH = "/camera/camera/color/image_raw", "/camera/camera/aligned_depth_to_color/image_raw"
-INFO, IMU = "/camera/camera/color/camera_info", "/camera/camera/imu"
-OPTICAL, IMU_FRAME = "camera_color_optical_frame", "camera_imu_optical_frame"
 SPEED, TURN_RATE, CAPTURE_S = 0.5, 0.8, 0.2
 R_LINK_OPTICAL = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
 """camera_link (x forward, z up) <- optical frame (x right, y down, z forward)."""

@@ -18,6 +18,10 @@ from bim2rdt.sources.optional import require
 from bim2rdt.sources.tf import translation_quaternion
 
 GRAVITY = 9.80665
+COLOUR, DEPTH = "/camera/camera/color/image_raw", "/camera/camera/aligned_depth_to_color/image_raw"
+INFO, IMU = "/camera/camera/color/camera_info", "/camera/camera/imu"
+OPTICAL, IMU_FRAME = "camera_color_optical_frame", "camera_imu_optical_frame"
+"""A RealSense's topics and frames (the ROS 2 wrapper's defaults, namespace /camera/camera)."""
 
 
 def bag_folder(path) -> Path:

@@ -78,12 +78,18 @@ class RosbagSource:
         self.bag_paths = _bag_paths(self.path)
         self.dropped: list[dict] = []
         self.warnings: list[str] = []
-        with self._reader() as reader:
+        opened = self._reader()
+        reader = opened.__enter__()
+        try:
             self.topics = self._topics(reader)
             self.tf = self._read_tf(reader)
             self.camera_frame = self._camera_frame(reader)
             self.expected_frames = self._count(reader, self.topics.colour or self.topics.depth)
-        self._check_tf()
+            self._check_tf()
+        except BaseException as error:
+            opened.__exit__(type(error), error, None)
+            raise
+        self._opened = opened  # the first iteration reads on (opening a rosbag2 folder parses its metadata.yaml)
 
     @property
     def drop_counts(self) -> dict[str, int]:
@@ -193,7 +199,8 @@ class RosbagSource:
         self.dropped = []
         every, limit = self.options.every or 1, self.options.max_frames
         emitted = paired = 0
-        with self._reader() as reader:
+        opened, self._opened = self._opened or self._reader(), None
+        with opened as reader:
             for item in self._pairs(reader):
                 if isinstance(item, dict):
                     self.dropped.append(item)
@@ -322,13 +329,16 @@ class _Opened:
         self.reader, self.path = reader, path
 
     def __enter__(self):
-        try:
-            self.reader.open()
-        except Exception as error:
-            raise SourceError(self.path, f"not a readable bag ({_first_line(error)})") from None
-        return _Guarded(self.reader, self.path)
+        if not getattr(self, "guarded", None):
+            try:
+                self.reader.open()
+            except Exception as error:
+                raise SourceError(self.path, f"not a readable bag ({_first_line(error)})") from None
+            self.guarded = _Guarded(self.reader, self.path)
+        return self.guarded
 
     def __exit__(self, kind, error, trace) -> None:
+        self.guarded = None
         try:
             self.reader.close()
         except Exception:
