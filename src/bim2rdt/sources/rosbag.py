@@ -16,6 +16,7 @@ sample); images are then streamed, so memory stays flat in the bag's length.
 
 from __future__ import annotations
 
+import math
 from collections import Counter
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -34,6 +35,11 @@ from bim2rdt.sources.tf import TfBuffer
 EXTRA = "ros"
 SYNC_TOLERANCE = 0.02
 """Seconds within which colour, depth and TF belong to one frame (``Settings.ros.sync_tolerance``)."""
+TREE_SAMPLES = 200
+"""Dynamic TF messages read at most when opening, to learn the tree (frames and parents): reading stops as soon
+as the camera's frame reaches ``map``."""
+TF_KEEP_S = 30.0
+"""Seconds of TF kept behind the newest sample while streaming (memory flat in the bag's length)."""
 CLOCK_TOLERANCE = 1.0
 """Header stamps further than this (s) from the bag's receive times mean two clocks: reported, not guessed."""
 IMAGE, COMPRESSED, INFO = "sensor_msgs/msg/Image", "sensor_msgs/msg/CompressedImage", "sensor_msgs/msg/CameraInfo"
@@ -82,10 +88,12 @@ class RosbagSource:
         reader = opened.__enter__()
         try:
             self.topics = self._topics(reader)
-            self.tf = self._read_tf(reader)
             self.camera_frame = self._camera_frame(reader)
+            self.tf = self._read_tf(reader)
             self.expected_frames = self._count(reader, self.topics.colour or self.topics.depth)
             self._check_tf()
+            self.world_frame = self.tf.root(self.camera_frame) if self.tf else None
+            """The frame the priors are in: map, else odom, else the camera tree's root (None: no TF)."""
         except BaseException as error:
             opened.__exit__(type(error), error, None)
             raise
@@ -154,23 +162,44 @@ class RosbagSource:
             self.warnings.append(warning)
 
     def _read_tf(self, reader) -> TfBuffer:
+        """The TF tree: all of /tf_static and the first ``TREE_SAMPLES`` dynamic transforms (the frames and who is
+        whose parent; the dynamic samples are read again while streaming)."""
         buffer = TfBuffer(self.tolerance)
-        tf = [c for c in reader.connections if c.msgtype == TF]
-        for connection, _, raw in reader.messages(tf):
-            static = connection.topic.endswith("tf_static")
-            for transform in reader.deserialize(raw, connection.msgtype).transforms:
-                t, q = transform.transform.translation, transform.transform.rotation
-                buffer.add(transform.header.frame_id, transform.child_frame_id, (t.x, t.y, t.z),
-                           (q.x, q.y, q.z, q.w), None if static else stamp(transform.header))
-        dynamic = any(not c.topic.endswith("tf_static") for c in tf)
-        if self.topics.odometry and not dynamic:  # odometry stands in for /tf (REP 105's odom -> base_link)
-            odometry = [c for c in reader.connections if c.topic == self.topics.odometry]
-            for connection, _, raw in reader.messages(odometry):
-                message = reader.deserialize(raw, connection.msgtype)
-                p, q = message.pose.pose.position, message.pose.pose.orientation
-                buffer.add(message.header.frame_id, message.child_frame_id, (p.x, p.y, p.z), (q.x, q.y, q.z, q.w),
-                           stamp(message.header))
+        connections = self._tf_connections(reader)
+        static = [c for c in connections if c.topic.endswith("tf_static")]
+        for connection, _, raw in reader.messages(static):
+            self._add(buffer, reader.deserialize(raw, connection.msgtype), connection, static=True)
+        self.static_tf = [(parent, child, T) for parent, child, T in buffer.statics()]
+        dynamic = [c for c in connections if c not in static]
+        for count, (connection, _, raw) in enumerate(reader.messages(dynamic)):
+            self._add(buffer, reader.deserialize(raw, connection.msgtype), connection)
+            if count >= TREE_SAMPLES or (count >= len(dynamic) and buffer.root(self.camera_frame) == "map"):
+                break
         return buffer
+
+    def _tf_connections(self, reader) -> list:
+        """/tf and /tf_static, and the odometry topic when there is no /tf (REP 105's odom -> base_link)."""
+        tf = [c for c in reader.connections if c.msgtype == TF]
+        if self.topics.odometry and not any(not c.topic.endswith("tf_static") for c in tf):
+            tf += [c for c in reader.connections if c.topic == self.topics.odometry]
+        return tf
+
+    @staticmethod
+    def _add(buffer: TfBuffer, message, connection, static: bool = False) -> float | None:
+        """A TFMessage's or an Odometry's transforms into ``buffer``; the latest stamp (None: static)."""
+        if connection.msgtype == ODOMETRY:
+            p, q = message.pose.pose.position, message.pose.pose.orientation
+            when = stamp(message.header)
+            buffer.add(message.header.frame_id, message.child_frame_id, (p.x, p.y, p.z), (q.x, q.y, q.z, q.w), when)
+            return when
+        latest = None
+        for transform in message.transforms:
+            t, q = transform.transform.translation, transform.transform.rotation
+            when = None if static else stamp(transform.header)
+            buffer.add(transform.header.frame_id, transform.child_frame_id, (t.x, t.y, t.z), (q.x, q.y, q.z, q.w),
+                       when)
+            latest = when if latest is None or (when is not None and when > latest) else latest
+        return latest
 
     def _camera_frame(self, reader) -> str:
         message = self._first(reader, self.topics.depth)
@@ -188,10 +217,6 @@ class RosbagSource:
             raise SourceError(self.path, f"the TF tree has no path to the camera frame '{self.camera_frame}' "
                                          f"(frames: {', '.join(sorted(self.tf.frames))})")
 
-    @property
-    def world_frame(self) -> str | None:
-        """The frame the priors are in: map, else odom, else the camera tree's root (None: no TF)."""
-        return self.tf.root(self.camera_frame) if self.tf else None
 
     # -- streaming -------------------------------------------------------------------------------------------
 
@@ -219,15 +244,33 @@ class RosbagSource:
 
     def _pairs(self, reader) -> Iterator:
         """(colour message or None, depth message, CameraInfo or None, latest IMU or None) per frame, or a drop
-        (a dict with time and reason), in stamp order."""
+        (a dict with time and reason), in stamp order. TF streams in the same pass: a pair waits until TF has a
+        sample ``sync_tolerance`` past its stamp (or the bag ends), so its prior can be interpolated."""
+        for item in self._synced(reader):
+            yield item
+
+    def _synced(self, reader) -> Iterator:
         topics = self.topics
+        tf_connections = [c for c in self._tf_connections(reader) if not c.topic.endswith("tf_static")]
+        self.tf = TfBuffer(self.tolerance)
+        for parent, child, T in self.static_tf:
+            self.tf.add_matrix(parent, child, T)
         wanted = [c for c in reader.connections if c.topic in {topics.depth, topics.colour, topics.camera_info,
-                                                               topics.imu}]
+                                                               topics.imu}] + tf_connections
         colours: list = []
         depths: list = []
-        state = {"info": None, "imu": None}
+        waiting: list = []
+        state = {"info": None, "imu": None, "tf": -math.inf}
         for connection, log_time, raw in reader.messages(wanted):
             message = reader.deserialize(raw, connection.msgtype)
+            if connection in tf_connections:
+                latest = self._add(self.tf, message, connection)
+                state["tf"] = max(state["tf"], latest if latest is not None else -math.inf)
+                while waiting and (isinstance(waiting[0], dict) or
+                                   _stamp_of(waiting[0]) + self.tolerance <= state["tf"]):
+                    yield waiting.pop(0)
+                self.tf.forget_before(state["tf"] - TF_KEEP_S)
+                continue
             if connection.topic == topics.camera_info:
                 state["info"] = message
                 continue
@@ -239,13 +282,17 @@ class RosbagSource:
                 self._clock_warning(connection.topic, when - log_time * 1e-9)
             if connection.topic == topics.depth:
                 if topics.colour is None:
-                    yield None, message, state["info"], state["imu"]
+                    waiting.append((None, message, state["info"], state["imu"]))
                     continue
                 depths.append((when, message))
             else:
                 colours.append((when, message))
-            yield from self._matched(colours, depths, state, final=False)
-        yield from self._matched(colours, depths, state, final=True)
+            waiting.extend(self._matched(colours, depths, state, final=False))
+            if not tf_connections:
+                yield from waiting
+                waiting.clear()
+        waiting.extend(self._matched(colours, depths, state, final=True))
+        yield from waiting
 
     def _matched(self, colours: list, depths: list, state: dict, final: bool) -> Iterator:
         while colours:
@@ -290,7 +337,7 @@ class RosbagSource:
                                          "aligned to colour (aligned_depth_to_color), or name only the depth topic")
         intrinsics = intrinsics_for(self.path, self.options, raw.shape[1], raw.shape[0], found)
         prior = None
-        if self.tf:
+        if self.world_frame is not None:
             prior = self.tf.lookup(self.world_frame, self.camera_frame, when)
             if isinstance(prior, str):
                 return {"time": when, "reason": prior}
@@ -369,6 +416,10 @@ class _Guarded:
             return self.reader.deserialize(raw, msgtype)
         except Exception as error:
             raise SourceError(self.path, f"a {msgtype} message does not decode ({_first_line(error)})") from None
+
+
+def _stamp_of(pair) -> float:
+    return stamp(pair[1].header)
 
 
 def _is_bag_error(error: BaseException) -> bool:

@@ -94,6 +94,23 @@ class TfBuffer:
         else:
             edge.add(time, translation, quaternion_xyzw)
 
+    def add_matrix(self, parent: str, child: str, T_parent_child: np.ndarray, time: float | None = None) -> None:
+        """One transform given as a 4x4."""
+        translation, quaternion = translation_quaternion(T_parent_child)
+        self.add(parent, child, translation, quaternion, time)
+
+    def statics(self) -> list[tuple[str, str, np.ndarray]]:
+        """(parent, child, T_parent_child) of every static transform."""
+        return [(edge.parent, child, edge.static) for child, edge in self._edges.items() if edge.static is not None]
+
+    def forget_before(self, time: float) -> None:
+        """Drop stamped samples older than ``time`` (keeping each edge's last two): memory flat while streaming."""
+        for edge in self._edges.values():
+            cut = bisect.bisect_left(edge.times, time) if edge._sorted else 0
+            cut = min(cut, max(0, len(edge.times) - 2))
+            if cut > 64:
+                del edge.times[:cut], edge.translations[:cut], edge.quaternions[:cut]
+
     @property
     def frames(self) -> set[str]:
         return set(self._edges) | {e.parent for e in self._edges.values()}
