@@ -117,3 +117,56 @@ def test_a_db3_bag_reads_too(tmp_path):
             writer.write(connections[connection.id], time, raw)
     assert [f.time for f in open_source(tmp_path / "db")] == pytest.approx([1.005, 2.005])
     shutil.rmtree(tmp_path / "run")
+
+
+def test_a_bag_whose_header_stamps_and_receive_times_disagree_is_reported_not_re_timed(tmp_path):
+    from tests.sources.bags import COLOUR, INFO
+
+    rgb, depth = small_frame()
+    with BagWriter(tmp_path / "skew.mcap") as bag:
+        bag.write_camera_info(INFO, CAMERA, 1.0, SMALL)
+        for t in (1.0, 2.0):
+            header_time = t
+            bag.write_colour(COLOUR, CAMERA, header_time, rgb)
+            message = bag.types["sensor_msgs/msg/Image"](
+                header=bag.header(CAMERA, header_time), height=SMALL.height, width=SMALL.width, encoding="32FC1",
+                is_bigendian=0, step=SMALL.width * 4, data=depth.astype("<f4").reshape(-1).view(np.uint8))
+            bag.write(DEPTH, message, header_time + 5.0)  # received 5 s after its stamp: another clock
+    source = open_source(tmp_path / "skew")
+    frames = list(source)
+    assert [f.time for f in frames] == pytest.approx([1.0, 2.0])  # synced on the stamps as recorded
+    assert np.allclose(frames[0].depth, depth)  # 32FC1: metres as they are
+    assert any("clocks disagree" in w and "+5.0 s" not in w and "-5.0 s" in w for w in source.warnings)
+
+
+def test_a_ros1_bag_reads_too(tmp_path):
+    from rosbags.rosbag1 import Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS1_NOETIC)
+    T = store.types
+    rgb, depth = small_frame()
+
+    def header(t):
+        return T["std_msgs/msg/Header"](seq=0, stamp=T["builtin_interfaces/msg/Time"](sec=t, nanosec=0),
+                                        frame_id=CAMERA)
+
+    with Writer(tmp_path / "run.bag") as writer:
+        info = writer.add_connection("/camera/color/camera_info", "sensor_msgs/msg/CameraInfo", typestore=store)
+        image = writer.add_connection("/camera/depth/image_rect_raw", "sensor_msgs/msg/Image", typestore=store)
+        millimetres = np.round(depth * 1000).astype("<u2")
+        for t in (1, 2):
+            K = np.array([SMALL.fx, 0, SMALL.cx, 0, SMALL.fy, SMALL.cy, 0, 0, 1.0])
+            message = T["sensor_msgs/msg/CameraInfo"](
+                header=header(t), height=SMALL.height, width=SMALL.width, distortion_model="plumb_bob",
+                D=np.zeros(5), K=K, R=np.eye(3).reshape(-1), P=np.zeros(12), binning_x=0, binning_y=0,
+                roi=T["sensor_msgs/msg/RegionOfInterest"](x_offset=0, y_offset=0, height=0, width=0, do_rectify=False))
+            writer.write(info, t * 10**9, store.serialize_ros1(message, "sensor_msgs/msg/CameraInfo"))
+            message = T["sensor_msgs/msg/Image"](header=header(t), height=SMALL.height, width=SMALL.width,
+                                                 encoding="16UC1", is_bigendian=0, step=SMALL.width * 2,
+                                                 data=millimetres.reshape(-1).view(np.uint8))
+            writer.write(image, t * 10**9, store.serialize_ros1(message, "sensor_msgs/msg/Image"))
+    frames = list(open_source(tmp_path / "run.bag"))
+    assert [f.time for f in frames] == [1.0, 2.0] and frames[0].intrinsics == SMALL
+    assert frames[0].T_world_camera is None  # no TF: no prior
+    assert np.allclose(frames[0].depth, depth, atol=5.1e-4)

@@ -73,12 +73,12 @@ class Undistorter:
     are refused unless their coefficients are all zero."""
 
     def __init__(self, info) -> None:
-        K = np.asarray(info.k, float).reshape(3, 3)
+        K = np.asarray(info.k if hasattr(info, "k") else info.K, float).reshape(3, 3)  # ROS 1 spells K, D
         if K[0, 0] <= 0 or K[1, 1] <= 0:
             raise ImageError("CameraInfo has no intrinsics (k is zero): the camera is not calibrated")
         self.intrinsics = Intrinsics(int(info.width), int(info.height), float(K[0, 0]), float(K[1, 1]),
                                      float(K[0, 2]), float(K[1, 2]))
-        d = np.asarray(info.d, float)
+        d = np.asarray(info.d if hasattr(info, "d") else info.D, float)
         model = (info.distortion_model or "plumb_bob").lower()
         self._maps = None
         if d.size and np.any(d != 0):
