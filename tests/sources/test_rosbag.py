@@ -71,6 +71,7 @@ def test_the_imu_up_is_rotated_into_the_camera_frame(tmp_path):
     ("no_tf_path", "no path to the camera frame"),
     ("truncated", "not a readable bag"),
     ("no_metadata", "without metadata.yaml"),
+    ("fisheye", "distortion model 'equidistant' is not supported"),
 ])
 def test_a_damaged_bag_is_refused_in_one_line(tmp_path, damage, message):
     path = tmp_path / "bad.mcap"
@@ -85,6 +86,16 @@ def test_a_damaged_bag_is_refused_in_one_line(tmp_path, damage, message):
         with BagWriter(path) as bag:
             bag.write_tf([("map", "odom", np.eye(4))], 0.0, static=True)
             bag.write_camera_info("/camera/camera/color/camera_info", CAMERA, 1.0, SMALL)
+            bag.write_depth(DEPTH, CAMERA, 1.0, small_frame()[1])
+    elif damage == "fisheye":
+        with BagWriter(path) as bag:
+            T = bag.types
+            bag.write("/camera/camera/color/camera_info", T["sensor_msgs/msg/CameraInfo"](
+                header=bag.header(CAMERA, 1.0), height=SMALL.height, width=SMALL.width,
+                distortion_model="equidistant", d=np.array([0.1, 0.0, 0.0, 0.0]),
+                k=np.array([SMALL.fx, 0, SMALL.cx, 0, SMALL.fy, SMALL.cy, 0, 0, 1.0]), r=np.eye(3).reshape(-1),
+                p=np.zeros(12), binning_x=0, binning_y=0, roi=T["sensor_msgs/msg/RegionOfInterest"](
+                    x_offset=0, y_offset=0, height=0, width=0, do_rectify=False)), 1.0)
             bag.write_depth(DEPTH, CAMERA, 1.0, small_frame()[1])
     elif damage == "truncated":
         write_bag(path, [1.0, 2.0])
@@ -170,3 +181,26 @@ def test_a_ros1_bag_reads_too(tmp_path):
     assert [f.time for f in frames] == [1.0, 2.0] and frames[0].intrinsics == SMALL
     assert frames[0].T_world_camera is None  # no TF: no prior
     assert np.allclose(frames[0].depth, depth, atol=5.1e-4)
+
+
+def test_plumb_bob_distortion_is_removed_from_depth_by_nearest_neighbour(tmp_path):
+    import cv2
+
+    rgb, depth = small_frame()
+    d = np.array([0.2, -0.1, 0.0, 0.0, 0.0])
+    with BagWriter(tmp_path / "distorted.mcap") as bag:
+        T = bag.types
+        K = np.array([SMALL.fx, 0, SMALL.cx, 0, SMALL.fy, SMALL.cy, 0, 0, 1.0])
+        bag.write("/camera/camera/color/camera_info", T["sensor_msgs/msg/CameraInfo"](
+            header=bag.header(CAMERA, 1.0), height=SMALL.height, width=SMALL.width, distortion_model="plumb_bob",
+            d=d, k=K, r=np.eye(3).reshape(-1), p=np.zeros(12), binning_x=0, binning_y=0,
+            roi=T["sensor_msgs/msg/RegionOfInterest"](x_offset=0, y_offset=0, height=0, width=0, do_rectify=False)),
+            1.0)
+        bag.write_depth(DEPTH, CAMERA, 1.0, depth)
+    frame = next(iter(open_source(tmp_path / "distorted")))
+    raw = np.round(depth.astype(np.float64) * 1000).astype(np.uint16)  # as the writer rounds
+    maps = cv2.initUndistortRectifyMap(K.reshape(3, 3), d, None, K.reshape(3, 3), (SMALL.width, SMALL.height),
+                                       cv2.CV_32FC1)
+    expected = cv2.remap(raw, *maps, cv2.INTER_NEAREST).astype(np.float32) / 1000
+    assert not np.allclose(expected, raw / 1000)  # the distortion moves pixels
+    assert np.allclose(frame.depth, expected, atol=1e-6)

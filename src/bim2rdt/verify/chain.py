@@ -215,7 +215,8 @@ def verify_frame(index: int, frame, model: BimModel, scene: OccludedMap, prior: 
     result.depth = check_depth(scan, scene, loc.pose, config.localization.max_range, config.depth)
     result.observations = _observe(index, points_sensor, loc.pose, model, scene, config)
     if result.depth.miscalibrated:
-        result.observations = [Unverified(**_fields(o), reason=f"(sensor looks miscalibrated: {result.depth.reason})")
+        why = f"(sensor looks miscalibrated: {result.depth.reason})"  # Observation has status and reason too
+        result.observations = [Unverified(**{**_fields(o), "status": ElementStatus.UNVERIFIED, "reason": why})
                                for o in result.observations]
     return _timed(result, start)
 
