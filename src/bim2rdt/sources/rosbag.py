@@ -341,10 +341,15 @@ class RosbagSource:
             prior = self.tf.lookup(self.world_frame, self.camera_frame, when)
             if isinstance(prior, str):
                 return {"time": when, "reason": prior}
-        try:
-            depth_m = depth_metres(name, raw, self.options.depth_scale or units)
-        except SourceError as error:
-            return {"time": when, "reason": error.problem}
+        if self.options.depth_scale is not None:  # the caller overrides REP 118's units: check them as any reader
+            try:
+                depth_m = depth_metres(name, raw, self.options.depth_scale)
+            except SourceError as error:
+                return {"time": when, "reason": error.problem}
+        else:  # REP 118 fixes the units (16UC1 mm, 32FC1 m); the Frame still refuses a millimetre-looking median
+            depth_m = raw if units == 1.0 else raw.astype(np.float32) * np.float32(1.0 / units)
+            if not np.any(depth_m > 0):
+                return {"time": when, "reason": "the depth image has no valid pixel (all 0 or NaN)"}
         return build_frame(self.path, rgb, depth_m, intrinsics, self.options, time=when, prior=prior,
                            up=self._up(imu, when), source=name)
 
