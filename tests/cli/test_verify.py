@@ -193,3 +193,25 @@ def test_a_scan_file_goes_the_same_way_as_the_frame(sensors, tmp_path):
     assert frame_entry["accepted"] and frame_entry["source"] == "office1.ply"
     states = {e["global_id"]: e["status"] for e in json.loads((tmp_path / "out" / "twin.json").read_text())["elements"]}
     assert all(states[b["GlobalId"]] == "as planned" for b in truth["furniture"])
+
+
+def test_an_object_the_ifc_puts_where_the_sensor_sees_the_floor_is_missing(sensors, tmp_path):
+    """The desk moved 1.5 m into the room in the IFC: its planned place is seen empty (the floor beyond it), and
+    the real desk is a new object where it stands."""
+    ifc = ifcopenshell.open(str(sensors / "pcl" / "office1.ifc"))
+    desk = ifc.by_guid(MOVED)
+    matrix = ifcopenshell.util.placement.get_local_placement(desk.ObjectPlacement)
+    matrix[0, 3] += 1.5
+    matrix[1, 3] -= 1.0
+    ifcopenshell.api.run("geometry.edit_object_placement", ifc, product=desk, matrix=matrix, is_si=True)
+    ifc.write(str(tmp_path / "moved.ifc"))
+    truth = _truth(sensors)
+    result = _run(tmp_path / "moved.ifc", sensors / "pcl" / "office1.pcd", tmp_path / "out", "--prior", _prior(truth),
+                  "--depth-correction", _correction(truth))
+    assert result.exit_code == 0, result.output
+    states = json.loads((tmp_path / "out" / "twin.json").read_text())["elements"]
+    assert next(e for e in states if e["global_id"] == MOVED)["status"] == "missing"
+    desk_truth = next(b for b in truth["furniture"] if b["GlobalId"] == MOVED)
+    assert [e for e in states if e["status"] == "new"
+            and np.linalg.norm(np.array(e["pose"])[:2, 3] - desk_truth["centre"][:2]) < 0.6]
+    assert json.loads((tmp_path / "out" / "localization.json").read_text())["frames"][0]["missing"] == [MOVED]

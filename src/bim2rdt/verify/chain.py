@@ -24,10 +24,10 @@ from bim2rdt.perception.background import explained, structure_for
 from bim2rdt.perception.frame import Frame
 from bim2rdt.perception.observation import Observation
 from bim2rdt.twin import ElementStatus
-from bim2rdt.verify.depth_check import DepthCheck, DepthCheckConfig, check_depth, check_depth_from_prior
+from bim2rdt.verify.depth_check import DepthCheck, DepthCheckConfig, check_depth
 from bim2rdt.verify.errors import VerifyError
 from bim2rdt.verify.new_objects import NewObjectConfig, new_objects
-from bim2rdt.verify.planned import PlannedConfig, check_planned, planned_in_view
+from bim2rdt.verify.planned import PlannedConfig, check_planned, planned_in_view, seen_empty
 from bim2rdt.verify.priors import levelled
 from bim2rdt.verify.rays import RangeLookup
 
@@ -51,6 +51,9 @@ class VerifyConfig:
     depth_noise: tuple[float, float] = (0.002, 0.0015)
     surface_tolerance: float = 0.03
     """A point this close to a permanent surface (plus 3 sigma of depth noise) is the building's."""
+    min_fitness: float = 0.5
+    """A fit with less of its points on the body than this is no evidence the object is there (the twin's
+    ``min_fitness``): its place may be judged seen empty instead."""
     find_new: bool = True
     """Cluster what neither the building nor a planned object explains into new objects."""
 
@@ -72,6 +75,8 @@ class FrameResult:
     reason: str = ""
     depth: DepthCheck | None = None
     observations: list[Observation] = field(default_factory=list)
+    missing: list[str] = field(default_factory=list)
+    """GlobalIds of planned objects in view whose place the sensor saw empty."""
     seconds: float = 0.0
     recorded: np.ndarray | None = None
     """The frame's own pose as the recording gave it (a bag's camera in its world frame), or None."""
@@ -84,7 +89,8 @@ class FrameResult:
                  "degenerate": [np.asarray(d).tolist() for d in self.degenerate], "residual": self.residual,
                  "inliers": self.inliers, "accepted": self.accepted,
                  "prior": None if self.prior is None else self.prior.tolist(),
-                 "depth_check": self.depth.to_dict() if self.depth else None, "seconds": round(self.seconds, 3)}
+                 "depth_check": self.depth.to_dict() if self.depth else None, "missing": self.missing,
+                 "seconds": round(self.seconds, 3)}
         if not self.accepted:
             entry["reason"] = self.reason
         return entry
@@ -213,11 +219,12 @@ def verify_frame(index: int, frame, model: BimModel, scene: OccludedMap, prior: 
     result.pose, result.covariance, result.degenerate = loc.pose, loc.covariance, list(loc.degenerate)
     result.residual, result.inliers, result.accepted = loc.residual, loc.inliers, True
     result.depth = check_depth(scan, scene, loc.pose, config.localization.max_range, config.depth)
-    result.observations = _observe(index, points_sensor, loc.pose, model, scene, config)
+    result.observations, result.missing = _observe(index, points_sensor, loc.pose, model, scene, config)
     if result.depth.miscalibrated:
         why = f"(sensor looks miscalibrated: {result.depth.reason})"  # Observation has status and reason too
         result.observations = [Unverified(**{**_fields(o), "status": ElementStatus.UNVERIFIED, "reason": why})
                                for o in result.observations]
+        result.missing = []  # a bent depth sees past a place it merely misplaces
     return _timed(result, start)
 
 
@@ -225,8 +232,9 @@ def _depth_at_best_fit(scan, model: BimModel, scene: OccludedMap, prior: np.ndar
                        config: VerifyConfig) -> DepthCheck | None:
     """The depth check at the best rigid fit the localizer finds without its acceptance tests (three times the
     basin's reach, four times its turn, no inlier share, walls see-through): a frame refused because its depth is
-    bent (office1 raw: its best rigid fit lies 0.34 m and 7.7 deg from the true pose) still says why; without
-    even that fit, the angle test from the prior (``check_depth_from_prior``)."""
+    bent (office1 raw: its best rigid fit lies 0.34 m and 7.7 deg from the true pose) still says why. None when
+    even that fit fails: then nothing says how the depth fits the BIM (RANSAC planes found without a fix ran
+    through a far wall's depth steps, and were no test)."""
     loose = config.localization.model_copy(update={
         "max_correction": 3 * config.localization.max_correction,
         "max_correction_deg": 4 * config.localization.max_correction_deg, "min_inlier_fraction": 0.0,
@@ -234,7 +242,7 @@ def _depth_at_best_fit(scan, model: BimModel, scene: OccludedMap, prior: np.ndar
     try:
         best = localize_cloud(scan, model, prior, (0.0, 0.0, 1.0), loose)
     except LocalizationError:
-        return check_depth_from_prior(scan, scene, prior, config.localization.max_range, config.depth)
+        return None
     return check_depth(scan, scene, best.pose, config.localization.max_range, config.depth)
 
 
@@ -252,8 +260,9 @@ class _Cloud:
 
 
 def _observe(index: int, points_sensor: np.ndarray, pose: np.ndarray, model: BimModel, scene: OccludedMap,
-             config: VerifyConfig) -> list[Observation]:
-    """The planned objects in view checked, and the new ones, from the fixed ``pose``."""
+             config: VerifyConfig) -> tuple[list[Observation], list[str]]:
+    """The planned objects in view checked, and the new ones, from the fixed ``pose``; and the GlobalIds of the
+    planned objects whose place the sensor saw empty."""
     points_sensor = points_sensor[:: max(1, len(points_sensor) // 90_000)]
     points_sensor = points_sensor[np.linalg.norm(points_sensor, axis=1) > 1e-6]
     located = points_sensor @ pose[:3, :3].T + pose[:3, 3]
@@ -277,11 +286,17 @@ def _observe(index: int, points_sensor: np.ndarray, pose: np.ndarray, model: Bim
 
     fits = check_planned(left, elements, model, slab, index, pose[:3, 3], behind_walls, lookup.seen_through,
                          config.planned)
+    # judged: a fit the twin will take (enough of its points on the body); the rest may have been seen empty
+    judged = {f.element.global_id for f in fits if f.observation.fitness >= config.min_fitness}
+    empty = seen_empty([el for el in elements if el.global_id not in judged], model, pose[:3, 3], behind_walls,
+                       lookup.compare, config.planned)
+    gone = {el.global_id for el in empty}
+    fits = [f for f in fits if f.element.global_id not in gone]
     observations = [f.observation for f in fits]
     if config.find_new:
         observations += new_objects(left, [(f.element.global_id, f.observation.pose) for f in fits], model, slab,
                                     index, config.new)
-    return observations
+    return observations, [el.global_id for el in empty]
 
 
 def _fields(observation: Observation) -> dict:

@@ -1,16 +1,15 @@
 """Does the sensor's depth agree with the BIM's geometry? A miscalibrated depth camera bends space; no rigid pose
 can undo that, and every object fitted in such a frame carries the bend.
 
-Two tests on the permanent surfaces (walls, slabs, doors: what the localizer fixes on), both independent of
-where objects stand:
+Two tests on the permanent surfaces at the fix (walls and slabs: doors are left out, a leaf may stand ajar):
 
-- **angles**: the points on each wall or slab face in view (at the fix) get a least-squares plane in the
-  sensor frame, and the angle between every two such planes is compared with the angle between their BIM
-  faces. A rigid sensor keeps angles whatever its pose; office1's
-  raw Kinect depth puts the back and left walls at 72-75 degrees where the BIM (and the corrected depth, within
-  0.3 degrees) has 89;
-- **residual**: the median distance of the points near a permanent surface to it at the fix. The corrected
-  office1 frame reaches ~1.5-2 cm (Kinect noise at 2-5 m), the raw one 4.8 cm even at its best rigid fit.
+- **angles**: the points on each wall or slab face in view get a least-squares plane in the sensor frame, and
+  the angle between every two such planes is compared with the angle between their BIM faces. A rigid sensor
+  keeps angles whatever its pose; office1's raw Kinect depth puts its floor and left wall at 86.5 degrees at its
+  best rigid fit (the truth file's raw plane fits: 72-75 degrees between walls), the corrected depth within 0.9
+  degrees of the BIM;
+- **residual**: the median distance of the points within 15 cm of a permanent surface to it. The corrected
+  office1 frame: 2.9 cm (Kinect noise at 2-5 m); the raw one 3.9-4.1 cm at its best rigid fit.
 
 Either beyond its threshold, and the sensor looks miscalibrated: its verdicts are not confident.
 """
@@ -46,16 +45,6 @@ class DepthCheckConfig:
     """Faces with fewer thinned points are too small to measure an angle on."""
     reach: float = 0.1
     """A point belongs to the wall or slab face whose visible sample lies within this at the fix."""
-    near_range: float = 3.5
-    """Without a fix, planes are found (RANSAC) among the points nearer than this, m: a Kinect's depth steps are
-    under 2.5 cm there (7 cm at 5 m, where RANSAC planes run through the steps)."""
-    prior_reach: float = 0.5
-    min_share: float = 0.5
-    """Without a fix, a plane counts when this share of its points lie within ``prior_reach`` of a wall or slab
-    seen from the prior."""
-    max_planes: int = 6
-    iterations: int = 200
-    ransac_points: int = 3000
 
 
 @dataclass(frozen=True)
@@ -116,26 +105,6 @@ def check_depth(scan: ScanPoints, scene: OccludedMap, pose: np.ndarray, max_rang
     return DepthCheck(bool(reasons), reason, pairs, residual)
 
 
-def check_depth_from_prior(scan: ScanPoints, scene: OccludedMap, prior: np.ndarray, max_range: float,
-                           config: DepthCheckConfig = DepthCheckConfig()) -> DepthCheck:
-    """The angle test without a fix: RANSAC planes among the near points (no pose involved) that lie near walls
-    or slabs seen from ``prior``, each angle between two of them against the nearest angle between two BIM faces
-    in view (0 included). No residual: without a fix it means nothing."""
-    visible = scene.visible(prior, scan.directions, 0.5, 8.0, max_range)
-    if len(visible.points) < 6:
-        return DepthCheck(False, "")
-    near = np.linalg.norm(scan.points, axis=1) <= config.near_range
-    close = ScanPoints(scan.points[near], scan.normals[near])
-    placed = close.points @ prior[:3, :3].T + prior[:3, 3]
-    pairs = _unfixed_pairs(close, placed, cKDTree(visible.points), visible, scene, prior, config.prior_reach, config)
-    worst = max(pairs, key=lambda p: abs(p.error_deg), default=None)
-    if worst is None or abs(worst.error_deg) <= config.max_angle_error_deg:
-        return DepthCheck(False, "", pairs)
-    return DepthCheck(True, f"the depth looks miscalibrated: two planes on the walls and slabs meet at "
-                            f"{worst.measured_deg:.1f} deg where the BIM's faces meet at {worst.bim_deg:.1f} (more "
-                            f"than {config.max_angle_error_deg:g} deg off)", pairs)
-
-
 def _median_residual(placed: np.ndarray, tree: cKDTree, visible, near: float) -> float | None:
     gap, index = tree.query(placed, distance_upper_bound=near)
     found = np.isfinite(gap)
@@ -188,91 +157,6 @@ def _plane_normal(points: np.ndarray, distance: float) -> np.ndarray:
         centre = points[keep].mean(axis=0)
         normal = np.linalg.svd(points[keep] - centre, full_matrices=False)[2][-1]
     return normal
-
-
-def _unfixed_pairs(scan: ScanPoints, placed: np.ndarray, tree: cKDTree, visible, scene: OccludedMap,
-                 pose: np.ndarray, reach: float, config: DepthCheckConfig) -> list[PlanePair]:
-    """The cloud's large planes (RANSAC in the sensor frame, members whose own normals agree with the plane's:
-    no plane through a far wall's depth steps) that lie on walls or slabs (``min_share`` of their points within
-    ``reach`` of their visible surface: 10 cm from a fix, half a metre from a prior; doors are left out, a leaf
-    may stand ajar), compared two by two: each measured angle against the nearest angle between two faces of the
-    BIM in view (or 0: parallel faces). No plane is matched to one face, so a wrong match (a wardrobe front to
-    the wall hidden behind it) cannot fake a bend, and a pose off by a few degrees cannot either."""
-    solid = np.array([not c.startswith("IfcDoor") for c in scene.permanent.element_classes])
-    keep = solid[visible.owner]
-    faces = _bim_faces(visible.normals[keep])
-    bim_angles = np.array([0.0] + [_angle(a, b) for i, a in enumerate(faces) for b in faces[i + 1:]])
-    planes: list[tuple[str, np.ndarray]] = []
-    remaining = np.arange(len(scan.points))
-    rng = np.random.default_rng(0)
-    for _ in range(config.max_planes):
-        plane = _ransac(scan.points[remaining], scan.normals[remaining], config, rng)
-        if plane is None:
-            break
-        normal, members = plane
-        members = remaining[members]
-        remaining = np.setdiff1d(remaining, members)
-        gap, index = tree.query(placed[members], distance_upper_bound=reach)
-        found = np.isfinite(gap)
-        found[found] = keep[index[found]]
-        if found.mean() >= config.min_share:
-            owner = int(np.bincount(visible.owner[index[found]]).argmax())
-            planes.append((scene.permanent.element_ids[owner], normal))
-    out = []
-    for i, (first, n1) in enumerate(planes):
-        for second, n2 in planes[i + 1:]:
-            measured = _angle(n1, n2)
-            out.append(PlanePair(first, second, measured, float(bim_angles[np.argmin(np.abs(bim_angles - measured))])))
-    return out
-
-
-def _bim_faces(normals: np.ndarray, min_samples: int = 50) -> list[np.ndarray]:
-    """The distinct face orientations among ``normals`` (unit, sign-free), each the mean of at least
-    ``min_samples`` samples within ~3 degrees."""
-    normals = normals * np.where(normals[:, [2]] < 0, -1.0, 1.0)
-    keys, inverse, counts = np.unique(np.round(normals * 20).astype(int), axis=0, return_inverse=True,
-                                      return_counts=True)
-    out = []
-    for k in np.flatnonzero(counts >= min_samples):
-        mean = normals[inverse.reshape(-1) == k].mean(axis=0)
-        out.append(mean / np.linalg.norm(mean))
-    return out
-
-
-COS_AGREE = float(np.cos(np.deg2rad(20.0)))
-"""A plane's member must face its way within 20 degrees by its own (PCA) normal."""
-
-
-def _ransac(points: np.ndarray, normals: np.ndarray, config: DepthCheckConfig,
-            rng) -> tuple[np.ndarray, np.ndarray] | None:
-    """The plane with the most points within ``plane_distance`` whose own normals agree with it, refined by
-    least squares: (unit normal, indices of its points), or None when no plane has ``min_plane_points``."""
-    if len(points) < config.min_plane_points:
-        return None
-    picks = rng.integers(0, len(points), size=(config.iterations, 3))
-    a, b, c = points[picks[:, 0]], points[picks[:, 1]], points[picks[:, 2]]
-    step = max(1, len(points) // config.ransac_points)
-    scored, scored_normals = points[::step], np.nan_to_num(normals[::step])
-    hypotheses = np.cross(b - a, c - a)
-    length = np.linalg.norm(hypotheses, axis=1)
-    good = length > 1e-9
-    hypotheses, a = hypotheses[good] / length[good, None], a[good]
-    near = np.abs((scored[None, :, :] - a[:, None, :]) @ hypotheses[..., None])[..., 0] < config.plane_distance
-    agree = np.abs(scored_normals @ hypotheses.T).T >= COS_AGREE
-    counts = (near & agree).sum(axis=1) * step
-    if len(counts) == 0 or counts.max() < config.min_plane_points:
-        return None
-    best = int(np.argmax(counts))
-    normal, origin = hypotheses[best], a[best]
-    members = np.zeros(0, dtype=int)
-    for _ in range(2):
-        members = np.flatnonzero((np.abs((points - origin) @ normal) < config.plane_distance)
-                                 & (np.abs(np.nan_to_num(normals) @ normal) >= COS_AGREE))
-        if len(members) < 3:
-            return None
-        origin = points[members].mean(axis=0)
-        normal = np.linalg.svd(points[members] - origin, full_matrices=False)[2][-1]
-    return normal, members
 
 
 def _angle(a: np.ndarray, b: np.ndarray, unsigned: bool = True) -> float:

@@ -30,15 +30,18 @@ class VerifyFiles:
 
 def record_twin(result: VerifyResult, model: BimModel, out_dir: Path, config: TwinConfig = TwinConfig(),
                 robot: str = "verify") -> DigitalTwin:
-    """A fresh twin at ``out_dir/twin.db`` with every frame's observations (time: the frame's, else its index;
-    camera: the fixed pose)."""
+    """A fresh twin at ``out_dir/twin.db`` with every frame's observations and the places it saw empty (time: the
+    frame's, else its index; camera: the fixed pose)."""
     for stale in (TWIN_DB, f"{TWIN_DB}-wal", f"{TWIN_DB}-shm"):
         (out_dir / stale).unlink(missing_ok=True)
     twin = DigitalTwin.open(f"sqlite:///{out_dir / TWIN_DB}", model, tolerances=config.tolerance_policy(),
                             min_fitness=config.min_fitness, robot=robot)
     for frame in result.frames:
+        when = frame.time if frame.time is not None else float(frame.index)
         for observation in frame.observations:
-            twin.record(observation, frame.time if frame.time is not None else float(frame.index), camera=frame.pose)
+            twin.record(observation, when, camera=frame.pose)
+        for global_id in frame.missing:
+            twin.mark_missing(global_id, when, frames=(frame.index,), camera=frame.pose)
     return twin
 
 

@@ -50,6 +50,9 @@ class PlannedConfig:
     """The points are thinned to one per cube of this size (their mean) before registration."""
     support: float = 0.04
     """A surface sample with a located point this close is covered (the depth noise at 4-5 m, and then some)."""
+    missing_through: float = 0.8
+    """An object in view that is not judged is missing when the sensor saw past this share of the part of its
+    planned sensor-facing surface in sight (the mission's rule for a place seen empty)."""
     coverage_samples: int = 300
     """Coverage is counted on at most this many of the object's sensor-facing samples (evenly thinned)."""
     min_gain_z: float = 2.5
@@ -121,6 +124,28 @@ def check_planned(points_world: np.ndarray, elements: list[BimElement], model: B
             element.family or element.ifc_class, element.global_id, pose, rmse, fitness, len(points),
             score=found if moved else planned, detector="bim", frames=(frame_index,), fit=fit)))
     return fits
+
+
+def seen_empty(elements: list[BimElement], model: BimModel, sensor_world: np.ndarray, behind_walls, compare,
+               config: PlannedConfig = PlannedConfig()) -> list[BimElement]:
+    """Of ``elements`` (in view, not judged: too few points of their own, or a fit with little on the body),
+    those whose planned place the sensor saw empty: of their sensor-facing surface samples (in front of the
+    walls) with a return on their ray that is not nearer (hidden by clutter), at least ``min_points`` and
+    ``missing_through`` of them have the return farther than ``support`` beyond (``compare(points, margin)``:
+    1 past, 0 on, -1 nearer, NaN none). A place mostly hidden is not seen, not missing."""
+    empty = []
+    for element in elements:
+        samples, normals = sample_model(element_body_mesh(model, element.global_id), config.samples,
+                                        seed=config.icp.seed, drop_resting_face=False)
+        T = element.placement
+        points = samples @ T[:3, :3].T + T[:3, 3]
+        facing = np.einsum("ni,ni->n", normals @ T[:3, :3].T, sensor_world - points) > 0
+        facing[facing] = ~behind_walls(points[facing])
+        seen = compare(points[facing], config.support)
+        in_sight = seen[np.isfinite(seen) & (seen >= 0)]  # on it or past it: the place itself was in sight
+        if len(in_sight) >= config.min_points and (in_sight > 0).mean() >= config.missing_through:
+            empty.append(element)
+    return empty
 
 
 def search_shift(body, placement: np.ndarray, sensor_world: np.ndarray, located: cKDTree,

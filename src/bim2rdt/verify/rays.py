@@ -26,6 +26,19 @@ class RangeLookup:
         directions = (points_sensor / ranges[:, None]) @ T_world_sensor[:3, :3].T
         return cls(T_world_sensor[:3, 3].copy(), cKDTree(directions), ranges, np.deg2rad(max_angle_deg))
 
+    def compare(self, points_world: np.ndarray, margin: float) -> np.ndarray:
+        """(K,) per point: 1 the sensor measured past it by more than ``margin`` (seen through), -1 nearer by
+        more than ``margin`` (hidden behind something), 0 on it, NaN no return on its ray."""
+        offset = points_world - self.origin
+        distance = np.linalg.norm(offset, axis=1)
+        gap, index = self.tree.query(offset / distance[:, None], distance_upper_bound=self.max_angle)
+        found = np.isfinite(gap)
+        out = np.full(len(points_world), np.nan)
+        measured = self.ranges[index[found]]
+        out[found] = np.where(measured > distance[found] + margin, 1.0,
+                              np.where(measured < distance[found] - margin, -1.0, 0.0))
+        return out
+
     def seen_through(self, points_world: np.ndarray, margin: float) -> np.ndarray:
         """(K,) bool: points the sensor measured past by more than ``margin`` m on (nearly) their own ray."""
         offset = points_world - self.origin
