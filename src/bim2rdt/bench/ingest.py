@@ -40,8 +40,8 @@ def synthetic_bag(path: Path, stations: int, seed: int = 0) -> Path:
             t = 1.0 + k
             T = np.eye(4)
             T[0, 3] = 0.5 * k
-            bag.write_tf([("map", "odom", np.eye(4)), ("odom", "base_link", T), ("base_link", "camera_link", np.eye(4))],
-                         t)
+            bag.write_tf([("map", "odom", np.eye(4)), ("odom", "base_link", T),
+                          ("base_link", "camera_link", np.eye(4))], t)
             bag.write_camera_info(INFO, OPTICAL, t, intrinsics)
             bag.write_colour(COLOUR, OPTICAL, t, rgb)
             bag.write_depth(DEPTH, OPTICAL, t, depth)

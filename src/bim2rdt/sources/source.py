@@ -66,7 +66,8 @@ def _reader_name(path: Path) -> str:
             if _reader(looks_like)(path):
                 return name
         raise SourceError(path, "no frames here: a folder needs a TUM rgb.txt + depth.txt, a colour + depth PNG pair "
-                                "(*_color.png, *_depth.png) or PCL grabber TIFFs (*_depth.tiff + .xml), or a rosbag2 folder (metadata.yaml)")
+                                "(*_color.png, *_depth.png), PCL grabber TIFFs (*_depth.tiff + .xml) or a rosbag2 folder "
+                                "(metadata.yaml)")
     name = FILE_READERS.get(path.suffix.lower())
     if name is None:
         raise SourceError(path, f"no frame reader for '{path.suffix or path.name}' files (readers: "
