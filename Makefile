@@ -12,7 +12,7 @@ $(STAMP): pyproject.toml
 	@echo "make: updating pip"
 	$(PY) -m pip install -q --upgrade pip
 	@echo "make: installing bim2rdt and its dependencies (ifcopenshell, open3d, ...: a few minutes the first time)"
-	$(PY) -m pip install -q -e ".[llm,bench,sensors,nats,dev]"
+	$(PY) -m pip install -q -e ".[llm,bench,sensors,nats,ros,dev]"
 	@echo "make: $(VENV) is ready"
 	touch $(STAMP)
 

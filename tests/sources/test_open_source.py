@@ -27,7 +27,7 @@ def test_a_path_that_is_absent_or_of_no_known_format_is_refused(tmp_path):
         open_source(tmp_path / "nowhere.bag")
     _one_line(error)
     (tmp_path / "notes.txt").write_text("hello")
-    with pytest.raises(SourceError, match=r"notes.txt: no frame reader for '.txt' files \(readers: .mkv, .pcd"):
+    with pytest.raises(SourceError, match=r"notes.txt: no frame reader for '.txt' files \(readers: .bag, .db3, .mcap, .mkv, .pcd"):
         open_source(tmp_path / "notes.txt")
 
 

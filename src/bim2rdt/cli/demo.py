@@ -33,6 +33,11 @@ def demo_command(
     objects: int = typer.Option(7, "--objects", min=1, max=7,
                                 help="With --ifc: site objects placed, one per room (fewer: fewer stations, a "
                                      "quicker look at the same loop)."),
+    record: Path | None = typer.Option(None, "--record", help="Also write the robot's run as a ROS 2 bag (NAME.mcap: "
+                                       "the rosbag2 folder NAME/ with NAME.mcap and metadata.yaml): RealSense "
+                                       "colour + depth + CameraInfo + IMU, /tf with the drifting odometry."),
+    targets: int | None = typer.Option(None, "--targets", min=1, help="Verify only the first N site objects (a "
+                                       "short day with fewer stations)."),
 ) -> None:
     """Run a simulated day on the embedded site: the robot verifies the BIM's site objects with SG-ICP, the twin
     is updated and hand-arm vibration exposure becomes IfcEvent/IfcTask records; then the paper's registration
@@ -51,6 +56,8 @@ def demo_command(
         check_detector(detector, yoloe)
     except PerceptionError as error:
         raise typer.BadParameter(str(error)) from None
+    if ifc is not None and (record is not None or targets is not None):
+        raise typer.BadParameter("--record and --targets run on the embedded site, not with --ifc")
 
     stages = {"bim": "site model read", "site": "site objects placed", "station": "robot station",
               "twin": "objects registered, twin updated", "hav": "vibration day monitored",
@@ -64,7 +71,7 @@ def demo_command(
                                   yoloe=yoloe, objects=objects)
         else:
             result = run_demo(out, trials=trials, seed=seed, workers=workers, minutes=minutes, tick=tick,
-                              detector=detector, yoloe=yoloe)
+                              detector=detector, yoloe=yoloe, record=record, max_targets=targets)
     _show_site_day(result)
     if result.registration is not None:
         show_run(result.registration, targets=False)
@@ -72,6 +79,10 @@ def demo_command(
                       "on 50 trials by `bim2rdt bench registration`)")
     _fail_without_a_station(result.site_day, out)
     twin = result.site_day.twin_path or f"not written back ({result.site_day.model.schema}: IFC write-back needs IFC4)"
+    if record is not None:
+        from bim2rdt.sources.bag_writer import bag_folder, storage_file
+
+        console.print(f"recorded the robot's run: {bag_folder(record)}/ ({storage_file(record).name} + metadata.yaml)")
     console.print(f"twin: {twin} (history {out / 'twin.db'}, issues {out / 'site_issues.bcf'}); report: "
                   f"{result.report['html']} and {result.report['report']}; plots and JSON in {out}")
     console.print(f"see the twin: {follow_up_command(result.site_day.model.path, out / 'twin.db')}", markup=False,

@@ -33,6 +33,13 @@ def verify_command(
     detector: str = typer.Option("cluster", "--detector", help="New objects: 'cluster' (what neither the building "
                                  "nor a planned object explains) or 'none'."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON document instead of the summary."),
+    topics: str | None = typer.Option(None, "--topics", help="A bag's topics by role, ROLE=/topic,... (roles: colour, "
+                                      "depth, camera_info, imu, odometry); the others are found by message type."),
+    every: int | None = typer.Option(None, "--every", min=1, help="Keep every N-th frame of the recording."),
+    max_frames: int | None = typer.Option(None, "--max-frames", min=1, help="Stop after this many frames."),
+    publish: Path | None = typer.Option(None, "--publish", help="Also write the results as a ROS 2 bag (NAME.mcap: "
+                                        "the rosbag2 folder NAME/): /tf map->odom from the fixes, /bim2rdt/pose, "
+                                        "/bim2rdt/objects, /map, /keepout_filter_mask."),
 ) -> None:
     """Localize each frame on the BIM's walls and slabs, check every planned object in view and find new ones,
     record them in a twin and export it."""
@@ -59,19 +66,29 @@ def verify_command(
     if T_prior is not None:
         _inside(model, T_prior[:3, 3])
     correction = _numbers(depth_correction, 3, "--depth-correction") if depth_correction else None
-    frames = _frames(source, correction)
+    if topics is not None and not _is_bag(source):
+        raise _bad("--topics is for ROS bags (.mcap, .db3, .bag, a rosbag2 folder)")
+    options = {"topics": topics, "every": every, "max_frames": max_frames,
+               "sync_tolerance": settings.ros.sync_tolerance} if _is_bag(source) else {}
+    frames = _frames(source, correction, {k: v for k, v in options.items() if v is not None})
+    if not _is_bag(source) and (every or max_frames):
+        frames = _Subsampled(frames, every or 1, max_frames)
     config = VerifyConfig(find_new=detector != "none")
-    result = verify_frames(frames, model, T_prior, config,
-                           progress=None if as_json else lambda f: console.print(
-                               f"frame {f.index}: {'localized' if f.accepted else 'not localized'} in {f.seconds:.1f} s"))
+    with _progress(frames, as_json, every, max_frames) as progress:
+        result = verify_frames(frames, model, T_prior, config, progress=progress)
     with record_twin(result, model, out, settings.twin) as twin:
         files = write_outputs(result, twin, out)
         counts = verdict_counts(twin.state())
+        if publish is not None:
+            published = _publish(publish, result, twin.state(), model, out)
     summary = {"frames": len(result.frames), "localized": sum(f.accepted for f in result.frames),
                "verdicts": {k: v for k, v in counts.items() if k != "not observed"},
                "miscalibrated": result.miscalibrated, "warnings": result.warnings,
                "seconds_per_frame": round(sum(f.seconds for f in result.frames) / len(result.frames), 2),
+               "dropped": result.drop_counts, "source_warnings": result.source_warnings,
                "out": str(out), "ifc_note": files.ifc_note}
+    if publish is not None:
+        summary["published"] = str(published)
     if as_json:
         print_json(summary)
         return
@@ -84,8 +101,23 @@ def verify_command(
                                   or "none (no frame localized, or nothing in view)"))
     for warning in result.warnings[:5]:
         console.print(f"[bold red]warning:[/] {warning}; its verdicts are unverified")
+    for warning in result.source_warnings:
+        console.print(f"[bold red]warning:[/] {warning}")
+    if result.dropped:
+        console.print(f"dropped {len(result.dropped)} frames: "
+                      + ", ".join(f"{n} {k}" for k, n in result.drop_counts.items()) + " (localization.json)")
     console.print(f"wrote {out}/: twin.json, issues.bcf, localization.json, report.html"
                   + (", twin.ifc" if files.ifc else f" (no twin.ifc: {files.ifc_note})"))
+
+
+def _publish(path: Path, result, states, model, out: Path) -> Path:
+    """The results bag (:mod:`bim2rdt.verify.publish`) and the Nav2 maps its grids equal (``out/maps``)."""
+    from bim2rdt.planning import OccupancyGrid
+    from bim2rdt.verify.publish import publish_results
+
+    grid = OccupancyGrid.from_bim(model).with_zones(model.zones)
+    grid.save_nav2(out / "maps", "site")
+    return publish_results(path, result.frames, states, model, grid)
 
 
 def _bad(message: str) -> Exception:
@@ -98,12 +130,65 @@ def _bad(message: str) -> Exception:
 SCAN_SUFFIXES = (".ply", ".las", ".laz", ".e57")
 
 
-def _frames(source: Path, correction):
+BAG_SUFFIXES = (".mcap", ".db3", ".bag")
+
+
+class _Subsampled:
+    """Every N-th frame of a source, at most ``limit``."""
+
+    def __init__(self, frames, every: int, limit: int | None) -> None:
+        self.frames, self.every, self.limit = frames, every, limit
+
+    def __iter__(self):
+        import itertools
+
+        return itertools.islice(iter(self.frames), 0, None if self.limit is None else self.limit * self.every,
+                                self.every)
+
+
+def _is_bag(source: Path) -> bool:
+    return source.suffix.lower() in BAG_SUFFIXES or (source.is_dir() and (source / "metadata.yaml").is_file())
+
+
+def _progress(frames, quiet: bool, every: int | None, max_frames: int | None):
+    """A progress bar with counts and ETA for a source that knows its length (a bag), else a line per frame."""
+    from contextlib import contextmanager
+
+    @contextmanager
+    def bar():
+        expected = getattr(frames, "expected_frames", None)
+        if quiet:
+            yield None
+            return
+        if not expected:
+            yield lambda f: console.print(f"frame {f.index}: {'localized' if f.accepted else 'not localized'} in "
+                                          f"{f.seconds:.1f} s")
+            return
+        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+
+        total = -(-expected // (every or 1))
+        total = min(total, max_frames) if max_frames else total
+        counts = {"localized": 0}
+        with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn(),
+                      console=console, transient=True) as progress:
+            task = progress.add_task("frames", total=total)
+
+            def tick(f) -> None:
+                counts["localized"] += f.accepted
+                dropped = len(getattr(frames, "dropped", []))
+                progress.update(task, advance=1, description=f"frames: {counts['localized']} localized, "
+                                                             f"{dropped} dropped")
+            yield tick
+    return bar()
+
+
+def _frames(source: Path, correction, extra: dict | None = None):
     """The source's frames (``open_source``), or a scan as one cloud (``read_cloud``: .ply .las .laz .e57, and
     a .pcd that is not organised), with the depth correction applied."""
     from bim2rdt.sources import SourceError, correct_points, open_source, read_cloud
 
     options = {"depth_correction": correction} if correction is not None else {}
+    options.update(extra or {})
     if source.suffix.lower() not in SCAN_SUFFIXES:
         try:
             return open_source(source, **options)

@@ -68,22 +68,24 @@ class MissionLocalization:
 
 
 def localized_mission(context: MissionContext, eyes: Callable[[], DemoPerception], start_xy, seed: int = 0,
-                      route: Route | None = None,
-                      comparison_route: Route | None = None) -> tuple[MissionResult, MissionLocalization]:
+                      route: Route | None = None, comparison_route: Route | None = None,
+                      record: Callable | None = None) -> tuple[MissionResult, MissionLocalization]:
     """Run ``context``'s mission with a simulated robot docked at ``start_xy`` on odometry + BIM localization (its
     verdicts go to the twin), then again on dead reckoning alone (for comparison only; without ``context.tick``).
     ``eyes()`` makes each run's camera and detector; ``route`` walks the first run and ``comparison_route`` (a
-    fresh one: a route keeps what it walked) the second; None walks straight to each station."""
+    fresh one: a route keeps what it walked) the second; None walks straight to each station. ``record(robot,
+    dock)``, when given, wraps the first run's robot (``demo --record``: a bag of what it measured)."""
     context = context.with_building()
     dock = dock_pose(context.stations, start_xy, context.config.camera_height)
-    mission, anchored = _simulated(context, eyes(), dock, seed, True, route)
+    mission, anchored = _simulated(context, eyes(), dock, seed, True, route, record)
     dead, drifting = _simulated(replace(context, tick=lambda: None), eyes(), dock, seed, False, comparison_route)
     return mission, MissionLocalization(anchored, dead, drifting)
 
 
 def _simulated(context: MissionContext, eyes: DemoPerception, dock: np.ndarray, seed: int, anchored: bool,
-               route: Route | None) -> tuple[MissionResult, list[ScoredStation]]:
+               route: Route | None, record: Callable | None = None) -> tuple[MissionResult, list[ScoredStation]]:
     """One run of the library's loop on a simulated robot whose camera is ``eyes``; its looks scored."""
     robot = SimulatedRobot(None, dock, seed, eyes.intrinsics, renderer=eyes.render)
-    run = run_robot_mission(context, robot, eyes.detect_frame, dock, anchored, route)
+    driven = robot if record is None else record(robot, dock)
+    run = run_robot_mission(context, driven, eyes.detect_frame, dock, anchored, route)
     return run.result, [ScoredStation(s, robot.captured[s.capture]) for s in run.stations]

@@ -35,7 +35,8 @@ class DemoResult:
 
 def run_demo(out_dir: Path, trials: int = DEMO_TRIALS, seed: int = DEMO_SEED, workers: int = 2,
              minutes: float = 60.0, tick: Callable[[str], None] = lambda stage: None, detector: str = "geometric",
-             yoloe: tuple[Path, Path] | None = None) -> DemoResult:
+             yoloe: tuple[Path, Path] | None = None, record: Path | None = None,
+             max_targets: int | None = None) -> DemoResult:
     """Run the site day and the registration scenarios into ``out_dir`` (created), with the settings read once
     from the environment; the robot reads its frames with ``detector`` (``yoloe``: local weights and prompt
     embeddings). ``config.json`` records those settings (secrets masked), the detector, the seed and the versions."""
@@ -47,7 +48,7 @@ def run_demo(out_dir: Path, trials: int = DEMO_TRIALS, seed: int = DEMO_SEED, wo
     settings = demo_settings()
     day = run_site_day(out_dir, seed=seed, workers=workers, minutes=minutes, mission_config=settings.mission,
                        icp=settings.registration, twin_config=settings.twin, tick=tick, detector=detector,
-                       yoloe=yoloe)
+                       yoloe=yoloe, record=record, max_targets=max_targets)
     report = write_site_report(day, out_dir)
     run = run_registration_scenarios(out_dir / "registration", trials, seed, settings.registration, peers=False,
                                      tick=lambda: tick("trial"))

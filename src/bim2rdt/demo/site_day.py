@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import shutil
 from collections.abc import Callable
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -74,20 +75,24 @@ def run_site_day(out_dir: Path, seed: int = 0, workers: int = 2, minutes: float 
                  mission_config: MissionConfig = MissionConfig(), icp: IcpConfig = IcpConfig(),
                  twin_config: TwinConfig = TwinConfig(),
                  tick: Callable[[str], None] = lambda stage: None, detector: str = "geometric",
-                 yoloe: tuple[Path, Path] | None = None) -> SiteDay:
+                 yoloe: tuple[Path, Path] | None = None, record: Path | None = None,
+                 max_targets: int | None = None) -> SiteDay:
     """Run the day into ``out_dir``: ``site.ifc`` (as designed), the day's twin (``twin.db``) and its exports
     (``site_twin.ifc`` as built with safety records, ``site_issues.bcf``, ``twin.json``), and the monitor's state
     under ``state/`` (both started afresh: the demo simulates a new day). The mission runs with
     ``mission_config`` and registers with ``icp``; the twin judges with ``twin_config``'s presets (the demo passes
     ``Settings.mission``, ``Settings.registration`` and ``Settings.twin``). The robot's camera sees the building
-    and reads its frames with ``detector`` (:mod:`bim2rdt.demo.perceivers`)."""
+    and reads its frames with ``detector`` (:mod:`bim2rdt.demo.perceivers`). ``record``: also write the robot's run
+    as a ROS 2 bag there (:mod:`bim2rdt.demo.record`); ``max_targets``: verify only the first N site objects (a
+    short day, fewer stations)."""
     out_dir.mkdir(parents=True, exist_ok=True)
     model = load_ifc(build_site_ifc(out_dir / "site.ifc"), cache_dir=_model_cache())
     tick("bim")
-    targets = objects_of_interest(model)
-    reality = simulate_reality(model, [t.global_id for t in targets], seed=seed, unplanned_at=UNPLANNED_DRUM_XY,
+    planned = objects_of_interest(model)
+    reality = simulate_reality(model, [t.global_id for t in planned], seed=seed, unplanned_at=UNPLANNED_DRUM_XY,
                                building=True, removed=REMOVED_OBJECTS)
-    priors = KnowledgeBasePriors().priors(sorted({t.family for t in targets} | {t.family for t in reality.truth}))
+    targets = planned[:max_targets]  # the site changes as on a full day; the robot sees only these objects
+    priors = KnowledgeBasePriors().priors(sorted({t.family for t in planned} | {t.family for t in reality.truth}))
     twin = open_day_twin(out_dir, model, priors, twin_config)
     events, timeline = _hav_day(twin, out_dir / "state", workers, minutes, fs)
     tick("hav")
@@ -101,13 +106,28 @@ def run_site_day(out_dir: Path, seed: int = 0, workers: int = 2, minutes: float 
     route = route_for_today()
     context = MissionContext(targets, route.plan.stations, model, priors, mesh_for_family, route.config, icp,
                              twin_config.tolerance_policy(), twin_config.min_fitness, tick=lambda: tick("station"))
-    mission, localization = localized_mission(context, perception, ROBOT_START_XY, seed, route=route.route,
-                                              comparison_route=route_for_today().route)
+    with _recorder(record) as recording:
+        mission, localization = localized_mission(context, perception, ROBOT_START_XY, seed, route=route.route,
+                                                  comparison_route=route_for_today().route, record=recording)
     record_mission(twin, mission.observations, mission.stations, times=route.route.arrivals, missing=mission.missing)
     tick("twin")
     files = export_day_twin(twin, out_dir)
     return SiteDay(model, priors, reality, mission, files.ifc, events, timeline, ifc_records(files.ifc), twin, files,
                    route, localization)
+
+
+@contextmanager
+def _recorder(path: Path | None):
+    """None, or ``record(robot, dock)`` wrapping the robot in a :class:`~bim2rdt.demo.record.RecordingRobot`
+    that writes the bag at ``path`` (closed, and renamed into place, when the run ends)."""
+    if path is None:
+        yield None
+        return
+    from bim2rdt.demo.record import RecordingRobot
+    from bim2rdt.sources.bag_writer import BagWriter
+
+    with BagWriter(path) as bag:
+        yield lambda robot, dock: RecordingRobot(robot, bag, dock, _shift_start())
 
 
 def _hav_day(twin: DigitalTwin, state_dir: Path, workers: int, minutes: float, fs: float,

@@ -11,10 +11,10 @@ EXTRA = "sensors"
 """The pip extra that installs every optional reader (``pip install 'bim2rdt[sensors]'``)."""
 
 
-def require(module: str, path, what: str) -> ModuleType:
-    """``module`` imported, or :class:`SourceError`: reading ``what`` needs it, and the extra that installs it."""
+def require(module: str, path, what: str, extra: str = EXTRA) -> ModuleType:
+    """``module`` imported, or :class:`SourceError`: reading ``what`` needs it, and the ``extra`` that installs it."""
     try:
         return importlib.import_module(module)
     except ImportError:
         raise SourceError(path, f"reading {what} needs the Python package '{module.split('.')[0]}': "
-                                f"pip install 'bim2rdt[{EXTRA}]'") from None
+                                f"pip install 'bim2rdt[{extra}]'") from None

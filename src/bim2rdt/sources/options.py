@@ -20,7 +20,10 @@ class SourceOptions:
     gz) in 1/m, see :mod:`bim2rdt.sources.calibration`; ``prior``: a 4x4 T_world_camera given to every frame as
     its prior pose (a recording's own poses win, e.g. TUM's groundtruth.txt); ``up``: gravity up in the camera
     frame for every frame, overriding an IMU; ``calibration``: a JSON file with an Azure Kinect's calibration
-    (instead of the one attached to the .mkv); ``max_frames``: stop after this many frames."""
+    (instead of the one attached to the .mkv); ``max_frames``: stop after this many frames; ``every``: keep every
+    N-th frame; ``topics``: a bag's topics by role (a dict, or ``"colour=/a,depth=/b"``; roles in
+    :data:`TOPIC_ROLES`), the others found by message type; ``sync_tolerance``: seconds within which a bag's
+    colour, depth and TF samples belong to one frame (default 0.02)."""
 
     intrinsics: Intrinsics | dict | None = None
     depth_scale: float | None = None
@@ -29,6 +32,13 @@ class SourceOptions:
     up: np.ndarray | None = None
     calibration: Path | None = None
     max_frames: int | None = None
+    every: int | None = None
+    topics: dict | None = None
+    sync_tolerance: float | None = None
+
+
+TOPIC_ROLES = ("colour", "depth", "camera_info", "imu", "odometry")
+"""What a bag's topic may be named for with ``topics``."""
 
 
 def parse_options(path, options: dict) -> SourceOptions:
@@ -78,11 +88,29 @@ def _up(value) -> np.ndarray:
     return up / np.linalg.norm(up)
 
 
-def _frames(value) -> int:
-    if int(value) != value or value < 1:
-        raise ValueError(f"max_frames must be a positive whole number, got {value!r}")
-    return int(value)
+def _whole(name: str):
+    def check(value) -> int:
+        if int(value) != value or value < 1:
+            raise ValueError(f"{name} must be a positive whole number, got {value!r}")
+        return int(value)
+    return check
+
+
+def _topics(value) -> dict:
+    if isinstance(value, str):
+        pairs = [item.split("=", 1) for item in value.split(",") if item.strip()]
+        if any(len(pair) != 2 for pair in pairs):
+            raise ValueError(f"topics needs ROLE=/topic pairs separated by commas, got {value!r}")
+        value = {role.strip(): topic.strip() for role, topic in pairs}
+    if not isinstance(value, dict):
+        raise ValueError(f"topics must be a dict of role -> topic, got {type(value).__name__}")
+    value = {"colour" if role == "color" else role: topic for role, topic in value.items()}
+    unknown = sorted(set(value) - set(TOPIC_ROLES))
+    if unknown:
+        raise ValueError(f"unknown topic role {unknown[0]!r} (roles: {', '.join(TOPIC_ROLES)})")
+    return {role: "/" + str(topic).lstrip("/") for role, topic in value.items()}
 
 
 _CHECKS = {"intrinsics": _intrinsics, "depth_scale": _positive("depth_scale"), "depth_correction": correction_vector,
-           "prior": _pose, "up": _up, "calibration": Path, "max_frames": _frames}
+           "prior": _pose, "up": _up, "calibration": Path, "max_frames": _whole("max_frames"), "every": _whole("every"),
+           "topics": _topics, "sync_tolerance": _positive("sync_tolerance")}

@@ -32,10 +32,14 @@ class FrameSource(Protocol):
 FILE_READERS: dict[str, str] = {
     ".pcd": "bim2rdt.sources.pcd_frame:OrganisedPcd",
     ".mkv": "bim2rdt.sources.azure_kinect:AzureKinectMkv",
+    ".mcap": "bim2rdt.sources.rosbag:RosbagSource",
+    ".db3": "bim2rdt.sources.rosbag:RosbagSource",
+    ".bag": "bim2rdt.sources.rosbag:RosbagSource",
 }
 """File extension (lower case) -> ``"module:Class"`` of its reader."""
 
 FOLDER_READERS: list[tuple[str, str]] = [
+    ("bim2rdt.sources.rosbag:is_rosbag_folder", "bim2rdt.sources.rosbag:RosbagSource"),
     ("bim2rdt.sources.tum:is_tum_folder", "bim2rdt.sources.tum:TumFolder"),
     ("bim2rdt.sources.grabber:is_grabber_folder", "bim2rdt.sources.grabber:GrabberFolder"),
     ("bim2rdt.sources.tum:is_pair_folder", "bim2rdt.sources.tum:PairFolder"),
@@ -62,7 +66,8 @@ def _reader_name(path: Path) -> str:
             if _reader(looks_like)(path):
                 return name
         raise SourceError(path, "no frames here: a folder needs a TUM rgb.txt + depth.txt, a colour + depth PNG pair "
-                                "(*_color.png, *_depth.png) or PCL grabber TIFFs (*_depth.tiff + .xml)")
+                                "(*_color.png, *_depth.png), PCL grabber TIFFs (*_depth.tiff + .xml) or a rosbag2 folder "
+                                "(metadata.yaml)")
     name = FILE_READERS.get(path.suffix.lower())
     if name is None:
         raise SourceError(path, f"no frame reader for '{path.suffix or path.name}' files (readers: "

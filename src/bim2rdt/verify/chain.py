@@ -11,6 +11,7 @@ has its observations unverified, with the reason.
 from __future__ import annotations
 
 import time as clock
+from collections import Counter
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field, replace
 
@@ -77,6 +78,8 @@ class FrameResult:
     missing: list[str] = field(default_factory=list)
     """GlobalIds of planned objects in view whose place the sensor saw empty."""
     seconds: float = 0.0
+    recorded: np.ndarray | None = None
+    """The frame's own pose as the recording gave it (a bag's camera in its world frame), or None."""
 
     def to_dict(self) -> dict:
         """Its entry in localization.json."""
@@ -98,6 +101,15 @@ class VerifyResult:
     """Every frame's result in source order."""
 
     frames: list[FrameResult]
+    dropped: list[dict] = field(default_factory=list)
+    """Frames the source dropped before verify saw them (a bag's: no depth partner, no TF within the tolerance),
+    each ``{"time", "reason"}``."""
+    source_warnings: list[str] = field(default_factory=list)
+    """What the source found off about the recording as a whole (a bag whose clocks disagree)."""
+
+    @property
+    def drop_counts(self) -> dict[str, int]:
+        return dict(Counter(d.get("kind", d["reason"]) for d in self.dropped))
 
     @property
     def miscalibrated(self) -> bool:
@@ -120,7 +132,12 @@ def verify_frames(frames: Iterable, model: BimModel, prior: np.ndarray | None = 
       in whatever frame it keeps them): those poses are odometry, anchored at the last accepted fix (at first,
       ``prior`` for the first frame): prior_i = T_fix_k @ inv(T_own_k) @ T_own_i;
     - with ``prior`` and no poses: the last accepted fix, else ``prior``;
-    - without ``prior``: the frame's own pose, taken as in the model's frame (none: refused with the reason).
+    - without ``prior``: the frame's own pose, taken as in the model's frame (none: refused with the reason),
+      until a fix is accepted: from then on the own poses are odometry anchored at the last fix, as with
+      ``prior`` (a ROS bag's camera in ``map``: the fix is what map -> odom should be).
+
+    A source that drops frames (``dropped``: a list of ``{"time", "reason"}``, read after iterating) or warns about
+    the recording (``warnings``) has them carried into the result.
 
     Raises :class:`VerifyError` for no frames or a model with nothing to localize on."""
     try:
@@ -132,16 +149,23 @@ def verify_frames(frames: Iterable, model: BimModel, prior: np.ndarray | None = 
     for index, frame in enumerate(frames):
         own = frame.T_world_camera if isinstance(frame, Frame) else None
         result = verify_frame(index, frame, model, scene, _prior_for(own, anchor), config)
-        if anchor is not None and result.accepted:
+        result.recorded = own
+        if result.accepted and (anchor is not None or own is not None):
             anchor = (own, result.pose)
         elif anchor is not None and anchor[0] is None and own is not None:
             anchor = (own, anchor[1])  # the user's prior is where the sensor was at its first pose
         results.append(result)
         if progress is not None:
             progress(result)
+    dropped = list(getattr(frames, "dropped", []))
     if not results:
-        raise VerifyError("the source holds no frames")
-    return VerifyResult(results)
+        reasons = "; ".join(f"{n} {k}" for k, n in Counter(d["reason"] for d in dropped).most_common(3))
+        raise VerifyError("the source holds no frames" + (f" (all {len(dropped)} dropped: {reasons})" if dropped
+                                                          else ""))
+    kinds = getattr(frames, "drop_kind", None)
+    if kinds is not None:
+        dropped = [{**d, "kind": kinds(d["reason"])} for d in dropped]
+    return VerifyResult(results, dropped, list(getattr(frames, "warnings", [])))
 
 
 def _prior_for(own: np.ndarray | None, anchor) -> np.ndarray | None:

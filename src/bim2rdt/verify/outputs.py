@@ -49,7 +49,8 @@ def write_outputs(result: VerifyResult, twin: DigitalTwin, out_dir: Path) -> Ver
     """Every file of the verify folder."""
     localization = write_bytes_atomic(out_dir / "localization.json", json.dumps(
         {"frames": [f.to_dict() for f in result.frames], "miscalibrated": result.miscalibrated,
-         "warnings": result.warnings}, indent=1).encode())
+         "warnings": result.warnings + result.source_warnings, "dropped": result.dropped,
+         "dropped_counts": result.drop_counts}, indent=1).encode())
     files = VerifyFiles(twin.export_json(out_dir / "twin.json"), twin.export_bcf(out_dir / "issues.bcf"), localization,
                         out_dir / "report.html", None)
     try:

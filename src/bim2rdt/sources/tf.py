@@ -1,0 +1,153 @@
+"""A TF buffer for recordings (REP 105 frames: map -> odom -> base_link -> camera optical frame), without ROS.
+
+Edges are parent -> child transforms: static ones (``/tf_static``, valid at every time) and stamped samples
+(``/tf``, or ``nav_msgs/Odometry`` when a bag has no TF). :meth:`TfBuffer.lookup` chains them from an ancestor
+to a frame at a time, interpolating each stamped edge between its two samples around that time (linear in
+translation, slerp in rotation), as tf2 does. A time farther than ``tolerance`` outside an edge's samples, or
+in a gap between samples longer than ``max_gap``, has no transform: the caller drops the frame with the reason.
+"""
+
+from __future__ import annotations
+
+import bisect
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.spatial.transform import Rotation, Slerp
+
+
+def matrix(translation, quaternion_xyzw) -> np.ndarray:
+    """4x4 from a translation (3,) and a unit quaternion (x, y, z, w), ROS's order."""
+    T = np.eye(4)
+    T[:3, :3] = Rotation.from_quat(np.asarray(quaternion_xyzw, float)).as_matrix()
+    T[:3, 3] = translation
+    return T
+
+
+def translation_quaternion(T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(translation (3,), quaternion (x, y, z, w)) of a 4x4 rigid transform."""
+    return np.asarray(T[:3, 3], float), Rotation.from_matrix(T[:3, :3]).as_quat()
+
+
+@dataclass
+class _Edge:
+    parent: str
+    times: list[float] = field(default_factory=list)
+    translations: list[np.ndarray] = field(default_factory=list)
+    quaternions: list[np.ndarray] = field(default_factory=list)
+    static: np.ndarray | None = None
+    _sorted: bool = True
+
+    def add(self, time: float, translation, quaternion) -> None:
+        if self.times and time < self.times[-1]:
+            self._sorted = False
+        self.times.append(time)
+        self.translations.append(np.asarray(translation, float))
+        self.quaternions.append(np.asarray(quaternion, float))
+
+    def at(self, time: float, tolerance: float, max_gap: float) -> np.ndarray | str:
+        """T_parent_child at ``time``, or why not (a sentence)."""
+        if self.static is not None:
+            return self.static
+        if not self._sorted:
+            order = np.argsort(self.times, kind="stable")
+            self.times = [self.times[i] for i in order]
+            self.translations = [self.translations[i] for i in order]
+            self.quaternions = [self.quaternions[i] for i in order]
+            self._sorted = True
+        times = self.times
+        i = bisect.bisect_left(times, time)
+        if i < len(times) and abs(times[i] - time) <= 1e-9:
+            return matrix(self.translations[i], self.quaternions[i])
+        if i == 0 or i == len(times):
+            nearest = 0 if i == 0 else len(times) - 1
+            if abs(times[nearest] - time) > tolerance:
+                return f"{abs(times[nearest] - time) * 1000:.0f} ms from its nearest sample"
+            return matrix(self.translations[nearest], self.quaternions[nearest])
+        t0, t1 = times[i - 1], times[i]
+        if t1 - t0 > max_gap and min(time - t0, t1 - time) > tolerance:
+            return f"in a {t1 - t0:.2f} s gap between samples"
+        s = (time - t0) / (t1 - t0)
+        rotation = Slerp([0.0, 1.0], Rotation.from_quat([self.quaternions[i - 1], self.quaternions[i]]))([s])[0]
+        T = np.eye(4)
+        T[:3, :3] = rotation.as_matrix()
+        T[:3, 3] = (1 - s) * self.translations[i - 1] + s * self.translations[i]
+        return T
+
+
+class TfBuffer:
+    """Transforms between a recording's frames over time (see the module's note); frame ids are compared
+    without a leading '/' (ROS 1 style)."""
+
+    def __init__(self, tolerance: float = 0.02, max_gap: float = 0.5) -> None:
+        self.tolerance, self.max_gap = tolerance, max_gap
+        self._edges: dict[str, _Edge] = {}
+
+    def add(self, parent: str, child: str, translation, quaternion_xyzw, time: float | None) -> None:
+        """One transform T_parent_child (``time`` None: static)."""
+        parent, child = _name(parent), _name(child)
+        edge = self._edges.get(child)
+        if edge is None or edge.parent != parent:
+            edge = self._edges[child] = _Edge(parent)
+        if time is None:
+            edge.static = matrix(translation, quaternion_xyzw)
+        else:
+            edge.add(time, translation, quaternion_xyzw)
+
+    def add_matrix(self, parent: str, child: str, T_parent_child: np.ndarray, time: float | None = None) -> None:
+        """One transform given as a 4x4."""
+        translation, quaternion = translation_quaternion(T_parent_child)
+        self.add(parent, child, translation, quaternion, time)
+
+    def statics(self) -> list[tuple[str, str, np.ndarray]]:
+        """(parent, child, T_parent_child) of every static transform."""
+        return [(edge.parent, child, edge.static) for child, edge in self._edges.items() if edge.static is not None]
+
+    def forget_before(self, time: float) -> None:
+        """Drop stamped samples older than ``time`` (keeping each edge's last two): memory flat while streaming."""
+        for edge in self._edges.values():
+            cut = bisect.bisect_left(edge.times, time) if edge._sorted else 0
+            cut = min(cut, max(0, len(edge.times) - 2))
+            if cut > 64:
+                del edge.times[:cut], edge.translations[:cut], edge.quaternions[:cut]
+
+    @property
+    def frames(self) -> set[str]:
+        return set(self._edges) | {e.parent for e in self._edges.values()}
+
+    def __bool__(self) -> bool:
+        return bool(self._edges)
+
+    def chain(self, frame: str) -> list[str]:
+        """``frame`` and its ancestors up to the root of its tree."""
+        names, seen = [_name(frame)], set()
+        while names[-1] in self._edges and names[-1] not in seen:
+            seen.add(names[-1])
+            names.append(self._edges[names[-1]].parent)
+        return names
+
+    def root(self, frame: str, preferred: tuple[str, ...] = ("map", "odom")) -> str:
+        """The frame poses of ``frame`` are given in: the first of ``preferred`` among its ancestors, else the
+        root of its tree."""
+        chain = self.chain(frame)
+        return next((p for p in preferred if p in chain), chain[-1])
+
+    def lookup(self, target: str, frame: str, time: float) -> np.ndarray | str:
+        """T_target_frame (4x4) at ``time``, or a sentence saying why there is none (no path, or no sample of an
+        edge within the tolerance)."""
+        target, frame = _name(target), _name(frame)
+        chain = self.chain(frame)
+        if target not in chain:
+            return f"no TF path from '{target}' to '{frame}'"
+        T = np.eye(4)
+        for child in chain[: chain.index(target)]:
+            edge = self._edges[child]
+            step = edge.at(time, self.tolerance, self.max_gap)
+            if isinstance(step, str):
+                return f"no TF {edge.parent} -> {child} within {self.tolerance * 1000:.0f} ms ({step})"
+            T = step @ T
+        return T
+
+
+def _name(frame: str) -> str:
+    return frame.lstrip("/")
