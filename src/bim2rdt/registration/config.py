@@ -95,7 +95,7 @@ class IcpConfig(BaseModel):
         description="A restart ties with the lowest-scoring one when its score is behind by at most this many "
                     "standard errors of the paired per-point difference; among ties the one nearest the initial "
                     "guess (see tie_distance, registration.icp.pick_restart) is kept. 0 = always the lowest score. "
-                    "Without it SG-ICP lost to ICP on issue 13's sparse half-occluded views (F1: 21.6 vs 16.3 mm).")
+                    "Without it the lowest of many upright near-ties wins by clutter luck on sparse views.")
     tie_distance: float = Field(
         0.03, gt=0.0,
         description="Among tied restarts, a centroid this much farther (m) from the initial guess's weighs as "
