@@ -67,6 +67,13 @@ def test_the_guide_pages_are_built(built_site):
         assert (built_site / page / "index.html").exists(), page
 
 
+def test_the_decisions_index_lists_every_record():
+    expected = scripts_module("reference_pages").decisions_index()
+    assert (ROOT / "docs" / "decisions" / "index.md").read_text(encoding="utf-8") == expected, \
+        "run `python scripts/reference_pages.py`"
+    assert expected.count("- [") == len(list((ROOT / "docs" / "decisions").glob("[0-9]*.md")))
+
+
 def test_the_benchmarks_page_is_what_the_saved_runs_give():
     benchmarks_page = scripts_module("benchmarks_page")
     runs = sorted((ROOT / "docs" / "benchmarks").glob("*.json"))
