@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 
 import typer
@@ -35,13 +36,14 @@ def config_command(
 
 
 def setting_rows(record: dict, environ: os._Environ | dict, prefix: str = "BIM2RDT_") -> list[tuple]:
-    """Flatten a settings record into (variable, value, origin) rows: nested sections become ``SECTION__FIELD``
-    variables; origin is "environment" when that variable or one of its enclosing sections' variables is set."""
+    """Flatten a settings record into (variable, value, origin) rows: each section's fields become
+    ``SECTION__FIELD`` variables (a field that is itself a mapping, such as the tolerance presets, stays one value,
+    set as JSON); origin is "environment" when that variable or its section's variable is set."""
     rows = []
     present = {key.upper() for key in environ}
     for key, value in record.items():
         variable = f"{prefix}{key.upper()}"
-        if isinstance(value, dict) and value:
+        if isinstance(value, dict) and value and prefix == "BIM2RDT_":
             inner = setting_rows(value, environ, variable + "__")
             if variable in present:  # the whole section came as one JSON variable
                 inner = [(name, item, "environment") for name, item, _ in inner]
@@ -52,5 +54,5 @@ def setting_rows(record: dict, environ: os._Environ | dict, prefix: str = "BIM2R
 
 
 def _shown(value: object) -> str:
-    text = str(value)
+    text = json.dumps(value) if isinstance(value, dict | list) else str(value)
     return text if len(text) <= 80 else text[:77] + "..."
