@@ -4,7 +4,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test bench setup clean web
+.PHONY: demo test bench setup clean web docs
 
 $(STAMP): pyproject.toml
 	@echo "make: creating the virtual environment $(VENV) (once; again when pyproject.toml changes)"
@@ -12,7 +12,7 @@ $(STAMP): pyproject.toml
 	@echo "make: updating pip"
 	$(PY) -m pip install -q --upgrade pip
 	@echo "make: installing bim2rdt and its dependencies (ifcopenshell, open3d, ...: a few minutes the first time)"
-	$(PY) -m pip install -q -e ".[llm,bench,sensors,nats,ros,dev]"
+	$(PY) -m pip install -q -e ".[llm,bench,sensors,nats,ros,dev,docs]"
 	@echo "make: $(VENV) is ready"
 	touch $(STAMP)
 
@@ -32,10 +32,15 @@ bench: $(STAMP)
 	$(VENV)/bin/bim2rdt bench server
 	$(VENV)/bin/bim2rdt bench perception
 
+# The docs site (mkdocs.yml) into site/; `make test` builds it with --strict too (tests/test_docs.py).
+docs: $(STAMP)
+	$(PY) scripts/reference_pages.py
+	$(VENV)/bin/mkdocs build --strict
+
 # The dashboard's page and the API docs' Swagger UI (web/ -> src/bim2rdt/server/static, committed): needs node 20
 # and npm from the npm registry. --ignore-scripts: swagger-ui-dist's dependency @scarf/scarf would report the install.
 web:
 	cd web && npm ci --no-audit --no-fund --ignore-scripts && npm run build
 
 clean:
-	rm -rf $(VENV) out .pytest_cache
+	rm -rf $(VENV) out site .pytest_cache

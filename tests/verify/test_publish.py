@@ -14,7 +14,7 @@ from typer.testing import CliRunner
 
 from bim2rdt.cli import app
 from bim2rdt.planning import KeepOut, OccupancyGrid
-from bim2rdt.planning.nav2 import read_pgm
+from nav2_maps import read_pgm
 from bim2rdt.sources import open_source
 from bim2rdt.verify import prior_pose
 from bim2rdt.verify.publish import publish_results, ros_covariance

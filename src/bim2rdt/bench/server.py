@@ -23,7 +23,7 @@ import numpy as np
 from bim2rdt.bus.event import Event
 
 LATENCY_TARGET_MS = 1000.0
-"""An event reaches the stream within 1 s of the monitor producing it (issue 14)."""
+"""An event reaches the stream within 1 s of the monitor producing it."""
 FLOOR_SECONDS = 10.0
 BENCH_KIND = "hav.bench"
 """The kind of the benchmark's events (the clients count these)."""

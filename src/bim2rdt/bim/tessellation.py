@@ -1,7 +1,7 @@
 """Tessellating an IFC file into per-element triangle meshes in world metres (``ifcopenshell.geom``).
 
 The iterator is run single-threaded (on two cores ``num_threads=2`` measured slower) and read with ``get()``
-before ``next()`` (the other order skips the first shape, IfcOpenShell issue 2162). ``ifcopenshell.geom``
+before ``next()`` (the other order skips the first shape, IfcOpenShell bug #2162). ``ifcopenshell.geom``
 always returns metres, whatever the file's unit. Elements whose body the iterator does not return are retried
 one by one with ``create_shape`` to get the reason; what still fails is reported, never silently dropped.
 """

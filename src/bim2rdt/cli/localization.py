@@ -42,8 +42,8 @@ def bench_localization(
     fix the real office frame from priors around its truth."""
     from bim2rdt.atomic import write_bytes_atomic
     from bim2rdt.bench.localization.peers import Open3dPointToPlane
-    from bim2rdt.bench.localization.run import run_record, run_tour
-    from bim2rdt.bench.localization.summary import plot_errors
+    from bim2rdt.bench.localization.run import run_tour
+    from bim2rdt.bench.localization.summary import plot_errors, run_record
     from bim2rdt.cli.registration import _open3d_available, step_progress
     from bim2rdt.config import get_settings
     from bim2rdt.sim.tour import tour_poses

@@ -1,13 +1,13 @@
 """Whose points a fit shows: a fit is evidence of an object only through points no known surface already explains.
 
-The detector keeps what the BIM's building does not explain. It used to judge that ray by ray only: at a
+The detector keeps what the BIM's building does not explain. Judged ray by ray only, at a
 silhouette a pixel's ray can pass beside a column while the point it measured (a time-of-flight mixed pixel, a
-camera pose a few mm off) lies on the column, so a strip of the column's edge reached the mission as an object's
+camera pose a few mm off) lies on the column, so a strip of the column's edge would reach the mission as an object's
 points, and a thin family fits such a strip: a tripod leg fits a column's vertical edge to a few mm (the demo's
 frame 2: 129 points of Column C11's corner). By its own distances that fit is excellent; what is wrong is that
-its points are already explained, by an element the BIM puts there. The detector now also measures what its
+its points are already explained, by an element the BIM puts there. The detector also measures what its
 rays leave against every permanent surface in 3-D (:func:`bim2rdt.perception.background.on_any_surface`), so
-the demo's strip no longer reaches the mission (from any detector: every detection's points pass that test).
+such a strip does not reach the mission (from any detector: every detection's points pass that test).
 This check stays for what perception cannot know, the objects registered earlier in the mission, and as a
 judge of the fit as a whole rather than of single points.
 

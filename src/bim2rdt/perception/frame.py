@@ -90,7 +90,7 @@ class Frame:
         return self.T_world_camera
 
     def localized(self, T_world_camera) -> Frame:
-        """A copy of this frame with ``T_world_camera`` as its known pose (no longer a prior)."""
+        """A copy of this frame with ``T_world_camera`` as its known pose (not a prior)."""
         return replace(self, T_world_camera=T_world_camera, pose_is_prior=False)
 
     @property

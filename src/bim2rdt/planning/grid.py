@@ -187,7 +187,8 @@ class OccupancyGrid:
         ``name_keepout.pgm`` + ``.yaml`` (a Nav2 keep-out filter mask). Returns {what: path}."""
         from bim2rdt.planning.nav2 import save_nav2
 
-        return save_nav2(self, Path(folder), name)
+        obstacles = self.layer(STRUCTURE_KINDS + ("object",))
+        return save_nav2(obstacles, self.layer(KEEPOUT_KINDS), self.frame, Path(folder), name)
 
     # ---- internals ---------------------------------------------------------------------------------------------
 

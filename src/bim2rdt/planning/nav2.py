@@ -13,32 +13,28 @@ the KeepoutFilter (costmap filter info ``type: 0``, ``base: 0.0``, ``multiplier:
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from bim2rdt.atomic import WriteError, write_bytes_atomic
 from bim2rdt.planning.errors import PlanningError
-
-if TYPE_CHECKING:
-    from bim2rdt.planning.grid import OccupancyGrid
+from bim2rdt.planning.frame import GridFrame
 
 OCCUPIED, FREE = 0, 254
 OCCUPIED_THRESH, FREE_THRESH = 0.65, 0.196
 
 
-def save_nav2(grid: OccupancyGrid, folder: Path, name: str) -> dict[str, Path]:
-    """Write the map (and the keep-out mask when there are zones) into ``folder``; returns {what: path}."""
-    from bim2rdt.planning.grid import KEEPOUT_KINDS, STRUCTURE_KINDS
-
+def save_nav2(obstacles: np.ndarray, keepout: np.ndarray, frame: GridFrame, folder: Path,
+              name: str) -> dict[str, Path]:
+    """Write the map (``obstacles``, bool (rows, cols) on ``frame``) and, when ``keepout`` has any cell, the
+    keep-out mask into ``folder``; returns {what: path}."""
     if not name or "/" in name or name.startswith("."):
         raise PlanningError(f"map name {name!r}: give a plain file stem such as 'site'")
     try:
         folder.mkdir(parents=True, exist_ok=True)
-        written = _write_map(folder, name, grid.layer(STRUCTURE_KINDS + ("object",)), grid, "trinary")
-        keepout = grid.layer(KEEPOUT_KINDS)
+        written = _write_map(folder, name, obstacles, frame, "trinary")
         if keepout.any():
-            masks = _write_map(folder, f"{name}_keepout", keepout, grid, "scale")
+            masks = _write_map(folder, f"{name}_keepout", keepout, frame, "scale")
             written.update({"keepout_image": masks["image"], "keepout_yaml": masks["yaml"]})
     except (OSError, WriteError) as error:
         reason = error.strerror if isinstance(error, OSError) and error.strerror else str(error)
@@ -46,12 +42,12 @@ def save_nav2(grid: OccupancyGrid, folder: Path, name: str) -> dict[str, Path]:
     return written
 
 
-def _write_map(folder: Path, name: str, occupied: np.ndarray, grid: OccupancyGrid, mode: str) -> dict[str, Path]:
+def _write_map(folder: Path, name: str, occupied: np.ndarray, frame: GridFrame, mode: str) -> dict[str, Path]:
     pixels = np.where(occupied, OCCUPIED, FREE).astype(np.uint8)[::-1]
-    header = f"P5\n# bim2rdt occupancy, {grid.resolution:g} m/cell\n{pixels.shape[1]} {pixels.shape[0]}\n255\n"
+    header = f"P5\n# bim2rdt occupancy, {frame.resolution:g} m/cell\n{pixels.shape[1]} {pixels.shape[0]}\n255\n"
     image = write_bytes_atomic(folder / f"{name}.pgm", header.encode("ascii") + pixels.tobytes())
-    x0, y0 = grid.frame.origin_xy
-    yaml = (f"image: {image.name}\nmode: {mode}\nresolution: {grid.resolution:.6f}\n"
+    x0, y0 = frame.origin_xy
+    yaml = (f"image: {image.name}\nmode: {mode}\nresolution: {frame.resolution:.6f}\n"
             f"origin: [{x0:.6f}, {y0:.6f}, 0.0]\nnegate: 0\noccupied_thresh: {OCCUPIED_THRESH}\n"
             f"free_thresh: {FREE_THRESH}\n")
     return {"image": image, "yaml": write_bytes_atomic(folder / f"{name}.yaml", yaml.encode("ascii"))}

@@ -129,7 +129,7 @@ class Navigator:
         return min(later) if later else None
 
     def _checked(self, path: np.ndarray | None, goal: np.ndarray) -> tuple[np.ndarray, str | None]:
-        """The given path, or a new one if there is none, it no longer starts here, or the grid now blocks it
+        """The given path, or a new one if there is none, it does not start here, or the grid now blocks it
         (then also why)."""
         if path is None:
             return self._plan(goal, None), None

@@ -95,13 +95,13 @@ class IcpConfig(BaseModel):
         description="A restart ties with the lowest-scoring one when its score is behind by at most this many "
                     "standard errors of the paired per-point difference; among ties the one nearest the initial "
                     "guess (see tie_distance, registration.icp.pick_restart) is kept. 0 = always the lowest score. "
-                    "Without it SG-ICP lost to ICP on issue 13's sparse half-occluded views (F1: 21.6 vs 16.3 mm).")
+                    "Without it the lowest of many upright near-ties wins by clutter luck on sparse views.")
     prior_free_pass: bool = Field(
         True,
         description="Under an upright prior, also run plain ICP's restarts (the unlevelled starts, no prior) in the "
                     "same batch, and let the data choose among all (registration.icp.pick_restart): SG-ICP's "
                     "candidates then include ICP's, so the prior cannot leave it in a worse yaw or slide alias "
-                    "than ICP (issue 26). False = the prior's restarts only.")
+                    "than ICP. False = the prior's restarts only.")
     polish_iterations: int = Field(
         10, ge=0, le=1000,
         description="Iterations of the loop with the prior, at the final Huber scale, from the prior-free pass's "

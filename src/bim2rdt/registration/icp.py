@@ -519,7 +519,7 @@ def pick_restart(per_point: np.ndarray, penalties: np.ndarray, poses: np.ndarray
     The lowest score wins, unless it wins only within the score's own noise. On a sparse, half-occluded view
     many restarts end in distinct poses that explain the points about equally well (a box slid along its
     hidden side, turned by 90 degrees); the lowest of many near-ties is then a lottery that favours the
-    extreme ones. That is how the upright prior cost accuracy (issue 13): levelled starts let far more
+    extreme ones. That is how the upright prior can cost accuracy: levelled starts let far more
     restarts reach such upright near-ties than plain ICP's tilted starts (which mostly die at pruning and
     leave the one nearest the start), so SG-ICP drew from a larger lottery. Here a restart ties with the
     lowest when its score is behind by at most ``tie_sigmas`` standard errors of the paired per-point

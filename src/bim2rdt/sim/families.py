@@ -7,8 +7,8 @@ object's bounds plus 20 cm, and a model sampled at 2,000 or 10,000 points with i
 told the user to drop it). Starts are tilted, yawed and shifted; some families know the support the object
 rests on and some do not; objects run from 0.3 m to 3 m.
 
-F1 is the scene issue 13 reported: a 0.6 x 0.4 x 0.5 m box, a drum (r 0.29, h 0.88 m) and a cone (r 0.17,
-h 0.68 m) on a 0.36 m square plate; 2,000 samples; 150 points; 4 mm noise; 10 % clutter; starts tilted
+F1 is a sparse scene where the choice of restart matters: a 0.6 x 0.4 x 0.5 m box, a drum (r 0.29, h 0.88 m)
+and a cone (r 0.17, h 0.68 m) on a 0.36 m square plate; 2,000 samples; 150 points; 4 mm noise; 10 % clutter; starts tilted
 20-35 deg, yawed +-25 deg, shifted +-5 cm; no support; upright bias 0.9. There plain ICP beat SG-ICP
 (16.3 vs 21.6 mm mean surface error). The others vary one or two of those settings each.
 """
@@ -102,7 +102,7 @@ class ViewFamily:
 
 
 FAMILIES: dict[str, ViewFamily] = {f.name: f for f in (
-    ViewFamily("F1", "issue 13's scene: box/drum/cone, 2,000 samples, 150 pts, 4 mm, 10 % clutter, no support"),
+    ViewFamily("F1", "box/drum/cone, 2,000 samples, 150 pts, 4 mm, 10 % clutter, no support"),
     ViewFamily("F2", "F1 with models of 10,000 samples", sample_count=10000),
     ViewFamily("F3", "F1 resting on a known support", support=True),
     ViewFamily("F4", "F1 with 100 points and 2 mm noise", points=(100, 100), noise=0.002),

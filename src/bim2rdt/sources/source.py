@@ -2,7 +2,7 @@
 path, and every reader is a :class:`FrameSource`, an iterable of checked perception frames.
 
 Readers are found by the file's extension (``FILE_READERS``) or, for a folder, by what it holds
-(``FOLDER_READERS``, asked in order). A new format plugs in with one entry: a rosbag reader (issue 22) adds
+(``FOLDER_READERS``, asked in order). A new format plugs in with one entry: a rosbag reader adds
 ``".mcap"``, ``".db3"`` and ``".bag"`` to ``FILE_READERS`` with a ``"module:Class"`` whose constructor takes
 ``(path, options: SourceOptions)``. The reader's module is imported only when a path needs it, so an optional
 package (PyAV, ...) is needed only by those who read that format.

@@ -3,7 +3,7 @@
 A name the twin stores (a family, a robot, a detector, a reason, a GlobalId, a device) must be text every backend
 and every export can hold the same way: valid Unicode (a lone surrogate such as ``"\\ud800"`` cannot be encoded as
 UTF-8, so once stored it broke every JSON answer and both exports for good), no control characters (PostgreSQL
-refuses NUL; a newline would split a one-line message), and no longer than its limit, which is the column's
+refuses NUL; a newline would split a one-line message), and at most its limit long, which is the column's
 length where it has a column (SQLite would store any length that PostgreSQL refuses). A history written before
 these checks may still hold a lone surrogate: ``mended`` turns each into U+FFFD as it is read.
 """

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -200,13 +200,3 @@ def _run_peer(peer, frame, model, whole, prior, truth) -> tuple[PoseError, float
     started = time.process_time()
     pose = peer(frame, permanent_map(model), whole, prior)
     return pose_error(pose, truth), time.process_time() - started
-
-
-def run_record(run: LocalizationRun) -> dict:
-    """The run as plain JSON-able data: settings, every station, the summary and the targets."""
-    from bim2rdt.bench.localization.summary import summarize, targets
-
-    summary = summarize(run)
-    return {"seed": run.seed, "as_built_tolerance": run.tolerance, "config": run.config.model_dump(), "peers": run.peers,
-            "summary": summary, "targets": [asdict(t) for t in targets(summary)],
-            "stations": [asdict(station) for station in run.stations]}

@@ -3,6 +3,7 @@ peers, time per frame, check shots, and the issue's targets with PASS/FAIL."""
 
 from __future__ import annotations
 
+from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
@@ -120,3 +121,11 @@ def plot_errors(run: LocalizationRun, path: Path) -> Path:
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path
+
+
+def run_record(run: LocalizationRun) -> dict:
+    """The run as plain JSON-able data: settings, every station, the summary and the targets."""
+    summary = summarize(run)
+    return {"seed": run.seed, "as_built_tolerance": run.tolerance, "config": run.config.model_dump(), "peers": run.peers,
+            "summary": summary, "targets": [asdict(t) for t in targets(summary)],
+            "stations": [asdict(station) for station in run.stations]}

@@ -102,7 +102,7 @@ def _p90(values: list[float]) -> float:
 
 TARGETS = {"recall": 0.9, "precision": 0.9, "family_accuracy": 0.95, "translation_m_median": 0.02,
            "tilt_deg_median": 2.0, "yaw_deg_median": 2.0, "seconds_per_frame_median": 0.5}
-"""The geometric detector's targets (issue 11): at least the first three, at most the rest (one core)."""
+"""The geometric detector's targets: at least the first three, at most the rest (one core)."""
 
 
 def check_targets(summary: dict) -> list[tuple[str, bool, str]]:

@@ -155,7 +155,7 @@ def check_targets(results: Sequence[ScenarioResult], peer: str = "Open3D pt-plan
     or Max anywhere, where worse means beyond the benchmark's noise (the whole 95 % paired bootstrap interval
     of the cut below zero; a point estimate below zero within the noise is shown, not failed); SG-ICP success
     >= the peer's everywhere; median time per object <= :data:`SPEED_RATIO` x the peer's (the same restarts,
-    the same run); SG-ICP success >= :data:`S4_SUCCESS` on S4 (issue 13), when S4 ran."""
+    the same run); SG-ICP success >= :data:`S4_SUCCESS` on S4, when S4 ran."""
     by_icp = sorted(results, key=lambda r: r.stats["ICP"].rmse, reverse=True)[:2]
     cuts = {r.name: improvement(r.stats["ICP"].rmse, r.stats["SG-ICP"].rmse) for r in by_icp}
     worse, within_noise = [], []
@@ -197,9 +197,9 @@ def check_targets(results: Sequence[ScenarioResult], peer: str = "Open3D pt-plan
 
 
 SPEED_RATIO = 0.3
-"""SG-ICP's median time per object may be at most this fraction of the peer's (issue 13)."""
+"""SG-ICP's median time per object may be at most this fraction of the peer's."""
 S4_SUCCESS = 0.85
-"""SG-ICP's success rate S4 (scaffold, tripod, pallet) must reach (issue 13)."""
+"""SG-ICP's success rate S4 (scaffold, tripod, pallet) must reach."""
 
 
 def pooled_median_ms(results: Sequence[ScenarioResult], method: str) -> float:
@@ -209,7 +209,7 @@ def pooled_median_ms(results: Sequence[ScenarioResult], method: str) -> float:
 
 TILT_TRAP_CUT = 30.0
 """Percent by which SG-ICP's mean surface error must beat ICP's on the families where the start's tilt is the
-trap (issue 13)."""
+trap."""
 
 
 def worst_family(results: Sequence[ScenarioResult]) -> ScenarioResult:
@@ -218,7 +218,7 @@ def worst_family(results: Sequence[ScenarioResult]) -> ScenarioResult:
 
 
 def check_family_targets(results: Sequence[ScenarioResult]) -> list[Target]:
-    """Issue 13's targets on the scene families (mean surface error, the metric the issue reported): SG-ICP no
+    """The targets on the scene families (on the mean surface error): SG-ICP no
     worse than ICP in any family beyond the noise (the whole 95 % paired interval of the cut below zero), and
     at least :data:`TILT_TRAP_CUT` % better where the start's tilt is the trap."""
     if not results:
@@ -243,7 +243,7 @@ def check_family_targets(results: Sequence[ScenarioResult]) -> list[Target]:
 
 
 CALIBRATION_RANGE = (0.90, 0.98)
-"""The share of judged true errors inside their 95 % covariance ellipsoid that counts as calibrated (issue 13)."""
+"""The share of judged true errors inside their 95 % covariance ellipsoid that counts as calibrated."""
 
 
 def pooled_calibration(results: Sequence[ScenarioResult], methods: Sequence[str] = ("ICP", "SG-ICP")
