@@ -32,7 +32,7 @@ bench: $(STAMP)
 	$(VENV)/bin/bim2rdt bench server
 	$(VENV)/bin/bim2rdt bench perception
 
-# The docs site (mkdocs.yml) into site/; `make test` builds it with --strict too (tests/test_docs.py).
+# The docs site (mkdocs.yml) into site/; `make test` builds it with --strict too (tests/test_docs_site.py).
 docs: $(STAMP)
 	$(PY) scripts/reference_pages.py
 	$(VENV)/bin/mkdocs build --strict

@@ -3,15 +3,14 @@
 from __future__ import annotations
 
 import os
-import threading
 import time
 from pathlib import Path
 
 import typer
 
 from bim2rdt.cli.common import console, out_path, print_json, print_table, stop_requested
-from bim2rdt.cli.hav_output import (DEV_HELP, event_line, open_monitor, print_malformed, print_summary, progress,
-                                    require_own_secrets, twin_sink)
+from bim2rdt.cli.hav_output import (DEV_HELP, _leave, _password, event_line, open_monitor, progress,  # noqa: F401
+                                    require_own_secrets, twin_sink, watch)  # watch: tests import it from here
 
 hav_app = typer.Typer(help="Hand-arm vibration (ISO 5349-1): live monitor, recorded files, a dev broker.",
                       no_args_is_help=True)
@@ -29,12 +28,6 @@ def _configured_broker(settings) -> str:
         raise CredentialError("no broker: give --mqtt HOST:PORT or set BIM2RDT_MQTT__HOST (for the in-process "
                               "bus, run `bim2rdt sim wearables` without --mqtt)")
     return f"{settings.mqtt.host}:{settings.mqtt.port}"
-
-
-def _password(settings, user: str) -> str:
-    from bim2rdt.bus.credentials import user_password
-
-    return user_password(user, settings.mqtt.username, settings.mqtt.password, settings.mqtt.device_secret)
 
 
 @hav_app.command("listen")
@@ -110,40 +103,6 @@ def _listen_nats(settings, url: str, partition: str, partitions: int, duration: 
     with twin_sink(ifc, out) as ifc_sink:
         listen_partition(settings, url, k, n, duration, max_offline,
                          [CallbackSink(event_line)] + ([ifc_sink] if ifc_sink else []))
-
-
-def watch(monitor, bus, duration: float, max_offline: float, period_s: float = 1.0,
-          stop: threading.Event | None = None) -> None:
-    """Tick the monitor until ``duration`` (0: until stopped), ``stop`` is set (a signal) or Ctrl-C; BusError
-    (exit 1) when paho's network thread died, the broker has been away ``max_offline`` seconds, or the monitor
-    failed (its store)."""
-    from bim2rdt.bus.mqtt import BusError
-
-    deadline = time.monotonic() + duration if duration else float("inf")
-    offline_since, stop = None, stop or threading.Event()
-    try:
-        while time.monotonic() < deadline and not stop.wait(min(period_s, max(deadline - time.monotonic(), 0.0))):
-            monitor.tick()
-            if monitor.failure:
-                raise BusError(f"the monitor stopped: {monitor.failure}")
-            if not bus.alive:
-                raise BusError("the MQTT network thread died; exiting so that a supervisor restarts the monitor "
-                               "(unacknowledged messages wait at the broker)")
-            offline_since = None if bus.connected else offline_since or time.monotonic()
-            if offline_since is not None and time.monotonic() - offline_since >= max_offline:
-                raise BusError(f"no broker for {max_offline:g} s; exiting so that a supervisor restarts the monitor")
-    except KeyboardInterrupt:
-        pass
-
-
-def _leave(monitor, bus) -> None:
-    """Commit (and acknowledge) what waits, leave the broker, show the day and the refused messages."""
-    if not monitor.failure:
-        monitor.flush()
-    bus.close()
-    print_summary(monitor, monitor.devices())
-    print_malformed(monitor)
-    monitor.close()
 
 
 @hav_app.command("analyze")

@@ -31,7 +31,7 @@ def listen_partition(settings, url: str, partition: int, partitions: int, durati
     """Run the monitor of one partition until stopped; acknowledges each message after its commit."""
     from bim2rdt.bus.nats_bus import NatsBus, StreamLimits
     from bim2rdt.cli.common import stop_requested
-    from bim2rdt.cli.hav import _leave, _password, watch
+    from bim2rdt.cli.hav_output import _leave, _password, watch
     from bim2rdt.bus.partitions import partition_of
     from bim2rdt.safety import BusSink, HavMonitor
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import threading
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -147,3 +148,43 @@ def progress(total: float, label: str) -> Iterator:
         task = bar.add_task(label, total=total)
         bar.refresh()
         yield lambda done: bar.update(task, completed=done, refresh=True)
+
+
+def _password(settings, user: str) -> str:
+    from bim2rdt.bus.credentials import user_password
+
+    return user_password(user, settings.mqtt.username, settings.mqtt.password, settings.mqtt.device_secret)
+
+
+def watch(monitor, bus, duration: float, max_offline: float, period_s: float = 1.0,
+          stop: threading.Event | None = None) -> None:
+    """Tick the monitor until ``duration`` (0: until stopped), ``stop`` is set (a signal) or Ctrl-C; BusError
+    (exit 1) when paho's network thread died, the broker has been away ``max_offline`` seconds, or the monitor
+    failed (its store)."""
+    from bim2rdt.bus.mqtt import BusError
+
+    deadline = time.monotonic() + duration if duration else float("inf")
+    offline_since, stop = None, stop or threading.Event()
+    try:
+        while time.monotonic() < deadline and not stop.wait(min(period_s, max(deadline - time.monotonic(), 0.0))):
+            monitor.tick()
+            if monitor.failure:
+                raise BusError(f"the monitor stopped: {monitor.failure}")
+            if not bus.alive:
+                raise BusError("the MQTT network thread died; exiting so that a supervisor restarts the monitor "
+                               "(unacknowledged messages wait at the broker)")
+            offline_since = None if bus.connected else offline_since or time.monotonic()
+            if offline_since is not None and time.monotonic() - offline_since >= max_offline:
+                raise BusError(f"no broker for {max_offline:g} s; exiting so that a supervisor restarts the monitor")
+    except KeyboardInterrupt:
+        pass
+
+
+def _leave(monitor, bus) -> None:
+    """Commit (and acknowledge) what waits, leave the broker, show the day and the refused messages."""
+    if not monitor.failure:
+        monitor.flush()
+    bus.close()
+    print_summary(monitor, monitor.devices())
+    print_malformed(monitor)
+    monitor.close()
