@@ -73,14 +73,20 @@ class _Restarts:
     def active(self) -> np.ndarray:
         return np.flatnonzero(~self.done & ~self.pruned)
 
-    def prune(self, ratio: float, keep: int) -> None:
+    def prune(self, ratio: float, keep: int, group: slice = slice(None)) -> None:
         """Drop restarts whose score is worse than ``ratio`` x the best so far (converged ones included), and all
-        but the ``keep`` best of the rest."""
-        alive = ~self.pruned
-        best = self.scores[alive].min()
-        self.pruned |= alive & (self.scores > ratio * best + 1e-12)
-        survivors = np.flatnonzero(~self.pruned)
-        self.pruned[survivors[np.argsort(self.scores[survivors], kind="stable")[keep:]]] = True
+        but the ``keep`` best of the rest; among the restarts of ``group`` only (all by default)."""
+        pruned, scores = self.pruned[group], self.scores[group]  # views: pruning them prunes self
+        alive = ~pruned
+        best = scores[alive].min()
+        pruned |= alive & (scores > ratio * best + 1e-12)
+        survivors = np.flatnonzero(~pruned)
+        pruned[survivors[np.argsort(scores[survivors], kind="stable")[keep:]]] = True
+
+    def part(self, group: slice) -> _Restarts:
+        """The restarts of ``group``, as their own state."""
+        return _Restarts(self.poses[group], self.iterations[group], self.scores[group], self.done[group],
+                         self.pruned[group])
 
 
 def register(model_points, model_normals, scene_points, init=np.eye(4), up=(0.0, 0.0, 1.0),
@@ -99,9 +105,13 @@ def register(model_points, model_normals, scene_points, init=np.eye(4), up=(0.0,
     model = matching.ModelIndex.cached(problem.model_pts_body, problem.model_normals_body)
     normals_world = matching.scene_normals(problem.scene_pts_world, cfg.scene_normal_neighbours) \
         if cfg.normal_gate_deg < 90.0 else None
-    best = _restarts_and_hops(problem, model, normals_world, cfg, yaw_only)
     if problem.upright_bias > 0.0 and not yaw_only and cfg.prior_free_pass:
-        best = _with_prior_free_pass(best, problem, model, normals_world, cfg)
+        free = replace(problem, upright_bias=0.0)
+        searched, free_searched = _search_together([problem, free], model, normals_world, cfg)
+        best = _restarts_and_hops(problem, model, normals_world, cfg, yaw_only, searched=searched)
+        best = _with_prior_free_pass(best, problem, model, normals_world, cfg, free_searched)
+    else:
+        best = _restarts_and_hops(problem, model, normals_world, cfg, yaw_only)
     if 0.0 < problem.upright_bias < 1.0 and not yaw_only and cfg.release_iterations > 0:
         best = _release_if_leaning(best, problem, model, normals_world, cfg)
     return _with_fit(best, problem, model, cfg, yaw_only)  # (no prior, a certain one, or yaw_only: no release)
@@ -113,18 +123,16 @@ RIVAL_DEGREES = 3.0
 
 
 def _restarts_and_hops(problem: Problem, model: matching.ModelIndex, normals_world: np.ndarray | None,
-                       cfg: IcpConfig, yaw_only: bool, rival: np.ndarray | None = None
-                       ) -> RegistrationResult | None:
+                       cfg: IcpConfig, yaw_only: bool, rival: np.ndarray | None = None,
+                       searched: _Restarts | None = None) -> RegistrationResult | None:
     """Algorithm 1's search under ``problem``'s bias: yaw restarts from the (levelled) start, the kept one
     (:func:`pick_restart`), and hops around it when fewer than ``hop_unless_agreeing`` restarts agree.
     With ``rival`` (a pose found under another bias), the search ends early (None, no hops) when the kept
     restart ended in the rival's basin (within 1 cm and ``RIVAL_DEGREES``: only the tilt the prior levels
-    differs)."""
+    differs). ``searched``: the restarts already run (:func:`_search_together`), else they run here."""
     centroid = model.centroid
-    start = level_towards_up(problem.T_world_model_init, centroid, problem.up_world,
-                             0.0 if yaw_only else problem.upright_bias * cfg.start_leveling)
-    restarts = _search(yaw_restarts(start, centroid, problem.up_world, cfg), problem, model, normals_world, cfg,
-                       yaw_only)
+    restarts = searched if searched is not None else _search(
+        _restart_starts(problem, model, cfg, yaw_only), problem, model, normals_world, cfg, yaw_only)
     best = _keep_best(restarts, problem, model, cfg)
     if rival is not None and near(best.pose[None], rival, centroid, degrees=RIVAL_DEGREES)[0]:
         return None
@@ -133,12 +141,22 @@ def _restarts_and_hops(problem: Problem, model: matching.ModelIndex, normals_wor
     return best
 
 
+def _restart_starts(problem: Problem, model: matching.ModelIndex, cfg: IcpConfig, yaw_only: bool) -> np.ndarray:
+    """The restarts' initial poses (K, 4, 4) under ``problem``'s bias: yaw turns of the (levelled) start."""
+    start = level_towards_up(problem.T_world_model_init, model.centroid, problem.up_world,
+                             0.0 if yaw_only else problem.upright_bias * cfg.start_leveling)
+    return yaw_restarts(start, model.centroid, problem.up_world, cfg)
+
+
 def _with_prior_free_pass(best: RegistrationResult, problem: Problem, model: matching.ModelIndex,
-                          normals_world: np.ndarray | None, cfg: IcpConfig) -> RegistrationResult:
+                          normals_world: np.ndarray | None, cfg: IcpConfig, searched: _Restarts | None = None
+                          ) -> RegistrationResult:
     """Plain ICP's search from the same restarts (no prior, no levelled start: exactly what ``upright_bias=0``
     runs), then :func:`keep_data_choice` between its result and the prior's. When ICP's kept restart ended in
-    the prior's basin, the prior's result stands and ICP does not hop."""
-    free = _restarts_and_hops(replace(problem, upright_bias=0.0), model, normals_world, cfg, False, best.pose)
+    the prior's basin, the prior's result stands and ICP does not hop. ``searched``: ICP's restarts already run
+    (:func:`_search_together`), else they run here."""
+    free = _restarts_and_hops(replace(problem, upright_bias=0.0), model, normals_world, cfg, False, best.pose,
+                              searched)
     return best if free is None else keep_data_choice(best, free, problem, model, normals_world, cfg)
 
 
@@ -198,6 +216,31 @@ def _search(starts: np.ndarray, problem: Problem, model: matching.ModelIndex, no
         if iteration + 1 == cfg.prune_after:
             restarts.prune(cfg.prune_ratio, cfg.prune_keep)
     return restarts
+
+
+def _search_together(problems: list[Problem], model: matching.ModelIndex, normals_world: np.ndarray | None,
+                     cfg: IcpConfig) -> list[_Restarts]:
+    """:func:`_search` of each problem's restarts (:func:`_restart_starts`, not yaw_only), the problems
+    differing only in their upright bias, as ONE batch through the loop: each restart steps under its own
+    problem's bias, and each problem's restarts are pruned among themselves, when its own search would have
+    pruned them (it was still running). Every restart's arithmetic is the same as in its own search (the loop
+    is per restart; batching shares the per-call overhead, most of an iteration's time), so each result is
+    that search's, and the per-call numpy overhead is paid once for all of them."""
+    starts = [_restart_starts(problem, model, cfg, False) for problem in problems]
+    edges = np.cumsum([0] + [len(s) for s in starts])
+    groups = [slice(int(a), int(b)) for a, b in zip(edges[:-1], edges[1:])]
+    bias = np.concatenate([np.full(len(s), problem.upright_bias) for s, problem in zip(starts, problems)])
+    restarts = _Restarts.start(np.concatenate(starts))
+    for iteration in range(cfg.max_iterations):
+        active = restarts.active()
+        if len(active) == 0:
+            break
+        running = [g for g in groups if np.any(~restarts.done[g] & ~restarts.pruned[g])]
+        _iterate(restarts, active, problems[0], model, normals_world, cfg, iteration, False, bias[active])
+        if iteration + 1 == cfg.prune_after:
+            for group in running:
+                restarts.prune(cfg.prune_ratio, cfg.prune_keep, group)
+    return [restarts.part(group) for group in groups]
 
 
 def hop(best: RegistrationResult, problem: Problem, model: matching.ModelIndex, normals_world: np.ndarray | None,
@@ -332,9 +375,11 @@ def yaw_restarts(T_init: np.ndarray, centroid_body: np.ndarray, up_world: np.nda
 
 
 def _iterate(restarts: _Restarts, active: np.ndarray, problem: Problem, model: matching.ModelIndex,
-             normals_world: np.ndarray | None, cfg: IcpConfig, iteration: int, yaw_only: bool) -> None:
+             normals_world: np.ndarray | None, cfg: IcpConfig, iteration: int, yaw_only: bool,
+             bias: np.ndarray | None = None) -> None:
     """One pass of Algorithm 1's inner loop for the active restarts: match, relax, trim, weigh, solve (with the
-    gravity correspondence and optional yaw-only projection), apply, test convergence."""
+    gravity correspondence and optional yaw-only projection), apply, test convergence. ``bias`` (k,): each
+    active restart's upright bias, when they differ (else ``problem``'s)."""
     delta = matching.annealed_delta(iteration, cfg.max_pair_distance, cfg.huber_delta, cfg.huber_anneal_iterations)
     T = restarts.poses[active]
     annealing = delta > cfg.huber_delta
@@ -342,7 +387,7 @@ def _iterate(restarts: _Restarts, active: np.ndarray, problem: Problem, model: m
     scene_body, pairs, w = _weighted_pairs(invert_poses(T), problem, model, normals_world, cfg, delta, stride)
     dst, normals = pairs.samples, pairs.normals  # the model's samples: problem.model_*_body, indexed
     up_body = np.einsum("kji,j->ki", T[:, :3, :3], problem.up_world)
-    lam = gravity_weight(dst, w, problem.upright_bias * cfg.gravity_gamma0)
+    lam = gravity_weight(dst, w, (problem.upright_bias if bias is None else bias) * cfg.gravity_gamma0)
     if problem.support_height is not None:
         scene_body, dst, normals, w = _with_contact_pair(T, up_body, problem, model.extreme_points, cfg.support_weight,
                                                          (scene_body, dst, normals, w))
