@@ -106,10 +106,7 @@ def register(model_points, model_normals, scene_points, init=np.eye(4), up=(0.0,
     normals_world = matching.scene_normals(problem.scene_pts_world, cfg.scene_normal_neighbours) \
         if cfg.normal_gate_deg < 90.0 else None
     if problem.upright_bias > 0.0 and not yaw_only and cfg.prior_free_pass:
-        free = replace(problem, upright_bias=0.0)
-        searched, free_searched = _search_together([problem, free], model, normals_world, cfg)
-        best = _restarts_and_hops(problem, model, normals_world, cfg, yaw_only, searched=searched)
-        best = _with_prior_free_pass(best, problem, model, normals_world, cfg, free_searched)
+        best = _with_prior_free_pass(problem, model, normals_world, cfg)
     else:
         best = _restarts_and_hops(problem, model, normals_world, cfg, yaw_only)
     if 0.0 < problem.upright_bias < 1.0 and not yaw_only and cfg.release_iterations > 0:
@@ -123,22 +120,20 @@ RIVAL_DEGREES = 3.0
 
 
 def _restarts_and_hops(problem: Problem, model: matching.ModelIndex, normals_world: np.ndarray | None,
-                       cfg: IcpConfig, yaw_only: bool, rival: np.ndarray | None = None,
-                       searched: _Restarts | None = None) -> RegistrationResult | None:
+                       cfg: IcpConfig, yaw_only: bool) -> RegistrationResult:
     """Algorithm 1's search under ``problem``'s bias: yaw restarts from the (levelled) start, the kept one
-    (:func:`pick_restart`), and hops around it when fewer than ``hop_unless_agreeing`` restarts agree.
-    With ``rival`` (a pose found under another bias), the search ends early (None, no hops) when the kept
-    restart ended in the rival's basin (within 1 cm and ``RIVAL_DEGREES``: only the tilt the prior levels
-    differs). ``searched``: the restarts already run (:func:`_search_together`), else they run here."""
-    centroid = model.centroid
-    restarts = searched if searched is not None else _search(
-        _restart_starts(problem, model, cfg, yaw_only), problem, model, normals_world, cfg, yaw_only)
+    (:func:`pick_restart`), and hops around it when fewer than ``hop_unless_agreeing`` restarts agree."""
+    restarts = _search(_restart_starts(problem, model, cfg, yaw_only), problem, model, normals_world, cfg, yaw_only)
     best = _keep_best(restarts, problem, model, cfg)
-    if rival is not None and near(best.pose[None], rival, centroid, degrees=RIVAL_DEGREES)[0]:
-        return None
-    if cfg.restarts > 1 and agreeing(restarts, best.pose, centroid) < cfg.hop_unless_agreeing:
+    if _should_hop(restarts, best, model, cfg):
         best = hop(best, problem, model, normals_world, cfg, yaw_only)
     return best
+
+
+def _should_hop(restarts: _Restarts, best: RegistrationResult, model: matching.ModelIndex, cfg: IcpConfig) -> bool:
+    """Whether to hop around ``best``: fewer than ``hop_unless_agreeing`` surviving restarts ended there (and
+    there was more than one restart, see :func:`hop`)."""
+    return cfg.restarts > 1 and agreeing(restarts, best.pose, model.centroid) < cfg.hop_unless_agreeing
 
 
 def _restart_starts(problem: Problem, model: matching.ModelIndex, cfg: IcpConfig, yaw_only: bool) -> np.ndarray:
@@ -148,16 +143,36 @@ def _restart_starts(problem: Problem, model: matching.ModelIndex, cfg: IcpConfig
     return yaw_restarts(start, model.centroid, problem.up_world, cfg)
 
 
-def _with_prior_free_pass(best: RegistrationResult, problem: Problem, model: matching.ModelIndex,
-                          normals_world: np.ndarray | None, cfg: IcpConfig, searched: _Restarts | None = None
-                          ) -> RegistrationResult:
-    """Plain ICP's search from the same restarts (no prior, no levelled start: exactly what ``upright_bias=0``
-    runs), then :func:`keep_data_choice` between its result and the prior's. When ICP's kept restart ended in
-    the prior's basin, the prior's result stands and ICP does not hop. ``searched``: ICP's restarts already run
-    (:func:`_search_together`), else they run here."""
-    free = _restarts_and_hops(replace(problem, upright_bias=0.0), model, normals_world, cfg, False, best.pose,
-                              searched)
-    return best if free is None else keep_data_choice(best, free, problem, model, normals_world, cfg)
+def _with_prior_free_pass(problem: Problem, model: matching.ModelIndex, normals_world: np.ndarray | None,
+                          cfg: IcpConfig) -> RegistrationResult:
+    """The prior's search (:func:`_restarts_and_hops`) and plain ICP's from the same restarts (no prior, no
+    levelled start: exactly what ``upright_bias=0`` runs), then :func:`keep_data_choice` between their results.
+    When ICP's kept restart ended in the basin of the prior's result (within 1 cm and ``RIVAL_DEGREES``: only
+    the tilt the prior levels differs), the prior's result stands and ICP does not hop.
+
+    The same two searches, batched: both searches' restarts run as one batch (:func:`_search_together`), and
+    when both would hop, their hop rounds run as one batch too (:func:`_hop_together`) unless ICP's kept
+    restart is already in the prior's kept restart's basin; ICP's hops are then thrown away if the prior's hops
+    ended in its basin after all (the rule above), so every result is what the searches run one after the
+    other gave, at one loop's per-call overhead (most of an iteration's time) instead of two."""
+    free_problem = replace(problem, upright_bias=0.0)
+    searched = _search_together([problem, free_problem], model, normals_world, cfg)
+    kept = [_keep_best(restarts, p, model, cfg) for restarts, p in zip(searched, (problem, free_problem))]
+    hopping = [_should_hop(restarts, best, model, cfg) for restarts, best in zip(searched, kept)]
+
+    def in_basin(pose: np.ndarray) -> bool:  # ICP's kept restart, in the basin of a pose of the prior's
+        return bool(near(kept[1].pose[None], pose, model.centroid, degrees=RIVAL_DEGREES)[0])
+
+    free = None
+    if all(hopping) and not in_basin(kept[0].pose):
+        prior, free = _hop_together(kept, [problem, free_problem], model, normals_world, cfg)
+    else:
+        prior = hop(kept[0], problem, model, normals_world, cfg, False) if hopping[0] else kept[0]
+    if in_basin(prior.pose):
+        return prior
+    if free is None:
+        free = hop(kept[1], free_problem, model, normals_world, cfg, False) if hopping[1] else kept[1]
+    return keep_data_choice(prior, free, problem, model, normals_world, cfg)
 
 
 def keep_data_choice(prior: RegistrationResult, free: RegistrationResult, problem: Problem,
@@ -219,14 +234,16 @@ def _search(starts: np.ndarray, problem: Problem, model: matching.ModelIndex, no
 
 
 def _search_together(problems: list[Problem], model: matching.ModelIndex, normals_world: np.ndarray | None,
-                     cfg: IcpConfig) -> list[_Restarts]:
+                     cfg: IcpConfig, starts: list[np.ndarray] | None = None) -> list[_Restarts]:
     """:func:`_search` of each problem's restarts (:func:`_restart_starts`, not yaw_only), the problems
     differing only in their upright bias, as ONE batch through the loop: each restart steps under its own
     problem's bias, and each problem's restarts are pruned among themselves, when its own search would have
     pruned them (it was still running). Every restart's arithmetic is the same as in its own search (the loop
     is per restart; batching shares the per-call overhead, most of an iteration's time), so each result is
-    that search's, and the per-call numpy overhead is paid once for all of them."""
-    starts = [_restart_starts(problem, model, cfg, False) for problem in problems]
+    that search's, and the per-call numpy overhead is paid once for all of them. ``starts``: each problem's
+    initial poses (K_i, 4, 4) (hops), instead of its restarts."""
+    if starts is None:
+        starts = [_restart_starts(problem, model, cfg, False) for problem in problems]
     edges = np.cumsum([0] + [len(s) for s in starts])
     groups = [slice(int(a), int(b)) for a, b in zip(edges[:-1], edges[1:])]
     bias = np.concatenate([np.full(len(s), problem.upright_bias) for s, problem in zip(starts, problems)])
@@ -257,11 +274,32 @@ def hop(best: RegistrationResult, problem: Problem, model: matching.ModelIndex, 
     when fewer than ``hop_unless_agreeing`` surviving restarts ended where the kept one did, and never with a
     single restart: hops widen the restarts' search, and a caller asking for one start (a local fit from a
     trusted pose, localization's yaw-only camera fix) has said where the basin is."""
+    rounds = _hop_rounds(best, problem, model, cfg, yaw_only)
+    starts, best = _next_round(rounds, None)
+    while starts is not None:
+        starts, best = _next_round(rounds, _search(starts, problem, model, normals_world, cfg, yaw_only))
+    return best
+
+
+def _next_round(rounds, searched: _Restarts | None):
+    """Send a :func:`_hop_rounds` generator its round's searched restarts (None to begin) -> (the next round's
+    starts, None), or (None, the kept result) when it has finished."""
+    try:
+        return rounds.send(searched), None
+    except StopIteration as finished:
+        return None, finished.value
+
+
+def _hop_rounds(best: RegistrationResult, problem: Problem, model: matching.ModelIndex, cfg: IcpConfig,
+                yaw_only: bool):
+    """:func:`hop` as a generator: yields each round's starts (K, 4, 4), is sent their searched restarts
+    (:class:`_Restarts`), and returns the kept result; so that two searches' hops can share one loop
+    (:func:`_hop_together`)."""
     centroid = model.centroid
     for _ in range(cfg.hop_rounds):
         starts = hop_starts(best.pose, centroid, problem.up_world, cfg,
                             level=problem.upright_bias > 0.0 and not yaw_only)
-        hops = _search(starts, problem, model, normals_world, cfg, yaw_only)
+        hops = yield starts
         alive = np.flatnonzero(~hops.pruned)
         poses = np.concatenate([best.pose[None], hops.poses[alive]])
         scores, pairs = score_poses(model, poses, problem.scene_pts_world, cfg)
@@ -277,6 +315,22 @@ def hop(best: RegistrationResult, problem: Problem, model: matching.ModelIndex, 
                        converged=bool(hops.done[alive[winner - 1]]),
                        tilt_deg=float(np.rad2deg(tilt_angle(pose[:3, :3], problem.up_world))))
     return best
+
+
+def _hop_together(kept: list[RegistrationResult], problems: list[Problem], model: matching.ModelIndex,
+                  normals_world: np.ndarray | None, cfg: IcpConfig) -> list[RegistrationResult]:
+    """:func:`hop` from each kept result under its own problem (not yaw_only), the problems differing only in
+    their bias: each round of every search still hopping runs as one batch (:func:`_search_together`), and
+    each search goes on or stops by its own rounds. The results are each :func:`hop`'s."""
+    rounds = [_hop_rounds(best, problem, model, cfg, False) for best, problem in zip(kept, problems)]
+    steps = [_next_round(r, None) for r in rounds]  # (starts or None, result or None) per search
+    while any(starts is not None for starts, _ in steps):
+        order = [i for i, (starts, _) in enumerate(steps) if starts is not None]
+        searched = _search_together([problems[i] for i in order], model, normals_world, cfg,
+                                    [steps[i][0] for i in order])
+        for i, restarts in zip(order, searched):
+            steps[i] = _next_round(rounds[i], restarts)
+    return [result for _, result in steps]
 
 
 def agreeing(restarts: _Restarts, pose: np.ndarray, centroid_body: np.ndarray) -> int:
