@@ -98,10 +98,10 @@ def test_register_runs_plain_icp_beside_the_prior_and_can_be_told_not_to(crate_m
     truth = make_pose(0.3, 0.0, (0.2, 0.1, 0.0))
     scene = placed(truth, crate_view)
     biases = []
-    real = icp._restarts_and_hops
-    monkeypatch.setattr(icp, "_restarts_and_hops",
-                        lambda problem, *args, **kwargs: biases.append(problem.upright_bias) or real(problem, *args,
-                                                                                                     **kwargs))
+    real = icp._keep_best
+    monkeypatch.setattr(icp, "_keep_best",
+                        lambda restarts, problem, *args: biases.append(problem.upright_bias) or real(restarts, problem,
+                                                                                                     *args))
     register(*crate_model, scene, truth, upright_bias=0.9)
     assert biases == [0.9, 0.0]
     biases.clear()

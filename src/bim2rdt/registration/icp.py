@@ -73,14 +73,20 @@ class _Restarts:
     def active(self) -> np.ndarray:
         return np.flatnonzero(~self.done & ~self.pruned)
 
-    def prune(self, ratio: float, keep: int) -> None:
+    def prune(self, ratio: float, keep: int, group: slice = slice(None)) -> None:
         """Drop restarts whose score is worse than ``ratio`` x the best so far (converged ones included), and all
-        but the ``keep`` best of the rest."""
-        alive = ~self.pruned
-        best = self.scores[alive].min()
-        self.pruned |= alive & (self.scores > ratio * best + 1e-12)
-        survivors = np.flatnonzero(~self.pruned)
-        self.pruned[survivors[np.argsort(self.scores[survivors], kind="stable")[keep:]]] = True
+        but the ``keep`` best of the rest; among the restarts of ``group`` only (all by default)."""
+        pruned, scores = self.pruned[group], self.scores[group]  # views: pruning them prunes self
+        alive = ~pruned
+        best = scores[alive].min()
+        pruned |= alive & (scores > ratio * best + 1e-12)
+        survivors = np.flatnonzero(~pruned)
+        pruned[survivors[np.argsort(scores[survivors], kind="stable")[keep:]]] = True
+
+    def part(self, group: slice) -> _Restarts:
+        """The restarts of ``group``, as their own state."""
+        return _Restarts(self.poses[group], self.iterations[group], self.scores[group], self.done[group],
+                         self.pruned[group])
 
 
 def register(model_points, model_normals, scene_points, init=np.eye(4), up=(0.0, 0.0, 1.0),
@@ -99,9 +105,10 @@ def register(model_points, model_normals, scene_points, init=np.eye(4), up=(0.0,
     model = matching.ModelIndex.cached(problem.model_pts_body, problem.model_normals_body)
     normals_world = matching.scene_normals(problem.scene_pts_world, cfg.scene_normal_neighbours) \
         if cfg.normal_gate_deg < 90.0 else None
-    best = _restarts_and_hops(problem, model, normals_world, cfg, yaw_only)
     if problem.upright_bias > 0.0 and not yaw_only and cfg.prior_free_pass:
-        best = _with_prior_free_pass(best, problem, model, normals_world, cfg)
+        best = _with_prior_free_pass(problem, model, normals_world, cfg)
+    else:
+        best = _restarts_and_hops(problem, model, normals_world, cfg, yaw_only)
     if 0.0 < problem.upright_bias < 1.0 and not yaw_only and cfg.release_iterations > 0:
         best = _release_if_leaning(best, problem, model, normals_world, cfg)
     return _with_fit(best, problem, model, cfg, yaw_only)  # (no prior, a certain one, or yaw_only: no release)
@@ -113,33 +120,59 @@ RIVAL_DEGREES = 3.0
 
 
 def _restarts_and_hops(problem: Problem, model: matching.ModelIndex, normals_world: np.ndarray | None,
-                       cfg: IcpConfig, yaw_only: bool, rival: np.ndarray | None = None
-                       ) -> RegistrationResult | None:
+                       cfg: IcpConfig, yaw_only: bool) -> RegistrationResult:
     """Algorithm 1's search under ``problem``'s bias: yaw restarts from the (levelled) start, the kept one
-    (:func:`pick_restart`), and hops around it when fewer than ``hop_unless_agreeing`` restarts agree.
-    With ``rival`` (a pose found under another bias), the search ends early (None, no hops) when the kept
-    restart ended in the rival's basin (within 1 cm and ``RIVAL_DEGREES``: only the tilt the prior levels
-    differs)."""
-    centroid = model.centroid
-    start = level_towards_up(problem.T_world_model_init, centroid, problem.up_world,
-                             0.0 if yaw_only else problem.upright_bias * cfg.start_leveling)
-    restarts = _search(yaw_restarts(start, centroid, problem.up_world, cfg), problem, model, normals_world, cfg,
-                       yaw_only)
+    (:func:`pick_restart`), and hops around it when fewer than ``hop_unless_agreeing`` restarts agree."""
+    restarts = _search(_restart_starts(problem, model, cfg, yaw_only), problem, model, normals_world, cfg, yaw_only)
     best = _keep_best(restarts, problem, model, cfg)
-    if rival is not None and near(best.pose[None], rival, centroid, degrees=RIVAL_DEGREES)[0]:
-        return None
-    if cfg.restarts > 1 and agreeing(restarts, best.pose, centroid) < cfg.hop_unless_agreeing:
+    if _should_hop(restarts, best, model, cfg):
         best = hop(best, problem, model, normals_world, cfg, yaw_only)
     return best
 
 
-def _with_prior_free_pass(best: RegistrationResult, problem: Problem, model: matching.ModelIndex,
-                          normals_world: np.ndarray | None, cfg: IcpConfig) -> RegistrationResult:
-    """Plain ICP's search from the same restarts (no prior, no levelled start: exactly what ``upright_bias=0``
-    runs), then :func:`keep_data_choice` between its result and the prior's. When ICP's kept restart ended in
-    the prior's basin, the prior's result stands and ICP does not hop."""
-    free = _restarts_and_hops(replace(problem, upright_bias=0.0), model, normals_world, cfg, False, best.pose)
-    return best if free is None else keep_data_choice(best, free, problem, model, normals_world, cfg)
+def _should_hop(restarts: _Restarts, best: RegistrationResult, model: matching.ModelIndex, cfg: IcpConfig) -> bool:
+    """Whether to hop around ``best``: fewer than ``hop_unless_agreeing`` surviving restarts ended there (and
+    there was more than one restart, see :func:`hop`)."""
+    return cfg.restarts > 1 and agreeing(restarts, best.pose, model.centroid) < cfg.hop_unless_agreeing
+
+
+def _restart_starts(problem: Problem, model: matching.ModelIndex, cfg: IcpConfig, yaw_only: bool) -> np.ndarray:
+    """The restarts' initial poses (K, 4, 4) under ``problem``'s bias: yaw turns of the (levelled) start."""
+    start = level_towards_up(problem.T_world_model_init, model.centroid, problem.up_world,
+                             0.0 if yaw_only else problem.upright_bias * cfg.start_leveling)
+    return yaw_restarts(start, model.centroid, problem.up_world, cfg)
+
+
+def _with_prior_free_pass(problem: Problem, model: matching.ModelIndex, normals_world: np.ndarray | None,
+                          cfg: IcpConfig) -> RegistrationResult:
+    """The prior's search (:func:`_restarts_and_hops`) and plain ICP's from the same restarts (no prior, no
+    levelled start: exactly what ``upright_bias=0`` runs), then :func:`keep_data_choice` between their results.
+    When ICP's kept restart ended in the basin of the prior's result (within 1 cm and ``RIVAL_DEGREES``: only
+    the tilt the prior levels differs), the prior's result stands and ICP does not hop.
+
+    The same two searches, batched: both searches' restarts run as one batch (:func:`_search_together`), and
+    when both would hop, their hop rounds run as one batch too (:func:`_hop_together`) unless ICP's kept
+    restart is already in the prior's kept restart's basin; ICP's hops are then thrown away if the prior's hops
+    ended in its basin after all (the rule above), so every result is what the searches run one after the
+    other gave, at one loop's per-call overhead (most of an iteration's time) instead of two."""
+    free_problem = replace(problem, upright_bias=0.0)
+    searched = _search_together([problem, free_problem], model, normals_world, cfg)
+    kept = [_keep_best(restarts, p, model, cfg) for restarts, p in zip(searched, (problem, free_problem))]
+    hopping = [_should_hop(restarts, best, model, cfg) for restarts, best in zip(searched, kept)]
+
+    def in_basin(pose: np.ndarray) -> bool:  # ICP's kept restart, in the basin of a pose of the prior's
+        return bool(near(kept[1].pose[None], pose, model.centroid, degrees=RIVAL_DEGREES)[0])
+
+    free = None
+    if all(hopping) and not in_basin(kept[0].pose):
+        prior, free = _hop_together(kept, [problem, free_problem], model, normals_world, cfg)
+    else:
+        prior = hop(kept[0], problem, model, normals_world, cfg, False) if hopping[0] else kept[0]
+    if in_basin(prior.pose):
+        return prior
+    if free is None:
+        free = hop(kept[1], free_problem, model, normals_world, cfg, False) if hopping[1] else kept[1]
+    return keep_data_choice(prior, free, problem, model, normals_world, cfg)
 
 
 def keep_data_choice(prior: RegistrationResult, free: RegistrationResult, problem: Problem,
@@ -200,6 +233,33 @@ def _search(starts: np.ndarray, problem: Problem, model: matching.ModelIndex, no
     return restarts
 
 
+def _search_together(problems: list[Problem], model: matching.ModelIndex, normals_world: np.ndarray | None,
+                     cfg: IcpConfig, starts: list[np.ndarray] | None = None) -> list[_Restarts]:
+    """:func:`_search` of each problem's restarts (:func:`_restart_starts`, not yaw_only), the problems
+    differing only in their upright bias, as ONE batch through the loop: each restart steps under its own
+    problem's bias, and each problem's restarts are pruned among themselves, when its own search would have
+    pruned them (it was still running). Every restart's arithmetic is the same as in its own search (the loop
+    is per restart; batching shares the per-call overhead, most of an iteration's time), so each result is
+    that search's, and the per-call numpy overhead is paid once for all of them. ``starts``: each problem's
+    initial poses (K_i, 4, 4) (hops), instead of its restarts."""
+    if starts is None:
+        starts = [_restart_starts(problem, model, cfg, False) for problem in problems]
+    edges = np.cumsum([0] + [len(s) for s in starts])
+    groups = [slice(int(a), int(b)) for a, b in zip(edges[:-1], edges[1:])]
+    bias = np.concatenate([np.full(len(s), problem.upright_bias) for s, problem in zip(starts, problems)])
+    restarts = _Restarts.start(np.concatenate(starts))
+    for iteration in range(cfg.max_iterations):
+        active = restarts.active()
+        if len(active) == 0:
+            break
+        running = [g for g in groups if np.any(~restarts.done[g] & ~restarts.pruned[g])]
+        _iterate(restarts, active, problems[0], model, normals_world, cfg, iteration, False, bias[active])
+        if iteration + 1 == cfg.prune_after:
+            for group in running:
+                restarts.prune(cfg.prune_ratio, cfg.prune_keep, group)
+    return [restarts.part(group) for group in groups]
+
+
 def hop(best: RegistrationResult, problem: Problem, model: matching.ModelIndex, normals_world: np.ndarray | None,
         cfg: IcpConfig, yaw_only: bool) -> RegistrationResult:
     """Basin hopping around the kept pose, up to ``hop_rounds`` times: the loop again from it turned about the
@@ -214,11 +274,32 @@ def hop(best: RegistrationResult, problem: Problem, model: matching.ModelIndex, 
     when fewer than ``hop_unless_agreeing`` surviving restarts ended where the kept one did, and never with a
     single restart: hops widen the restarts' search, and a caller asking for one start (a local fit from a
     trusted pose, localization's yaw-only camera fix) has said where the basin is."""
+    rounds = _hop_rounds(best, problem, model, cfg, yaw_only)
+    starts, best = _next_round(rounds, None)
+    while starts is not None:
+        starts, best = _next_round(rounds, _search(starts, problem, model, normals_world, cfg, yaw_only))
+    return best
+
+
+def _next_round(rounds, searched: _Restarts | None):
+    """Send a :func:`_hop_rounds` generator its round's searched restarts (None to begin) -> (the next round's
+    starts, None), or (None, the kept result) when it has finished."""
+    try:
+        return rounds.send(searched), None
+    except StopIteration as finished:
+        return None, finished.value
+
+
+def _hop_rounds(best: RegistrationResult, problem: Problem, model: matching.ModelIndex, cfg: IcpConfig,
+                yaw_only: bool):
+    """:func:`hop` as a generator: yields each round's starts (K, 4, 4), is sent their searched restarts
+    (:class:`_Restarts`), and returns the kept result; so that two searches' hops can share one loop
+    (:func:`_hop_together`)."""
     centroid = model.centroid
     for _ in range(cfg.hop_rounds):
         starts = hop_starts(best.pose, centroid, problem.up_world, cfg,
                             level=problem.upright_bias > 0.0 and not yaw_only)
-        hops = _search(starts, problem, model, normals_world, cfg, yaw_only)
+        hops = yield starts
         alive = np.flatnonzero(~hops.pruned)
         poses = np.concatenate([best.pose[None], hops.poses[alive]])
         scores, pairs = score_poses(model, poses, problem.scene_pts_world, cfg)
@@ -234,6 +315,22 @@ def hop(best: RegistrationResult, problem: Problem, model: matching.ModelIndex, 
                        converged=bool(hops.done[alive[winner - 1]]),
                        tilt_deg=float(np.rad2deg(tilt_angle(pose[:3, :3], problem.up_world))))
     return best
+
+
+def _hop_together(kept: list[RegistrationResult], problems: list[Problem], model: matching.ModelIndex,
+                  normals_world: np.ndarray | None, cfg: IcpConfig) -> list[RegistrationResult]:
+    """:func:`hop` from each kept result under its own problem (not yaw_only), the problems differing only in
+    their bias: each round of every search still hopping runs as one batch (:func:`_search_together`), and
+    each search goes on or stops by its own rounds. The results are each :func:`hop`'s."""
+    rounds = [_hop_rounds(best, problem, model, cfg, False) for best, problem in zip(kept, problems)]
+    steps = [_next_round(r, None) for r in rounds]  # (starts or None, result or None) per search
+    while any(starts is not None for starts, _ in steps):
+        order = [i for i, (starts, _) in enumerate(steps) if starts is not None]
+        searched = _search_together([problems[i] for i in order], model, normals_world, cfg,
+                                    [steps[i][0] for i in order])
+        for i, restarts in zip(order, searched):
+            steps[i] = _next_round(rounds[i], restarts)
+    return [result for _, result in steps]
 
 
 def agreeing(restarts: _Restarts, pose: np.ndarray, centroid_body: np.ndarray) -> int:
@@ -332,9 +429,11 @@ def yaw_restarts(T_init: np.ndarray, centroid_body: np.ndarray, up_world: np.nda
 
 
 def _iterate(restarts: _Restarts, active: np.ndarray, problem: Problem, model: matching.ModelIndex,
-             normals_world: np.ndarray | None, cfg: IcpConfig, iteration: int, yaw_only: bool) -> None:
+             normals_world: np.ndarray | None, cfg: IcpConfig, iteration: int, yaw_only: bool,
+             bias: np.ndarray | None = None) -> None:
     """One pass of Algorithm 1's inner loop for the active restarts: match, relax, trim, weigh, solve (with the
-    gravity correspondence and optional yaw-only projection), apply, test convergence."""
+    gravity correspondence and optional yaw-only projection), apply, test convergence. ``bias`` (k,): each
+    active restart's upright bias, when they differ (else ``problem``'s)."""
     delta = matching.annealed_delta(iteration, cfg.max_pair_distance, cfg.huber_delta, cfg.huber_anneal_iterations)
     T = restarts.poses[active]
     annealing = delta > cfg.huber_delta
@@ -342,7 +441,7 @@ def _iterate(restarts: _Restarts, active: np.ndarray, problem: Problem, model: m
     scene_body, pairs, w = _weighted_pairs(invert_poses(T), problem, model, normals_world, cfg, delta, stride)
     dst, normals = pairs.samples, pairs.normals  # the model's samples: problem.model_*_body, indexed
     up_body = np.einsum("kji,j->ki", T[:, :3, :3], problem.up_world)
-    lam = gravity_weight(dst, w, problem.upright_bias * cfg.gravity_gamma0)
+    lam = gravity_weight(dst, w, (problem.upright_bias if bias is None else bias) * cfg.gravity_gamma0)
     if problem.support_height is not None:
         scene_body, dst, normals, w = _with_contact_pair(T, up_body, problem, model.extreme_points, cfg.support_weight,
                                                          (scene_body, dst, normals, w))
