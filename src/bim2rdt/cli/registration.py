@@ -30,7 +30,7 @@ def bench_registration(
                                        "compete on equal terms."),
     families: bool = typer.Option(True, "--families/--no-families",
                                   help="Also run the scene families F1-F11 (sparse half-occluded single views "
-                                       "built outside S1-S4; F10-F11 are issue 26's yaw aliases, two "
+                                       "built outside S1-S4; F10-F11 are sparse yaw-alias views from two "
                                        "generators)."),
     as_json: bool = typer.Option(False, "--json", help="Print JSON instead of tables."),
 ) -> None:

@@ -293,7 +293,7 @@ class ExposureStore:
     # the ledger of applied batches ---------------------------------------------------------------------
     def mark_applied(self, keys: Iterable[tuple[str, str, int, float]], now: float) -> None:
         """Record (device, boot, seq, received time) of batches this commit applies. AlreadyApplied (the
-        transaction rolls back) if one was applied before: by another process, or before this one restored."""
+        transaction rolls back) if one was applied before: by another process, or by this one before it restored."""
         rows = [{"device": d, "boot": b, "seq": s, "received_time": r} for d, b, s, r in keys]
         if rows:
             try:

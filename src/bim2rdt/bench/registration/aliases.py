@@ -1,4 +1,4 @@
-"""Issue 26's scene families: sparse, half-occluded views of upright objects whose yaw aliases (a cone on a
+"""The yaw-alias scene families: sparse, half-occluded views of upright objects whose yaw aliases (a cone on a
 square base, crates, pallets), where the upright prior must not pick a worse alias than plain ICP.
 
 Each trial is one view of each object: 100-200 points, about half of the object hidden, 10 % clutter, 4 mm
@@ -52,7 +52,7 @@ class AliasObject:
 
 @dataclass(frozen=True)
 class AliasFamily:
-    """One of issue 26's families: its generator (``render`` | ``mesh``), objects and model density, and the
+    """One of the yaw-alias families: its generator (``render`` | ``mesh``), objects and model density, and the
     view and start settings the issue names."""
 
     name: str
@@ -80,10 +80,10 @@ ISSUE_OBJECTS = (AliasObject("Cone_680_on_plate_360", cone_on_plate(0.17, 0.68, 
 ALIAS_FAMILIES: dict[str, AliasFamily] = {f.name: f for f in (
     AliasFamily("F10", "aliases, rendered: cone/crate/pallet behind a panel, 100-200 px, 4 mm axial, ROI clutter",
                 "render", SIM_OBJECTS, 10000),
-    AliasFamily("F11", "aliases, mesh-sampled: issue 26's crate/cone/pallet, half-space cut, 2,000 samples",
+    AliasFamily("F11", "aliases, mesh-sampled: crate, cone on a square base, pallet, half-space cut, 2,000 samples",
                 "mesh", ISSUE_OBJECTS, 2000),
 )}
-"""Issue 26's families by name (``bench registration`` runs them after F1-F9)."""
+"""The yaw-alias families by name (``bench registration`` runs them after F1-F9)."""
 
 
 def alias_scenario(name: str, trials: int = 50, seed: int = 0) -> Scenario:

@@ -83,7 +83,7 @@ def run_registration_scenarios(out_dir: Path | None, trials: int, seed: int, con
 def run_family(name: str, trials: int, seed: int, config: IcpConfig, peers: bool,
                tick: Callable[[], None] = lambda: None) -> ScenarioResult:
     """ICP, SG-ICP (and Open3D point-to-plane and small_gicp on one thread with ``peers``) on scene family
-    ``name`` (F1-F9: :data:`bim2rdt.sim.families.FAMILIES`; F10-F11, issue 26's yaw aliases:
+    ``name`` (F1-F9: :data:`bim2rdt.sim.families.FAMILIES`; F10-F11, the yaw aliases:
     :data:`bim2rdt.bench.registration.aliases.ALIAS_FAMILIES`, with the alias agreement). The family's own
     model density and its user-given upright bias apply, as they would for a user calling ``register``."""
     spec = FAMILIES[name] if name in FAMILIES else ALIAS_FAMILIES[name]

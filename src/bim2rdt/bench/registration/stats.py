@@ -58,7 +58,7 @@ class ScenarioResult:
     tags: tuple[str, ...] = ()  # e.g. "tilt trap": a family built so that the start's tilt is what misleads ICP
     rows: dict[str, list[tuple]] = field(default_factory=dict)
     poses: dict[str, list[list[np.ndarray]]] = field(default_factory=dict)
-    alias_agreement: tuple[float, int] | None = None  # issue 26's families: (share, count), see alias_agreement
+    alias_agreement: tuple[float, int] | None = None  # the yaw-alias families: (share, count), see alias_agreement
 
 
 def run_scenario(scenario: Scenario, methods: Sequence[Method], priors: dict[str, Prior],
@@ -265,7 +265,7 @@ def check_calibration_target(results: Sequence[ScenarioResult]) -> list[Target]:
 
 
 ALIAS_AGREEMENT = 0.95
-"""Share of registrations where SG-ICP must end in the same basin as ICP or a better one (issue 26)."""
+"""Share of registrations where SG-ICP must end in the same basin as ICP or a better one."""
 
 
 def alias_agreement(scenario: Scenario, result: ScenarioResult, before: str = "ICP", after: str = "SG-ICP",
@@ -289,7 +289,7 @@ def alias_agreement(scenario: Scenario, result: ScenarioResult, before: str = "I
 
 
 def check_alias_targets(results: Sequence[ScenarioResult]) -> list[Target]:
-    """Issue 26's targets on the alias families: SG-ICP's mean surface error not worse than ICP's beyond the
+    """The targets on the alias families: SG-ICP's mean surface error not worse than ICP's beyond the
     noise (the whole 95 % paired interval of the cut below zero), and alias agreement >= :data:`ALIAS_AGREEMENT`."""
     if not results:
         return []
@@ -322,7 +322,7 @@ def best_peer(result: ScenarioResult, metric: str, peers: Sequence[str] = SMALL_
 
 
 def check_peer_accuracy(scenarios: Sequence[ScenarioResult], families: Sequence[ScenarioResult]) -> list[Target]:
-    """Issue 26: SG-ICP at least as accurate as small_gicp's best method on every scenario (RMSE) and family
+    """SG-ICP at least as accurate as small_gicp's best method on every scenario (RMSE) and family
     (mean surface error): not worse beyond the noise (the whole 95 % paired interval below zero)."""
     checked = [(r, "rmse") for r in scenarios] + [(r, "mean") for r in families]
     checked = [(r, metric, best_peer(r, metric)) for r, metric in checked]
