@@ -254,7 +254,8 @@ class LiveServe:
                            "their monitors use")
         folder = fresh_folder(self.out_dir / "live" / "hav") if self.demo and not (self.mqtt or self.nats) \
             else self.settings.data_dir / "hav"
-        monitor = HavMonitor(folder, self.settings.hav.site_secret, [], self.settings.hav.monitor_config())
+        clock = {"clock": self.clock.now} if self.clock is not None else {}  # its day is the demo's simulated day
+        monitor = HavMonitor(folder, self.settings.hav.site_secret, [], self.settings.hav.monitor_config(), **clock)
         self._closers.append(monitor.close)
         identity = IdentityMap(folder / "private" / "identity.sqlite", role="safety")
         self._closers.append(identity.close)
