@@ -186,3 +186,16 @@ def test_a_non_finite_query_number_is_422_without_echoing_it(client, path, param
     response = client.get(path, params=params, headers=auth(client.tokens["viewer"]))
     assert response.status_code == 422, response.text
     assert not any(word in response.text.lower() for word in ("inf", "nan", "1e400"))
+
+
+def test_safety_events_are_listed_in_event_time_order_even_when_committed_out_of_it(client, monitor):
+    from server_helpers import feed, today_since, vibration
+
+    monitor.start_session("dev-2", "bo.lind", "grinder", zone="Work zone A")
+    earlier = today_since(150, 160)  # before dev-1's feed (60 s back), committed after it
+    feed(monitor, vibration("dev-2", 10.0, 6.0, earlier))
+    monitor.flush()
+    events = get(client, "/api/events").json()
+    times = [e["time"] for e in events]
+    assert min(times) < earlier + 11.0 and len({e["subject"] for e in events}) == 2  # both workers' events
+    assert times == sorted(times)

@@ -89,6 +89,10 @@ def test_serve_the_demo_moves_the_gauges_with_simulated_wearables(recorded_site)
             time.sleep(1.0)
         assert len(workers) == 3 and seen[-1] > 0 and seen[-1] > seen[-3], seen
         assert all(w["subject"].startswith("w-") for w in workers)
+        clock = httpx.get(f"{served.url}/api/clock", headers=headers, timeout=30).json()
+        events = httpx.get(f"{served.url}/api/events", headers=headers, timeout=30).json()
+        assert clock["simulated"] and clock["speed"] == 50.0
+        assert events and all(e["time"] <= clock["now"] + 1.0 for e in events)  # one clock: none in its future
     finally:
         output = served.stop()
     assert "safety token:" in output and "admin token:" in output

@@ -67,13 +67,16 @@ def test_the_page_shows_the_twin_and_warns_the_moment_a_worker_crosses_the_eav(p
         assert "#token" not in page.url  # the token leaves the address bar at once
         shots.append(_shot(page, tmp_path / "page-below-eav.png"))
 
+        expect(page.locator("#counts")).to_contain_text("1 deviating")
         page.locator("#at").fill(str(int(T_TWIN + 10)))  # the twin before the moved object's record
         expect(page.locator("#deviations tbody tr")).to_have_count(1)
+        expect(page.locator("#counts")).to_have_text("1 as planned")  # the header follows the time bar
         expect(page.locator("#at-label")).to_contain_text("UTC")
         assert page.locator("#plan polyline.path").count() == 0  # one station: no path yet
         assert page.locator("#plan circle.station").count() == 1
         page.locator("#at-now").click()
         expect(page.locator("#deviations tbody tr")).to_have_count(4)
+        expect(page.locator("#counts")).to_contain_text("1 deviating")
 
         feed(monitor, vibration("dev-1", 40.0, A_HV, start + 180.0, seq0=360))  # crosses the EAV
         crossed = time.time()

@@ -23,8 +23,11 @@ export const svg = (tag, attrs = {}) => {
 
 export const utc = (seconds) => (seconds == null ? "–" : new Date(seconds * 1000).toISOString().slice(11, 19));
 export const day = (seconds) => (seconds == null ? "–" : new Date(seconds * 1000).toISOString().slice(0, 10));
-// a time of today as HH:MM:SS, of another day with its date before it (the timeline mixes days)
-export const when = (seconds) => (day(seconds) === day(Date.now() / 1000) ? utc(seconds) : `${day(seconds).slice(5)} ${utc(seconds)}`);
+// the sources' clock (the demo's simulated day, or the wall clock); main.js sets it from /api/clock
+let sourcesNow = () => Date.now() / 1000;
+export const setSourcesNow = (now) => { sourcesNow = now; };
+// a time of the sources' today as HH:MM:SS, of another day with its date before it (the timeline mixes days)
+export const when = (seconds) => (day(seconds) === day(sourcesNow()) ? utc(seconds) : `${day(seconds).slice(5)} ${utc(seconds)}`);
 export const num = (value, digits = 2) => (value == null ? "–" : Number(value).toFixed(digits));
 
 export function duration(seconds) {

@@ -1,14 +1,14 @@
 // The dashboard: loads the twin, the plan and the workers once, then follows the live stream (no reload).
 import "./style.css";
 import { Unauthorized, follow, getBlob, getBytes, getJson, postJson, setToken, takeToken } from "./api.js";
-import { el } from "./format.js";
+import { el, setSourcesNow } from "./format.js";
 import { drawBanner, drawGauges } from "./gauges.js";
 import { drawPlan, recolour } from "./plan.js";
 import { drawDeviations, drawDetail, timelineItem } from "./tables.js";
 import { TwinView } from "./view3d.js";
 
 const $ = (id) => document.getElementById(id);
-const state = { elements: new Map(), workers: [], role: null, view: null, selected: null, timeline: [], at: null, names: new Map() };
+const state = { elements: new Map(), workers: [], role: null, view: null, selected: null, timeline: [], at: null, names: new Map(), clock: null };
 const MAX_TIMELINE = 200;
 const FORECAST = "hav.eav_predicted"; // the gauges show the time to the EAV; the timeline keeps what happened
 
@@ -23,11 +23,22 @@ async function start() {
     throw error;
   }
   follow(onMessage, onConnection).catch(() => askToken());
-  const clock = () => ($("clock").textContent = `${new Date().toISOString().slice(11, 19)} UTC`);
-  clock();
-  setInterval(clock, 1000);
+  await startClock();
   await Promise.all([loadTwin(), loadWorkers(), loadEvents()]);
   wireDownloads();
+}
+
+// The sources' one clock (the demo's simulated day, or the wall clock): the header and the time bar run on it.
+async function startClock() {
+  const answer = await getJson("/api/clock").catch(() => ({ now: Date.now() / 1000, speed: 1, simulated: false }));
+  const wallStart = Date.now() / 1000;
+  state.clock = () => answer.now + answer.speed * (Date.now() / 1000 - wallStart);
+  setSourcesNow(state.clock);
+  const show = () => {
+    $("clock").textContent = `${new Date(state.clock() * 1000).toISOString().slice(11, 19)} UTC${answer.simulated ? ` (simulated, ${answer.speed}×)` : ""}`;
+  };
+  show();
+  setInterval(show, 1000);
 }
 
 function askToken() {
@@ -141,7 +152,7 @@ async function wireTimebar() {
   const slider = $("at");
   if (!span) return;
   slider.min = String(Math.floor(span[0]) - 60);
-  slider.max = String(Math.ceil(Math.max(span[1], Date.now() / 1000)));
+  slider.max = String(Math.ceil(Math.max(span[1], state.clock())));
   slider.value = slider.max;
   let pending = null;
   slider.addEventListener("input", () => {
@@ -162,14 +173,19 @@ async function showAt(at) {
   if (at === null) for (const e of past.elements) state.elements.set(e.global_id, e);
   drawPlan($("plan"), plan, pick);
   drawDeviations($("deviations"), shown, pick);
+  updateCounts(shown);  // the header follows the time bar
   for (const element of shown.values()) state.view?.colour(element);
 }
 
+// Newest first by event time: a live event goes where its time puts it (a late batch's events arrive after newer ones).
 function addTimeline(entry) {
-  state.timeline.unshift(entry);
+  let index = state.timeline.findIndex((other) => other.time < entry.time);
+  if (index < 0) index = state.timeline.length;
+  if (index >= MAX_TIMELINE) return;
+  state.timeline.splice(index, 0, entry);
   state.timeline.length = Math.min(state.timeline.length, MAX_TIMELINE);
   const list = $("timeline");
-  list.prepend(timelineItem(entry));
+  list.insertBefore(timelineItem(entry), list.children[index] ?? null);
   while (list.children.length > MAX_TIMELINE) list.lastChild.remove();
 }
 
@@ -194,10 +210,10 @@ async function reveal(subject) {
   onWorkers(state.workers);
 }
 
-function updateCounts() {
+function updateCounts(elements = state.elements) {
   const counts = {};
-  for (const e of state.elements.values()) counts[e.status] = (counts[e.status] || 0) + 1;
-  $("counts").textContent = ["deviating", "missing", "new", "as planned"].filter((s) => counts[s]).map((s) => `${counts[s]} ${s}`).join(" · ");
+  for (const e of elements.values()) counts[e.status] = (counts[e.status] || 0) + 1;
+  $("counts").textContent = ["deviating", "missing", "new", "as planned"].filter((s) => counts[s]).map((s) => `${counts[s]} ${s}`).join(" · ") || "nothing observed yet";
 }
 
 function drawLegend(palette) {

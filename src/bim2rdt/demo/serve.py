@@ -10,6 +10,7 @@ below sim and demo): the wiring lives here, above both.
 from __future__ import annotations
 
 import logging
+import math
 import shutil
 import signal
 import threading
@@ -38,6 +39,17 @@ def live_plans(zone: str | None) -> list[WorkerPlan]:
             WorkerPlan("w3", "worker-003", zone, (("idle", 40.0), ("grinder", 7200.0), ("idle", 30.0)))]
 
 
+def demo_clock(twin, speed: float = LIVE_SPEED):
+    """The demo's one clock: its simulated site day. It goes on from the twin's last record (the robots' route
+    and the site day's HAV), at ``speed``, from now on the wall clock; the live wearables and the page's header
+    run on it."""
+    from bim2rdt.server.clock import SourceClock
+
+    times = [event.time for event in twin.events()]
+    origin = float(math.ceil(max(times))) if times else time.time()
+    return SourceClock(origin_s=origin, speed=speed, wall_origin_s=time.time())
+
+
 def ensure_site_day(out_dir: Path, settings, tick: Callable[[str], None] = lambda stage: None) -> tuple[Path, Path]:
     """(site.ifc, twin.db) of the demo in ``out_dir``; runs the site day (with ``settings``' mission, registration
     and twin sections) first when either is absent."""
@@ -61,6 +73,8 @@ class LiveWearables:
     site: str
     speed: float = LIVE_SPEED
     fs: float = FS_HZ
+    t0: float | None = None
+    """UTC s of the plans' start on the demo's clock (None: the wall clock now)."""
 
     def __post_init__(self) -> None:
         self._stop = threading.Event()
@@ -94,7 +108,8 @@ class LiveWearables:
                 raise Stopped
 
         try:
-            publish_plans(lambda device: self.bus, self.plans, self.site, self.fs, speed=self.speed, tick=tick)
+            publish_plans(lambda device: self.bus, self.plans, self.site, self.fs, speed=self.speed, t0=self.t0,
+                          tick=tick)
         except Stopped:
             pass
 
@@ -195,6 +210,7 @@ class LiveServe:
         sock = listening_socket(self.config.host, self.config.port)  # first: a busy port is said before the work
         self._closers.append(sock.close)
         twin = self._open_twin()
+        self.clock = demo_clock(twin, self.speed) if self.demo and not (self.mqtt or self.nats) else None
         monitor, identity = self._open_monitor()
         roles = ("viewer", "safety", "admin") if self.all_roles else ("viewer",)
         self.tokens = {role: new_token() for role in roles}
@@ -203,8 +219,9 @@ class LiveServe:
         config = self.config.model_copy(update={"tokens": [*self.config.tokens, *entries]})
         self.audit_path = (self.out_dir / "live" / "audit.jsonl" if self.demo
                            else config.resolved_audit_log(self.settings.data_dir))
+        clock = {"clock": self.clock} if self.clock is not None else {}
         self.app = create_app(twin, monitor, identity=identity, config=config, audit_log=self.audit_path,
-                              record_safety=True)
+                              record_safety=True, **clock)
         self.server = ServerThread(self.app, config.host, config.port, sock=sock).start()
         self._closers.append(self.server.stop)
         self.url = self.server.url
@@ -237,7 +254,8 @@ class LiveServe:
                            "their monitors use")
         folder = fresh_folder(self.out_dir / "live" / "hav") if self.demo and not (self.mqtt or self.nats) \
             else self.settings.data_dir / "hav"
-        monitor = HavMonitor(folder, self.settings.hav.site_secret, [], self.settings.hav.monitor_config())
+        clock = {"clock": self.clock.now} if self.clock is not None else {}  # its day is the demo's simulated day
+        monitor = HavMonitor(folder, self.settings.hav.site_secret, [], self.settings.hav.monitor_config(), **clock)
         self._closers.append(monitor.close)
         identity = IdentityMap(folder / "private" / "identity.sqlite", role="safety")
         self._closers.append(identity.close)
@@ -271,7 +289,7 @@ class LiveServe:
 
         bus = LocalBus().connect()
         monitor.attach(bus)
-        wearables = LiveWearables(monitor, bus, live_plans(WORK_ZONE), site, self.speed).start()
+        wearables = LiveWearables(monitor, bus, live_plans(WORK_ZONE), site, self.speed, t0=self.clock.origin_s).start()
         self._closers.append(wearables.stop)
         return f"3 simulated wearables at {self.speed:g}x"
 

@@ -28,6 +28,7 @@ from fastapi.staticfiles import StaticFiles
 from bim2rdt import __version__
 from bim2rdt.server.audit import AuditLog
 from bim2rdt.server.auth import TokenBook
+from bim2rdt.server.clock import WALL_CLOCK, SourceClock
 from bim2rdt.server.config import ServerConfig
 from bim2rdt.server.guard import BearerMiddleware
 from bim2rdt.server.hub import Hub, HubSink
@@ -52,12 +53,14 @@ DOCS_PAGE = """<!doctype html>
 
 
 def create_app(twin=None, monitor=None, *, identity=None, config: ServerConfig = ServerConfig(),
-               audit_log: Path | AuditLog | None = None, hub: Hub | None = None, record_safety: bool = False) -> FastAPI:
+               audit_log: Path | AuditLog | None = None, hub: Hub | None = None, record_safety: bool = False,
+               clock: SourceClock = WALL_CLOCK) -> FastAPI:
     """The app over a twin and/or a HAV monitor; ``identity`` (an IdentityMap with role 'safety') enables
     revealing identities; ``audit_log`` (a path, or an AuditLog) defaults to ``config.audit_log`` (required one
     way or the other). With
     ``record_safety`` the monitor's events also go into the twin's history (through the view's lock, so the
-    server's reads never interleave with the monitor thread's writes)."""
+    server's reads never interleave with the monitor thread's writes). ``clock``: the sources' clock the page
+    shows (a demo's simulated day; default the wall clock)."""
     from bim2rdt.server.safety_view import SafetyView
     from bim2rdt.server.stream import poll_twin, running, tick_exposure
     from bim2rdt.server.twin_view import TwinView
@@ -87,6 +90,7 @@ def create_app(twin=None, monitor=None, *, identity=None, config: ServerConfig =
                   description="The live digital twin of the site and hand-arm vibration exposure. Every /api path "
                   "but /api/health needs a bearer token (roles: viewer, safety, admin).")
     app.state.twin, app.state.safety, app.state.hub, app.state.config = twin_view, safety_view, hub, config
+    app.state.clock = clock
     app.state.audit = path if isinstance(path, AuditLog) else AuditLog(path)
     app.state.rate_audited = {}
     app.state.limiter = RateLimiter(config.write_rate_per_minute)

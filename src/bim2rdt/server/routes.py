@@ -9,7 +9,7 @@ from fastapi.security import HTTPBearer
 from bim2rdt import __version__
 from bim2rdt.server.auth import ADMIN, READERS, SAFETY
 from bim2rdt.server.guard import RoleRoute, write_audit
-from bim2rdt.server.schemas import (AuditEntry, Element, ElementDetail, Health, Identity, Me, RawRequest,
+from bim2rdt.server.schemas import (AuditEntry, Clock, Element, ElementDetail, Health, Identity, Me, RawRequest,
                                     RawWindows, RefusedMessages, RevealRequest, SafetyEvent, TwinRecord, TwinState,
                                     Worker)
 
@@ -41,6 +41,12 @@ def health(request: Request) -> Health:
 @router.get("/me", response_model=Me, openapi_extra=READ, summary="Who the token belongs to")
 def me(request: Request) -> Me:
     return Me(name=request.state.principal.name, role=request.state.principal.role)
+
+
+@router.get("/clock", response_model=Clock, openapi_extra=READ,
+            summary="The served sources' clock (the demo's simulated day, or the wall clock)")
+def clock(request: Request) -> dict:
+    return request.app.state.clock.as_dict()
 
 
 # ---- the twin ---------------------------------------------------------------------------------------------
@@ -132,7 +138,7 @@ async def refused_messages(request: Request) -> list[dict]:
 
 
 @router.get("/events", response_model=list[SafetyEvent], openapi_extra=READ, responses=UNAVAILABLE,
-            summary="The HAV monitor's safety events, oldest first")
+            summary="The HAV monitor's safety events in event-time order, oldest first")
 async def events(request: Request, since: float | None = Query(None, ge=0, le=1e11, description="UTC epoch s."),
                  kind: str | None = Query(None, max_length=64),
                  limit: int = Query(1000, ge=1, le=10000)) -> list[dict]:

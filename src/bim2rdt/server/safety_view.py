@@ -73,10 +73,11 @@ class SafetyView:
         return {w["subject"] for w in self.workers()}
 
     def events(self, since: float | None = None, kind: str | None = None, limit: int = 1000) -> list[dict]:
-        """The monitor's events (oldest first) after ``since`` (UTC s, device time), the newest ``limit``."""
+        """The monitor's events after ``since`` (UTC s, device time) in event-time order, oldest first (the store
+        keeps commit order: a device's late batch commits after another's newer events), the newest ``limit``."""
         with self._lock:
             events = self._reader.events(kind, since)
-        chosen = [event_record(e) for e in events]
+        chosen = sorted((event_record(e) for e in events), key=lambda record: record["time"])
         return chosen[-limit:]
 
     # ---- safety role only -------------------------------------------------------------------------------

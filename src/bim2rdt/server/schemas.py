@@ -15,6 +15,12 @@ class Health(BaseModel):
     stream_clients: int = Field(description="Clients on the live stream now.")
 
 
+class Clock(BaseModel):
+    now: float = Field(description="UTC epoch seconds of the served sources now (a demo's simulated day).")
+    speed: float = Field(description="Source seconds per wall second (1: the wall clock).")
+    simulated: bool = Field(description="The sources run on a simulated clock, not the wall clock.")
+
+
 class Me(BaseModel):
     name: str
     role: str
