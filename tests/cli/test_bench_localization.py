@@ -5,6 +5,10 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
 
 
 def run_cli(*args: str) -> subprocess.CompletedProcess:
@@ -44,20 +48,54 @@ def test_bench_localization_rejects_a_tour_too_short_to_walk(tmp_path):
     assert result.returncode == 2 and "--distance" in result.stderr
 
 
-def test_bench_localization_fixes_the_real_office_frame_from_twenty_priors(tmp_path, sensors):
-    result = run_cli("bench", "localization", "--no-tour", "--sensors", str(sensors), "--json", "--out", str(tmp_path))
+@pytest.fixture(scope="module")
+def office_run(tmp_path_factory, sensors) -> tuple[dict, Path]:
+    """The office frame alone, from 3 priors (the bench's default is 20): its JSON and its --out folder."""
+    out = tmp_path_factory.mktemp("office")
+    result = run_cli("bench", "localization", "--no-tour", "--sensors", str(sensors), "--office-priors", "3", "--json",
+                     "--out", str(out))
     assert result.returncode == 0, result.stderr
-    office = json.loads(result.stdout)["office"]
-    assert office["frame"] == "pcl/office1.pcd" and office["priors"] == 20
-    for name in ("corrected", "raw"):
-        variant = office["variants"][name]
-        assert len(variant["fixes"]) == 20
+    return json.loads(result.stdout)["office"], out
+
+
+def test_bench_localization_fixes_the_real_office_frame_from_priors_around_its_truth(office_run):
+    office, out = office_run
+    assert office["frame"] == "pcl/office1.pcd" and office["priors"] == 3
+    for variant in [*office["variants"].values(), office["cloud"]]:
+        assert len(variant["fixes"]) == 3
         summary = variant["summary"]
-        assert summary["accepted"] + summary["refused"] == 20 == sum(summary["refusals"].values()) + summary["accepted"]
+        assert summary["accepted"] + summary["refused"] == 3 == sum(summary["refusals"].values()) + summary["accepted"]
         for fix in variant["fixes"]:
             assert fix["prior_position_cm"] <= 30.0 + 1e-9 and abs(fix["prior_yaw_deg"]) <= 8.0 + 1e-9
-            assert (fix["position_cm"] is None) == (fix["reason"] is not None) and fix["seconds"] > 0
-    assert json.loads((tmp_path / "results.json").read_text())["office"]["variants"].keys() == {"corrected", "raw"}
+            assert (fix["position_cm"] is None) == (fix["reason"] is not None) == (fix["pose"] is None)
+            assert fix["seconds"] > 0
+    stored = json.loads((out / "results.json").read_text())["office"]
+    assert stored["variants"].keys() == {"corrected", "raw"} and stored["cloud"]["localizer"] == "localize_cloud"
+
+
+def test_the_cloud_localizer_fixes_the_office_frame_within_3_cm_and_1_degree(office_run, sensors):
+    truth = json.loads((sensors / "pcl" / "office1_truth.json").read_text())
+    T_true = np.array(truth["T_world_camera"])
+    cloud = office_run[0]["cloud"]
+    basin_m, basin_deg = cloud["config"]["max_correction"], cloud["config"]["max_correction_deg"]
+    assert cloud["config"]["inlier_distance"] == 0.05 and cloud["config"]["min_inlier_fraction"] == 0.3  # verify's
+    fixed = 0
+    for fix in cloud["fixes"]:
+        if fix["pose"] is None:  # only a prior beyond verify's basin (8 deg priors, 6 deg basin) may be refused
+            assert abs(fix["prior_yaw_deg"]) > basin_deg or fix["prior_position_cm"] > basin_m * 100, fix["reason"]
+            continue
+        pose = np.array(fix["pose"])
+        assert np.linalg.norm(pose[:3, 3] - T_true[:3, 3]) < 0.03
+        assert _heading_deg(pose, T_true) < 1.0
+        fixed += 1
+    assert fixed >= 2
+
+
+def _heading_deg(T_a: np.ndarray, T_b: np.ndarray) -> float:
+    """Angle between the two cameras' viewing directions (optical z) projected on the floor, degrees."""
+    a, b = T_a[:2, 2], T_b[:2, 2]
+    turn = np.arctan2(a[0] * b[1] - a[1] * b[0], a @ b)
+    return float(abs(np.rad2deg(turn)))
 
 
 def test_the_office_table_names_each_depth_variant_and_its_refusals(capsys):
@@ -67,10 +105,13 @@ def test_the_office_table_names_each_depth_variant_and_its_refusals(capsys):
                "worst_position_cm": 2.5, "median_yaw_deg": 0.2, "worst_yaw_deg": 0.6, "median_prior_cm": 20.0,
                "median_seconds": 0.1}
     show_office({"frame": "pcl/office1.pcd", "priors": 20, "radius_m": 0.3, "yaw_deg": 8.0,
-                 "variants": {"corrected": {"summary": summary}, "raw": {"summary": {**summary, "accepted": 0}}}})
+                 "variants": {"corrected": {"summary": summary}, "raw": {"summary": {**summary, "accepted": 0}}},
+                 "cloud": {"depth": "corrected", "summary": {**summary, "accepted": 20, "refused": 0, "refusals": {},
+                                                             "median_position_cm": 0.61}}})
     out = capsys.readouterr().out
     assert "Real office frame (pcl/office1.pcd)" in out and "18/20" in out and "median 1.50 cm / 0.20 deg" in out
     assert "2 moved beyond the basin" in out and "0/20" in out
+    assert "localize_cloud, corrected" in out and "20/20" in out and "median 0.61 cm" in out
 
 
 def test_bench_localization_says_when_the_office_frame_is_absent(tmp_path):

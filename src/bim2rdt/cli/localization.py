@@ -1,7 +1,7 @@
 """`bim2rdt bench localization`: a 100 m tour on drifting odometry; dead reckoning, BIM fixes and the fused
 estimate against distance walked, time per frame, check shots, and Open3D's point-to-plane ICP as the peer; then
-the real office frame (office1.pcd on office1.ifc) fixed from 20 priors around its truth, with and without its
-depth correction."""
+the real office frame (office1.pcd on office1.ifc) fixed from 20 priors around its truth: by the frame localizer
+with and without its depth correction, and by the cloud localizer verify runs (corrected)."""
 
 from __future__ import annotations
 
@@ -36,6 +36,8 @@ def bench_localization(
     sensors: Path = typer.Option(Path(os.environ.get("BIM2RDT_SENSORS", "../shared/data/sensors")), "--sensors",
                                  help="The real sensor data folder (pcl/office1.pcd, office1.ifc, "
                                       "office1_truth.json); default $BIM2RDT_SENSORS or ../shared/data/sensors."),
+    office_priors: int = typer.Option(20, "--office-priors", min=1, help="Priors to fix the office frame from "
+                                      "(sampled within 30 cm and 8 deg of its truth)."),
     as_json: bool = typer.Option(False, "--json", help="Print JSON instead of tables."),
 ) -> None:
     """Walk the tour, localize every station on the BIM, fuse with odometry, and print errors and targets; then
@@ -60,7 +62,7 @@ def bench_localization(
         record = run_record(run)
         plot = plot_errors(run, out / "errors.png")
     if office:
-        record["office"] = _office(sensors, config, seed, out)
+        record["office"] = _office(sensors, config, seed, out, office_priors)
     write_bytes_atomic(out / "results.json", json.dumps(record, indent=2, default=float).encode("utf-8"))
     if as_json:
         print_json(record)
@@ -72,21 +74,24 @@ def bench_localization(
     console.print(f"{f'plot {plot}, ' if plot else ''}results.json in {out}")
 
 
-def _office(sensors: Path, config, seed: int, out: Path) -> dict:
+def _office(sensors: Path, config, seed: int, out: Path, count: int) -> dict:
     from bim2rdt.bench.localization.office import FRAME, run_office
 
     if not (sensors / FRAME).is_file():
         return {"skipped": f"no {FRAME} under {sensors} (set --sensors or BIM2RDT_SENSORS)"}
-    return run_office(sensors, config, seed=seed, cache_dir=out / "cache")
+    return run_office(sensors, config, count, seed=seed, cache_dir=out / "cache")
 
 
 def show_office(office: dict) -> None:
-    """The office frame's fixes per depth variant: accepted, errors, refusals, time."""
+    """The office frame's fixes per localizer and depth variant: accepted, errors, refusals, time."""
     if "skipped" in office:
         console.print(f"office frame skipped: {office['skipped']}")
         return
     rows = []
-    for name, variant in office["variants"].items():
+    rows_in = [(f"localize, {name}", variant) for name, variant in office["variants"].items()]
+    if "cloud" in office:
+        rows_in.append((f"localize_cloud, {office['cloud']['depth']}", office["cloud"]))
+    for name, variant in rows_in:
         s = variant["summary"]
         error = "-" if not s["accepted"] else (f"median {s['median_position_cm']:.2f} cm / {s['median_yaw_deg']:.2f} "
                                                f"deg, worst {s['worst_position_cm']:.2f} cm / "
@@ -96,7 +101,7 @@ def show_office(office: dict) -> None:
     print_table(f"Real office frame ({office['frame']}): BIM fix from {office['priors']} priors within "
                 f"{office['radius_m'] * 100:.0f} cm and {office['yaw_deg']:.0f} deg of the truth (median prior "
                 f"{office['variants']['corrected']['summary']['median_prior_cm']:.1f} cm off)",
-                ["depth", "fixed", "error (accepted)", "refused", "s per frame"], rows)
+                ["localizer, depth", "fixed", "error (accepted)", "refused", "s per frame"], rows)
 
 
 def show_record(record: dict) -> None:
