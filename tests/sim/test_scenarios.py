@@ -115,3 +115,30 @@ def test_bad_scenario_arguments_raise_a_scenario_error_that_says_which(name, opt
 
     with pytest.raises(ScenarioError, match=message):
         scenario(name, **options)
+
+
+def _same_trial(trial_a, trial_b) -> bool:
+    return len(trial_a) == len(trial_b) and all(
+        a.family == b.family and np.array_equal(a.scene_pts_world, b.scene_pts_world)
+        and np.array_equal(a.T_init, b.T_init) for a, b in zip(trial_a, trial_b))
+
+
+def test_an_object_dropped_from_one_trial_changes_no_other_trial(monkeypatch):
+    """Issue 24: a point count one off between machines drops an object from a trial (below MIN_SCENE_POINTS);
+    with one generator for every trial, every later trial then drew differently. Here trial 0's first object is
+    cut to 2 points: trial 0 loses it, trials 1-3 stay exactly as they were."""
+    import bim2rdt.sim.scenarios as scenarios
+
+    before = scenario("S2", trials=4, seed=3, views=2)
+    calls, off_the_slab = [], scenarios.off_the_slab
+
+    def first_object_short(points, **kwargs):
+        calls.append(len(points))
+        kept = off_the_slab(points, **kwargs)
+        return kept[:2] if len(calls) == 1 else kept
+
+    monkeypatch.setattr(scenarios, "off_the_slab", first_object_short)
+    after = scenario("S2", trials=4, seed=3, views=2)
+    assert len(after.trials[0]) == len(before.trials[0]) - 1
+    for t in (1, 2, 3):
+        assert _same_trial(before.trials[t], after.trials[t]), f"trial {t} changed"
