@@ -21,12 +21,12 @@ def test_both_generators_build_sparse_cluttered_views_from_tilted_starts():
 
 
 def test_the_cone_plain_icp_finds_is_not_lost_to_the_priors_slide():
-    """F10 trial 0 (seed 0; trial 3 before the per-object generators of issue 24): every restart under the
+    """F10 trial 19 (seed 0; trial 3 before the per-object generators of issue 24): every restart under the
     prior ends 3 cm up the cone's axis (a local minimum the levelled starts all fall into), while plain ICP's
     tilted restarts reach the truth. With plain ICP's search beside the prior's and the data choosing, SG-ICP
-    ends at the truth (0.8 mm); without it (the former behaviour) it stays slid (30 mm)."""
-    built = alias_scenario("F10", trials=1, seed=0)
-    cone = built.trials[0][0]
+    ends at the truth (0.5 mm); without it (the former behaviour) it stays slid (29 mm)."""
+    built = alias_scenario("F10", trials=20, seed=0)
+    cone = built.trials[19][0]
     config = IcpConfig(sample_count=ALIAS_FAMILIES["F10"].sample_count)
 
     def error(cfg):
@@ -53,7 +53,6 @@ def test_one_draw_more_in_one_view_changes_no_other_object_or_trial(monkeypatch)
             return _view(mesh, T_true, count, spec, rng)
         monkeypatch.setattr(aliases, view_name, one_more_draw)
     after = alias_scenario(name, trials=3, seed=2)
-    changed = {(t, i) for t, trial in enumerate(before.trials) for i, obj in enumerate(trial)
-               if not np.array_equal(obj.scene_pts_world, after.trials[t][i].scene_pts_world)
-               or not np.array_equal(obj.T_init, after.trials[t][i].T_init)}
-    assert changed == {(0, 0)}
+    pairs = [(t, i, obj, after.trials[t][i]) for t, trial in enumerate(before.trials) for i, obj in enumerate(trial)]
+    assert {(t, i) for t, i, a, b in pairs if not np.array_equal(a.scene_pts_world, b.scene_pts_world)} == {(0, 0)}
+    assert all(np.array_equal(a.T_init, b.T_init) for *_, a, b in pairs)  # the start is drawn before the view

@@ -143,10 +143,10 @@ def _object_trial(spec: ViewFamily, obj: FamilyObject, mesh: trimesh.Trimesh, po
     T_true = true_pose(mesh, rng, spec.leaning_tilt_deg if leaning else None)
     pool_world = (pool[0] @ T_true[:3, :3].T + T_true[:3, 3], pool[1] @ T_true[:3, :3].T)
     count = int(rng.integers(spec.points[0], spec.points[1] + 1))
+    T_init = perturbed_start(T_true, mesh.centroid, spec, rng)  # before the view, whose draws follow its ray hits
     seen = sparse_view(mesh.copy().apply_transform(T_true), pool_world, count, spec, rng)
     bounds = mesh.copy().apply_transform(T_true).bounds
     clutter = rng.uniform(bounds[0] - 0.2, bounds[1] + 0.2, (int(round(spec.clutter_fraction * len(seen))), 3))
-    T_init = perturbed_start(T_true, mesh.centroid, spec, rng)
     return ObjectTrial(obj.family, T_true, T_init, np.vstack([seen, clutter]), leaning,
                        support_height=0.0 if spec.support else None, symmetry_order=obj.symmetry_order)
 

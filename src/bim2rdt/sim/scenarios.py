@@ -158,15 +158,16 @@ def _check_arguments(name: str, trials: int, views: int, sample_count: int, seed
 def _trial(spec: ScenarioSpec, site: SiteScene, clean: RgbdFrame, intrinsics: Intrinsics,
            rng: np.random.Generator, object_rngs: list[np.random.Generator],
            edge_filter: EdgeFilter | None = None) -> list[ObjectTrial]:
-    """The trial's sensor noise from ``rng``; each object's corners and start from its own ``object_rngs``."""
+    """The trial's sensor noise from ``rng``; each object's start, then its corners, from its own
+    ``object_rngs`` (the start first: how many draws the corners take follows the pixels seen)."""
     frame = add_sensor_noise(clean, rng)
     out = []
     for index, (placed, object_rng) in enumerate(zip(site.objects, object_rngs)):
+        start = perturb(placed.T_world_model, placed.mesh.centroid, spec, object_rng)
         points = off_the_slab(object_scene_points(frame, intrinsics, index, object_rng, edge_filter=edge_filter),
                               least=MIN_SCENE_POINTS)
         if len(points) >= MIN_SCENE_POINTS:
             tilted = not np.isclose(placed.T_world_model[2, 2], 1.0)
-            start = perturb(placed.T_world_model, placed.mesh.centroid, spec, object_rng)
             out.append(ObjectTrial(placed.family, placed.T_world_model, start, points, tilted))
     return out
 

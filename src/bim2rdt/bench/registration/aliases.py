@@ -109,8 +109,9 @@ def alias_scenario(name: str, trials: int = 50, seed: int = 0) -> Scenario:
             T_true = np.eye(4)
             T_true[:3, :3] = axis_angle(UP, np.array(rng.uniform(0.0, 2 * np.pi)))
             count = int(rng.integers(spec.points[0], spec.points[1] + 1))
+            start = tilted_start(T_true, mesh.centroid, spec, rng)  # before the view: its draws follow its hits
             points = view(mesh, T_true, count, spec, rng)
-            trial.append(ObjectTrial(obj.family, T_true, tilted_start(T_true, mesh.centroid, spec, rng), points,
+            trial.append(ObjectTrial(obj.family, T_true, start, points,
                                      False, support_height=None, symmetry_order=obj.symmetry_order))
         out.append(trial)
     return Scenario(spec, None, models, out)
