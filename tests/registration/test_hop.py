@@ -61,18 +61,19 @@ def s4_pallets():
     from bim2rdt.sim.scenarios import scenario
 
     family = "Pallet_Wood_EUR"
-    built = scenario("S4", trials=3, seed=0, sample_count=10000)
+    built = scenario("S4", trials=6, seed=0, sample_count=10000)
     bias = KnowledgeBasePriors().priors([family])[family].upright_bias
     return built.models[family], [o for trial in built.trials for o in trial if o.family == family], bias
 
 
 def test_hops_find_the_pallet_the_restarts_left_a_few_degrees_off(s4_pallets):
-    """S4 trials 1 and 2 (seed 0): every restart ends 3-5 degrees off in yaw (boards 10 cm apart make ~5
-    degree basins; the restarts are 22 degrees apart); hops step into the true basin."""
+    """S4 trials 1 and 5 (seed 0; per-object generators since issue 24): every restart ends 3-5 degrees off in
+    yaw (boards 10 cm apart make ~5 degree basins; the restarts are 22 degrees apart); hops step into the true
+    basin."""
     from bim2rdt.sim.truth import pose_error
 
     model, pallets, bias = s4_pallets
-    for o in pallets[1:3]:
+    for o in (pallets[1], pallets[5]):
         def error(config):
             found = register(*model, o.scene_pts_world, o.T_init, upright_bias=bias, config=config,
                              support_height=o.support_height)

@@ -88,3 +88,25 @@ def test_families_span_the_sizes_densities_noise_and_supports_the_issue_asks_for
 def test_bad_arguments_raise_a_scenario_error(name, trials, message):
     with pytest.raises(ScenarioError, match=message):
         family_scenario(name, trials=trials)
+
+
+def test_one_draw_more_in_one_view_changes_no_other_object_or_trial(monkeypatch):
+    """Issue 24: how many points a view sees comes from ray hits (last bits differ between machines) and sets
+    how many draws it makes; each object of each trial has its own generator, so one view drawing once more
+    (trial 0's first object here) changes nothing else."""
+    import bim2rdt.sim.families as families
+
+    before = family_scenario("F1", trials=3, seed=2)
+    calls, view = [], families.sparse_view
+
+    def one_more_draw(mesh_world, pool_world, count, spec, rng):
+        calls.append(count)
+        if len(calls) == 1:
+            rng.random()
+        return view(mesh_world, pool_world, count, spec, rng)
+
+    monkeypatch.setattr(families, "sparse_view", one_more_draw)
+    after = family_scenario("F1", trials=3, seed=2)
+    pairs = [(t, i, obj, after.trials[t][i]) for t, trial in enumerate(before.trials) for i, obj in enumerate(trial)]
+    assert {(t, i) for t, i, a, b in pairs if not np.array_equal(a.scene_pts_world, b.scene_pts_world)} == {(0, 0)}
+    assert all(np.array_equal(a.T_init, b.T_init) for *_, a, b in pairs)  # the start is drawn before the view

@@ -25,7 +25,7 @@ import trimesh
 from bim2rdt.registration.sampling import sample_model
 from bim2rdt.registration.so3 import axis_angle
 from bim2rdt.sim.meshes import steel_i_beam
-from bim2rdt.sim.scenarios import ObjectTrial, Scenario, ScenarioError
+from bim2rdt.sim.scenarios import ObjectTrial, Scenario, ScenarioError, draws
 
 SURFACE_POOL = 20000
 """Surface samples per object from which each view draws its visible points."""
@@ -132,9 +132,9 @@ def family_scenario(name: str, trials: int = 50, seed: int = 0) -> Scenario:
               for family, mesh in meshes.items()}
     pools = {family: sample_model(mesh, SURFACE_POOL, seed=seed + 1, drop_resting_face=False)
              for family, mesh in meshes.items()}
-    rng = np.random.default_rng([seed, 1000 + int(name[1:])])
-    out = [[_object_trial(spec, o, meshes[o.family], pools[o.family], rng) for o in spec.objects]
-           for _ in range(trials)]
+    stream = 1000 + int(name[1:])
+    out = [[_object_trial(spec, o, meshes[o.family], pools[o.family], draws(seed, stream, t, index))
+            for index, o in enumerate(spec.objects)] for t in range(trials)]
     return Scenario(spec, None, models, out)
 
 
@@ -143,10 +143,10 @@ def _object_trial(spec: ViewFamily, obj: FamilyObject, mesh: trimesh.Trimesh, po
     T_true = true_pose(mesh, rng, spec.leaning_tilt_deg if leaning else None)
     pool_world = (pool[0] @ T_true[:3, :3].T + T_true[:3, 3], pool[1] @ T_true[:3, :3].T)
     count = int(rng.integers(spec.points[0], spec.points[1] + 1))
+    T_init = perturbed_start(T_true, mesh.centroid, spec, rng)  # before the view, whose draws follow its ray hits
     seen = sparse_view(mesh.copy().apply_transform(T_true), pool_world, count, spec, rng)
     bounds = mesh.copy().apply_transform(T_true).bounds
     clutter = rng.uniform(bounds[0] - 0.2, bounds[1] + 0.2, (int(round(spec.clutter_fraction * len(seen))), 3))
-    T_init = perturbed_start(T_true, mesh.centroid, spec, rng)
     return ObjectTrial(obj.family, T_true, T_init, np.vstack([seen, clutter]), leaning,
                        support_height=0.0 if spec.support else None, symmetry_order=obj.symmetry_order)
 

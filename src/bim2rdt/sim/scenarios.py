@@ -116,20 +116,33 @@ def scenario(name: str, trials: int = 50, seed: int = 0, sample_count: int = 200
     site = SiteScene([PlacedObject(family, mesh_for_family(family), ground_pose(x, y, yaw), albedo)
                       for family, x, y, yaw, albedo in spec.layout])
     models = {o.family: sample_model(o.mesh, sample_count, seed=seed) for o in site.objects}
-    rng = np.random.default_rng([seed, int(name[1:])])
+    stream = int(name[1:])
+    rng = np.random.default_rng([seed, stream])  # the views only: drawn once, before any trial
     upright = [(site, _jittered_camera(spec, rng)) for _ in range(views)]
     knocked = [(knock(site, spec, rng), _jittered_camera(spec, rng)) for _ in range(views)] \
         if spec.knocked and spec.knocked_fraction > 0 else upright
     frames = {"upright": [], "knocked": []}
     out = []
     for t in range(trials):
-        kind = "knocked" if rng.random() < spec.knocked_fraction else "upright"
+        trial_rng = draws(seed, stream, t)
+        kind = "knocked" if trial_rng.random() < spec.knocked_fraction else "upright"
         views_of_kind = knocked if kind == "knocked" else upright
         if not frames[kind]:  # ray cast lazily: a short run never pays for views it does not use
             frames[kind] = [cast_frame(s, intrinsics, T, tof) for s, T in views_of_kind]
         view = t % views
-        out.append(_trial(spec, views_of_kind[view][0], frames[kind][view], intrinsics, rng, edge_filter))
+        object_rngs = [draws(seed, stream, t, index) for index in range(len(site.objects))]
+        out.append(_trial(spec, views_of_kind[view][0], frames[kind][view], intrinsics, trial_rng, object_rngs,
+                          edge_filter))
     return Scenario(spec, site, models, out)
+
+
+def draws(seed: int, stream: int, *key: int) -> np.random.Generator:
+    """The generator of one (``stream``, ``key``) of a seeded run, e.g. (scenario, trial) or (scenario, trial,
+    object): each has its own, so a draw one trial or object does or does not make (an object one point short of
+    entering a trial, an occlusion count one off; last-bit differences between machines) cannot shift what any
+    other draws. ``key`` is a SeedSequence spawn key, so (t,) and (t, 0) differ (``default_rng([s, t])`` and
+    ``default_rng([s, t, 0])`` do not: short entropy is padded with zeros)."""
+    return np.random.default_rng(np.random.SeedSequence([seed, stream], spawn_key=key))
 
 
 def _check_arguments(name: str, trials: int, views: int, sample_count: int, seed: int) -> None:
@@ -143,16 +156,19 @@ def _check_arguments(name: str, trials: int, views: int, sample_count: int, seed
 
 
 def _trial(spec: ScenarioSpec, site: SiteScene, clean: RgbdFrame, intrinsics: Intrinsics,
-           rng: np.random.Generator, edge_filter: EdgeFilter | None = None) -> list[ObjectTrial]:
+           rng: np.random.Generator, object_rngs: list[np.random.Generator],
+           edge_filter: EdgeFilter | None = None) -> list[ObjectTrial]:
+    """The trial's sensor noise from ``rng``; each object's start, then its corners, from its own
+    ``object_rngs`` (the start first: how many draws the corners take follows the pixels seen)."""
     frame = add_sensor_noise(clean, rng)
     out = []
-    for index, placed in enumerate(site.objects):
-        points = off_the_slab(object_scene_points(frame, intrinsics, index, rng, edge_filter=edge_filter),
+    for index, (placed, object_rng) in enumerate(zip(site.objects, object_rngs)):
+        start = perturb(placed.T_world_model, placed.mesh.centroid, spec, object_rng)
+        points = off_the_slab(object_scene_points(frame, intrinsics, index, object_rng, edge_filter=edge_filter),
                               least=MIN_SCENE_POINTS)
         if len(points) >= MIN_SCENE_POINTS:
             tilted = not np.isclose(placed.T_world_model[2, 2], 1.0)
-            out.append(ObjectTrial(placed.family, placed.T_world_model,
-                                   perturb(placed.T_world_model, placed.mesh.centroid, spec, rng), points, tilted))
+            out.append(ObjectTrial(placed.family, placed.T_world_model, start, points, tilted))
     return out
 
 

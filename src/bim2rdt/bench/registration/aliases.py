@@ -32,7 +32,7 @@ from bim2rdt.registration.so3 import axis_angle
 from bim2rdt.sim.families import box, cone_on_plate
 from bim2rdt.sim.meshes import eur_pallet, traffic_cone, wooden_crate
 from bim2rdt.sim.render import cast_rays
-from bim2rdt.sim.scenarios import ObjectTrial, Scenario, ScenarioError
+from bim2rdt.sim.scenarios import ObjectTrial, Scenario, ScenarioError, draws
 from bim2rdt.sim.scene import PlacedObject, SiteScene
 
 UP = np.array([0.0, 0.0, 1.0])
@@ -99,17 +99,19 @@ def alias_scenario(name: str, trials: int = 50, seed: int = 0) -> Scenario:
     models = {family: sample_model(mesh, spec.sample_count, seed=seed, drop_resting_face=False)
               for family, mesh in meshes.items()}
     view = rendered_view if spec.generator == "render" else sampled_view
-    rng = np.random.default_rng([seed, 2600 + int(name[1:])])
+    stream = 2600 + int(name[1:])
     out = []
-    for _ in range(trials):
+    for t in range(trials):
         trial = []
-        for obj in spec.objects:
+        for index, obj in enumerate(spec.objects):
+            rng = draws(seed, stream, t, index)  # its own: a view one point off cannot shift another's draws
             mesh = meshes[obj.family]
             T_true = np.eye(4)
             T_true[:3, :3] = axis_angle(UP, np.array(rng.uniform(0.0, 2 * np.pi)))
             count = int(rng.integers(spec.points[0], spec.points[1] + 1))
+            start = tilted_start(T_true, mesh.centroid, spec, rng)  # before the view: its draws follow its hits
             points = view(mesh, T_true, count, spec, rng)
-            trial.append(ObjectTrial(obj.family, T_true, tilted_start(T_true, mesh.centroid, spec, rng), points,
+            trial.append(ObjectTrial(obj.family, T_true, start, points,
                                      False, support_height=None, symmetry_order=obj.symmetry_order))
         out.append(trial)
     return Scenario(spec, None, models, out)
