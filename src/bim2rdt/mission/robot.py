@@ -219,9 +219,6 @@ def dock_pose(stations: Sequence[np.ndarray], start_xy: np.ndarray | tuple[float
 
     Returns:
         ``T_world_camera`` (4x4) at the start; the first station's pose when the start is there.
-
-    Raises:
-        CameraError: The first station is straight above or below the start.
     """
     first = stations[0][:3, 3]
     if np.linalg.norm(first[:2] - np.asarray(start_xy, float)) < 1e-6:

@@ -354,6 +354,9 @@ class DigitalTwin:
 
         Returns:
             The written path.
+
+        Raises:
+            OSError: The file cannot be written (the previous one, if any, is unchanged).
         """
         from bim2rdt.twin.bcf_export import write_bcf
 
