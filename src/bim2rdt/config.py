@@ -36,7 +36,7 @@ def default_samples_dir() -> Path:
 
     Returns:
         ``../shared/data/ifc`` beside the checkout this package runs from (this file is
-        ``<checkout>/src/bim2rdt/config.py``); it may not exist.
+            ``<checkout>/src/bim2rdt/config.py``); it may not exist.
     """
     return Path(__file__).resolve().parents[2].parent / "shared" / "data" / "ifc"
 
@@ -143,7 +143,7 @@ def settings_record(settings: Settings) -> dict:
 
     Returns:
         Every section as nested dicts; a setting whose name holds a word of ``SECRET_WORDS`` reads "***" where
-        one is set.
+            one is set.
     """
     return _masked(settings.model_dump(mode="json"))
 

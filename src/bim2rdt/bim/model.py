@@ -83,7 +83,7 @@ class BimModel:
 
         Returns:
             (vertices (N,3) world metres, faces (M,3) int32); both empty when it has no body (see ``has_mesh``;
-            failed ones are listed in ``geometry_failures``).
+                failed ones are listed in ``geometry_failures``).
 
         Raises:
             BimError: The model was loaded without geometry, or has no such element.

@@ -72,7 +72,7 @@ def localize(frame: Frame, model: BimModel, prior_T_world_camera: np.ndarray,
 
     Returns:
         The fix: ``pose`` (``T_world_camera``, 4x4), its (6,6) covariance and information, the directions it
-        cannot fix, and its residual (metres).
+            cannot fix, and its residual (metres).
 
     Raises:
         LocalizationError: Too few depth returns, no permanent element in view, a correction beyond the basin,

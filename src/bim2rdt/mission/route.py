@@ -76,7 +76,7 @@ def plan_route(targets: Sequence[Target], start_xy: np.ndarray | tuple[float, fl
 
     Returns:
         The stations (``T_world_camera``) in visiting order with their targets, the planned path to each, every
-        station's viewpoints best first, and {GlobalId: why} of the targets no viewpoint serves.
+            station's viewpoints best first, and {GlobalId: why} of the targets no viewpoint serves.
     """
     region = reachable(grid, start_xy)
     centre = np.mean([t.placement[:2, 3] for t in targets], axis=0)

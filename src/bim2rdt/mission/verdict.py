@@ -33,7 +33,7 @@ def pose_delta(T_ref: np.ndarray, T: np.ndarray) -> tuple[float, float, float]:
 
     Returns:
         (horizontal shift in metres, yaw change in degrees wrapped to +-180, tilt of T's up axis from world z
-        in degrees).
+            in degrees).
     """
     shift = float(np.linalg.norm(T[:2, 3] - T_ref[:2, 3]))
     yaw = np.rad2deg(np.arctan2(T[1, 0], T[0, 0]) - np.arctan2(T_ref[1, 0], T_ref[0, 0]))

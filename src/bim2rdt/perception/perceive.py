@@ -73,7 +73,7 @@ class PerceiveConfig:
 
         Returns:
             Rules with this config's ICP settings, tie ratio and slab contact; a detector's pose came from its own
-            search, so it is refined, not searched again (a frame's time budget: ``bench perception``).
+                search, so it is refined, not searched again (a frame's time budget: ``bench perception``).
         """
         return FitRules(self.icp, self.tie_ratio, self.slab_contact, refine_detector_pose=True)
 
@@ -101,7 +101,7 @@ def perceive_frame(frame: Frame, model: BimModel, priors: dict[str, UprightPrior
 
     Returns:
         One :class:`Observation` per object: family, the matched GlobalId, ``pose`` (``T_world_object``, 4x4,
-        metres), RMSE (metres) and fitness.
+            metres), RMSE (metres) and fitness.
 
     Raises:
         PerceptionError: The frame is not a Frame or has no pose.

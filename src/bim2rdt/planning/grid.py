@@ -253,7 +253,7 @@ class OccupancyGrid:
 
         Returns:
             ``xy`` itself when free, else the world (x, y) centre of the nearest free cell within
-            ``max_distance``, or None.
+                ``max_distance``, or None.
         """
         if self.is_free(xy):
             return np.asarray(xy, float)

@@ -43,7 +43,7 @@ def plan_tour(grid: OccupancyGrid, start_xy: np.ndarray | tuple[float, float], g
 
     Returns:
         The tour: the goals' order (indices into ``goals_xy``), one (N,2) path per leg, and {goal index: reason}
-        for the goals the start cannot reach.
+            for the goals the start cannot reach.
     """
     points = np.vstack([np.asarray(start_xy, float).reshape(1, 2), np.asarray(goals_xy, float).reshape(-1, 2)])
     paths, unreachable = _pair_paths(grid, points)

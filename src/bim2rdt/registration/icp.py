@@ -112,7 +112,7 @@ def register(model_points: np.ndarray, model_normals: np.ndarray, scene_points: 
 
     Returns:
         The fit: ``pose`` (``T_world_model``, 4x4), ``fitness`` (0-1), ``rmse`` (metres), the ``score`` that
-        chose the restart and the pose ``uncertainty``.
+            chose the restart and the pose ``uncertainty``.
 
     Raises:
         RegistrationError: Bad input (shapes, non-finite values, too few points, a non-rigid ``init``, an

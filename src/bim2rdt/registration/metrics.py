@@ -30,7 +30,7 @@ def hausdorff(points_a: np.ndarray, points_b: np.ndarray) -> HausdorffStats:
 
     Returns:
         RMSE, mean and maximum (the symmetric Hausdorff distance) of the pooled A-to-B and B-to-A nearest
-        distances, metres.
+            distances, metres.
 
     Raises:
         RegistrationError: A set is not (N,3) with N >= 1, or holds NaN or infinite values.

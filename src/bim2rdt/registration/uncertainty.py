@@ -53,7 +53,7 @@ class PoseUncertainty:
 
         Returns:
             (k,3) unit vectors in the world frame: the translation part of each unobservable direction that is
-            mostly translation.
+                mostly translation.
         """
         parts = self.unobservable[:, 3:]
         norms = np.linalg.norm(parts, axis=1)

@@ -124,7 +124,7 @@ class HavMonitor:
 
         Returns:
             {sink name: {"pending", "delivered", "failures", "last_error"}}: events waiting, delivered by this
-            process, failed deliveries, the last error.
+                process, failed deliveries, the last error.
         """
         return {name: {"pending": d.pending(), "delivered": d.delivered, "failures": d.failures,
                        "last_error": d.last_error} for name, d in self._deliveries.items()}
@@ -437,7 +437,7 @@ class HavMonitor:
 
         Returns:
             Its weighted energy (m^2/s^3) and trigger time (s) per hand, and when the EAV and ELV were reached
-            (UTC seconds); empty for a day without exposure.
+                (UTC seconds); empty for a day without exposure.
         """
         with self._lock:
             return self._engine.days.get((subject, day or utc_day(self.clock())), DayState())

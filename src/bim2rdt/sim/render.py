@@ -56,7 +56,7 @@ class RgbdFrame:
 
         Returns:
             A :class:`~bim2rdt.perception.Frame`: RGB, float32 depth in metres (NaN = no return), the camera's
-            ``T_world_camera``.
+                ``T_world_camera``.
         """
         return Frame(self.colour, self.depth.astype(np.float32), intrinsics, self.T_world_camera)
 

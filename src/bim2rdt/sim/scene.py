@@ -78,7 +78,7 @@ class SiteScene:
 
         Returns:
             (the mesh in world metres, per face its owner: the object index, ``GROUND``, ``STRUCTURE`` or
-            ``WORKER``).
+                ``WORKER``).
         """
         if self._mesh is None:
             self._build()
@@ -89,7 +89,7 @@ class SiteScene:
 
         Returns:
             Per face, the index of its owner within its kind (object, building part or worker; -1 for the
-            ground).
+                ground).
         """
         if self._mesh is None:
             self._build()

@@ -66,7 +66,7 @@ def write_outputs(result: VerifyResult, twin: DigitalTwin, out_dir: Path) -> Ver
 
     Returns:
         The paths of twin.json, issues.bcf, localization.json, report.html and twin.ifc (None, with a note,
-        when the model cannot be written back).
+            when the model cannot be written back).
     """
     localization = write_bytes_atomic(out_dir / "localization.json", json.dumps(
         {"frames": [f.to_dict() for f in result.frames], "miscalibrated": result.miscalibrated,
