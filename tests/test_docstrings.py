@@ -8,6 +8,7 @@ from __future__ import annotations
 import ast
 import importlib
 import inspect
+import logging
 import re
 import subprocess
 import sys
@@ -129,6 +130,45 @@ def test_pydoclint_finds_the_public_api_docstrings_consistent_with_the_code():
     public = [f"{path.relative_to(ROOT)}: {line}" for (path, name), lines in sorted(violations.items())
               if name in api.get(path, {}) for line in lines if counts(line)]
     assert not public, f"{len(public)} pydoclint violations in the public API:\n" + "\n".join(public)
+
+
+def griffe_problems(text: str) -> list[str]:
+    """What the reference's parser (griffe, Google style, as mkdocstrings reads it) finds wrong with a docstring's
+    sections: an item it cannot split into name and description, and a Returns section it reads as several
+    values (a continuation line not indented under the first). Types come from signatures, so griffe's "no type
+    or annotation" (it sees no signature here) is not a problem."""
+    import griffe
+
+    problems: list[str] = []
+
+    class Collect(logging.Handler):
+        def emit(self, record: logging.LogRecord) -> None:
+            if "No type or annotation" not in record.getMessage():
+                problems.append(record.getMessage())
+
+    handler = Collect(logging.WARNING)
+    logger = logging.getLogger("griffe")
+    logger.addHandler(handler)
+    try:
+        sections = griffe.Docstring(text).parse("google")
+    finally:
+        logger.removeHandler(handler)
+    problems += [f"Returns reads as {len(section.value)} values" for section in sections
+                 if section.kind.value == "returns" and len(section.value) > 1]
+    return problems
+
+
+def test_the_reference_reads_every_public_docstring_as_written():
+    found = [f"{path.relative_to(ROOT)}: {name}: {problem}" for path, definitions in public_api().items()
+             for name, node in definitions.items() if ast.get_docstring(node)
+             for problem in griffe_problems(ast.get_docstring(node))]
+    assert not found, "docstrings the reference misreads:\n" + "\n".join(found)
+
+
+def test_griffe_finds_a_returns_continuation_that_is_not_indented():
+    text = "Do.\n\nArgs:\n    a: A thing.\n\nReturns:\n    The first line\n    and its continuation.\n"
+    assert griffe_problems(text) == ["Returns reads as 2 values"]
+    assert griffe_problems(text.replace("    and its", "        and its")) == []
 
 
 def test_pydoclint_reports_a_missing_args_entry_a_missing_raises_and_a_missing_returns(tmp_path):
