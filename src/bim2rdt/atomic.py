@@ -29,7 +29,19 @@ class NotRegularFileError(WriteError):
 
 def check_writable_file(path: Path, *, replace_special: bool = False) -> Path:
     """Check now, before long work, that ``path`` can take an atomic write: it is not a folder (nor empty),
-    its folder exists and takes a file, and it names no symlink or special file (unless ``replace_special``)."""
+    its folder exists and takes a file, and it names no symlink or special file (unless ``replace_special``).
+
+    Args:
+        path: The file the caller will write later.
+        replace_special: Allow a symlink, device node, FIFO or socket at ``path`` (the write replaces it).
+
+    Returns:
+        ``path`` as a ``Path``.
+
+    Raises:
+        WriteError: The folder is missing or takes no file, or ``path`` is a folder.
+        NotRegularFileError: ``path`` names a symlink or special file and ``replace_special`` is False.
+    """
     path = Path(path)
     _check_target(path, replace_special)
     if not path.parent.is_dir():
@@ -42,7 +54,20 @@ def check_writable_file(path: Path, *, replace_special: bool = False) -> Path:
 
 
 def write_bytes_atomic(path: Path, data: bytes, *, replace_special: bool = False) -> Path:
-    """Write ``data`` to ``path`` atomically (parent folders created); returns ``path``. Raises ``WriteError``."""
+    """Write ``data`` to ``path`` atomically: a temporary file in the same folder, fsync, then rename over it.
+
+    Args:
+        path: The target file; missing parent folders are created.
+        data: The whole new content.
+        replace_special: Allow replacing a symlink or special file at ``path`` by a regular file.
+
+    Returns:
+        ``path`` as a ``Path``.
+
+    Raises:
+        WriteError: Any OS error (full disk, read-only folder, ...); the previous file, if any, is unchanged.
+        NotRegularFileError: ``path`` names a symlink or special file and ``replace_special`` is False.
+    """
     path = Path(path)
     mode = _check_target(path, replace_special)
     try:

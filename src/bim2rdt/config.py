@@ -32,8 +32,12 @@ from bim2rdt.twin.config import TwinConfig
 
 
 def default_samples_dir() -> Path:
-    """Where real IFC samples are when ``samples`` is unset: ``../shared/data/ifc`` beside the checkout this
-    package runs from (this file is ``<checkout>/src/bim2rdt/config.py``)."""
+    """Where real IFC samples are when ``samples`` is unset.
+
+    Returns:
+        ``../shared/data/ifc`` beside the checkout this package runs from (this file is
+            ``<checkout>/src/bim2rdt/config.py``); it may not exist.
+    """
     return Path(__file__).resolve().parents[2].parent / "shared" / "data" / "ifc"
 
 
@@ -66,8 +70,15 @@ class HavSettings(MonitorConfig):
     stream_max_bytes: int = Field(2**30, gt=0, description="NATS path: JetStream keeps at most this many bytes of "
                                   "wearable messages (then the oldest go).")
 
-    def monitor_config(self, **overrides) -> MonitorConfig:
-        """The monitor's part with ``overrides``, without the secret (the monitor takes it as its own argument)."""
+    def monitor_config(self, **overrides: object) -> MonitorConfig:
+        """The monitor's part of these settings, without the secret (the monitor takes it as its own argument).
+
+        Args:
+            **overrides: Fields of :class:`MonitorConfig` to set instead of these settings' values.
+
+        Returns:
+            A validated :class:`MonitorConfig`.
+        """
         return MonitorConfig(**{**self.model_dump(include=set(MonitorConfig.model_fields)), **overrides})
 
 
@@ -125,8 +136,15 @@ SECRET_WORDS = ("secret", "password", "api_key", "tokens")
 
 
 def settings_record(settings: Settings) -> dict:
-    """The resolved settings that ran, as JSON-ready data for a run's ``config.json`` or results: every section,
-    secrets masked ("***" where one is set)."""
+    """The resolved settings that ran, as JSON-ready data for a run's ``config.json`` or results.
+
+    Args:
+        settings: The settings in force.
+
+    Returns:
+        Every section as nested dicts; a setting whose name holds a word of ``SECRET_WORDS`` reads "***" where
+            one is set.
+    """
     return _masked(settings.model_dump(mode="json"))
 
 
@@ -143,8 +161,15 @@ class ConfigError(Bim2RdtError):
 
 @lru_cache(maxsize=1)
 def get_settings() -> Settings:
-    """The process-wide settings, read from the environment once. Raises :class:`ConfigError` on a bad value
-    (including a whole section given as bad JSON, and a folder setting that names an existing file)."""
+    """The process-wide settings, read from the ``BIM2RDT_*`` environment once and cached.
+
+    Returns:
+        The validated :class:`Settings`.
+
+    Raises:
+        ConfigError: A bad value, a whole section given as bad JSON, or a folder setting that names an existing
+            file; the message names the variable.
+    """
     try:
         settings = Settings()
     except ValidationError as error:
@@ -161,8 +186,19 @@ def get_settings() -> Settings:
 
 
 def usable_folder(folder: Path, variable: str) -> Path:
-    """Create a folder a setting names and probe it with a temporary file, before any long work writes there;
-    a ConfigError names the variable and the system's reason (read-only, /proc, a file in the path ...)."""
+    """Create a folder a setting names and probe it with a temporary file, before any long work writes there.
+
+    Args:
+        folder: The folder to create (with its parents) and probe.
+        variable: The environment variable that set it, named in the error.
+
+    Returns:
+        ``folder``.
+
+    Raises:
+        ConfigError: The folder cannot be created or written (read-only, /proc, a file in the path ...); the
+            message names the variable and the system's reason.
+    """
     try:
         folder.mkdir(parents=True, exist_ok=True)
         tempfile.TemporaryFile(dir=folder).close()
@@ -172,8 +208,17 @@ def usable_folder(folder: Path, variable: str) -> Path:
 
 
 def ifc_cache_dir(settings: Settings) -> Path | None:
-    """Where ``load_ifc`` caches read models (``cache_dir/ifc``, checked writable), or None with
-    ``BIM2RDT_BIM__TESSELLATION_CACHE=false``."""
+    """Where ``load_ifc`` caches read models.
+
+    Args:
+        settings: The settings in force.
+
+    Returns:
+        ``cache_dir/ifc``, created and checked writable, or None with ``BIM2RDT_BIM__TESSELLATION_CACHE=false``.
+
+    Raises:
+        ConfigError: The cache folder cannot be written (from :func:`usable_folder`).
+    """
     if not settings.bim.tessellation_cache:
         return None
     return usable_folder(settings.cache_dir / "ifc", "BIM2RDT_CACHE_DIR")

@@ -59,15 +59,35 @@ class BimModel:
         self._by_id = {el.global_id: el for el in self.elements}
 
     def element(self, global_id: str) -> BimElement:
-        """The element with this GlobalId; BimError names the file when there is none."""
+        """The element with this GlobalId.
+
+        Args:
+            global_id: The IFC GlobalId (22 characters).
+
+        Returns:
+            The element.
+
+        Raises:
+            BimError: The model has no such element; the message names the file.
+        """
         try:
             return self._by_id[global_id]
         except KeyError:
             raise BimError(f"{self.path.name}: no element with GlobalId {global_id}") from None
 
     def mesh(self, global_id: str) -> tuple[np.ndarray, np.ndarray]:
-        """(vertices (N,3) world metres, faces (M,3) int32) of an element; both empty when it has no body
-        (see ``has_mesh``; failed ones are listed in ``geometry_failures``)."""
+        """The tessellated body of an element.
+
+        Args:
+            global_id: The IFC GlobalId of the element.
+
+        Returns:
+            (vertices (N,3) world metres, faces (M,3) int32); both empty when it has no body (see ``has_mesh``;
+                failed ones are listed in ``geometry_failures``).
+
+        Raises:
+            BimError: The model was loaded without geometry, or has no such element.
+        """
         if self.meshes is None:
             raise BimError(f"{self.path.name}: loaded without geometry (load_ifc(..., geometry=True))")
         if global_id not in self.meshes:
@@ -76,14 +96,30 @@ class BimModel:
         return self.meshes.get(global_id)
 
     def has_mesh(self, global_id: str) -> bool:
+        """Whether an element has a tessellated body.
+
+        Args:
+            global_id: The IFC GlobalId of the element.
+
+        Returns:
+            True when the model was loaded with geometry and the element has a mesh.
+        """
         return self.meshes is not None and global_id in self.meshes
 
     def counts_by_class(self) -> dict[str, int]:
-        """Number of elements per IFC class, most common first."""
+        """Count the elements per IFC class.
+
+        Returns:
+            {IFC class: number of elements}, most common first.
+        """
         return dict(Counter(el.ifc_class for el in self.elements).most_common())
 
     def families(self) -> dict[str, int]:
-        """Number of elements per family (elements without one are not counted), most common first."""
+        """Count the elements per family (elements without one are not counted).
+
+        Returns:
+            {family: number of elements}, most common first.
+        """
         return dict(Counter(el.family for el in self.elements if el.family).most_common())
 
 
@@ -97,6 +133,20 @@ def load_ifc(path: str | Path, *, geometry: bool = True, cache_dir: Path | None 
     every attribute value is also checked against the schema (~1.5 s on Office_A); violations become warnings.
     A cache hit skips parsing: those bytes were checked and parsed when the cache was written, and their
     warnings were cached with them.
+
+    Args:
+        path: The .ifc file.
+        geometry: Tessellate every element's body into world-metre meshes.
+        cache_dir: Folder for the tessellation cache, keyed by the file's hash; None caches nothing.
+        progress: Reports reading and tessellation progress; None reports nothing.
+        validate: Also check every attribute value against the schema.
+
+    Returns:
+        The model: elements, storeys, meshes (with ``geometry``), site frame and warnings.
+
+    Raises:
+        BimError: The file is missing, empty, not IFC-SPF, truncated, declares an entity twice, has an
+            unsupported schema or not exactly one IfcProject, or cannot be read; one line naming the file.
     """
     path = Path(path)
     if geometry and cache_dir is not None and not validate and (cached := _cached(path, cache_dir)) is not None:

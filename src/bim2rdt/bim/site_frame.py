@@ -38,11 +38,31 @@ class SiteFrame:
         return self.source != "none"
 
     def to_map(self, points_world: np.ndarray) -> np.ndarray:
-        """World (N,3) metres -> projected map coordinates (N,3) metres; needs an IfcMapConversion."""
+        """Convert world points to projected map coordinates.
+
+        Args:
+            points_world: (N,3) points in the model's world frame, metres.
+
+        Returns:
+            (N,3) projected map coordinates (easting, northing, height), metres.
+
+        Raises:
+            ValueError: The file has no IfcMapConversion.
+        """
         return _apply(self._require_map(), points_world)
 
     def to_world(self, points_map: np.ndarray) -> np.ndarray:
-        """Projected map coordinates (N,3) metres (e.g. a GNSS fix) -> world (N,3) metres."""
+        """Convert projected map coordinates (e.g. a GNSS fix) to world points.
+
+        Args:
+            points_map: (N,3) projected map coordinates (easting, northing, height), metres.
+
+        Returns:
+            (N,3) points in the model's world frame, metres.
+
+        Raises:
+            ValueError: The file has no IfcMapConversion.
+        """
         return _apply(np.linalg.inv(self._require_map()), points_map)
 
     def _require_map(self) -> np.ndarray:

@@ -49,7 +49,15 @@ WRITABLE_SCHEMAS = ("IFC4", "IFC4X3")
 
 
 class TwinWriter:
-    """Collects twin updates on a private copy of the model's IFC file; ``save`` writes them atomically."""
+    """Collects twin updates on a private copy of the model's IFC file; ``save`` writes them atomically.
+
+    Args:
+        model: A loaded model, or the path of an IFC file to load.
+
+    Raises:
+        BimError: The file is not IFC4/IFC4X3 (IFC2X3 has no IfcEvent or IfcTaskTime), or it changed on disk
+            since it was loaded.
+    """
 
     def __init__(self, model: BimModel | str | Path):
         self.model = model if isinstance(model, BimModel) else load_ifc(model)
@@ -67,7 +75,15 @@ class TwinWriter:
     # ---- geometry ---------------------------------------------------------------------------------------------
 
     def move_element(self, global_id: str, pose: np.ndarray) -> None:
-        """Move an element so that its (reader) pose becomes ``pose`` (4x4, world metres)."""
+        """Move an element so that its (reader) pose becomes ``pose``.
+
+        Args:
+            global_id: The element's IFC GlobalId.
+            pose: The new pose, 4x4 model-to-world, metres (``T_world_element``).
+
+        Raises:
+            BimError: The pose is not a finite rigid transform, or there is no such element.
+        """
         pose = _checked_pose(pose)
         product = self._product(global_id)
         if self.model.meshes is None:
@@ -90,6 +106,21 @@ class TwinWriter:
         maps body to world. ``storey`` is a storey name or GlobalId (default: the highest storey at or below
         the object). ``properties`` go into the ``BIM2RDT_Observation`` property set. ``global_id`` keeps an
         identity the object already has (the twin's, so BCF topics point at it); default: a new one.
+
+        Args:
+            family: The object's family (IFC Name and ObjectType, and its proxy type).
+            vertices: (N,3) body-frame vertices, metres.
+            faces: (M,3) vertex indices of triangles.
+            pose: 4x4 body-to-world pose, metres.
+            storey: Storey name or GlobalId to contain it; None picks the highest storey at or below it.
+            properties: Values for the ``BIM2RDT_Observation`` property set.
+            global_id: GlobalId to give the object; None makes a new one.
+
+        Returns:
+            The object's GlobalId.
+
+        Raises:
+            BimError: A bad pose or mesh, a GlobalId that is malformed or taken, or no such storey.
         """
         pose = _checked_pose(pose)
         vertices, faces = _checked_mesh(vertices, faces)
@@ -113,16 +144,38 @@ class TwinWriter:
         return proxy.GlobalId
 
     def add_properties(self, global_id: str, properties: Mapping[str, Any], pset: str = OBSERVATION_PSET) -> None:
-        """Attach a property set of typed values (default ``BIM2RDT_Observation``) to an existing product."""
+        """Attach a property set of typed values to an existing product.
+
+        Args:
+            global_id: The product's GlobalId.
+            properties: {name: value}; bool, int, float, str and datetime map to IFC value types.
+            pset: The property set's name.
+
+        Raises:
+            BimError: No such product, or a value with no IFC type.
+        """
         add_typed_pset(self.ifc, self._product(global_id), pset, properties)
 
     # ---- processes --------------------------------------------------------------------------------------------
 
     def add_event(self, name: str, when: datetime | float, kind: str = "start", related: Iterable[str] = (),
                   properties: Mapping[str, Any] | None = None, trigger: str = "EVENTMESSAGE") -> str:
-        """An IfcEvent at ``when`` (aware datetime or Unix seconds) of ``kind`` start/end/intermediate,
-        triggered by ``trigger`` (IfcEventTriggerTypeEnum; a sensor message by default), assigned to the
-        ``related`` products; returns its GlobalId."""
+        """Add an IfcEvent with a measured occurrence time, assigned to products.
+
+        Args:
+            name: The event's name.
+            when: When it happened: an aware datetime or Unix seconds (UTC).
+            kind: ``start``, ``end`` or ``intermediate`` (the IfcEventTypeEnum).
+            related: GlobalIds of the products it concerns.
+            properties: Values for the event's property set.
+            trigger: IfcEventTriggerTypeEnum value; a sensor message by default.
+
+        Returns:
+            The event's GlobalId.
+
+        Raises:
+            BimError: An unknown ``kind``, a bad time, or no such related product.
+        """
         if kind not in EVENT_KINDS:
             raise BimError(f"event kind {kind!r} is not one of {', '.join(EVENT_KINDS)}")
         event = ifcopenshell.api.root.create_entity(self.ifc, "IfcEvent", name=name,
@@ -139,8 +192,19 @@ class TwinWriter:
     def add_task(self, name: str, start: datetime | float, finish: datetime | float | None = None,
                  related: Iterable[str] = (), properties: Mapping[str, Any] | None = None,
                  after: str | None = None) -> str:
-        """An IfcTask with measured ActualStart/ActualFinish, operating on the ``related`` products; ``after``
-        (a process GlobalId, e.g. the triggering event) precedes it through an IfcRelSequence."""
+        """Add an IfcTask with measured ActualStart/ActualFinish, operating on products.
+
+        Args:
+            name: The task's name.
+            start: When it started: an aware datetime or Unix seconds (UTC).
+            finish: When it finished, or None while it runs.
+            related: GlobalIds of the products it operates on.
+            properties: Values for the task's property set.
+            after: GlobalId of a process (e.g. the triggering event) that precedes it through an IfcRelSequence.
+
+        Returns:
+            The task's GlobalId.
+        """
         task = ifcopenshell.api.root.create_entity(self.ifc, "IfcTask", name=name, predefined_type="NOTDEFINED")
         task.IsMilestone = False
         task.TaskTime = self.ifc.create_entity(
@@ -157,7 +221,16 @@ class TwinWriter:
         return global_id
 
     def add_sequence(self, before: str, after: str, sequence_type: str = "FINISH_START") -> str:
-        """An IfcRelSequence: process ``before`` precedes process ``after`` (GlobalIds)."""
+        """Add an IfcRelSequence: process ``before`` precedes process ``after``.
+
+        Args:
+            before: GlobalId of the earlier process.
+            after: GlobalId of the later process.
+            sequence_type: IfcSequenceEnum value.
+
+        Returns:
+            The relation's GlobalId.
+        """
         relation = ifcopenshell.api.root.create_entity(self.ifc, "IfcRelSequence")
         relation.RelatingProcess = self._process(before)
         relation.RelatedProcess = self._process(after)
@@ -167,7 +240,17 @@ class TwinWriter:
     # ---- output -----------------------------------------------------------------------------------------------
 
     def save(self, path: str | Path) -> Path:
-        """Write atomically (temp file in the target folder, fsync, rename); returns the path."""
+        """Write the updated IFC file atomically (temp file in the target folder, fsync, rename).
+
+        Args:
+            path: The output .ifc file.
+
+        Returns:
+            The written path.
+
+        Raises:
+            BimError: The target folder is missing, or the serialised file is incomplete.
+        """
         return atomic_write_ifc(self.ifc, Path(path))
 
     # ---- helpers ----------------------------------------------------------------------------------------------

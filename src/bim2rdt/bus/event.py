@@ -24,10 +24,23 @@ class Event:
     received: float | None = None
 
     def to_json(self) -> bytes:
+        """The event as a JSON payload (numpy values as plain numbers).
+
+        Returns:
+            UTF-8 JSON with sorted keys.
+        """
         return json.dumps(asdict(self), sort_keys=True, default=_plain).encode()
 
     @classmethod
     def from_json(cls, payload: bytes | str) -> Event:
+        """An event from its JSON payload (``to_json``'s output).
+
+        Args:
+            payload: The JSON object.
+
+        Returns:
+            The event.
+        """
         return cls(**json.loads(payload))
 
 

@@ -37,12 +37,25 @@ class BusError(Bim2RdtError):
 
 
 class MqttBus:
-    """A connected MQTT client; ``will`` = (topic, payload) is published retained if we vanish."""
+    """An MQTT client (paho) for the site event bus; :meth:`connect` connects it.
+
+    Args:
+        host: The broker's host.
+        port: The broker's port.
+        client_id: The MQTT client id; None makes a random ``bim2rdt-...`` one.
+        username: The broker user; None connects anonymously.
+        password: The user's password.
+        will: (topic, payload) the broker publishes retained if this client vanishes.
+        timeout_s: How long to wait for the broker's CONNACK, SUBACK and PUBACK, seconds.
+        session_expiry_s: How long the broker keeps the session (and queues QoS 1 messages) after a
+            disconnect, seconds; 0 starts clean.
+        manual_ack: Let handlers acknowledge messages themselves (after their commit).
+        mqtt_version: 5, or 3 for MQTT 3.1.1 (nats-server's MQTT listener; a clean session, no expiry).
+    """
 
     def __init__(self, host: str, port: int, client_id: str | None = None, username: str | None = None,
                  password: str | None = None, will: tuple[str, bytes] | None = None, timeout_s: float = 10.0,
                  session_expiry_s: int = 0, manual_ack: bool = False, mqtt_version: int = 5):
-        """``mqtt_version`` 3 speaks MQTT 3.1.1 (nats-server's MQTT listener; a clean session, no expiry)."""
         self.host, self.port, self.timeout_s, self.session_expiry_s = host, port, timeout_s, session_expiry_s
         self.mqtt_version = mqtt_version
         self.manual_ack, self.handler_errors, self.disconnects = manual_ack, 0, 0
@@ -68,7 +81,14 @@ class MqttBus:
         self._client.max_inflight_messages_set(1000)
 
     def connect(self) -> MqttBus:
-        """Connect and wait for the broker's CONNACK; BusError with the broker's reason otherwise."""
+        """Connect, wait for the broker's CONNACK, and wait for the SUBACKs of earlier subscriptions.
+
+        Returns:
+            This bus, connected.
+
+        Raises:
+            BusError: The broker cannot be reached, refuses the connection, or does not answer in time.
+        """
         properties = None
         if self.session_expiry_s:
             properties = Properties(PacketTypes.CONNECT)
@@ -90,14 +110,41 @@ class MqttBus:
     def subscribe(self, pattern: str, handler: Handler, qos: int = 1, manual_ack: bool = False) -> int:
         """Call ``handler(topic, payload)`` for every message matching ``pattern`` (on the network thread); on a
         ``manual_ack`` bus with ``manual_ack`` here, ``handler(topic, payload, ack)``. When connected, wait for
-        the SUBACK and return its reason code (the granted QoS, >= 128 if refused)."""
+        the SUBACK.
+
+        Args:
+            pattern: An MQTT topic filter (``+`` and ``#`` wildcards).
+            handler: Called with (topic, payload), or (topic, payload, ack) with manual acknowledgement.
+            qos: The subscription's QoS.
+            manual_ack: Acknowledge by calling ``ack`` (only on a ``manual_ack`` bus).
+
+        Returns:
+            The SUBACK's reason code (the granted QoS, >= 128 if refused); 0 when not connected yet.
+
+        Raises:
+            BusError: No SUBACK within ``timeout_s``.
+        """
         self._handlers.append((pattern, handler, qos, manual_ack and self.manual_ack))
         if not self._connected.is_set():
             return 0
         return self._await_ack(self._client.subscribe(pattern, qos=qos)[1], "SUBACK", pattern)
 
     def publish(self, topic: str, payload: bytes, qos: int = 0, retain: bool = False, wait: bool = False) -> int:
-        """Publish; with ``wait`` (QoS >= 1) block until the PUBACK and return its reason code."""
+        """Publish a message.
+
+        Args:
+            topic: The topic.
+            payload: The message.
+            qos: 0, 1 or 2.
+            retain: Ask the broker to keep it for later subscribers.
+            wait: With QoS >= 1, block until the broker's PUBACK.
+
+        Returns:
+            The PUBACK's reason code with ``wait``, else 0.
+
+        Raises:
+            BusError: paho refused the message, or no PUBACK within ``timeout_s``.
+        """
         info = self._client.publish(topic, payload, qos=qos, retain=retain)  # never under our lock: paho calls
         if info.rc != mqtt.MQTT_ERR_SUCCESS:                                 # on_publish holding its own
             raise BusError(f"publish to {topic} failed: {mqtt.error_string(info.rc)}")
@@ -119,7 +166,14 @@ class MqttBus:
 
     def drain(self, timeout_s: float | None = None) -> bool:
         """Wait until the broker acknowledged every QoS 1 message published so far (before a close, which would
-        drop what is still in flight); False if ``timeout_s`` (default ``self.timeout_s``) passed first."""
+        drop what is still in flight).
+
+        Args:
+            timeout_s: How long to wait, seconds; None uses the bus's ``timeout_s``.
+
+        Returns:
+            True when nothing is in flight, False if the time passed first.
+        """
         import time
 
         deadline = time.monotonic() + (self.timeout_s if timeout_s is None else timeout_s)
@@ -135,6 +189,7 @@ class MqttBus:
 
     @property
     def connected(self) -> bool:
+        """Whether the client is connected to the broker now."""
         return self._client.is_connected()
 
     def close(self) -> None:

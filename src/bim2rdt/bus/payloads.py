@@ -60,9 +60,18 @@ class AccelBatch:
 
     @property
     def duration_s(self) -> float:
+        """How long the batch lasts, seconds (samples over rate)."""
         return self.xyz.shape[0] / self.fs
 
     def received_at(self, when: float) -> AccelBatch:
+        """A copy stamped with the monitor's receive time.
+
+        Args:
+            when: When the monitor received it, UTC seconds (the monitor's clock).
+
+        Returns:
+            The stamped batch.
+        """
         return replace(self, received_time=when)
 
 
@@ -89,7 +98,16 @@ class AccelHeader(BaseModel):
 
 
 def encode_accel(batch: AccelBatch, dtype: str = "int16") -> bytes:
-    """Pack a batch; int16 quantises to the batch's full scale (default 16 g) over 32767 counts."""
+    """Pack a batch for the bus: the HAV1 magic, a small JSON header, then the samples.
+
+    Args:
+        batch: Accelerations (n,3) in m/s^2 with device, sequence number, device time and rate.
+        dtype: ``int16`` quantises to the batch's full scale (default 16 g) over 32767 counts; ``float32``
+            keeps the values.
+
+    Returns:
+        The payload.
+    """
     scale = (batch.full_scale or 16 * 9.80665) / 32767.0 if dtype == "int16" else 1.0
     samples = np.asarray(batch.xyz, dtype=np.float32)
     if dtype == "int16":  # float32 keeps counts to within 0.002 of their float64 values
@@ -107,7 +125,18 @@ def encode_accel(batch: AccelBatch, dtype: str = "int16") -> bytes:
 def decode_accel(payload: bytes) -> AccelBatch:
     """Unpack a batch; PayloadError with the reason if it is not one. Nothing a payload holds gets past
     this unchecked: the header is one small flat JSON object whose every field is typed and bounded
-    (:class:`AccelHeader`), and the samples fill the rest of the payload exactly."""
+    (:class:`AccelHeader`), and the samples fill the rest of the payload exactly.
+
+    Args:
+        payload: A message from a wearable's accel topic.
+
+    Returns:
+        The batch: (n,3) accelerations in m/s^2, device time in seconds, rate in Hz.
+
+    Raises:
+        PayloadError: Not an accel payload: no magic, a header too long, bad or out of bounds, or samples that
+            do not fill the payload exactly.
+    """
     if len(payload) < 6 or payload[:4] != MAGIC:
         raise PayloadError("accel payload does not start with the HAV1 magic")
     (head_len,) = struct.unpack("<H", payload[4:6])

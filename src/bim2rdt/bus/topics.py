@@ -26,14 +26,49 @@ def check_level(name: str, what: str) -> str:
 
 
 def accel_topic(site: str, device: str) -> str:
+    """The topic a wearable publishes its acceleration batches on.
+
+    Args:
+        site: The site id (one topic level).
+        device: The wearable's device id (one topic level).
+
+    Returns:
+        ``site/{site}/wearable/{device}/accel``.
+
+    Raises:
+        TopicError: A site or device id that is not one safe topic level.
+    """
     return f"site/{check_level(site, 'site')}/wearable/{check_level(device, 'device')}/accel"
 
 
 def status_topic(site: str, device: str) -> str:
+    """The topic a wearable publishes its status messages on.
+
+    Args:
+        site: The site id (one topic level).
+        device: The wearable's device id (one topic level).
+
+    Returns:
+        ``site/{site}/wearable/{device}/status``.
+
+    Raises:
+        TopicError: A site or device id that is not one safe topic level.
+    """
     return f"site/{check_level(site, 'site')}/wearable/{check_level(device, 'device')}/status"
 
 
 def events_topic(site: str) -> str:
+    """The topic the HAV monitor publishes its safety events on.
+
+    Args:
+        site: The site id (one topic level).
+
+    Returns:
+        ``site/{site}/safety/events``.
+
+    Raises:
+        TopicError: A site id that is not one safe topic level.
+    """
     return f"site/{check_level(site, 'site')}/safety/events"
 
 
@@ -43,7 +78,14 @@ def wearable_pattern(site: str, leaf: str = "+") -> str:
 
 
 def device_of(topic: str) -> str | None:
-    """The device id in a ``site/{site}/wearable/{device}/...`` topic, else None."""
+    """The device id in a wearable's topic.
+
+    Args:
+        topic: A topic such as ``site/{site}/wearable/{device}/accel``.
+
+    Returns:
+        The device id, or None for any other topic.
+    """
     levels = topic.split("/")
     if len(levels) == 5 and levels[0] == "site" and levels[2] == "wearable":
         return levels[3]
@@ -51,7 +93,15 @@ def device_of(topic: str) -> str | None:
 
 
 def topic_matches(pattern: str, topic: str) -> bool:
-    """MQTT wildcard match: ``+`` is one level, a trailing ``#`` is any number of levels."""
+    """MQTT wildcard match: ``+`` is one level, a trailing ``#`` is any number of levels.
+
+    Args:
+        pattern: The topic filter.
+        topic: The topic.
+
+    Returns:
+        True when the topic matches the filter.
+    """
     want, have = pattern.split("/"), topic.split("/")
     for i, level in enumerate(want):
         if level == "#":

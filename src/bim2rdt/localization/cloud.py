@@ -49,13 +49,30 @@ class ScanPoints:
         return self.points / np.linalg.norm(self.points, axis=1, keepdims=True)
 
 
-def localize_cloud(cloud, model: BimModel, prior_T_world_sensor, up=(0.0, 0.0, 1.0),
+def localize_cloud(cloud: object, model: BimModel, prior_T_world_sensor: np.ndarray,
+                   up: np.ndarray | tuple[float, float, float] = (0.0, 0.0, 1.0),
                    config: LocalizationConfig | None = None) -> Localization:
     """Fix the pose of the sensor that took ``cloud`` (anything with ``.points`` (N, 3), metres, sensor frame;
     NaN rows are no return) on the permanent elements of ``model``, from ``prior_T_world_sensor`` (4, 4), with
     ``up`` the world up measured by the sensor's IMU (the prior's roll and pitch are kept). Returns the same
     :class:`Localization` as :func:`~bim2rdt.localization.localize`; raises :class:`LocalizationError` with the
-    reason. A :class:`ScanPoints` (what :func:`scan_points` made of a cloud) is used as it is."""
+    reason. A :class:`ScanPoints` (what :func:`scan_points` made of a cloud) is used as it is.
+
+    Args:
+        cloud: Anything with ``.points`` (N,3) in the sensor frame, metres (NaN rows are no return), or a
+            :class:`ScanPoints`.
+        model: The BIM, loaded with geometry.
+        prior_T_world_sensor: 4x4 sensor-to-world prior, metres.
+        up: The world up measured by the sensor's IMU, a unit 3-vector.
+        config: Localization's settings; None uses the defaults.
+
+    Returns:
+        The fix: ``pose`` (``T_world_sensor``, 4x4), covariance, information, free directions and residual.
+
+    Raises:
+        LocalizationError: A bad cloud or prior, too few returns in range, no permanent element in view, or a
+            correction beyond the basin; the message gives the reason.
+    """
     cfg = config or LocalizationConfig()
     prior, up_world = _rigid_prior(prior_T_world_sensor), _unit_up(up)
     scan = cloud if isinstance(cloud, ScanPoints) else scan_points(cloud, cfg)

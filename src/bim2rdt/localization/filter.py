@@ -45,7 +45,15 @@ class OdometryNoise:
     vertical_fraction: float = 0.002
 
     def covariance(self, distance: float, turned: float) -> np.ndarray:
-        """Process noise (4, 4) of an increment over ``distance`` m with ``turned`` rad of turning."""
+        """The process noise of one odometry increment.
+
+        Args:
+            distance: Distance walked, metres.
+            turned: Angle turned, radians.
+
+        Returns:
+            (4,4) diagonal covariance over (x, y, z, yaw): m^2 and rad^2.
+        """
         horizontal = (self.drift_fraction * distance) ** 2
         yaw = (np.deg2rad(self.heading_rate_deg_per_m) * distance) ** 2 + (self.turn_fraction * turned) ** 2
         return np.diag([horizontal, horizontal, (self.vertical_fraction * distance) ** 2, yaw])
@@ -53,7 +61,14 @@ class OdometryNoise:
 
 class PoseFilter:
     """EKF over the camera's planar state (x, y, z, yaw): :meth:`predict` with odometry, :meth:`update` with a
-    BIM fix. ``state`` (4,) and ``covariance`` (4, 4) are the current estimate."""
+    BIM fix. ``state`` (4,) and ``covariance`` (4, 4) are the current estimate.
+
+    Args:
+        state: The initial (x, y, z, yaw): world metres and radians about world z.
+        covariance: (4,4) its covariance, m^2 and rad^2.
+        noise: What the filter assumes of the odometry.
+        gate_probability: A fix further from the prediction than this chi-square quantile is refused.
+    """
 
     def __init__(self, state: np.ndarray, covariance: np.ndarray, noise: OdometryNoise = OdometryNoise(),
                  gate_probability: float = 0.9999):
@@ -63,8 +78,13 @@ class PoseFilter:
         self.gate_probability = gate_probability
 
     def predict(self, increment: np.ndarray, distance: float | None = None, turned: float | None = None) -> None:
-        """Move by an odometry ``increment`` (forward, left, up m, turn rad) in the heading frame; ``distance``
-        walked and angle ``turned`` (default: the increment's own length and turn) set the added noise."""
+        """Move the estimate by an odometry increment and grow its covariance.
+
+        Args:
+            increment: (forward, left, up, turn): metres in the heading frame, and radians.
+            distance: Distance walked, metres, for the added noise; None uses the increment's own length.
+            turned: Angle turned, radians, for the added noise; None uses the increment's own turn.
+        """
         increment = np.asarray(increment, dtype=float)
         distance = float(np.hypot(*increment[:2])) if distance is None else distance
         turned = abs(float(increment[3])) if turned is None else turned
@@ -80,7 +100,14 @@ class PoseFilter:
     def surprise(self, fix: Localization) -> tuple[float, float]:
         """(squared Mahalanobis distance of the fix from the prediction over the directions it constrains, the
         chi-square bound at ``gate_probability`` for that many directions). A fix beyond the bound disagrees
-        with the odometry more than the odometry's drift allows: an alias, not a correction."""
+        with the odometry more than the odometry's drift allows: an alias, not a correction.
+
+        Args:
+            fix: A BIM fix (its pose and 6x6 information).
+
+        Returns:
+            (squared Mahalanobis distance, chi-square bound); (0, inf) when the fix constrains nothing.
+        """
         information = fix.information[np.ix_(FIX_AXES, FIX_AXES)]
         values, vectors = np.linalg.eigh(information)
         seen = vectors[:, values > 1e-9 * max(values.max(), 1e-300)]
@@ -98,8 +125,15 @@ class PoseFilter:
         return innovation
 
     def update(self, fix: Localization) -> np.ndarray:
-        """Fuse a BIM fix; returns the correction applied to the state (4,). Directions the fix cannot
-        constrain carry no information and are left as they were."""
+        """Fuse a BIM fix into the estimate. Directions the fix cannot constrain carry no information and are
+        left as they were.
+
+        Args:
+            fix: A BIM fix (its pose and 6x6 information).
+
+        Returns:
+            (4,) the correction applied to (x, y, z, yaw): metres and radians.
+        """
         information = fix.information[np.ix_(FIX_AXES, FIX_AXES)]
         innovation = self._innovation(fix)
         posterior = np.linalg.inv(np.linalg.inv(self.covariance) + information)
@@ -123,13 +157,27 @@ class StationFix:
 
     @property
     def applied(self) -> bool:
+        """True when the fix was fused into the filter."""
         return self.reason is None
 
 
 def fuse_frame(pose_filter: PoseFilter, frame: Frame, model: BimModel, R_level_camera: np.ndarray,
-               up=(0.0, 0.0, 1.0), config: LocalizationConfig | None = None) -> StationFix:
-    """Localize ``frame`` from the filter's current estimate (with the IMU's tilt ``R_level_camera``) and fuse
-    the fix; a frame that cannot be localized leaves the filter on its odometry, and says why."""
+               up: np.ndarray | tuple[float, float, float] = (0.0, 0.0, 1.0),
+               config: LocalizationConfig | None = None) -> StationFix:
+    """Localize a frame from the filter's current estimate and fuse the fix; a frame that cannot be localized
+    leaves the filter on its odometry, and says why.
+
+    Args:
+        pose_filter: The filter; updated in place when the fix is fused.
+        frame: The station's RGB-D frame (depth in metres).
+        model: The BIM, loaded with geometry.
+        R_level_camera: (3,3) the IMU's tilt: camera (OpenCV axes) to the levelled heading frame.
+        up: The measured world up, a unit 3-vector.
+        config: Localization's settings; None uses the defaults.
+
+    Returns:
+        What the frame did: the prior, the fix, why it was refused (None when fused) and the correction.
+    """
     prior = from_planar(pose_filter.state, R_level_camera)
     try:
         fix = localize(frame, model, prior, up=up, config=config)

@@ -37,7 +37,7 @@ class Localization:
     error (dx, dy, dz, dtheta_x, dtheta_y, dtheta_z: m, rad; the tilt terms are the IMU's); ``inliers`` depth
     points within ``inlier_distance`` of a permanent surface; ``degenerate`` unit world directions the view
     cannot fix (the covariance is ``unconstrained_sigma`` squared along them); ``residual`` RMS distance of the
-    inliers to the surfaces, m. Extensions: ``degenerate_yaw`` (the view cannot fix the heading either),
+    inliers to the surfaces, m. Also: ``degenerate_yaw`` (the view cannot fix the heading either),
     ``information`` (6, 6, zero along free directions; what a filter should fuse), ``points`` (depth points
     used), ``near`` (those within the basin of the map), ``moved`` (m) and ``turned_deg`` (the fix's correction
     of the prior), ``prior`` (4, 4)."""
@@ -56,11 +56,28 @@ class Localization:
     prior: np.ndarray
 
 
-def localize(frame: Frame, model: BimModel, prior_T_world_camera, up=(0.0, 0.0, 1.0),
+def localize(frame: Frame, model: BimModel, prior_T_world_camera: np.ndarray,
+             up: np.ndarray | tuple[float, float, float] = (0.0, 0.0, 1.0),
              config: LocalizationConfig | None = None) -> Localization:
-    """Fix the camera pose of ``frame`` on the permanent elements of ``model``, starting from the odometry prior
-    ``prior_T_world_camera`` (4, 4), with ``up`` the world up measured by the IMU (roll and pitch of the prior
-    are kept). ``frame.T_world_camera`` is ignored. Raises :class:`LocalizationError` with the reason."""
+    """Fix the camera pose of a frame on the permanent elements of the model (walls, columns, slabs, stairs,
+    doors), starting from the odometry prior. Yaw-only ICP: roll and pitch of the prior are kept.
+    ``frame.T_world_camera`` is ignored.
+
+    Args:
+        frame: The RGB-D frame (depth in metres, OpenCV camera axes).
+        model: The BIM, loaded with geometry.
+        prior_T_world_camera: 4x4 camera-to-world odometry prior, metres.
+        up: The world up measured by the IMU, a unit 3-vector.
+        config: Localization's settings; None uses the defaults.
+
+    Returns:
+        The fix: ``pose`` (``T_world_camera``, 4x4), its (6,6) covariance and information, the directions it
+            cannot fix, and its residual (metres).
+
+    Raises:
+        LocalizationError: Too few depth returns, no permanent element in view, a correction beyond the basin,
+            or a bad prior or up; the message gives the reason.
+    """
     cfg = config or LocalizationConfig()
     prior, up_world = _rigid_prior(prior_T_world_camera), _unit_up(up)
     surfaces = permanent_map(model)

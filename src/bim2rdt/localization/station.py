@@ -31,17 +31,40 @@ class Turned:
 
 
 def pinned(station: StationFix) -> bool:
-    """Whether a station's fix was fused and constrains every direction (position and yaw)."""
+    """Tell whether a station's fix pins the pose.
+
+    Args:
+        station: What one look did to the filter.
+
+    Returns:
+        True when its fix was fused and constrains every direction (position and yaw).
+    """
     return station.applied and not station.fix.degenerate and not station.fix.degenerate_yaw
 
 
 def localize_station(pose_filter: PoseFilter, model: BimModel, frame: Frame, R_level_camera: np.ndarray,
                      turn: Callable[[float], Turned] | None = None, config: LocalizationConfig | None = None,
-                     up=(0.0, 0.0, 1.0), turn_back: bool = False) -> list[StationFix]:
+                     up: np.ndarray | tuple[float, float, float] = (0.0, 0.0, 1.0),
+                     turn_back: bool = False) -> list[StationFix]:
     """Fuse the station's frame; while the station is not pinned, turn by the next of ``look_around_deg``
     (absolute, from the first heading) and fuse that frame too. With ``turn_back`` the camera then turns back to
     the first heading and fuses the frame there as well (the station's view, now with a pinned pose); otherwise
-    it is left at the last look. Returns every look's result, first first."""
+    it is left at the last look.
+
+    Args:
+        pose_filter: The filter; predicted and updated in place.
+        model: The BIM, loaded with geometry.
+        frame: The station's first RGB-D frame.
+        R_level_camera: (3,3) the IMU's tilt: camera (OpenCV axes) to the levelled heading frame.
+        turn: Turns the robot by a relative angle (radians) and returns the new frame with its odometry; None
+            never looks around.
+        config: Localization's settings (``look_around_deg``); None uses the defaults.
+        up: The measured world up, a unit 3-vector.
+        turn_back: Turn back to the first heading at the end and fuse that frame too.
+
+    Returns:
+        Every look's result, first first.
+    """
     cfg = config or LocalizationConfig()
     looks = [fuse_frame(pose_filter, frame, model, R_level_camera, up, cfg)]
     heading = 0.0

@@ -44,7 +44,11 @@ class MissionContext:
     tick: Callable[[], None] = lambda: None
 
     def with_building(self) -> MissionContext:
-        """This context with the building's surfaces computed (once, for several runs)."""
+        """This context with the building's surfaces computed (once, for several runs).
+
+        Returns:
+            This context when it already has them, else a copy with ``building`` set (empty without a model).
+        """
         if self.building is not None:
             return self
         return replace(self, building=building_surfaces(self.model) if self.model is not None else ())

@@ -37,7 +37,14 @@ from bim2rdt.perception.surfaces import KnownSurface
 def building_surfaces(model: BimModel) -> list[KnownSurface]:
     """The surfaces of ``model``'s permanent elements (walls, columns, beams, doors ...: what the detector's
     scan-vs-BIM explains a frame with), at their BIM placement. Slabs are left out: the mission already takes
-    the points near the slab for slab (``MissionConfig.ground_clearance``), and every object stands on it."""
+    the points near the slab for slab (``MissionConfig.ground_clearance``), and every object stands on it.
+
+    Args:
+        model: The BIM, loaded with geometry.
+
+    Returns:
+        One surface per permanent element that is not a slab, triangles in world metres.
+    """
     return [KnownSurface.of_element(model, element) for element in permanent_elements(model)
             if element.ifc_class not in SLAB_CLASSES]
 

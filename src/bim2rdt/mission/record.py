@@ -22,7 +22,16 @@ def record_mission(twin: DigitalTwin, observations: Iterable[Observation], stati
                    missing: Iterable[MissingElement] = ()) -> None:
     """Record each observation at the time its station was reached (``times[station]`` when the robot's route
     logged it, else ``start`` + ``STATION_SECONDS`` per station; s), with that station's camera (``stations``,
-    T_world_camera each) as the view it was seen from; and each element whose place was seen empty as missing."""
+    T_world_camera each) as the view it was seen from; and each element whose place was seen empty as missing.
+
+    Args:
+        twin: The twin to record into.
+        observations: The mission's observations, each with the index of its station.
+        stations: ``T_world_camera`` (4x4, metres) of each station, by index.
+        start: The mission's start, UTC seconds, when ``times`` is None.
+        times: {station: UTC seconds the robot reached it}, as its route logged them.
+        missing: Elements whose place was seen empty, each with its station and frames.
+    """
     def when(station: int | None) -> float:
         return times[station] if times else start + STATION_SECONDS * (station or 0)
 

@@ -57,11 +57,36 @@ class Robot(Protocol):
     the vertical, the camera's tilt kept), captures, and reports the frame and the turn's odometry (what
     :func:`~bim2rdt.localization.localize_station` asks for when one view leaves a direction free)."""
 
-    def drive(self, increment: np.ndarray, R_level_camera: np.ndarray) -> Odometry: ...
+    def drive(self, increment: np.ndarray, R_level_camera: np.ndarray) -> Odometry:
+        """Carry out a commanded move.
 
-    def capture(self) -> Frame: ...
+        Args:
+            increment: (forward, left, up, turn): metres in the current heading frame, and radians.
+            R_level_camera: (3,3) the camera's tilt to set: camera (OpenCV axes) to the levelled heading frame.
 
-    def turn(self, angle: float) -> Turned: ...
+        Returns:
+            What the odometry measured of the move.
+        """
+        ...
+
+    def capture(self) -> Frame:
+        """Capture what the camera sees now.
+
+        Returns:
+            The RGB-D frame (depth in metres).
+        """
+        ...
+
+    def turn(self, angle: float) -> Turned:
+        """Turn in place about the vertical (the camera's tilt kept) and capture.
+
+        Args:
+            angle: The turn, radians, counter-clockwise seen from above.
+
+        Returns:
+            The frame after the turn and the turn's odometry.
+        """
+        ...
 
 
 class Detect(Protocol):
@@ -97,7 +122,17 @@ class RobotMission:
 class LocalizedRobot:
     """The mission's ``perceive`` callable for a ``robot`` that localizes on ``model`` (``anchored``) or runs on
     dead reckoning from ``dock`` (T_world_camera), walking ``route``'s paths when given; ``detect`` reads each
-    station's frame."""
+    station's frame.
+
+    Args:
+        robot: The robot that moves and captures.
+        detect: Reads the detections of each station's frame.
+        model: The BIM the robot localizes on.
+        dock: ``T_world_camera`` (4x4, metres) of the robot's surveyed start.
+        anchored: Localize on the BIM at each station; False runs on dead reckoning alone.
+        config: Localization's settings; None uses the defaults.
+        route: Paths to walk between stations; None goes straight to each.
+    """
 
     def __init__(self, robot: Robot, detect: Detect, model: BimModel, dock: np.ndarray, anchored: bool = True,
                  config: LocalizationConfig | None = None, route: Route | None = None):
@@ -121,7 +156,14 @@ class LocalizedRobot:
         return self.detect(station, frame)
 
     def station_frame(self, station: int) -> Frame | None:
-        """The last frame detected in at ``station``, placed by the robot's estimate: the mission's ``frame_of``."""
+        """The last frame detected in at a station, placed by the robot's estimate: the mission's ``frame_of``.
+
+        Args:
+            station: The station's index.
+
+        Returns:
+            The frame with the estimated ``T_world_camera``, or None before the robot got there.
+        """
         return self._latest.get(station)
 
     def _capture(self) -> Frame:
@@ -166,8 +208,18 @@ class LocalizedRobot:
         return turn
 
 
-def dock_pose(stations: Sequence[np.ndarray], start_xy, camera_height: float) -> np.ndarray:
-    """The robot's surveyed start: its camera at ``start_xy``, level, facing the first station."""
+def dock_pose(stations: Sequence[np.ndarray], start_xy: np.ndarray | tuple[float, float],
+              camera_height: float) -> np.ndarray:
+    """The robot's surveyed start: its camera level, facing the first station.
+
+    Args:
+        stations: ``T_world_camera`` (4x4, metres) of each station.
+        start_xy: World (x, y) of the start, metres.
+        camera_height: World height of the camera, metres.
+
+    Returns:
+        ``T_world_camera`` (4x4) at the start; the first station's pose when the start is there.
+    """
     first = stations[0][:3, 3]
     if np.linalg.norm(first[:2] - np.asarray(start_xy, float)) < 1e-6:
         return stations[0].copy()
@@ -178,7 +230,19 @@ def run_robot_mission(context: MissionContext, robot: Robot, detect: Detect, doc
                       anchored: bool = True, route: Route | None = None) -> RobotMission:
     """The mission of ``context`` with ``robot`` leaving ``dock`` (T_world_camera), localizing on the BIM
     (``anchored``) or on dead reckoning alone, walking ``route`` (None: straight to each station); ``detect``
-    reads each station's frame, and that frame (depth, intrinsics, the estimated pose) decides missing elements."""
+    reads each station's frame, and that frame (depth, intrinsics, the estimated pose) decides missing elements.
+
+    Args:
+        context: The mission: targets, stations, model, priors and settings.
+        robot: The robot that moves and captures.
+        detect: Reads the detections of each station's frame.
+        dock: ``T_world_camera`` (4x4, metres) of the robot's surveyed start.
+        anchored: Localize on the BIM at each station; False runs on dead reckoning alone.
+        route: Paths to walk between stations; None goes straight to each.
+
+    Returns:
+        The mission's result and the robot's localized looks.
+    """
     context = context.with_building()
     looking = LocalizedRobot(robot, detect, context.model, dock, anchored, context.localization, route)
     result = run_mission(context, looking, route or DirectRoute(), looking.station_frame)

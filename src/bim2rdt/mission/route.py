@@ -64,8 +64,20 @@ class RoutePlan:
     unplaced: dict[str, str] = field(default_factory=dict)
 
 
-def plan_route(targets: Sequence[Target], start_xy, grid: OccupancyGrid, config: MissionConfig) -> RoutePlan:
-    """One reachable station with a line of sight per target, in the order of the shortest walk."""
+def plan_route(targets: Sequence[Target], start_xy: np.ndarray | tuple[float, float], grid: OccupancyGrid,
+               config: MissionConfig) -> RoutePlan:
+    """One reachable station with a line of sight per target, in the order of the shortest walk.
+
+    Args:
+        targets: The BIM objects to look at.
+        start_xy: World (x, y) of the dock, metres.
+        grid: The occupancy grid the robot walks on.
+        config: Standoff and camera height of the stations.
+
+    Returns:
+        The stations (``T_world_camera``) in visiting order with their targets, the planned path to each, every
+            station's viewpoints best first, and {GlobalId: why} of the targets no viewpoint serves.
+    """
     region = reachable(grid, start_xy)
     centre = np.mean([t.placement[:2, 3] for t in targets], axis=0)
     chosen, unplaced = [], {}
@@ -117,9 +129,27 @@ class DirectRoute:
     """No map: every station as given, nothing walked."""
 
     def reach(self, index: int, T_world_camera: np.ndarray, look: Look, locate: Locate) -> np.ndarray | None:
+        """Take the station as given.
+
+        Args:
+            index: The station's index.
+            T_world_camera: The station's camera pose (4x4, metres).
+            look: Unused: nothing is seen on the way.
+            locate: Unused.
+
+        Returns:
+            ``T_world_camera``.
+        """
         return T_world_camera
 
     def seen(self, index: int, detections: list[Detection], locate: Locate) -> None:
+        """Ignore what a station saw: there is no map to put it in.
+
+        Args:
+            index: The station's index.
+            detections: What it saw.
+            locate: Unused.
+        """
         return None
 
 
@@ -138,7 +168,14 @@ class PlannedRoute:
     """Walks ``plan`` with ``navigator`` (start it at the dock, on the shift's clock), standing ``dwell_s`` at
     each station. Afterwards ``walked`` has the path walked to each station, ``arrivals`` when it got there
     (the navigator's clock), ``skipped`` {station: why},
-    ``located`` the objects put into the map, and ``navigator.replans`` every replan."""
+    ``located`` the objects put into the map, and ``navigator.replans`` every replan.
+
+    Args:
+        plan: The route to walk.
+        navigator: Walks the robot and replans as the map changes.
+        camera_height: World height of the camera, metres.
+        dwell_s: How long the robot stands at each station, seconds.
+    """
 
     def __init__(self, plan: RoutePlan, navigator: Navigator, camera_height: float, dwell_s: float = DWELL_S) -> None:
         self.plan, self.navigator, self.camera_height, self.dwell_s = plan, navigator, camera_height, dwell_s
@@ -149,7 +186,18 @@ class PlannedRoute:
 
     def reach(self, index: int, T_world_camera: np.ndarray, look: Look, locate: Locate) -> np.ndarray | None:
         """Look ahead along the planned leg (what it shows goes into the map, so the leg is checked against it),
-        then walk it; a station that cannot be reached now is swapped for another viewpoint."""
+        then walk it; a station that cannot be reached now is swapped for another viewpoint, or waited for
+        while keep-out zones change.
+
+        Args:
+            index: The station's index.
+            T_world_camera: The station's planned camera pose (4x4, metres).
+            look: Takes a frame at a camera pose and returns its detections.
+            locate: Registers a detection into an observation and its mesh.
+
+        Returns:
+            The camera pose actually taken, or None if the station cannot be reached.
+        """
         goal = T_world_camera[:2, 3]
         self.seen(index, look(self._ahead(self.plan.legs[index], goal)), locate)
         try:
@@ -166,6 +214,13 @@ class PlannedRoute:
         return taken
 
     def seen(self, index: int, detections: list[Detection], locate: Locate) -> None:
+        """Put the objects a look found into the robot's map (those the map does not explain yet).
+
+        Args:
+            index: The station's index.
+            detections: What the look saw.
+            locate: Registers a detection into an observation and its mesh.
+        """
         explained = self._explained()
         for detection in detections:
             if self._unexplained(detection, explained):

@@ -62,7 +62,18 @@ def run_mission(context: MissionContext, perceive: Callable[[int, np.ndarray], l
     surfaces of the BIM's permanent elements (:func:`bim2rdt.mission.explained.building_surfaces`): a fit whose points lie on one of
     them, or on an object registered before it, shows that surface, not an object
     (:mod:`bim2rdt.mission.explained`): a planned element's fit is then unverified, and a detection of no planned
-    element is ``set_aside`` (no new object); such a fit explains nothing for the detections after it."""
+    element is ``set_aside`` (no new object); such a fit explains nothing for the detections after it.
+
+    Args:
+        context: The mission: targets, stations (``T_world_camera``), model, priors and settings.
+        perceive: ``perceive(station_index, T_world_camera)`` returns that frame's detections with world points.
+        route: Gets the robot to each station and hears what it saw.
+        frame_of: ``frame_of(station_index)`` is the frame the station's detections were read from; None
+            finds no element missing.
+
+    Returns:
+        Every verdict: the stations, the observations, the missing, the not-seen and the set-aside objects.
+    """
     context = context.with_building()
     targets, config, icp, new_object_mesh = context.targets, context.config, context.icp, context.new_object_mesh
     result = MissionResult(list(context.stations))

@@ -24,7 +24,16 @@ def nearly(value: float, decimals: int = 9) -> float:
 def plan_stations(targets: Sequence[Target], start_xy: Sequence[float], config: MissionConfig) -> list[np.ndarray]:
     """One camera pose per target, in nearest-neighbour order from ``start_xy``. Each looks at its object
     obliquely across its long side (35 degrees off broadside: an end-on view of a beam cannot tell where along
-    its length it lies), from the side facing the other targets, far enough back for the whole object."""
+    its length it lies), from the side facing the other targets, far enough back for the whole object.
+
+    Args:
+        targets: The BIM objects to look at.
+        start_xy: World (x, y) of the start, metres.
+        config: Standoff and camera height.
+
+    Returns:
+        ``T_world_camera`` (4x4, metres) per target, in visiting order.
+    """
     centre = np.mean([t.placement[:2, 3] for t in targets], axis=0)
     poses = []
     for target in targets:

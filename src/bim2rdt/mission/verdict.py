@@ -25,7 +25,16 @@ DEFAULT_MIN_FITNESS = TwinConfig().min_fitness
 
 
 def pose_delta(T_ref: np.ndarray, T: np.ndarray) -> tuple[float, float, float]:
-    """Horizontal shift (m), yaw change (deg, wrapped to +-180) and tilt of T's up axis from world z (deg)."""
+    """How far a pose is from a reference, in the floor plan.
+
+    Args:
+        T_ref: The reference pose, 4x4 model-to-world, metres.
+        T: The pose, 4x4 model-to-world, metres.
+
+    Returns:
+        (horizontal shift in metres, yaw change in degrees wrapped to +-180, tilt of T's up axis from world z
+            in degrees).
+    """
     shift = float(np.linalg.norm(T[:2, 3] - T_ref[:2, 3]))
     yaw = np.rad2deg(np.arctan2(T[1, 0], T[0, 0]) - np.arctan2(T_ref[1, 0], T_ref[0, 0]))
     tilt = float(np.rad2deg(np.arccos(np.clip(T[2, 2], -1.0, 1.0))))

@@ -47,19 +47,44 @@ class Intrinsics:
                                   f"{getattr(self, name)!r}")
 
     def pixel_rays(self) -> np.ndarray:
-        """Camera-frame ray directions with z = 1 for every pixel, (H, W, 3), row-major (v, u)."""
+        """The ray of every pixel in the camera's OpenCV optical frame (x right, y down, z forward).
+
+        Returns:
+            (H,W,3) ray directions with z = 1, indexed [v, u].
+        """
         u, v = np.meshgrid(np.arange(self.width), np.arange(self.height))
         return np.stack([(u - self.cx) / self.fx, (v - self.cy) / self.fy, np.ones(u.shape)], axis=-1)
 
     def backproject(self, uv: np.ndarray, depth: np.ndarray) -> np.ndarray:
-        """Pixels (N, 2) as (u, v) with depths (N,) in metres -> camera-frame points (N, 3)."""
+        """Lift pixels with depths to 3D points in the camera's OpenCV optical frame (x right, y down, z forward).
+
+        Args:
+            uv: (N,2) pixel coordinates (u column, v row).
+            depth: (N,) depths along the optical axis (z), metres.
+
+        Returns:
+            (N,3) points in the camera frame, metres.
+        """
         x = (uv[:, 0] - self.cx) / self.fx * depth
         y = (uv[:, 1] - self.cy) / self.fy * depth
         return np.stack([x, y, depth], axis=1)
 
 
-def look_at(eye, target, up=(0.0, 0.0, 1.0)) -> np.ndarray:
-    """T_world_camera of a camera at ``eye`` looking at ``target`` with world ``up`` appearing up in the image."""
+def look_at(eye: np.ndarray | tuple[float, float, float], target: np.ndarray | tuple[float, float, float],
+            up: np.ndarray | tuple[float, float, float] = (0.0, 0.0, 1.0)) -> np.ndarray:
+    """The pose of a camera at ``eye`` looking at ``target`` with world ``up`` appearing up in the image.
+
+    Args:
+        eye: The camera centre in the world frame, metres.
+        target: A world point on the optical axis, metres.
+        up: The world direction that points up in the image (z-up world: +z).
+
+    Returns:
+        ``T_world_camera``, 4x4 camera-to-world; the camera axes are OpenCV's (x right, y down, z forward).
+
+    Raises:
+        CameraError: ``eye`` and ``target`` coincide, or the view direction is parallel to ``up``.
+    """
     eye, target, up = (np.asarray(v, dtype=np.float64) for v in (eye, target, up))
     forward = target - eye
     if np.linalg.norm(forward) < 1e-9:

@@ -19,5 +19,12 @@ class Detector(Protocol):
     name: str
 
     def detect(self, frame: Frame) -> list[Detection]:
-        """The objects found in ``frame``, each with family, label, bbox, mask and score."""
+        """Find the objects in one frame.
+
+        Args:
+            frame: A checked RGB-D frame (depth in metres).
+
+        Returns:
+            The detections, each with family, label, bbox (pixels), mask and score.
+        """
         ...

@@ -31,7 +31,14 @@ class EdgeFilter:
     sigmas: float = 3.0
 
     def flying(self, depth: np.ndarray) -> np.ndarray:
-        """(H, W) bool: pixels whose depth is a mixture of two surfaces (or an isolated return)."""
+        """Find the flying pixels: depths that mix two surfaces at a silhouette (or isolated returns).
+
+        Args:
+            depth: (H,W) depth image, metres; 0 or NaN is no return.
+
+        Returns:
+            (H,W) bool, True at flying pixels.
+        """
         depth = np.where(np.isfinite(depth) & (depth > 0), depth, np.nan)
         inverse = 1.0 / depth
         sigma_inverse = (self.noise + self.noise_per_metre * depth) / depth ** 2
@@ -43,7 +50,14 @@ class EdgeFilter:
         return flagged & np.isfinite(depth)
 
     def apply(self, depth: np.ndarray) -> np.ndarray:
-        """A copy of ``depth`` with flying pixels set to NaN (no return)."""
+        """Remove the flying pixels from a depth image.
+
+        Args:
+            depth: (H,W) depth image, metres; 0 or NaN is no return.
+
+        Returns:
+            (H,W) float32 copy of ``depth`` with flying pixels set to NaN (no return).
+        """
         out = np.array(depth, dtype=np.float32, copy=True)
         out[self.flying(depth)] = np.nan
         return out

@@ -82,15 +82,36 @@ class Frame:
         return self.T_world_camera is not None and not self.pose_is_prior
 
     def require_pose(self, purpose: str = "this step") -> np.ndarray:
-        """``T_world_camera`` (4, 4), or :class:`PerceptionError` in one line when the frame has none. A prior
-        is returned too: whether to trust it is the caller's choice (``has_pose`` tells)."""
+        """The camera's pose, for a step that cannot go on without one.
+
+        A prior is returned too: whether to trust it is the caller's choice (``has_pose`` tells).
+
+        Args:
+            purpose: What needs the pose, named in the error.
+
+        Returns:
+            ``T_world_camera``, 4x4 camera-to-world (OpenCV camera axes), metres.
+
+        Raises:
+            PerceptionError: The frame has no pose yet; one line saying to localize it first.
+        """
         if self.T_world_camera is None:
             raise PerceptionError(f"{self._name}: {purpose} needs the camera's pose (T_world_camera), and this "
                                   "frame has none yet: localize it first")
         return self.T_world_camera
 
-    def localized(self, T_world_camera) -> Frame:
-        """A copy of this frame with ``T_world_camera`` as its known pose (not a prior)."""
+    def localized(self, T_world_camera: np.ndarray) -> Frame:
+        """A copy of this frame with a known pose (not a prior).
+
+        Args:
+            T_world_camera: 4x4 camera-to-world pose (OpenCV camera axes), metres.
+
+        Returns:
+            The new frame.
+
+        Raises:
+            PerceptionError: The pose is not a finite rigid 4x4 transform (the frame's own checks).
+        """
         return replace(self, T_world_camera=T_world_camera, pose_is_prior=False)
 
     @property

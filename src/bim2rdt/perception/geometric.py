@@ -65,8 +65,15 @@ class GeometricConfig:
 
 
 class GeometricDetector:
-    """Scan-vs-BIM detection (see the module docs). ``priors`` default to the offline knowledge base's for the
-    model's families; ``timings`` holds the CPU seconds each stage took on the last frame."""
+    """Scan-vs-BIM detection (see the module docs): what the depth shows that the BIM's building does not explain,
+    clustered and named by the model's families. ``timings`` holds the CPU seconds each stage took on the last
+    frame.
+
+    Args:
+        model: The BIM, loaded with geometry: its building explains the background, its families name objects.
+        priors: {family: upright prior}; None takes the offline knowledge base's for the model's families.
+        config: Thresholds of the stages.
+    """
 
     name = "geometric"
 
@@ -79,6 +86,17 @@ class GeometricDetector:
         self.timings: dict[str, float] = {}
 
     def detect(self, frame: Frame) -> list[Detection]:
+        """Find the objects in a localized frame.
+
+        Args:
+            frame: An RGB-D frame with ``T_world_camera`` (depth in metres).
+
+        Returns:
+            One detection per cluster of unexplained depth that is large enough, with family, bbox and mask.
+
+        Raises:
+            PerceptionError: The frame has no pose.
+        """
         frame.require_pose("the geometric detector")
         clock = _Clock()
         depth = self.config.noise.apply(frame.depth)

@@ -69,8 +69,12 @@ class PerceiveConfig:
     edge_filter: EdgeFilter = field(default_factory=EdgeFilter)
 
     def fit_rules(self) -> FitRules:
-        """The fitting path's rules: a detector's pose came from its own search, so it is refined, not searched
-        again (a frame's time budget: ``bench perception``)."""
+        """The fitting path's rules for perception.
+
+        Returns:
+            Rules with this config's ICP settings, tie ratio and slab contact; a detector's pose came from its own
+                search, so it is refined, not searched again (a frame's time budget: ``bench perception``).
+        """
         return FitRules(self.icp, self.tie_ratio, self.slab_contact, refine_detector_pose=True)
 
 
@@ -86,15 +90,43 @@ class _Seen:
 
 def perceive_frame(frame: Frame, model: BimModel, priors: dict[str, UprightPrior], detector: Detector | None = None,
                    config: PerceiveConfig = PerceiveConfig()) -> list[Observation]:
-    """The objects in one frame, one :class:`Observation` each (``detector`` defaults to
-    :class:`~bim2rdt.perception.geometric.GeometricDetector` on ``model``)."""
+    """Detect and register the objects in one frame.
+
+    Args:
+        frame: A localized RGB-D frame (``T_world_camera`` set; depth in metres).
+        model: The BIM, loaded with geometry.
+        priors: {family: upright prior} for the gravity term of registration.
+        detector: The detector; None uses :class:`~bim2rdt.perception.geometric.GeometricDetector` on ``model``.
+        config: Perception's thresholds.
+
+    Returns:
+        One :class:`Observation` per object: family, the matched GlobalId, ``pose`` (``T_world_object``, 4x4,
+            metres), RMSE (metres) and fitness.
+
+    Raises:
+        PerceptionError: The frame is not a Frame or has no pose.
+    """
     return perceive_frames([frame], model, priors, detector, config)
 
 
 def perceive_frames(frames: Sequence[Frame], model: BimModel, priors: dict[str, UprightPrior],
                     detector: Detector | None = None, config: PerceiveConfig = PerceiveConfig()) -> list[Observation]:
-    """The objects in several views of one place, fused: one :class:`Observation` per physical object, its
-    points from every view registered together."""
+    """Detect the objects in several views of one place and fuse them: one :class:`Observation` per physical
+    object, its points from every view registered together.
+
+    Args:
+        frames: Localized RGB-D frames (``T_world_camera`` set; depth in metres).
+        model: The BIM, loaded with geometry.
+        priors: {family: upright prior} for the gravity term of registration.
+        detector: The detector; None uses :class:`~bim2rdt.perception.geometric.GeometricDetector` on ``model``.
+        config: Perception's thresholds.
+
+    Returns:
+        The observations, the best-supported object (most points) first.
+
+    Raises:
+        PerceptionError: An item is not a Frame, or a frame has no pose.
+    """
     frames = list(frames)
     for frame in frames:
         if not isinstance(frame, Frame):
@@ -116,7 +148,21 @@ def locate_detections(frame: Frame, model: BimModel, detector: Detector | None =
     """The detector's detections in ``frame`` with their world points (``points_world``: corners and mask
     pixels with depth, flying pixels and the BIM's building removed) and ``station``; families resolved to the
     model's, unusable detections dropped with a logged reason. What a mission that registers objects itself
-    needs from perception."""
+    needs from perception.
+
+    Args:
+        frame: A localized RGB-D frame (``T_world_camera`` set; depth in metres).
+        model: The BIM, loaded with geometry.
+        detector: The detector; None uses :class:`~bim2rdt.perception.geometric.GeometricDetector` on ``model``.
+        station: The index of the station the frame was taken at, stored on each detection.
+        config: Perception's thresholds.
+
+    Returns:
+        The usable detections with ``points_world`` ((N,3) world metres) and ``station`` set.
+
+    Raises:
+        PerceptionError: The frame has no pose.
+    """
     detector = detector if detector is not None else _default_detector(model)
     library = library_for(model)
     detections = [_resolved(d, library) for d in detector.detect(frame)]

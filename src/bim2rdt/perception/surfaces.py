@@ -27,21 +27,45 @@ class KnownSurface:
 
     @classmethod
     def of_mesh(cls, name: str, mesh: trimesh.Trimesh, T_world_model: np.ndarray = np.eye(4)) -> KnownSurface:
-        """The surface of ``mesh`` (body frame) posed at ``T_world_model``."""
+        """The surface of a mesh posed in the world.
+
+        Args:
+            name: How reports name the surface.
+            mesh: The mesh in its body frame, metres.
+            T_world_model: 4x4 body-to-world pose, metres.
+
+        Returns:
+            The surface, its triangles in world metres.
+        """
         triangles = np.asarray(mesh.triangles, dtype=float)
         return cls(name, triangles @ T_world_model[:3, :3].T + T_world_model[:3, 3])
 
     @classmethod
     def of_element(cls, model: BimModel, element: BimElement) -> KnownSurface:
-        """The surface of one of ``model``'s elements at its BIM placement, named by class and name."""
+        """The surface of one of a model's elements at its BIM placement.
+
+        Args:
+            model: The BIM, loaded with geometry.
+            element: One of its elements.
+
+        Returns:
+            The surface, named by IFC class and name (or GlobalId), its triangles in world metres.
+
+        Raises:
+            BimError: The model was loaded without geometry.
+        """
         vertices, faces = model.mesh(element.global_id)
         name = f"{element.ifc_class} '{element.name}'" if element.name else f"{element.ifc_class} {element.global_id}"
         return cls(name, np.asarray(vertices, dtype=float)[np.asarray(faces)])
 
     @cached_property
     def bounds(self) -> np.ndarray:
-        """(2, 3) the surface's box, world metres: a building has hundreds of elements, and most of them are
-        nowhere near the points asked about."""
+        """The surface's axis-aligned box: a building has hundreds of elements, and most of them are nowhere near
+        the points asked about.
+
+        Returns:
+            (2,3) the lowest and highest corner, world metres.
+        """
         corners = self.triangles.reshape(-1, 3)
         return np.array([corners.min(axis=0), corners.max(axis=0)])
 
@@ -49,7 +73,15 @@ class KnownSurface:
         """The near (point, triangle) pairs: (K,) index into ``points_world`` (N, 3) and (K, 3) the closest point
         of that triangle to it, world metres. Every triangle within ``reach`` m of a point is paired with it
         (only the points in the surface's box and the triangles whose box holds one, both grown by ``reach``,
-        are measured)."""
+        are measured).
+
+        Args:
+            points_world: (N,3) points, world metres.
+            reach: How far from a point a triangle may be and still be paired, metres.
+
+        Returns:
+            ((K,) index into ``points_world``, (K,3) closest point of the paired triangle, world metres).
+        """
         inside = np.flatnonzero(np.all((points_world >= self.bounds[0] - reach)
                                        & (points_world <= self.bounds[1] + reach), axis=1))
         if len(inside) == 0:
@@ -61,7 +93,15 @@ class KnownSurface:
         return inside[point], trimesh.triangles.closest_point(self.triangles[triangle], points[point])
 
     def distances(self, points_world: np.ndarray, reach: float) -> np.ndarray:
-        """(N,) distance (m) of each point to the surface; inf where it is farther than ``reach``."""
+        """The distance of each point to the surface.
+
+        Args:
+            points_world: (N,3) points, world metres.
+            reach: Distances beyond this many metres are not measured.
+
+        Returns:
+            (N,) distances, metres; inf where the surface is farther than ``reach``.
+        """
         out = np.full(len(points_world), np.inf)
         index, closest = self.closest_points(points_world, reach)
         np.minimum.at(out, index, np.linalg.norm(closest - points_world[index], axis=1))

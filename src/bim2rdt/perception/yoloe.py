@@ -41,7 +41,16 @@ class YoloeDetector:
     architecture ``.yaml``); ``prompt_embeddings``: a local ``.npz`` from ``save_prompt_embeddings`` whose class
     names are the prompts; ``families``: the BIM families the prompts stand for (a class whose prompt is none of
     theirs keeps its prompt as label and is "unknown"; without ``families`` perception maps labels to the model's
-    families itself)."""
+    families itself).
+
+    Args:
+        weights: A local ``.pt`` file (or a bundled architecture ``.yaml``); nothing is downloaded.
+        prompt_embeddings: A local ``.npz`` from ``save_prompt_embeddings``; its class names are the prompts.
+        families: The BIM families the prompts stand for; None lets perception map labels to families.
+        confidence: Lowest score a detection keeps, 0-1.
+        image_size: The network's input size, pixels.
+        device: The torch device ("cpu", "cuda:0").
+    """
 
     name = "yoloe"
 
@@ -54,6 +63,14 @@ class YoloeDetector:
         self.classes = list(names.values()) if isinstance(names, dict) else list(names)
 
     def detect(self, frame: Frame) -> list[Detection]:
+        """Find the prompted objects in one frame's colour image.
+
+        Args:
+            frame: An RGB-D frame (only its RGB image is read here).
+
+        Returns:
+            One detection per box above ``confidence``, with family (or "unknown"), label, bbox, mask and score.
+        """
         result = self.yolo.predict(np.ascontiguousarray(frame.rgb[..., ::-1]), imgsz=self.image_size,
                                    conf=self.confidence, device=self.device, retina_masks=True, verbose=False)[0]
         if result.boxes is None or len(result.boxes) == 0:

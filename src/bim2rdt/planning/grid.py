@@ -60,7 +60,23 @@ class OccupancyGrid:
                  doors: DoorPolicy = "open") -> OccupancyGrid:
         """Slice ``storey`` (name, GlobalId or BimStorey; None = the ground floor) of ``model`` in the robot's
         ``height_band`` above its floor, at ``resolution`` metres per cell, grown by ``robot_radius``. ``doors``:
-        ``"open"``, ``"closed"`` or the GlobalIds/names of the closed doors."""
+        ``"open"``, ``"closed"`` or the GlobalIds/names of the closed doors.
+
+        Args:
+            model: The BIM, loaded with geometry.
+            storey: The storey's name, GlobalId or BimStorey; None takes the ground floor.
+            resolution: Cell edge, metres.
+            robot_radius: How far obstacles grow for the robot's centre, metres.
+            height_band: (low, high) metres above the floor that the robot's body occupies.
+            doors: ``"open"``, ``"closed"`` or the GlobalIds/names of the closed doors.
+
+        Returns:
+            The grid of that floor.
+
+        Raises:
+            PlanningError: Bad numbers or door policy, a model without geometry or walls, no such storey or
+                floor, or a grid too large for the resolution.
+        """
         _check_numbers(resolution, robot_radius, height_band)
         check_door_policy(doors)
         require_walls(model)
@@ -77,11 +93,27 @@ class OccupancyGrid:
                    inflate(occupied, reach_cells(robot_radius, resolution)), open_doors=tuple(open_doors), model=model)
 
     @classmethod
-    def from_occupancy(cls, occupied: np.ndarray, resolution: float, origin_xy=(0.0, 0.0), robot_radius: float = 0.35,
+    def from_occupancy(cls, occupied: np.ndarray, resolution: float,
+                       origin_xy: np.ndarray | tuple[float, float] = (0.0, 0.0), robot_radius: float = 0.35,
                        name: str = "obstacle map", floor_z: float = 0.0,
                        height_band: tuple[float, float] = (0.05, 1.2)) -> OccupancyGrid:
-        """A grid from a bool occupancy array (rows along y, cols along x; a SLAM map, a test's maze) whose
-        lower-left corner is at world ``origin_xy``; its cells are one footprint called ``name``."""
+        """A grid from a bool occupancy array (a SLAM map, a test's maze); its cells are one footprint.
+
+        Args:
+            occupied: (rows, cols) bool, rows along world y and columns along x; True is an obstacle.
+            resolution: Cell edge, metres.
+            origin_xy: World (x, y) of the array's lower-left corner, metres.
+            robot_radius: How far obstacles grow for the robot's centre, metres.
+            name: The footprint's name, in reports of what blocks a path.
+            floor_z: World height of the floor, metres.
+            height_band: (low, high) metres above the floor that the robot's body occupies.
+
+        Returns:
+            The grid.
+
+        Raises:
+            PlanningError: Bad numbers, a non-finite origin or floor, or an array that is not 2-D and non-empty.
+        """
         _check_numbers(resolution, robot_radius, height_band)
         origin_xy = _finite_xy(origin_xy, "origin_xy")
         if not (isinstance(floor_z, int | float) and math.isfinite(floor_z)):
@@ -99,20 +131,35 @@ class OccupancyGrid:
     def with_obstacles(self, twin_state: Mapping | Iterable) -> OccupancyGrid:
         """The grid with the objects of ``twin_state`` where the twin saw them (replacing any observed before):
         a moved BIM element leaves its BIM place, a missing one frees it, a new one is added. See
-        ``planning.obstacles`` for what each entry needs (``pose``; ``status``; ``mesh`` for objects the BIM lacks)."""
+        ``planning.obstacles`` for what each entry needs (``pose``; ``status``; ``mesh`` for objects the BIM lacks).
+
+        Args:
+            twin_state: The twin's state ({GlobalId: ElementState}) or its states.
+
+        Returns:
+            A new grid; this one is unchanged.
+        """
         layer = observed_layer(twin_state, self.model, self.z_band, self.frame)
         objects = _reuse(self.objects, layer.footprints)
         return self._changed(overridden=layer.overridden, objects=objects)
 
     def with_zones(self, zones: Iterable[BimZone | KeepOut]) -> OccupancyGrid:
         """The grid with these keep-out zones (replacing any set before): BIM zones tagged off-limits (others are
-        skipped, so ``model.zones`` can go in whole) and ``KeepOut`` areas (``worker_keepouts`` for people)."""
+        skipped, so ``model.zones`` can go in whole) and ``KeepOut`` areas (``worker_keepouts`` for people).
+
+        Args:
+            zones: BIM zones and keep-out areas.
+
+        Returns:
+            A new grid; this one is unchanged.
+        """
         return self._changed(zones=_reuse(self.zones, zone_footprints(zones, self.model, self.z_band, self.frame)))
 
     # ---- reading -----------------------------------------------------------------------------------------------
 
     @property
     def resolution(self) -> float:
+        """Cell edge, metres."""
         return self.frame.resolution
 
     @property
@@ -132,26 +179,57 @@ class OccupancyGrid:
 
     @cached_property
     def cost(self) -> np.ndarray:
-        """pyastar2d's weights: float32, 1 where the robot's centre may go, inf where it may not."""
+        """The path planner's weights.
+
+        Returns:
+            (rows, cols) float32 for pyastar2d: 1 where the robot's centre may go, inf where it may not.
+        """
         return np.where(self.blocked, np.float32(np.inf), np.float32(1.0)).astype(np.float32)
 
     def layer(self, kinds: Iterable[str]) -> np.ndarray:
-        """Bool (rows, cols): cells covered by footprints of these kinds (e.g. ``KEEPOUT_KINDS``)."""
+        """The cells covered by footprints of some kinds.
+
+        Args:
+            kinds: Footprint kinds (e.g. ``KEEPOUT_KINDS``).
+
+        Returns:
+            (rows, cols) bool.
+        """
         kinds = tuple(kinds)
         return self.layer_of([fp for fp in self.footprints if fp.kind in kinds])
 
     def layer_of(self, footprints: Iterable[Footprint]) -> np.ndarray:
-        """Bool (rows, cols): cells covered by these footprints."""
+        """The cells covered by some footprints.
+
+        Args:
+            footprints: The footprints.
+
+        Returns:
+            (rows, cols) bool.
+        """
         return _union(footprints, self.frame.shape)
 
-    def is_free(self, xy) -> bool:
-        """True when the robot's centre may stand at world ``xy``."""
+    def is_free(self, xy: np.ndarray | tuple[float, float]) -> bool:
+        """Whether the robot's centre may stand at a world point.
+
+        Args:
+            xy: World (x, y), metres.
+
+        Returns:
+            True inside the grid and clear of every grown obstacle.
+        """
         cell = self.frame.cell_of(xy)
         return self.frame.contains(cell) and not self.blocked[cell]
 
-    def blockers_at(self, xy) -> list[tuple[Footprint, float]]:
-        """Footprints that block world ``xy``, with their distance from it in metres (0: it is inside), nearest
-        first."""
+    def blockers_at(self, xy: np.ndarray | tuple[float, float]) -> list[tuple[Footprint, float]]:
+        """The footprints that block a world point.
+
+        Args:
+            xy: World (x, y), metres.
+
+        Returns:
+            (footprint, distance from the point in metres; 0 when it is inside), nearest first.
+        """
         cell = np.array(self.frame.cell_of(xy))
         found = []
         margin = int(math.ceil(self.reach))
@@ -166,8 +244,17 @@ class OccupancyGrid:
                 found.append((fp, float(gap) * self.resolution))
         return sorted(found, key=lambda item: item[1])
 
-    def nearest_free(self, xy, max_distance: float = 2.0) -> np.ndarray | None:
-        """The centre of the free cell nearest world ``xy`` within ``max_distance`` m, or None."""
+    def nearest_free(self, xy: np.ndarray | tuple[float, float], max_distance: float = 2.0) -> np.ndarray | None:
+        """The free place nearest a world point.
+
+        Args:
+            xy: World (x, y), metres.
+            max_distance: How far to look, metres.
+
+        Returns:
+            ``xy`` itself when free, else the world (x, y) centre of the nearest free cell within
+                ``max_distance``, or None.
+        """
         if self.is_free(xy):
             return np.asarray(xy, float)
         radius = int(math.ceil(max_distance / self.resolution))
@@ -184,7 +271,18 @@ class OccupancyGrid:
 
     def save_nav2(self, folder: str | Path, name: str = "site") -> dict[str, Path]:
         """Write ``name.pgm`` + ``name.yaml`` (ROS map_server) and, when there are keep-out zones,
-        ``name_keepout.pgm`` + ``.yaml`` (a Nav2 keep-out filter mask). Returns {what: path}."""
+        ``name_keepout.pgm`` + ``.yaml`` (a Nav2 keep-out filter mask).
+
+        Args:
+            folder: The output folder.
+            name: The file stem.
+
+        Returns:
+            {what: path} of the written files.
+
+        Raises:
+            PlanningError: A name that is not a plain file stem, or a folder that cannot be written.
+        """
         from bim2rdt.planning.nav2 import save_nav2
 
         obstacles = self.layer(STRUCTURE_KINDS + ("object",))

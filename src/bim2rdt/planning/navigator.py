@@ -68,17 +68,35 @@ class Navigator:
         self.grid = self._current_grid()
 
     def observe(self, twin_state: Mapping | Iterable) -> None:
-        """The objects seen so far (the twin's state, see ``OccupancyGrid.with_obstacles``)."""
+        """Take the objects seen so far into the map.
+
+        Args:
+            twin_state: The twin's state (see ``OccupancyGrid.with_obstacles``).
+        """
         self._observed = twin_state
         self.grid = self._current_grid()
 
     def changes_within(self, seconds: float) -> list[float]:
-        """The times the keep-out zones change in the next ``seconds``."""
+        """The times the keep-out zones change soon.
+
+        Args:
+            seconds: How far ahead to look, seconds.
+
+        Returns:
+            The change times (seconds, on the navigator's clock) within that window, earliest first.
+        """
         return sorted(t for t in self.zone_changes if self.time < t <= self.time + seconds)
 
     def wait(self, seconds: float) -> None:
         """Stand still (capturing at a station); a zone that switches on around the robot meanwhile makes it
-        step out at once."""
+        step out at once.
+
+        Args:
+            seconds: How long to stand, seconds.
+
+        Raises:
+            PlanningError: A zone switched on around the robot and no free place is in reach.
+        """
         end = self.time + float(seconds)
         change = self._next_change()
         while change is not None and change <= end:
@@ -89,10 +107,19 @@ class Navigator:
             change = self._next_change()
         self.time = max(self.time, end)
 
-    def go(self, goal_xy, path: np.ndarray | None = None) -> np.ndarray:
-        """Walk to ``goal_xy`` along ``path`` (planned now if None), replanning as the world changes; returns the
-        path walked (``legs`` and ``replans`` log it). PlanningError when no path leads there now (the robot stays
-        where it got to)."""
+    def go(self, goal_xy: np.ndarray | tuple[float, float], path: np.ndarray | None = None) -> np.ndarray:
+        """Walk to a goal, replanning as the world changes (``legs`` and ``replans`` log it).
+
+        Args:
+            goal_xy: World (x, y) of the goal, metres.
+            path: (N,2) world waypoints to follow, metres; None plans one now.
+
+        Returns:
+            (M,2) the path walked, world metres.
+
+        Raises:
+            PlanningError: No path leads there now (the robot stays where it got to).
+        """
         self._catch_up()
         goal = np.asarray(goal_xy, float)
         walked = [self.position.copy()]

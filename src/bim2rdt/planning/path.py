@@ -17,8 +17,22 @@ from bim2rdt.planning.grid import OccupancyGrid
 from bim2rdt.planning.smoothing import smooth
 
 
-def plan_path(grid: OccupancyGrid, start_xy, goal_xy) -> np.ndarray:
-    """Waypoints (N, 2) in world metres from ``start_xy`` to ``goal_xy`` (N >= 2), every leg in free space."""
+def plan_path(grid: OccupancyGrid, start_xy: np.ndarray | tuple[float, float],
+              goal_xy: np.ndarray | tuple[float, float]) -> np.ndarray:
+    """Plan a path for the robot's centre: A* on the grid (8-connected), then smoothed to straight legs.
+
+    Args:
+        grid: The occupancy grid, obstacles grown by the robot's radius.
+        start_xy: World (x, y) of the start, metres.
+        goal_xy: World (x, y) of the goal, metres.
+
+    Returns:
+        (N,2) waypoints in world metres (N >= 2), from start to goal exactly, every leg in free space.
+
+    Raises:
+        PlanningError: A start or goal that is not a finite point or is blocked, or no path between them; the
+            message names what blocks.
+    """
     start_xy, goal_xy = _point(start_xy, "start"), _point(goal_xy, "goal")
     start_cell, goal_cell = _free_cell(grid, start_xy, "start"), _free_cell(grid, goal_xy, "goal")
     cells = _astar(grid, start_cell, goal_cell)
@@ -32,7 +46,14 @@ def plan_path(grid: OccupancyGrid, start_xy, goal_xy) -> np.ndarray:
 
 
 def path_length(path: np.ndarray) -> float:
-    """Length of a path (N, 2) in metres."""
+    """The length of a path.
+
+    Args:
+        path: (N,2) waypoints, metres.
+
+    Returns:
+        The sum of its legs, metres.
+    """
     return float(np.sum(np.linalg.norm(np.diff(np.asarray(path, float), axis=0), axis=1)))
 
 

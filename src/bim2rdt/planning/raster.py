@@ -51,7 +51,14 @@ class Footprint:
         return f"{self.name} ({what})"
 
     def placed(self, frame: GridFrame) -> Footprint | None:
-        """This footprint cut to the grid (None if nothing of it is inside or it is empty)."""
+        """This footprint cut to a grid.
+
+        Args:
+            frame: The grid's frame.
+
+        Returns:
+            The part inside the grid, or None if nothing of it is inside or it is empty.
+        """
         rows, cols = frame.shape
         r0, c0 = max(self.row0, 0), max(self.col0, 0)
         r1, c1 = min(self.row0 + self.mask.shape[0], rows), min(self.col0 + self.mask.shape[1], cols)

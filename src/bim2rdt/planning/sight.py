@@ -24,16 +24,36 @@ TARGET_MARGIN = 0.3
 
 
 def occluders(grid: OccupancyGrid, ignore: Iterable[str] = ()) -> np.ndarray:
-    """Bool (rows, cols): cells of the BIM structure that block a camera's view (less elements ``ignore``d)."""
+    """The cells of the BIM structure that block a camera's view (walls, columns, doors; not site objects).
+
+    Args:
+        grid: The occupancy grid.
+        ignore: GlobalIds of elements that do not count (the target itself).
+
+    Returns:
+        (rows, cols) bool.
+    """
     ignored = set(ignore)
     return grid.layer_of([fp for fp in grid.footprints if fp.kind in ("element", "door")
                           and fp.ifc_class not in SITE_OBJECT_CLASSES and fp.global_id not in ignored])
 
 
-def line_of_sight(grid: OccupancyGrid, eye_xy, target_xy, ignore: Iterable[str] = (),
+def line_of_sight(grid: OccupancyGrid, eye_xy: np.ndarray | tuple[float, float],
+                  target_xy: np.ndarray | tuple[float, float], ignore: Iterable[str] = (),
                   blocking: np.ndarray | None = None) -> bool:
-    """True when no occluder stands between ``eye_xy`` and ``target_xy`` (world metres). ``blocking`` is a
-    precomputed ``occluders(grid, ignore)`` for many checks."""
+    """Whether a camera at one point sees another across the floor plan. The last ``TARGET_MARGIN`` metres
+    before the target are not checked (its own body, a wall it leans on).
+
+    Args:
+        grid: The occupancy grid.
+        eye_xy: World (x, y) of the camera, metres.
+        target_xy: World (x, y) of the target, metres.
+        ignore: GlobalIds of elements that do not count as occluders.
+        blocking: A precomputed ``occluders(grid, ignore)``, for many checks; None computes it.
+
+    Returns:
+        True when no occluder stands between them and both lie inside the grid.
+    """
     eye, target = np.asarray(eye_xy, float), np.asarray(target_xy, float)
     distance = float(np.linalg.norm(target - eye))
     if distance <= TARGET_MARGIN:
@@ -47,8 +67,16 @@ def line_of_sight(grid: OccupancyGrid, eye_xy, target_xy, ignore: Iterable[str] 
 
 
 def first_blocked_leg(grid: OccupancyGrid, path: np.ndarray) -> int | None:
-    """Index of the first leg of ``path`` (N, 2) that crosses a blocked cell of ``grid``, or None: after the
-    grid changed (a new object, a worker's zone), is the path the robot is on still good?"""
+    """The first leg of a path that crosses a blocked cell: after the grid changed (a new object, a worker's
+    zone), is the path the robot is on still good?
+
+    Args:
+        grid: The occupancy grid now.
+        path: (N,2) world waypoints, metres.
+
+    Returns:
+        The index of the first blocked leg (or one leaving the grid), or None when the path is clear.
+    """
     cells = grid.frame.to_cells(np.asarray(path, float))[:, ::-1]
     rows, cols = grid.frame.shape
     for leg, (a, b) in enumerate(zip(cells[:-1], cells[1:])):

@@ -32,8 +32,19 @@ class Tour:
         return sum(path_length(leg) for leg in self.legs)
 
 
-def plan_tour(grid: OccupancyGrid, start_xy, goals_xy) -> Tour:
-    """Order ``goals_xy`` (K, 2) for a tour from ``start_xy`` by planned path length."""
+def plan_tour(grid: OccupancyGrid, start_xy: np.ndarray | tuple[float, float], goals_xy: np.ndarray) -> Tour:
+    """Order goals for a tour from a start by planned path length (nearest first, then 2-opt and relocation
+    until no move shortens it), with the planned path of every leg.
+
+    Args:
+        grid: The occupancy grid.
+        start_xy: World (x, y) of the start, metres.
+        goals_xy: (K,2) world goals, metres.
+
+    Returns:
+        The tour: the goals' order (indices into ``goals_xy``), one (N,2) path per leg, and {goal index: reason}
+            for the goals the start cannot reach.
+    """
     points = np.vstack([np.asarray(start_xy, float).reshape(1, 2), np.asarray(goals_xy, float).reshape(-1, 2)])
     paths, unreachable = _pair_paths(grid, points)
     reachable = [k for k in range(1, len(points)) if (0, k) in paths]

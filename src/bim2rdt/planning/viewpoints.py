@@ -19,8 +19,16 @@ from bim2rdt.planning.sight import line_of_sight, occluders
 _EIGHT = np.ones((3, 3), bool)
 
 
-def reachable(grid: OccupancyGrid, start_xy) -> np.ndarray:
-    """Bool (rows, cols): the free cells the robot can reach from ``start_xy`` (all False if it stands blocked)."""
+def reachable(grid: OccupancyGrid, start_xy: np.ndarray | tuple[float, float]) -> np.ndarray:
+    """The free cells the robot can reach from a start.
+
+    Args:
+        grid: The occupancy grid.
+        start_xy: World (x, y) of the robot, metres.
+
+    Returns:
+        (rows, cols) bool; all False if the start is blocked or outside the grid.
+    """
     cell = grid.frame.cell_of(start_xy)
     if not grid.frame.contains(cell) or grid.blocked[cell]:
         return np.zeros(grid.frame.shape, bool)
@@ -28,11 +36,20 @@ def reachable(grid: OccupancyGrid, start_xy) -> np.ndarray:
     return labels == labels[cell]
 
 
-def pick_viewpoint(grid: OccupancyGrid, target_xy, candidates_xy: Sequence, region: np.ndarray,
-                   ignore: Iterable[str] = ()) -> int | None:
-    """Index of the first candidate (x, y) inside the reachable ``region`` (see ``reachable``) with a line of
-    sight to ``target_xy``; None if there is none. ``ignore``: the target's own GlobalIds (a column looked at
-    does not hide itself)."""
+def pick_viewpoint(grid: OccupancyGrid, target_xy: np.ndarray | tuple[float, float], candidates_xy: Sequence,
+                   region: np.ndarray, ignore: Iterable[str] = ()) -> int | None:
+    """The first candidate viewpoint the robot can reach that sees the target.
+
+    Args:
+        grid: The occupancy grid.
+        target_xy: World (x, y) of the target, metres.
+        candidates_xy: World (x, y) candidates, metres, in order of preference.
+        region: (rows, cols) bool, the reachable cells (see ``reachable``).
+        ignore: The target's own GlobalIds (a column looked at does not hide itself).
+
+    Returns:
+        The index of the first candidate inside ``region`` with a line of sight to the target, or None.
+    """
     blocking = occluders(grid, ignore)
     for index, xy in enumerate(candidates_xy):
         cell = grid.frame.cell_of(xy)

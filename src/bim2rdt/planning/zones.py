@@ -41,13 +41,41 @@ class KeepOut:
     kind: str = "zone"
 
     @classmethod
-    def circle(cls, name: str, centre_xy, radius: float, kind: str = "zone") -> KeepOut:
+    def circle(cls, name: str, centre_xy: tuple[float, float] | np.ndarray, radius: float,
+               kind: str = "zone") -> KeepOut:
+        """A circular keep-out area.
+
+        Args:
+            name: How reports name it.
+            centre_xy: World (x, y) of the centre, metres.
+            radius: Metres.
+            kind: ``zone`` or ``person``.
+
+        Returns:
+            The area.
+
+        Raises:
+            PlanningError: The radius is not positive.
+        """
         if not radius > 0:
             raise PlanningError(f"keep-out {name!r}: radius must be > 0 m (got {radius})")
         return cls(name, centre_xy=(float(centre_xy[0]), float(centre_xy[1])), radius=float(radius), kind=kind)
 
     @classmethod
-    def polygon(cls, name: str, polygon_xy, kind: str = "zone") -> KeepOut:
+    def polygon(cls, name: str, polygon_xy: np.ndarray | list[tuple[float, float]], kind: str = "zone") -> KeepOut:
+        """A polygonal keep-out area.
+
+        Args:
+            name: How reports name it.
+            polygon_xy: (K,2) world (x, y) corners, metres, K >= 3.
+            kind: ``zone`` or ``person``.
+
+        Returns:
+            The area.
+
+        Raises:
+            PlanningError: Fewer than 3 corners.
+        """
         points = np.asarray(polygon_xy, float).reshape(-1, 2)
         if len(points) < 3:
             raise PlanningError(f"keep-out {name!r}: a polygon needs at least 3 corners (got {len(points)})")
@@ -56,7 +84,19 @@ class KeepOut:
 
 def worker_keepouts(workers: Iterable[tuple[str, tuple[float, float], bool]], radius: float = WORKER_RADIUS,
                     live_radius: float = WORKER_LIVE_RADIUS) -> list[KeepOut]:
-    """A circle per worker ``(name, (x, y) metres, live)``: ``live_radius`` while their tool runs, else ``radius``."""
+    """A keep-out circle per worker, larger while their tool runs.
+
+    Args:
+        workers: ``(name, (x, y) world metres, live)`` per worker.
+        radius: Metres, while the worker's tool is idle.
+        live_radius: Metres, while it runs.
+
+    Returns:
+        One ``person`` circle per worker.
+
+    Raises:
+        PlanningError: A radius that is not positive.
+    """
     return [KeepOut.circle(name, xy, live_radius if live else radius, kind="person") for name, xy, live in workers]
 
 
@@ -108,7 +148,14 @@ def _bim_zone_cells(zone: BimZone, model: BimModel | None, z_band: tuple[float, 
 
 def activity_windows(events: Iterable) -> dict[str, list[tuple[float, float]]]:
     """{device: [(start, end) s]} of live tool use, from the HAV monitor's events (read duck-typed: ``kind``,
-    ``time``, ``source`` = the wearable's device id). An activity not yet ended runs to infinity."""
+    ``time``, ``source`` = the wearable's device id). An activity not yet ended runs to infinity.
+
+    Args:
+        events: The monitor's events (``hav.activity_started`` and ``hav.activity_ended`` are read; others skipped).
+
+    Returns:
+        {device: [(start, end)]}, UTC seconds.
+    """
     windows: dict[str, list[tuple[float, float]]] = {}
     open_since: dict[str, float] = {}
     for event in sorted(events, key=lambda e: e.time):
@@ -137,9 +184,19 @@ class WorkerZones:
                                self.radius, self.live_radius)
 
     def live(self, device: str, time: float) -> bool:
+        """Whether a worker's tool runs at a time.
+
+        Args:
+            device: The wearable's device id.
+            time: UTC seconds.
+
+        Returns:
+            True inside one of the device's activity windows.
+        """
         return any(start <= time < end for start, end in self.windows.get(device, ()))
 
     @property
     def changes(self) -> list[float]:
+        """The times (UTC seconds) the zones change: every finite window start and end, earliest first."""
         return sorted({t for device in self.spots for window in self.windows.get(device, ()) for t in window
                        if np.isfinite(t)})

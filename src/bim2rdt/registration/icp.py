@@ -89,16 +89,34 @@ class _Restarts:
                          self.pruned[group])
 
 
-def register(model_points, model_normals, scene_points, init=np.eye(4), up=(0.0, 0.0, 1.0),
+def register(model_points: np.ndarray, model_normals: np.ndarray, scene_points: np.ndarray,
+             init: np.ndarray = np.eye(4), up: np.ndarray | tuple[float, float, float] = (0.0, 0.0, 1.0),
              upright_bias: float = 0.0, yaw_only: bool = False, config: IcpConfig | None = None,
              support_height: float | None = None) -> RegistrationResult:
     """Align a model (body-frame surface samples with normals, upright along +z) to scene points (world frame).
 
-    ``init`` is the initial T_world_model; ``up`` the measured world up (against gravity); ``upright_bias`` in
-    [0, 1] the family's prior of standing upright (0 = plain ICP); ``yaw_only`` keeps roll and pitch of ``init``;
-    ``support_height`` (m along ``up``), when given, is the slab the object rests on, and its lowest point is
-    pulled onto it (gravity's other half: a body at rest touches its support).
-    Raises :class:`RegistrationError` on bad input.
+    SG-ICP: yaw restarts and hops around the best, with the gravity prior pulling the model's up axis onto the
+    measured ``up`` in proportion to ``upright_bias`` (0 = plain point-to-plane ICP).
+
+    Args:
+        model_points: (N,3) surface samples of the model in its body frame, metres (see :func:`sample_model`).
+        model_normals: (N,3) unit outward normals of those samples, body frame.
+        scene_points: (M,3) observed points in the world frame (z-up), metres.
+        init: The initial pose ``T_world_model``, 4x4 model-to-world, metres.
+        up: The measured world up (against gravity), a unit 3-vector in the world frame.
+        upright_bias: The family's prior of standing upright, in [0, 1].
+        yaw_only: Keep the roll and pitch of ``init`` and fit yaw and position only.
+        config: The search's settings; None uses :class:`IcpConfig`'s defaults.
+        support_height: Height (metres along ``up``) of the slab the object rests on; its lowest point is pulled
+            onto it (a body at rest touches its support). None leaves height free.
+
+    Returns:
+        The fit: ``pose`` (``T_world_model``, 4x4), ``fitness`` (0-1), ``rmse`` (metres), the ``score`` that
+            chose the restart and the pose ``uncertainty``.
+
+    Raises:
+        RegistrationError: Bad input (shapes, non-finite values, too few points, a non-rigid ``init``, an
+            ``upright_bias`` outside [0, 1]).
     """
     cfg = config or IcpConfig()
     problem = validate_problem(model_points, model_normals, scene_points, init, up, upright_bias, support_height)

@@ -21,8 +21,20 @@ class HausdorffStats:
     max: float
 
 
-def hausdorff(points_a, points_b) -> HausdorffStats:
-    """Symmetric nearest-distance statistics of two (N, 3) point sets."""
+def hausdorff(points_a: np.ndarray, points_b: np.ndarray) -> HausdorffStats:
+    """Symmetric nearest-distance statistics of two point sets in the same frame.
+
+    Args:
+        points_a: (N,3) points, metres.
+        points_b: (M,3) points, metres.
+
+    Returns:
+        RMSE, mean and maximum (the symmetric Hausdorff distance) of the pooled A-to-B and B-to-A nearest
+            distances, metres.
+
+    Raises:
+        RegistrationError: A set is not (N,3) with N >= 1, or holds NaN or infinite values.
+    """
     a, b = _cloud("points_a", points_a), _cloud("points_b", points_b)
     d_ab, _ = cKDTree(b).query(a)
     d_ba, _ = cKDTree(a).query(b)

@@ -18,7 +18,20 @@ def sample_model(mesh: trimesh.Trimesh, count: int = 2000, seed: int = 0,
 
     With ``drop_resting_face`` the face an upright object stands on (facing down, at its lowest z) is left out:
     no camera sees it, and its samples would fit the ground around the object perfectly at any yaw and any
-    position in the plane, pulling a flat object (a pallet) off its true pose."""
+    position in the plane, pulling a flat object (a pallet) off its true pose.
+
+    Args:
+        mesh: The element's mesh in its body frame, metres, upright along +z.
+        count: Number of samples.
+        seed: Seed of the sampler (the same seed gives the same samples).
+        drop_resting_face: Leave out the downward face at the mesh's lowest z.
+
+    Returns:
+        ((count,3) points in the body frame, metres; (count,3) unit outward face normals).
+
+    Raises:
+        RegistrationError: ``count`` is below what :func:`register` needs, or the mesh is empty.
+    """
     if count < MIN_SCENE_POINTS:
         raise RegistrationError(f"count must be >= {MIN_SCENE_POINTS}, got {count}: register needs that many")
     if mesh.is_empty or mesh.area <= 0.0:

@@ -46,15 +46,29 @@ class PoseUncertainty:
         return len(self.unobservable) == 0
 
     def translation_directions(self, least: float = 0.5) -> np.ndarray:
-        """(k, 3) world unit vectors along which the position is unconstrained: the translation part of each
-        unobservable direction that is mostly translation (at least ``least`` of its length)."""
+        """World directions along which the position is unconstrained.
+
+        Args:
+            least: The share of an unobservable direction's length that must be translation for it to count.
+
+        Returns:
+            (k,3) unit vectors in the world frame: the translation part of each unobservable direction that is
+                mostly translation.
+        """
         parts = self.unobservable[:, 3:]
         norms = np.linalg.norm(parts, axis=1)
         keep = norms >= least
         return parts[keep] / norms[keep, None]
 
     def rotation_axes(self, least: float = 0.5) -> np.ndarray:
-        """(k, 3) world unit axes about which the orientation is unconstrained (rotation-dominated directions)."""
+        """World axes about which the orientation is unconstrained.
+
+        Args:
+            least: The share of an unobservable direction's length that must be rotation for it to count.
+
+        Returns:
+            (k,3) unit axes in the world frame, one per rotation-dominated unobservable direction.
+        """
         parts = self.unobservable[:, :3]
         norms = np.linalg.norm(parts, axis=1)
         keep = norms >= least

@@ -91,8 +91,10 @@ class MonitorConfig(BaseModel):
 
     @property
     def trigger(self) -> Trigger:
+        """The activity trigger's thresholds (m/s^2), stop hold and prediction period (seconds)."""
         return Trigger(self.start_threshold, self.stop_threshold, self.stop_hold_s, self.predict_every_s)
 
     @property
     def artefacts(self) -> ArtefactLimits:
+        """The limits that flag a signal as an artefact: saturation ratio, crest factor, shock peak."""
         return ArtefactLimits(self.saturation_ratio, self.crest_limit, self.shock_min_peak)

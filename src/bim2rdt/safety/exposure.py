@@ -27,29 +27,81 @@ ELV_POINTS = 400.0
 
 
 def a_hv(a_hwx: float, a_hwy: float, a_hwz: float) -> float:
-    """Vibration total value (m/s^2) from the three weighted axis r.m.s. values (m/s^2)."""
+    """The vibration total value (ISO 5349-1): the root sum of squares of the three axes.
+
+    Args:
+        a_hwx: Frequency-weighted r.m.s. acceleration along x, m/s^2.
+        a_hwy: Frequency-weighted r.m.s. acceleration along y, m/s^2.
+        a_hwz: Frequency-weighted r.m.s. acceleration along z, m/s^2.
+
+    Returns:
+        a_hv, m/s^2.
+    """
     return float(np.sqrt(a_hwx**2 + a_hwy**2 + a_hwz**2))
 
 
 def daily_exposure(a_hv_ms2: float, seconds: float) -> float:
-    """A(8) in m/s^2 of ``seconds`` of exposure at vibration total value ``a_hv_ms2``."""
+    """The daily exposure A(8) of one tool: a_hv sqrt(T / 8 h).
+
+    Args:
+        a_hv_ms2: Vibration total value, m/s^2.
+        seconds: Exposure time, seconds.
+
+    Returns:
+        A(8), m/s^2.
+
+    Raises:
+        HavError: A negative or non-finite value.
+    """
     _check_exposure(a_hv_ms2, seconds)
     return float(a_hv_ms2 * np.sqrt(seconds / T0_S))
 
 
 def combine_exposures(exposures: Iterable[tuple[float, float]]) -> float:
-    """A(8) of a day with several tools, each given as (a_hv m/s^2, seconds): sqrt(sum A_i(8)^2)."""
+    """The daily exposure A(8) of a day with several tools: sqrt(sum A_i(8)^2).
+
+    Args:
+        exposures: (a_hv in m/s^2, seconds) per tool.
+
+    Returns:
+        A(8), m/s^2.
+
+    Raises:
+        HavError: A negative or non-finite value.
+    """
     return float(np.sqrt(sum(daily_exposure(a, t) ** 2 for a, t in exposures)))
 
 
 def exposure_points(a_hv_ms2: float, seconds: float) -> float:
-    """HSE exposure points: 2 a_hv^2 T_hours; 100 points is the EAV, 400 the ELV."""
+    """HSE exposure points: 2 a_hv^2 T_hours; 100 points is the EAV, 400 the ELV.
+
+    Args:
+        a_hv_ms2: Vibration total value, m/s^2.
+        seconds: Exposure time, seconds.
+
+    Returns:
+        The points.
+
+    Raises:
+        HavError: A negative or non-finite value.
+    """
     _check_exposure(a_hv_ms2, seconds)
     return float(POINTS_PER_HOUR_PER_MS2_SQUARED * a_hv_ms2**2 * seconds / 3600.0)
 
 
 def time_to_limit(a_hv_ms2: float, limit: float = EAV) -> float:
-    """Seconds of exposure at ``a_hv_ms2`` until A(8) reaches ``limit``: 8 h (limit / a_hv)^2; inf at a_hv 0."""
+    """How long a tool may run until A(8) reaches a limit: 8 h (limit / a_hv)^2.
+
+    Args:
+        a_hv_ms2: Vibration total value, m/s^2.
+        limit: The A(8) to reach, m/s^2 (the EAV by default).
+
+    Returns:
+        Seconds; inf at a_hv 0.
+
+    Raises:
+        HavError: A negative or non-finite a_hv.
+    """
     _check_exposure(a_hv_ms2, 0.0)
     if a_hv_ms2 == 0:
         return float("inf")

@@ -40,7 +40,21 @@ class MountingCorrection:
     @classmethod
     def fit(cls, reference: np.ndarray, wearable: np.ndarray, fs: float, subject: str,
             position: str) -> MountingCorrection:
-        """Fit from simultaneous recordings ``reference`` and ``wearable`` (n, 3) m/s^2 at ``fs`` Hz."""
+        """Fit the band gains from simultaneous recordings of a reference sensor and the wearable.
+
+        Args:
+            reference: (n,3) reference accelerations, m/s^2.
+            wearable: (n,3) wearable accelerations over the same time, m/s^2.
+            fs: Sampling rate of both, Hz.
+            subject: Whose hand the recordings are of.
+            position: Where the wearable sat.
+
+        Returns:
+            The correction: one gain per one-third-octave band with vibration in both.
+
+        Raises:
+            HavError: Recordings not both (n,3), with NaN or infinite samples, or sharing too little vibration.
+        """
         ref, wear = _paired(reference, wearable)
         nperseg = 2 ** int(round(np.log2(0.8 * fs)))  # about 1.2 Hz resolution at any rate
         freqs, p_ref = scipy.signal.welch(ref, fs, nperseg=nperseg, axis=0)
@@ -55,25 +69,54 @@ class MountingCorrection:
         return cls(subject, position, tuple(band_centre_hz(bands[usable]).tolist()), tuple(gain.tolist()))
 
     def gain_at(self, freq_hz: np.ndarray) -> np.ndarray:
-        """G(f), interpolated in log-frequency; held constant beyond the fitted bands."""
+        """The gain at some frequencies, interpolated in log-frequency; constant beyond the fitted bands.
+
+        Args:
+            freq_hz: Frequencies, Hz.
+
+        Returns:
+            G(f), reference over wearable amplitude, same shape as ``freq_hz``.
+        """
         f = np.maximum(np.asarray(freq_hz, dtype=float), 1e-3)
         return np.interp(np.log10(f), np.log10(self.band_hz), self.gain)
 
     def fir(self, fs: float, taps: int = FIR_TAPS) -> np.ndarray:
-        """A linear-phase FIR whose gain follows G(f) up to fs/2 (frequency sampling, ``firwin2``)."""
+        """A linear-phase FIR filter whose gain follows G(f) up to fs/2 (frequency sampling, ``firwin2``).
+
+        Args:
+            fs: Sampling rate of the signal it will filter, Hz.
+            taps: Filter length.
+
+        Returns:
+            (taps,) filter coefficients.
+        """
         freqs = np.linspace(0.0, fs / 2.0, 1025)
         return scipy.signal.firwin2(taps, freqs, self.gain_at(freqs), fs=fs)
 
     @property
     def key(self) -> tuple[str, str]:
+        """(subject, position): what a correction is looked up by."""
         return (self.subject, self.position)
 
     def to_json(self) -> str:
+        """The correction as JSON.
+
+        Returns:
+            A JSON object of subject, position, band_hz and gain.
+        """
         return json.dumps({"subject": self.subject, "position": self.position, "band_hz": self.band_hz,
                            "gain": self.gain})
 
     @classmethod
     def from_json(cls, text: str) -> MountingCorrection:
+        """A correction from its JSON (``to_json``'s output).
+
+        Args:
+            text: The JSON object.
+
+        Returns:
+            The correction.
+        """
         data = json.loads(text)
         return cls(data["subject"], data["position"], tuple(data["band_hz"]), tuple(data["gain"]))
 

@@ -26,17 +26,33 @@ identity_table = sa.Table("identity", _metadata, sa.Column("pseudonym", sa.Text,
 
 
 def pseudonym(worker_id: str, secret: str) -> str:
-    """The worker's pseudonym on this site: 'w-' + 16 hex digits of HMAC-SHA256(secret, worker id)."""
+    """The worker's pseudonym on this site: a keyed hash, so the monitor's records name no one.
+
+    Args:
+        worker_id: The worker's real id.
+        secret: The site's key (``hav.site_secret``).
+
+    Returns:
+        'w-' + 16 hex digits of HMAC-SHA256(secret, worker id).
+
+    Raises:
+        HavError: An empty worker id.
+    """
     if not worker_id:
         raise HavError("worker id must not be empty")
     return "w-" + hmac.new(secret.encode(), worker_id.encode(), hashlib.sha256).hexdigest()[:16]
 
 
 class IdentityMap:
-    """The pseudonym -> worker id map, readable only by the safety role."""
+    """The pseudonym -> worker id map, readable only by the safety role. Its file and folder are private to the
+    user (0600, 0700).
+
+    Args:
+        path: The SQLite file; None keeps the map in memory (a throw-away monitor, e.g. analysing a file).
+        role: The reader's role; only ``safety`` may read real names.
+    """
 
     def __init__(self, path: Path | None, role: str):
-        """``path`` None keeps the map in memory (a throw-away monitor, e.g. analysing a file)."""
         self.path, self.role = (Path(path) if path is not None else None), role
         if self.path is not None:
             self.path.parent.mkdir(parents=True, exist_ok=True)
@@ -50,13 +66,28 @@ class IdentityMap:
             os.chmod(self.path, 0o600)
 
     def remember(self, pseudonym_: str, worker_id: str) -> None:
-        """Record who is behind a pseudonym (any role may add; the monitor does when a session starts)."""
+        """Record who is behind a pseudonym (any role may add; the monitor does when a session starts).
+
+        Args:
+            pseudonym_: The pseudonym.
+            worker_id: The worker's real id.
+        """
         insert = sa.dialects.sqlite.insert(identity_table).values(pseudonym=pseudonym_, worker=worker_id)
         with self._engine.begin() as conn:
             conn.execute(insert.on_conflict_do_update(index_elements=["pseudonym"], set_={"worker": worker_id}))
 
     def real_name(self, pseudonym_: str) -> str | None:
-        """The worker id behind ``pseudonym_``: safety role only (AccessDenied otherwise)."""
+        """The worker id behind a pseudonym.
+
+        Args:
+            pseudonym_: The pseudonym.
+
+        Returns:
+            The worker's real id, or None when the map does not hold the pseudonym.
+
+        Raises:
+            AccessDenied: The map was opened by a role other than ``safety``.
+        """
         if self.role != SAFETY_ROLE:
             raise AccessDenied(f"role {self.role!r} may not read the identity map (only {SAFETY_ROLE!r})")
         with self._engine.connect() as conn:
@@ -64,4 +95,5 @@ class IdentityMap:
                                 ).scalar()
 
     def close(self) -> None:
+        """Close the map's database connections."""
         self._engine.dispose()

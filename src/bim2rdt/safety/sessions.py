@@ -31,6 +31,7 @@ class Session:
 
     @property
     def estimate(self) -> bool:
+        """True when the wearable is not at an ISO 5349 position: its figures are estimates."""
         return self.position not in ISO_POSITIONS
 
 

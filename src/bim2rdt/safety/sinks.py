@@ -11,14 +11,25 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable, Iterable, Sequence
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
 from bim2rdt.bus.event import Event
 from bim2rdt.bus.topics import events_topic
 
+if TYPE_CHECKING:
+    from bim2rdt.bus import LocalBus, MqttBus
+
 
 class EventSink(Protocol):
-    def emit(self, event: Event) -> None: ...
+    """Where the monitor's events go: anything with ``emit(event)`` (and optionally ``emit_many(events)``)."""
+
+    def emit(self, event: Event) -> None:
+        """Take one event.
+
+        Args:
+            event: A monitor event.
+        """
+        ...
 
 
 def emit_all(sinks: Iterable[EventSink], events: Sequence[Event]) -> None:
@@ -56,27 +67,56 @@ class ListSink:
         self.events: list[Event] = []
 
     def emit(self, event: Event) -> None:
+        """Keep one event.
+
+        Args:
+            event: A monitor event.
+        """
         self.events.append(event)
 
     def kinds(self) -> list[str]:
+        """The kinds of the kept events.
+
+        Returns:
+            Their kinds, in order.
+        """
         return [e.kind for e in self.events]
 
 
 class CallbackSink:
-    """Calls ``callback(event)`` for each event."""
+    """Calls ``callback(event)`` for each event.
+
+    Args:
+        callback: Called with each event.
+    """
 
     def __init__(self, callback: Callable[[Event], None]):
         self.callback = callback
 
     def emit(self, event: Event) -> None:
+        """Hand one event to the callback.
+
+        Args:
+            event: A monitor event.
+        """
         self.callback(event)
 
 
 class BusSink:
-    """Publishes each event as JSON, QoS 1, on the site's safety topic of a LocalBus or MqttBus."""
+    """Publishes each event as JSON, QoS 1, on the site's safety topic of a LocalBus or MqttBus.
 
-    def __init__(self, bus, site: str):
+    Args:
+        bus: The site event bus.
+        site: The site id of the topic ``site/{site}/safety/events``.
+    """
+
+    def __init__(self, bus: LocalBus | MqttBus, site: str):
         self.bus, self.topic = bus, events_topic(site)
 
     def emit(self, event: Event) -> None:
+        """Publish one event.
+
+        Args:
+            event: A monitor event.
+        """
         self.bus.publish(self.topic, event.to_json(), qos=1)

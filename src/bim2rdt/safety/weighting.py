@@ -48,7 +48,14 @@ def wh_response(freq_hz: np.ndarray | float) -> np.ndarray:
 
 
 def wh_weighting_factor(freq_hz: np.ndarray | float) -> np.ndarray | float:
-    """|Wh| at ``freq_hz`` (Hz): 0.2020 at 79.577 Hz (500 rad/s), 0.8766 at exactly 8 Hz."""
+    """The ISO 5349-1 hand-arm weighting's magnitude: 0.2020 at 79.577 Hz (500 rad/s), 0.8766 at exactly 8 Hz.
+
+    Args:
+        freq_hz: Frequency or frequencies, Hz.
+
+    Returns:
+        |Wh(f)|, a float for a scalar frequency, else an array of the same shape.
+    """
     factor = np.abs(wh_response(freq_hz))
     return float(factor) if np.ndim(factor) == 0 else factor
 
@@ -69,7 +76,18 @@ class BandCoverage:
 
 
 def covered_band(fs: float) -> BandCoverage:
-    """Bands whose upper edge 10^((n+0.5)/10) Hz lies below Nyquist: 800 Hz sampling covers 8 to 316 Hz."""
+    """The one-third-octave bands a sampling rate resolves: those whose upper edge 10^((n+0.5)/10) Hz lies
+    below Nyquist (800 Hz sampling covers 8 to 316 Hz).
+
+    Args:
+        fs: Sampling rate, Hz.
+
+    Returns:
+        The lowest and highest band centre covered (Hz; NaN when none) and whether 8 to 1000 Hz is complete.
+
+    Raises:
+        HavError: A rate that is not a positive number.
+    """
     _check_rate(fs)
     bands = np.arange(NOMINAL_BANDS[0], NOMINAL_BANDS[1] + 1)
     upper_edges = band_centre_hz(bands + 0.5)
@@ -93,6 +111,16 @@ def weighted_rms(accel: np.ndarray, fs: float) -> float:
     The mean (gravity, sensor offset) is removed first (Wh is 0 at DC), the signal is zero-padded by
     :data:`SETTLE_S` and the weighted energy is summed over the rfft grid (Parseval): the energy of the linearly
     filtered signal, divided by the sampled duration.
+
+    Args:
+        accel: (n,) acceleration along one axis, m/s^2.
+        fs: Sampling rate, Hz.
+
+    Returns:
+        The Wh-weighted r.m.s. acceleration, m/s^2.
+
+    Raises:
+        HavError: A signal that is not 1-D with at least 2 samples, or a bad rate.
     """
     x = _as_signal(accel, fs)
     n_fft = scipy.fft.next_fast_len(x.size + int(np.ceil(SETTLE_S * fs)), real=True)

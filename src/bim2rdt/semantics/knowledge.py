@@ -70,7 +70,17 @@ class Match:
 
 
 def load_table(path: Path | None = None) -> KnowledgeTable:
-    """The curated table shipped with the package, or a user table in the same JSON format."""
+    """Load the knowledge-base table of upright priors.
+
+    Args:
+        path: A user table in the same JSON format; None loads the curated table shipped with the package.
+
+    Returns:
+        The validated table.
+
+    Raises:
+        SemanticsError: The file cannot be read, is not JSON, or does not validate; one line saying where.
+    """
     try:
         if path is None:
             text = resources.files("bim2rdt.semantics").joinpath("knowledge_base.json").read_text("utf-8")
@@ -104,7 +114,12 @@ def _rank(phrase: tuple[str, ...], tokens: Sequence[Token]) -> tuple[int, int, i
 class KnowledgeBasePriors:
     """Upright priors from the curated table; unknown families get the default bias and ``known=False``.
 
-    Deterministic and offline: the default provider, and the fallback of :class:`LlmPriors`."""
+    Deterministic and offline: the default provider, and the fallback of :class:`LlmPriors`.
+
+    Args:
+        table: The knowledge-base table; None loads the curated one shipped with the package.
+        default_bias: The upright bias (0-1) of an unknown family; None takes the table's.
+    """
 
     def __init__(self, table: KnowledgeTable | None = None, default_bias: float | None = None) -> None:
         self.table = table or load_table()
@@ -115,10 +130,18 @@ class KnowledgeBasePriors:
 
     @property
     def classes(self) -> tuple[KnowledgeClass, ...]:
+        """The table's classes."""
         return self.table.classes
 
     def match(self, family: str) -> Match | None:
-        """The best class for a family name, or None."""
+        """Find the best class for a family name (the synonym it contains best).
+
+        Args:
+            family: A BIM family name (e.g. "M_Drum 200L:Standard").
+
+        Returns:
+            The match (class, synonym, rank), or None when no synonym's words all occur in the name.
+        """
         tokens = family_tokens(family)
         best: Match | None = None
         for entry, synonym, phrase in self._phrases:
@@ -128,12 +151,27 @@ class KnowledgeBasePriors:
         return best
 
     def match_ifc_class(self, ifc_class: str) -> KnowledgeClass | None:
-        """The class an IFC entity stands for (``IfcWallStandardCase`` -> wall; ``...Type`` suffix ignored)."""
+        """The class an IFC entity stands for.
+
+        Args:
+            ifc_class: An IFC entity name (``IfcWallStandardCase`` -> wall; a ``...Type`` suffix is ignored).
+
+        Returns:
+            The class, or None.
+        """
         name = ifc_class.strip().lower()
         return self._by_ifc.get(name) or self._by_ifc.get(name.removesuffix("type"))
 
     def prior(self, family: str, ifc_class: str | None = None) -> UprightPrior:
-        """The prior of one family: by name, else by IFC entity, else the default bias (flagged unknown)."""
+        """The upright prior of one family: by name, else by IFC entity, else the default bias (flagged unknown).
+
+        Args:
+            family: The BIM family name.
+            ifc_class: The IFC entity of the family's elements, when known.
+
+        Returns:
+            The prior with its bias (0-1), yaw-only flag, symmetry and the reason it was chosen.
+        """
         match = self.match(family)
         if match is not None:
             reason = f"matched {match.entry.category} class {match.entry.label!r} via {match.synonym!r}"
@@ -147,7 +185,15 @@ class KnowledgeBasePriors:
 
     def priors(self, families: Iterable[str],
                ifc_classes: Mapping[str, str] | None = None) -> dict[str, UprightPrior]:
-        """One prior per distinct family name (order kept)."""
+        """The upright priors of several families.
+
+        Args:
+            families: BIM family names (repeats allowed).
+            ifc_classes: {family: IFC entity} hints for families whose name matches no class.
+
+        Returns:
+            {family: prior}, one per distinct name, order kept.
+        """
         hints = ifc_classes or {}
         return {family: self.prior(family, hints.get(family)) for family in dict.fromkeys(families)}
 

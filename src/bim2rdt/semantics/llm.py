@@ -48,8 +48,15 @@ class LlmPriorsConfig(BaseModel):
     cache: bool = Field(True, description="Cache answers per (model, family) under cache_dir/llm_priors.")
 
     def setup(self, cache_dir: Path | None = None, fallback: PriorProvider | None = None) -> LlmPriors:
-        """The provider: answers cached under ``cache_dir`` (when given and ``cache`` is on), unanswered
-        families from ``fallback`` (default: the knowledge base)."""
+        """Build the provider this config describes.
+
+        Args:
+            cache_dir: Where answers are cached (under ``llm_priors``), when given and ``cache`` is on.
+            fallback: Where families the LLM does not answer get their prior; None uses the knowledge base.
+
+        Returns:
+            The LLM prior provider.
+        """
         return LlmPriors(self, cache_dir=cache_dir if self.cache else None, fallback=fallback)
 
 
@@ -58,7 +65,13 @@ class LlmPriors:
 
     ``config.timeout_s`` bounds each request; 429, 5xx, timeouts and connection errors are retried
     ``max_retries`` times after ``backoff_s * 2**attempt`` seconds (capped at ``backoff_max_s``, which also caps
-    a server's Retry-After). ``cache_dir=None`` disables the cache."""
+    a server's Retry-After). ``cache_dir=None`` disables the cache.
+
+    Args:
+        config: The endpoint, model, timeouts and retries; None uses the defaults.
+        cache_dir: Where answers are cached (under ``llm_priors``); None disables the cache.
+        fallback: Where unanswered families get their prior; None uses the knowledge base.
+    """
 
     def __init__(self, config: LlmPriorsConfig | None = None, cache_dir: Path | None = None,
                  fallback: PriorProvider | None = None) -> None:
@@ -70,11 +83,20 @@ class LlmPriors:
 
     @property
     def model(self) -> str:
+        """The LLM's model name (part of the cache key)."""
         return self.config.model
 
     def priors(self, families: Iterable[str],
                ifc_classes: Mapping[str, str] | None = None) -> dict[str, UprightPrior]:
-        """One prior per distinct family (order kept): cached, asked in batches, or fallen back."""
+        """The upright priors of several families: cached, asked in batches, or fallen back.
+
+        Args:
+            families: BIM family names (repeats allowed).
+            ifc_classes: {family: IFC entity} hints for the LLM and the fallback.
+
+        Returns:
+            {family: prior}, one per distinct name, order kept.
+        """
         hints = dict(ifc_classes or {})
         wanted = list(dict.fromkeys(families))
         found = self._cached(wanted)

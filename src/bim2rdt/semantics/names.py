@@ -161,6 +161,12 @@ def simplify_family(name: str) -> str:
     ``"Basic Wall:Exterior - Brick on Block:130892"`` -> ``"brick wall"`` (the Revit family names the object,
     its type may add the material), ``"Wand-Int-ERDG-1"`` -> ``"wall"``. Falls back to the trimmed name when
     nothing survives the cleaning (e.g. ``"1000mm"``).
+
+    Args:
+        name: A BIM family name.
+
+    Returns:
+        The short class name.
     """
     parts = family_parts(name)
     shouting = _is_shouting(name)
@@ -205,7 +211,15 @@ def material_of(name: str) -> str | None:
 def detector_prompt(label: str, context: str = "on a construction site") -> str:
     """The open-vocabulary detector prompt for a class: ``"a traffic cone on a construction site"``.
 
-    The paper biases YOLOE with the class plus a site context ("a concrete wall in a building site")."""
+    The paper biases YOLOE with the class plus a site context ("a concrete wall in a building site").
+
+    Args:
+        label: The detector class (e.g. "traffic cone").
+        context: Words appended after the class.
+
+    Returns:
+        The prompt, with "a" or "an" in front.
+    """
     label = label.strip()
     article = "an" if label[:1].lower() in "aeiou" else "a"
     return f"{article} {label} {context}".strip()

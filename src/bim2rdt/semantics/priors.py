@@ -68,7 +68,11 @@ class UprightPrior:
         return not self.source.startswith(SOURCE_DEFAULT)
 
     def to_dict(self) -> dict[str, object]:
-        """Plain JSON-ready fields (an axial symmetry as the string "inf": strict JSON has no infinity)."""
+        """The prior as JSON-ready data.
+
+        Returns:
+            Every field plus ``known``; an axial symmetry as the string "inf" (strict JSON has no infinity).
+        """
         symmetry = "inf" if math.isinf(self.symmetry) else int(self.symmetry)
         return {**asdict(self), "symmetry": symmetry, "known": self.known}
 
@@ -82,7 +86,15 @@ class PriorProvider(Protocol):
 
     def priors(self, families: Iterable[str],
                ifc_classes: Mapping[str, str] | None = None) -> dict[str, UprightPrior]:
-        """One prior per distinct family, keyed by the family name as given."""
+        """The upright priors of several families.
+
+        Args:
+            families: BIM family names (repeats allowed).
+            ifc_classes: {family: IFC entity} hints for names that say nothing.
+
+        Returns:
+            One prior per distinct family, keyed by the family name as given.
+        """
         ...
 
 
@@ -90,7 +102,14 @@ def families_by_label(priors: Mapping[str, UprightPrior]) -> dict[str, list[str]
     """Detector class -> the BIM families it stands for, in first-seen order.
 
     The labels are the detector's prompt list (["steel I-beam", "traffic cone", ...]); a detection's class
-    name maps back to its families through this table, as the paper maps boxes to BIM families."""
+    name maps back to its families through this table, as the paper maps boxes to BIM families.
+
+    Args:
+        priors: {family: prior}.
+
+    Returns:
+        {detector class (the prior's label): [families]}, in first-seen order.
+    """
     table: dict[str, list[str]] = {}
     for family, prior in priors.items():
         table.setdefault(prior.label, []).append(family)

@@ -11,7 +11,15 @@ from bim2rdt.semantics.priors import PriorProvider
 
 def get_prior_provider(llm: LlmPriorsConfig | None = None, cache_dir: Path | None = None) -> PriorProvider:
     """``KnowledgeBasePriors()`` when ``llm`` is None; else the LLM it configures (``Settings.llm``), caching
-    under ``cache_dir`` (unless ``llm.cache`` is off), with the knowledge base as fallback."""
+    under ``cache_dir`` (unless ``llm.cache`` is off), with the knowledge base as fallback.
+
+    Args:
+        llm: The LLM endpoint's settings; None chooses the offline knowledge base.
+        cache_dir: Where LLM answers are cached.
+
+    Returns:
+        The prior provider.
+    """
     knowledge_base = KnowledgeBasePriors()
     if llm is None:
         return knowledge_base

@@ -19,6 +19,7 @@ import asyncio
 import contextlib
 import html
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from fastapi import FastAPI
 from fastapi.exceptions import RequestValidationError
@@ -34,6 +35,10 @@ from bim2rdt.server.guard import BearerMiddleware
 from bim2rdt.server.hub import Hub, HubSink
 from bim2rdt.server.limits import ApiHeadersMiddleware, BodyLimitMiddleware, RateLimiter
 from bim2rdt.server.validation import validation_failed
+
+if TYPE_CHECKING:
+    from bim2rdt.safety import HavMonitor, IdentityMap
+    from bim2rdt.twin import DigitalTwin
 
 STATIC = Path(__file__).parent / "static"
 CSP = ("default-src 'self'; script-src 'self'; style-src 'self'; img-src 'self' data: blob:; "
@@ -52,7 +57,8 @@ DOCS_PAGE = """<!doctype html>
 """
 
 
-def create_app(twin=None, monitor=None, *, identity=None, config: ServerConfig = ServerConfig(),
+def create_app(twin: DigitalTwin | None = None, monitor: HavMonitor | None = None, *,
+               identity: IdentityMap | None = None, config: ServerConfig = ServerConfig(),
                audit_log: Path | AuditLog | None = None, hub: Hub | None = None, record_safety: bool = False,
                clock: SourceClock = WALL_CLOCK) -> FastAPI:
     """The app over a twin and/or a HAV monitor; ``identity`` (an IdentityMap with role 'safety') enables
@@ -60,7 +66,24 @@ def create_app(twin=None, monitor=None, *, identity=None, config: ServerConfig =
     way or the other). With
     ``record_safety`` the monitor's events also go into the twin's history (through the view's lock, so the
     server's reads never interleave with the monitor thread's writes). ``clock``: the sources' clock the page
-    shows (a demo's simulated day; default the wall clock)."""
+    shows (a demo's simulated day; default the wall clock).
+
+    Args:
+        twin: The twin whose state and history the API serves; None when there is none.
+        monitor: The HAV monitor whose exposures and events the API serves; None when there is none.
+        identity: An IdentityMap opened with role ``safety``: enables revealing identities.
+        config: Tokens, limits and timeouts of the server.
+        audit_log: Where revealed identities are logged: a path or an AuditLog; None uses ``config.audit_log``.
+        hub: The stream hub of server-sent events; None makes one.
+        record_safety: Also record the monitor's events in the twin's history.
+        clock: The sources' clock the page shows.
+
+    Returns:
+        The FastAPI app.
+
+    Raises:
+        ValueError: No audit log, neither as ``audit_log`` nor in ``config``.
+    """
     from bim2rdt.server.safety_view import SafetyView
     from bim2rdt.server.stream import poll_twin, running, tick_exposure
     from bim2rdt.server.twin_view import TwinView

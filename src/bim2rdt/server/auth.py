@@ -31,12 +31,23 @@ class Principal:
 
 
 def new_token() -> str:
-    """A fresh bearer token (43 URL-safe characters, 256 random bits)."""
+    """Make a fresh bearer token.
+
+    Returns:
+        43 URL-safe characters (256 random bits).
+    """
     return secrets.token_urlsafe(32)
 
 
 def token_digest(token: str) -> str:
-    """What the settings store for a token: its SHA-256 hex digest."""
+    """What the settings store for a token, so a leaked settings file reveals no token.
+
+    Args:
+        token: The bearer token.
+
+    Returns:
+        Its SHA-256 hex digest.
+    """
     return hashlib.sha256(token.encode("utf-8")).hexdigest()
 
 

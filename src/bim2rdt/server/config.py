@@ -63,4 +63,12 @@ class ServerConfig(BaseModel):
                                 "reconnect with Last-Event-ID.")
 
     def resolved_audit_log(self, data_dir: Path) -> Path:
+        """Where the audit log of revealed identities goes.
+
+        Args:
+            data_dir: The folder of persistent state (``Settings.data_dir``).
+
+        Returns:
+            ``audit_log``, or ``data_dir/server/audit.jsonl`` when none is set.
+        """
         return self.audit_log or Path(data_dir) / "server" / "audit.jsonl"

@@ -28,7 +28,15 @@ DEFAULT_COLOUR: Colour = (0.6, 0.6, 0.6)
 
 def building_parts(model: BimModel, colours: dict[str, Colour] | None = None) -> list[BuildingPart]:
     """The model's permanent elements as :class:`BuildingPart` (world meshes, metres). ``colours``
-    ({GlobalId: RGB}) defaults to the IFC file's own surface styles (read from ``model.path``)."""
+    ({GlobalId: RGB}) defaults to the IFC file's own surface styles (read from ``model.path``).
+
+    Args:
+        model: The BIM, loaded with geometry.
+        colours: {GlobalId: RGB 0-1}; None reads the IFC file's surface styles (class colours where none).
+
+    Returns:
+        One part per permanent element: GlobalId, IFC class, world mesh (metres), colour and finish.
+    """
     elements = permanent_elements(model)
     if colours is None:
         colours = element_colours(model, [el.global_id for el in elements])
@@ -65,7 +73,16 @@ def finish(element: BimElement) -> str:
 def building_scene(model: BimModel, objects: Sequence[PlacedObject] = (),
                    workers: Sequence[PlacedObject] = ()) -> SiteScene:
     """A scene of the model's building (no ground plane: the building's slabs are the floor) with ``objects``
-    and ``workers`` in it."""
+    and ``workers`` in it.
+
+    Args:
+        model: The BIM, loaded with geometry.
+        objects: Site objects placed in the world.
+        workers: Workers placed in the world.
+
+    Returns:
+        The scene, ready to render.
+    """
     return SiteScene(list(objects), ground_size=0.0, building=building_parts(model), workers=list(workers))
 
 

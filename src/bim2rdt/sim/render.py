@@ -49,8 +49,15 @@ class RgbdFrame:
         return self.rgb if self.rgb is not None else np.repeat(self.gray[..., None], 3, axis=2)
 
     def as_frame(self, intrinsics: Intrinsics) -> Frame:
-        """What a robot would send: a :class:`~bim2rdt.perception.Frame` (float32 depth, NaN = no return),
-        without the simulator's labels."""
+        """What a robot would send, without the simulator's labels.
+
+        Args:
+            intrinsics: The camera's pinhole intrinsics.
+
+        Returns:
+            A :class:`~bim2rdt.perception.Frame`: RGB, float32 depth in metres (NaN = no return), the camera's
+                ``T_world_camera``.
+        """
         return Frame(self.colour, self.depth.astype(np.float32), intrinsics, self.T_world_camera)
 
 
@@ -62,7 +69,18 @@ def depth_sigma(z: np.ndarray) -> np.ndarray:
 def render_rgbd(scene: SiteScene, intrinsics: Intrinsics, T_world_camera: np.ndarray,
                 rng: np.random.Generator | None = None, tof: TofEffects | None = None) -> RgbdFrame:
     """Render the scene from ``T_world_camera``; with ``rng``, add depth and image noise; with ``tof``, mixed
-    pixels at depth steps and dropouts (see :mod:`bim2rdt.sim.tof`)."""
+    pixels at depth steps and dropouts (see :mod:`bim2rdt.sim.tof`).
+
+    Args:
+        scene: The scene to render.
+        intrinsics: The camera's pinhole intrinsics.
+        T_world_camera: The camera's pose, 4x4 camera-to-world (OpenCV axes: x right, y down, z forward).
+        rng: Draws the sensor noise; None renders a clean frame.
+        tof: Time-of-flight artefacts; None renders none.
+
+    Returns:
+        The frame: depth (metres), grey or RGB image, and per-pixel labels of what was hit.
+    """
     frame = cast_frame(scene, intrinsics, T_world_camera, tof)
     return frame if rng is None else add_sensor_noise(frame, rng)
 

@@ -110,7 +110,25 @@ def scenario(name: str, trials: int = 50, seed: int = 0, sample_count: int = 200
     cast once and shared by the trials (each trial draws its own sensor noise, corners and perturbations).
     ``spec`` replaces the named spec (e.g. a variant with every cone leaning). ``tof`` renders time-of-flight
     artefacts and ``edge_filter`` drops flying pixels before corners get their depth (both off by default: the
-    registration benchmark's figures stay comparable). Raises :class:`ScenarioError`."""
+    registration benchmark's figures stay comparable).
+
+    Args:
+        name: The scenario, S1-S4.
+        trials: Number of seeded trials.
+        seed: Seed of the whole scenario (the same seed gives the same trials).
+        sample_count: Surface samples per object model.
+        views: Jittered camera poses, ray cast once and shared by the trials.
+        intrinsics: The camera's pinhole intrinsics.
+        spec: Replaces the named spec; None uses it.
+        tof: Time-of-flight artefacts; None renders none.
+        edge_filter: Drops flying pixels before corners get their depth; None keeps them.
+
+    Returns:
+        The scenario: its spec, the site scene, the object models and every trial's objects.
+
+    Raises:
+        ScenarioError: An unknown name, or a count or seed out of range.
+    """
     _check_arguments(name, trials, views, sample_count, seed)
     spec = spec or SCENARIOS[name]
     site = SiteScene([PlacedObject(family, mesh_for_family(family), ground_pose(x, y, yaw), albedo)

@@ -74,14 +74,23 @@ class SiteScene:
         return bool(self.building or self.workers or any(o.colour is not None for o in self.objects))
 
     def mesh(self) -> tuple[trimesh.Trimesh, np.ndarray]:
-        """The world mesh and, per face, its owner: the object index, ``GROUND``, ``STRUCTURE`` or ``WORKER``."""
+        """The scene's world mesh (built once).
+
+        Returns:
+            (the mesh in world metres, per face its owner: the object index, ``GROUND``, ``STRUCTURE`` or
+                ``WORKER``).
+        """
         if self._mesh is None:
             self._build()
         return self._mesh, self._face_owner
 
     def face_parts(self) -> np.ndarray:
-        """Per face of :meth:`mesh`, the index of its owner within its kind (object, building part or worker;
-        -1 for the ground)."""
+        """Which part each face of :meth:`mesh` belongs to.
+
+        Returns:
+            Per face, the index of its owner within its kind (object, building part or worker; -1 for the
+                ground).
+        """
         if self._mesh is None:
             self._build()
         return self._face_part

@@ -24,9 +24,19 @@ def correction_vector(g) -> np.ndarray:
     return g
 
 
-def correct_points(points_camera: np.ndarray, g) -> np.ndarray:
-    """Camera-frame points (N, 3), metres -> corrected points (N, 3): ``p / (1 - g . p)``; NaN rows where
-    ``1 - g . p <= 0``."""
+def correct_points(points_camera: np.ndarray, g: np.ndarray | list[float] | tuple[float, ...]) -> np.ndarray:
+    """Apply the depth correction ``p / (1 - g . p)`` to camera-frame points.
+
+    Args:
+        points_camera: (N,3) points in the camera's OpenCV optical frame (x right, y down, z forward), metres.
+        g: The correction vector (gx, gy, gz), 1/m.
+
+    Returns:
+        (N,3) corrected points, metres; NaN rows where ``1 - g . p <= 0`` (no true point).
+
+    Raises:
+        ValueError: ``g`` is not three finite numbers.
+    """
     points = np.asarray(points_camera, dtype=np.float64)
     denominator = 1.0 - points @ correction_vector(g)
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -35,9 +45,21 @@ def correct_points(points_camera: np.ndarray, g) -> np.ndarray:
     return corrected
 
 
-def correct_depth(depth: np.ndarray, intrinsics: Intrinsics, g) -> np.ndarray:
-    """A depth image (H, W), metres (0 or NaN = no return) -> the corrected depth (H, W) float32, metres:
-    ``z / (1 - z g . r)`` per pixel ray r; no return stays no return, and a pixel with no true point is NaN."""
+def correct_depth(depth: np.ndarray, intrinsics: Intrinsics,
+                  g: np.ndarray | list[float] | tuple[float, ...]) -> np.ndarray:
+    """Apply the depth correction to a depth image: ``z / (1 - z g . r)`` per pixel ray r (z = 1).
+
+    Args:
+        depth: (H,W) depth along the optical axis, metres; 0 or NaN is no return.
+        intrinsics: The depth camera's pinhole intrinsics (the pixel rays).
+        g: The correction vector (gx, gy, gz), 1/m, in the camera's OpenCV optical frame.
+
+    Returns:
+        (H,W) float32 corrected depth, metres; no return stays no return, and a pixel with no true point is NaN.
+
+    Raises:
+        ValueError: ``g`` is not three finite numbers.
+    """
     depth = np.asarray(depth, dtype=np.float64)
     g = correction_vector(g)
     g_dot_ray = intrinsics.pixel_rays() @ g

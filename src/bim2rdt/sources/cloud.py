@@ -43,12 +43,27 @@ class Cloud:
         return len(self.points)
 
 
-def read_cloud(path, scale: float | None = None, depth_correction=None) -> Cloud:
-    """The scan at ``path`` (.pcd .ply .las .laz .e57) in metres; ``scale`` multiplies its coordinates first
-    (0.001 for a scan in millimetres). ``depth_correction`` g applies ``p / (1 - g . p)``
-    (:mod:`bim2rdt.sources.calibration`) to the scaled points; it is meant for a cloud in its camera's frame (an
-    organised RGB-D frame read as a scan), and points with no true position are dropped. Raises
-    :class:`SourceError` in one line naming the file."""
+def read_cloud(path: str | Path, scale: float | None = None,
+               depth_correction: np.ndarray | list[float] | tuple[float, ...] | None = None) -> Cloud:
+    """Read a scan (.pcd .ply .las .laz .e57) as points in metres.
+
+    All-NaN rows (no return) are dropped and counted; a scan whose extent looks like millimetres is refused
+    rather than guessed.
+
+    Args:
+        path: The scan file.
+        scale: Multiplies its coordinates first (0.001 for a scan in millimetres); None keeps them.
+        depth_correction: The vector g (1/m) of ``p / (1 - g . p)`` (:mod:`bim2rdt.sources.calibration`),
+            applied to the scaled points; meant for a cloud in its camera's frame (an organised RGB-D frame read
+            as a scan). Points with no true position are dropped.
+
+    Returns:
+        The cloud: (N,3) points in the scan's own frame, metres, with colours and intensity when it has them.
+
+    Raises:
+        SourceError: No reader for the suffix, no such file, damaged or empty data, a bad scale or
+            correction, or an extent that looks like millimetres; one line naming the file.
+    """
     path = Path(path)
     reader = _READERS.get(path.suffix.lower())
     if reader is None:

@@ -48,11 +48,22 @@ FOLDER_READERS: list[tuple[str, str]] = [
 order."""
 
 
-def open_source(path, **options) -> FrameSource:
-    """The frame reader for ``path`` (a file or a folder; see the module's note), with ``options`` as in
-    :class:`~bim2rdt.sources.options.SourceOptions`. Raises :class:`SourceError` for a path that does not
-    exist, a format no reader knows, a bad option, or a recording a reader refuses at once (no frames, no
-    intrinsics, ...); frame-level problems surface while iterating."""
+def open_source(path: str | Path, **options: object) -> FrameSource:
+    """Open the frame reader for a recording (a file or a folder; see the module's note).
+
+    Args:
+        path: The recording: a file (.mkv, .bag, .mcap, .db3, ...) or a folder (TUM, colour + depth PNG pairs,
+            PCL grabber TIFFs, rosbag2).
+        **options: Reader options, as the fields of :class:`~bim2rdt.sources.options.SourceOptions`.
+
+    Returns:
+        A :class:`FrameSource`: iterate it for frames (UTC seconds, depth in metres, OpenCV camera axes).
+
+    Raises:
+        SourceError: A path that does not exist, a format no reader knows, a bad option, or a recording a
+            reader refuses at once (no frames, no intrinsics, ...); frame-level problems surface while
+            iterating.
+    """
     path = Path(path)
     checked = parse_options(path, options)
     if not path.exists():

@@ -58,10 +58,22 @@ class TwinConfig(BaseModel):
         return self
 
     def resolved_url(self, data_dir: Path) -> str:
-        """The URL, or SQLite at ``data_dir/twin.db`` when none is set."""
+        """The event store's URL.
+
+        Args:
+            data_dir: The folder of persistent state (``Settings.data_dir``).
+
+        Returns:
+            ``url``, or SQLite at ``data_dir/twin.db`` when none is set.
+        """
         return self.url or f"sqlite:///{Path(data_dir) / 'twin.db'}"
 
     def tolerance_policy(self) -> TolerancePolicy:
+        """The presets, class and family mappings as the twin's policy.
+
+        Returns:
+            The policy that picks each element's preset.
+        """
         return TolerancePolicy({name: Tolerance(name, p.translation, p.rotation_deg)
                                 for name, p in self.presets.items()}, dict(self.classes), dict(self.families),
                                self.default_preset)

@@ -26,16 +26,40 @@ class Deviation:
     yaw_deg: float
 
     def within(self, translation: float, rotation_deg: float) -> bool:
+        """Whether the deviation is inside a tolerance.
+
+        Args:
+            translation: The largest translation, metres.
+            rotation_deg: The largest tilt and the largest yaw, degrees.
+
+        Returns:
+            True when translation, tilt and absolute yaw are all within their bounds.
+        """
         return (self.translation <= translation and self.tilt_deg <= rotation_deg
                 and abs(self.yaw_deg) <= rotation_deg)
 
     def to_dict(self) -> dict:
+        """The fields as JSON-ready data.
+
+        Returns:
+            {field: value}: translation (metres), tilt_deg and yaw_deg (degrees).
+        """
         return {"translation": self.translation, "tilt_deg": self.tilt_deg, "yaw_deg": self.yaw_deg}
 
 
 def pose_deviation(T_bim: np.ndarray, T_measured: np.ndarray, symmetry: float = 1) -> Deviation:
     """The deviation of ``T_measured`` from ``T_bim``, in the BIM element's body frame (an element the BIM
-    places tilted is judged against its own up axis, not against world z)."""
+    places tilted is judged against its own up axis, not against world z).
+
+    Args:
+        T_bim: The element's BIM pose, 4x4 model-to-world, metres.
+        T_measured: The measured pose, 4x4 model-to-world, metres.
+        symmetry: The family's rotational order about its up axis (``math.inf`` for axial): yaw is taken to the
+            nearest equivalent pose.
+
+    Returns:
+        Translation between the origins (metres), tilt between the up axes and yaw about up (degrees).
+    """
     equivalent = closest_equivalent(T_measured, T_bim, symmetry)
     relative = T_bim[:3, :3].T @ equivalent[:3, :3]
     tilt = math.degrees(math.acos(float(np.clip(relative[2, 2], -1.0, 1.0))))

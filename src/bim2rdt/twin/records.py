@@ -37,6 +37,11 @@ class Fit:
     detector: str
 
     def to_dict(self) -> dict:
+        """The fields as JSON-ready data.
+
+        Returns:
+            {field: value}: rmse (metres), fitness (0-1), points, score and detector.
+        """
         return {"rmse": self.rmse, "fitness": self.fitness, "points": self.points, "score": self.score,
                 "detector": self.detector}
 
@@ -53,6 +58,11 @@ class Evidence:
     bbox: tuple[int, int, int, int] | None = None
 
     def to_dict(self) -> dict:
+        """The fields as JSON-ready data.
+
+        Returns:
+            {field: value}: station, frames, time (UTC seconds), camera (4x4 ``T_world_camera`` as nested lists) and bbox.
+        """
         return {"station": self.station, "frames": list(self.frames), "time": self.time,
                 "camera": None if self.camera is None else self.camera.tolist(),
                 "bbox": None if self.bbox is None else list(self.bbox)}
@@ -81,10 +91,15 @@ class ElementState:
 
     @property
     def in_bim(self) -> bool:
+        """True for an element of the BIM; False for an object the BIM lacks."""
         return self.ifc_class is not None
 
     def to_dict(self) -> dict:
-        """JSON-ready fields (the JSON export and the dashboard use this)."""
+        """The state as JSON-ready data (the JSON export and the dashboard use this).
+
+        Returns:
+            Every field but ``mesh``; the pose as nested lists (4x4, metres).
+        """
         def plain(value):
             return None if value is None else value.to_dict()
 

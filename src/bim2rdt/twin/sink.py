@@ -6,28 +6,52 @@ queued events it already holds (``delivered``), so a redelivery never doubles on
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 from bim2rdt.bus.event import Event
 from bim2rdt.twin.records import SAFETY
 
+if TYPE_CHECKING:
+    from bim2rdt.twin.twin import DigitalTwin
+
 
 class TwinSink:
-    """Appends every safety event the monitor emits to the twin (``DigitalTwin.record_events``)."""
+    """Appends every safety event the monitor emits to the twin (``DigitalTwin.record_events``).
+
+    Args:
+        twin: The twin whose history takes the events.
+    """
 
     outbox = "twin"
 
-    def __init__(self, twin):
+    def __init__(self, twin: DigitalTwin):
         self.twin = twin
 
     def emit(self, event: Event) -> None:
+        """Record one safety event in the twin's history.
+
+        Args:
+            event: A bus event from the HAV monitor.
+        """
         self.twin.record_event(event)
 
     def emit_many(self, events: Sequence[Event]) -> None:
-        """A group of events, in one transaction (all recorded, or none on an error)."""
+        """Record a group of events in one transaction (all recorded, or none on an error).
+
+        Args:
+            events: Bus events from the HAV monitor.
+        """
         self.twin.record_events(events)
 
     def delivered(self, events: Sequence[Event]) -> set[int]:
-        """The ``outbox_id`` of those ``events`` the twin already holds."""
+        """Tell which queued events the twin already holds, so a redelivery never doubles one.
+
+        Args:
+            events: Events from the monitor's outbox, each with ``data["outbox_id"]``.
+
+        Returns:
+            The ``outbox_id`` of those the twin already holds.
+        """
         return recorded_outbox_ids(self.twin, events)
 
 

@@ -22,6 +22,11 @@ class Tolerance:
     rotation_deg: float
 
     def to_dict(self) -> dict:
+        """The fields as JSON-ready data.
+
+        Returns:
+            {field: value}: name, translation (metres) and rotation_deg (degrees).
+        """
         return {"name": self.name, "translation": self.translation, "rotation_deg": self.rotation_deg}
 
 
@@ -40,5 +45,14 @@ class TolerancePolicy:
             raise TwinError(f"tolerance preset(s) {', '.join(unknown)} not defined ({', '.join(self.presets)})")
 
     def for_element(self, ifc_class: str | None, family: str | None) -> Tolerance:
+        """The preset that applies to an element: by family, else by IFC class, else the default.
+
+        Args:
+            ifc_class: The element's IFC class (None for an object the BIM lacks).
+            family: The element's family, if any.
+
+        Returns:
+            The tolerance preset.
+        """
         name = self.families.get(family or "") or self.classes.get(ifc_class or "") or self.default
         return self.presets[name]

@@ -53,7 +53,20 @@ NEW_MATCH_RADIUS = 1.0
 
 
 class DigitalTwin:
-    """The twin of one BIM model over one event store. Build it with :meth:`open`."""
+    """The twin of one BIM model over one event store: an append-only history of observations, projected into
+    each element's present state. Build it with :meth:`open`, which checks the arguments.
+
+    Args:
+        store: The event store (SQLite or PostgreSQL).
+        model: The BIM the twin is of.
+        tolerances: Picks each element's tolerance preset.
+        symmetry: {family: rotational order about up} (``math.inf`` for axial; 1 where absent).
+        min_fitness: Observations whose fitness (0-1) is under this are unverified.
+        robot: The default source of records.
+        family_mesh: The mesh of a family the BIM lacks, for exports; None uses a 0.5 m box.
+        new_match_radius: A new object within this horizontal distance (metres) of a known new object of its
+            family is that object.
+    """
 
     def __init__(self, store: EventStore, model: BimModel, tolerances: TolerancePolicy,
                  symmetry: Mapping[str, float], min_fitness: float, robot: str, family_mesh: FamilyMesh | None,
@@ -76,7 +89,26 @@ class DigitalTwin:
         family to its rotational order about up (``math.inf`` for axial; 1 where absent); observations under
         ``min_fitness`` are unverified; ``robot`` is the default source of records; ``family_mesh`` gives the
         mesh of objects the BIM lacks (exports; a 0.5 m box stands in without it). The edge builds these from
-        ``Settings.twin`` (``TwinConfig.resolved_url``, ``.tolerance_policy()``, ``.min_fitness``)."""
+        ``Settings.twin`` (``TwinConfig.resolved_url``, ``.tolerance_policy()``, ``.min_fitness``).
+
+        Args:
+            url: SQLAlchemy URL of the event store (``sqlite:///...`` or ``postgresql+psycopg://...``).
+            model: A loaded model, or the path of an IFC file to load.
+            tolerances: Picks each element's preset; None uses ``TwinConfig()``'s presets.
+            symmetry: {family: rotational order about up}; None means none is symmetric.
+            min_fitness: Observations whose fitness (0-1) is under this are unverified.
+            robot: The default source of records.
+            family_mesh: The mesh of a family the BIM lacks, for exports; None uses a 0.5 m box.
+            new_match_radius: Horizontal distance (metres) within which a new object is a known new one.
+            create: Create the store's table when it is empty; False for readers.
+
+        Returns:
+            The twin, its projection caught up with the store.
+
+        Raises:
+            TwinError: A bad symmetry or ``min_fitness``, or (without ``create``) a URL that holds no twin.
+            BimError: The IFC file cannot be read.
+        """
         _check_symmetry(symmetry or {})
         if not 0.0 <= min_fitness <= 1.0:
             raise TwinError(f"min_fitness is a fraction in [0, 1], got {min_fitness}")
@@ -85,6 +117,7 @@ class DigitalTwin:
                    min_fitness, robot, family_mesh, new_match_radius)
 
     def close(self) -> None:
+        """Close the event store's connections."""
         self.store.close()
 
     def __enter__(self) -> DigitalTwin:
@@ -100,7 +133,21 @@ class DigitalTwin:
         """Judge ``observation`` against the BIM and append it (and a status event if the element's present
         status changes); returns the element's present state. ``camera`` is T_world_camera of the view it was
         seen best from (the BCF viewpoint). An observation without a GlobalId is an object the BIM lacks: it
-        becomes a new object, or the known new one of its family within ``new_match_radius``."""
+        becomes a new object, or the known new one of its family within ``new_match_radius``.
+
+        Args:
+            observation: What perception made of the object: family, GlobalId (None for an object the BIM lacks),
+                ``pose`` (``T_world_object``, 4x4, metres), fitness (0-1) and RMSE (metres).
+            time: When it was seen, UTC seconds.
+            robot: The record's source; None uses the twin's ``robot``.
+            camera: ``T_world_camera`` (4x4) of the view it was seen best from; None records no viewpoint.
+
+        Returns:
+            The element's present state after the record.
+
+        Raises:
+            TwinError: A bad time, pose, fitness, RMSE or text, or a GlobalId the BIM does not have.
+        """
         when = _checked_time(time)
         pose = _checked_pose(observation.pose, "the observation's pose")
         camera = None if camera is None else _checked_pose(camera, "the camera pose")
@@ -139,7 +186,22 @@ class DigitalTwin:
     def mark_missing(self, global_id: str, time: float, *, station: int | None = None,
                      frames: Iterable[int] = (), camera: np.ndarray | None = None,
                      robot: str | None = None) -> ElementState:
-        """Record that the element's place was seen empty (from ``station``/``frames``, camera ``camera``)."""
+        """Record that the element's place was seen empty.
+
+        Args:
+            global_id: The element's GlobalId.
+            time: When it was seen empty, UTC seconds.
+            station: The index of the station it was looked at from.
+            frames: The indices of the frames that saw the place.
+            camera: ``T_world_camera`` (4x4) of the view; None records no viewpoint.
+            robot: The record's source; None uses the twin's ``robot``.
+
+        Returns:
+            The element's present state (missing).
+
+        Raises:
+            TwinError: A bad time or pose, or a GlobalId the twin does not know.
+        """
         when = _checked_time(time)
         camera = None if camera is None else _checked_pose(camera, "the camera pose")
         evidence = _evidence(station, tuple(frames), camera, None)
@@ -156,12 +218,32 @@ class DigitalTwin:
 
     def record_event(self, event: Event) -> TwinEvent:
         """Append a safety event of the HAV monitor; it joins the history of the work zone (or element) its
-        ``data["zone"]`` names, if the BIM has it."""
+        ``data["zone"]`` names, if the BIM has it.
+
+        Args:
+            event: A bus event from the HAV monitor.
+
+        Returns:
+            The stored event.
+
+        Raises:
+            TwinError: A bad time or source name.
+        """
         return self.record_events([event])[0]
 
     def record_events(self, events: Iterable[Event]) -> list[TwinEvent]:
         """Append safety events (as :meth:`record_event`) in one transaction, in order: the events of one monitor
-        commit cost one synced write, and they are recorded all together or, on any error, none of them."""
+        commit cost one synced write, and they are recorded all together or, on any error, none of them.
+
+        Args:
+            events: Bus events from the HAV monitor.
+
+        Returns:
+            The stored events, in order.
+
+        Raises:
+            TwinError: An event with a bad time or source name (then none is stored).
+        """
         new = [self._safety_event(event) for event in events]
         return self._write(lambda writer: writer.append_all(new)) if new else []
 
@@ -169,7 +251,17 @@ class DigitalTwin:
 
     def state(self, at: float | None = None) -> dict[str, ElementState]:
         """{global_id: ElementState} of every BIM element and every object the BIM lacks: the present (all that
-        any robot recorded so far), or, with ``at``, as it was at that time (a replay of the history)."""
+        any robot recorded so far), or, with ``at``, as it was at that time (a replay of the history).
+
+        Args:
+            at: A time, UTC seconds; None gives the present.
+
+        Returns:
+            {GlobalId: ElementState}.
+
+        Raises:
+            TwinError: A bad time.
+        """
         if at is None:
             self._catch_up()
             return self._with_meshes(self._projection.states())
@@ -179,7 +271,17 @@ class DigitalTwin:
 
     def history(self, global_id: str) -> list[TwinEvent]:
         """Every event about one element (observations, missing, status changes, safety events in its zone),
-        oldest first (by the time it happened, then store order)."""
+        oldest first (by the time it happened, then store order).
+
+        Args:
+            global_id: The element's GlobalId.
+
+        Returns:
+            Its events, oldest first.
+
+        Raises:
+            TwinError: The twin does not know the GlobalId.
+        """
         self._catch_up()
         self._known(global_id)
         return self.store.read(global_id=global_id, by_time=True)
@@ -187,13 +289,32 @@ class DigitalTwin:
     def events(self, since: float | None = None, *, after: int = 0,
                kinds: Iterable[str] | None = None) -> list[TwinEvent]:
         """The history in store order: events that happened after ``since`` (UTC s) and/or were stored after
-        seq ``after`` (a poller passes the last seq it saw), of ``kinds`` (default all)."""
+        seq ``after`` (a poller passes the last seq it saw), of ``kinds`` (default all).
+
+        Args:
+            since: Only events that happened after this time, UTC seconds; None for all.
+            after: Only events stored after this sequence number.
+            kinds: Only events of these kinds; None for all.
+
+        Returns:
+            The events, in store order.
+        """
         return self.store.read(after=after, since=since, kinds=kinds)
 
     # ---- exports ------------------------------------------------------------------------------------------
 
     def export_json(self, path: str | Path) -> Path:
-        """The present state as JSON (every element with status, deviation, tolerance, fit and evidence)."""
+        """Write the present state as JSON (every element with status, deviation, tolerance, fit and evidence).
+
+        Args:
+            path: The output .json file, written atomically.
+
+        Returns:
+            The written path.
+
+        Raises:
+            WriteError: The file cannot be written.
+        """
         states = self.state()
         counts = {status.value: 0 for status in ElementStatus}
         for state in states.values():
@@ -208,7 +329,17 @@ class DigitalTwin:
         """The BIM with the twin written back (IFC4/IFC4X3): deviating elements moved to their measured pose,
         new objects added as proxies, a ``BIM2RDT_Observation`` pset on every observed element, and the safety
         events as IfcEvent/IfcTask. An IFC2X3 model cannot be written back (TwinError says so); its twin lives
-        in the history, the JSON and the BCF."""
+        in the history, the JSON and the BCF.
+
+        Args:
+            path: The output .ifc file, written atomically.
+
+        Returns:
+            The written path.
+
+        Raises:
+            TwinError: The model is IFC2X3, it changed on disk, or the file cannot be written.
+        """
         from bim2rdt.twin.ifc_export import write_twin_ifc
 
         safety = [Event.from_json(json.dumps(e.data)) for e in self.store.read(kinds=[SAFETY], by_time=True)]
@@ -216,13 +347,30 @@ class DigitalTwin:
 
     def export_bcf(self, path: str | Path) -> Path:
         """A BCF 2.1 file with one topic per deviating, missing or new element, each with the camera viewpoint
-        it was seen from and a snapshot image."""
+        it was seen from and a snapshot image.
+
+        Args:
+            path: The output .bcf file, written atomically.
+
+        Returns:
+            The written path.
+
+        Raises:
+            OSError: The file cannot be written (the previous one, if any, is unchanged).
+        """
         from bim2rdt.twin.bcf_export import write_bcf
 
         return write_bcf(self.model, self.state(), Path(path), self.object_mesh)
 
     def object_mesh(self, state: ElementState) -> tuple[np.ndarray, np.ndarray]:
-        """(vertices in the body frame, faces) of an element: the BIM's mesh, else the family mesh, else a box."""
+        """The mesh of an element in its body frame: the BIM's mesh, else the family mesh, else a 0.5 m box.
+
+        Args:
+            state: The element's state.
+
+        Returns:
+            ((N,3) vertices in the body frame, metres; (M,3) faces).
+        """
         if state.mesh is not None:
             return state.mesh
         if state.in_bim and self.model.has_mesh(state.global_id):

@@ -82,7 +82,11 @@ class FrameResult:
     """The frame's own pose as the recording gave it (a bag's camera in its world frame), or None."""
 
     def to_dict(self) -> dict:
-        """Its entry in localization.json."""
+        """The frame's entry in localization.json.
+
+        Returns:
+            JSON-ready fields: poses and covariances as nested lists (metres, radians), ``reason`` when refused.
+        """
         entry = {"source": self.source, "time": self.time,
                  "pose": None if self.pose is None else self.pose.tolist(),
                  "covariance": None if self.covariance is None else self.covariance.tolist(),
@@ -109,14 +113,17 @@ class VerifyResult:
 
     @property
     def drop_counts(self) -> dict[str, int]:
+        """{kind (or reason): number} of the frames the source dropped."""
         return dict(Counter(d.get("kind", d["reason"]) for d in self.dropped))
 
     @property
     def miscalibrated(self) -> bool:
+        """True when any frame's depth check found the depth miscalibrated."""
         return any(f.depth is not None and f.depth.miscalibrated for f in self.frames)
 
     @property
     def warnings(self) -> list[str]:
+        """One line per frame whose depth check found it miscalibrated, with the reason."""
         return [f"frame {f.index} ({f.source}): {f.depth.reason}" for f in self.frames
                 if f.depth is not None and f.depth.miscalibrated]
 
@@ -139,7 +146,20 @@ def verify_frames(frames: Iterable, model: BimModel, prior: np.ndarray | None = 
     A source that drops frames (``dropped``: a list of ``{"time", "reason"}``, read after iterating) or warns about
     the recording (``warnings``) has them carried into the result.
 
-    Raises :class:`VerifyError` for no frames or a model with nothing to localize on."""
+    Args:
+        frames: The frames or scans, in the order they were taken (a ``FrameSource`` or any iterable).
+        model: The BIM, loaded with geometry.
+        prior: ``T_world_sensor`` (4x4, metres) of the first frame in the model's frame; None trusts the
+            frames' own poses until a fix is accepted.
+        config: Localization, depth check and perception settings.
+        progress: Called with each frame's result as it is done.
+
+    Returns:
+        Every frame's result in source order, with what the source dropped and warned about.
+
+    Raises:
+        VerifyError: The source holds no frames, or the model has nothing to localize on.
+    """
     try:
         scene = OccludedMap.of(model)
     except LocalizationError as error:

@@ -73,9 +73,15 @@ class DepthCheck:
 
     @property
     def worst_angle_deg(self) -> float | None:
+        """The largest angle error of the compared plane pairs, degrees; None without pairs."""
         return max((abs(p.error_deg) for p in self.pairs), default=None)
 
     def to_dict(self) -> dict:
+        """The verdict as JSON-ready data.
+
+        Returns:
+            miscalibrated, reason, median_residual (metres), worst_angle_error_deg and the plane pairs (degrees).
+        """
         return {"miscalibrated": self.miscalibrated, "reason": self.reason, "median_residual": self.median_residual,
                 "worst_angle_error_deg": self.worst_angle_deg,
                 "plane_pairs": [{"first": p.first, "second": p.second, "measured_deg": round(p.measured_deg, 2),
@@ -85,7 +91,18 @@ class DepthCheck:
 def check_depth(scan: ScanPoints, scene: OccludedMap, pose: np.ndarray, max_range: float,
                 config: DepthCheckConfig = DepthCheckConfig()) -> DepthCheck:
     """The miscalibration test of ``scan`` (sensor frame) against the permanent surfaces visible from ``pose``
-    (the sensor's best rigid fit on them)."""
+    (the sensor's best rigid fit on them).
+
+    Args:
+        scan: The scan's points and normals in the sensor frame, metres.
+        scene: The model's permanent surfaces with their occlusion.
+        pose: ``T_world_sensor`` (4x4, metres), the sensor's best rigid fit.
+        max_range: Surfaces farther from the sensor than this are not compared, metres.
+        config: The angle and residual limits.
+
+    Returns:
+        The verdict: miscalibrated or not, the one-line reason, the plane pairs and the median residual.
+    """
     visible = scene.visible(pose, scan.directions, 0.5, 8.0, max_range)
     if len(visible.points) < 6:
         return DepthCheck(False, "")

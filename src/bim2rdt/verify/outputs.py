@@ -31,7 +31,18 @@ class VerifyFiles:
 def record_twin(result: VerifyResult, model: BimModel, out_dir: Path, config: TwinConfig = TwinConfig(),
                 robot: str = "verify") -> DigitalTwin:
     """A fresh twin at ``out_dir/twin.db`` with every frame's observations and the places it saw empty (time: the
-    frame's, else its index; camera: the fixed pose)."""
+    frame's, else its index; camera: the fixed pose).
+
+    Args:
+        result: What verify found in every frame.
+        model: The BIM the twin is of.
+        out_dir: The verify folder; a twin.db already there is replaced.
+        config: The twin's tolerances and ``min_fitness``.
+        robot: The records' source.
+
+    Returns:
+        The open twin (the caller closes it).
+    """
     for stale in (TWIN_DB, f"{TWIN_DB}-wal", f"{TWIN_DB}-shm"):
         (out_dir / stale).unlink(missing_ok=True)
     twin = DigitalTwin.open(f"sqlite:///{out_dir / TWIN_DB}", model, tolerances=config.tolerance_policy(),
@@ -46,7 +57,17 @@ def record_twin(result: VerifyResult, model: BimModel, out_dir: Path, config: Tw
 
 
 def write_outputs(result: VerifyResult, twin: DigitalTwin, out_dir: Path) -> VerifyFiles:
-    """Every file of the verify folder."""
+    """Write every file of the verify folder.
+
+    Args:
+        result: What verify found in every frame.
+        twin: The twin :func:`record_twin` made of it.
+        out_dir: The verify folder.
+
+    Returns:
+        The paths of twin.json, issues.bcf, localization.json, report.html and twin.ifc (None, with a note,
+            when the model cannot be written back).
+    """
     localization = write_bytes_atomic(out_dir / "localization.json", json.dumps(
         {"frames": [f.to_dict() for f in result.frames], "miscalibrated": result.miscalibrated,
          "warnings": result.warnings + result.source_warnings, "dropped": result.dropped,

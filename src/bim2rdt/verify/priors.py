@@ -13,10 +13,21 @@ LEVEL_UP = np.array([0.0, -1.0, 0.0])
 """Gravity up in the frame of a level optical sensor: its -y axis."""
 
 
-def prior_pose(position, yaw_deg: float, up_sensor=None) -> np.ndarray:
-    """T_world_sensor of a sensor at ``position`` (m) whose optical axis heads ``yaw_deg`` from world +x
-    (counter-clockwise seen from above), tilted so that ``up_sensor`` (gravity up in the sensor frame, an IMU's)
-    maps onto world +z; level when it is None. :class:`VerifyError` when up is zero or along the optical axis."""
+def prior_pose(position: np.ndarray | tuple[float, float, float], yaw_deg: float,
+               up_sensor: np.ndarray | tuple[float, float, float] | None = None) -> np.ndarray:
+    """A sensor's pose from its position, heading and measured up.
+
+    Args:
+        position: The sensor's position in the world frame, metres.
+        yaw_deg: The heading of the optical axis from world +x, degrees, counter-clockwise seen from above.
+        up_sensor: Gravity up in the sensor's OpenCV optical frame (an IMU's); None means level (-y).
+
+    Returns:
+        ``T_world_sensor``, 4x4 sensor-to-world, tilted so that ``up_sensor`` maps onto world +z.
+
+    Raises:
+        VerifyError: Up is zero, not finite, or along the optical axis.
+    """
     up = LEVEL_UP if up_sensor is None else np.asarray(up_sensor, dtype=np.float64)
     if up.shape != (3,) or not np.all(np.isfinite(up)) or np.linalg.norm(up) < 1e-9:
         raise VerifyError(f"up must be a finite non-zero vector in the sensor frame, got {np.asarray(up).tolist()}")
@@ -34,10 +45,28 @@ def prior_pose(position, yaw_deg: float, up_sensor=None) -> np.ndarray:
 
 
 def heading_deg(T_world_sensor: np.ndarray) -> float:
-    """The heading of the optical axis (sensor z) in the horizontal plane, degrees from world +x."""
+    """The heading of a sensor's optical axis in the horizontal plane.
+
+    Args:
+        T_world_sensor: 4x4 sensor-to-world pose (OpenCV axes: z is the optical axis).
+
+    Returns:
+        Degrees from world +x, counter-clockwise seen from above.
+    """
     return math.degrees(math.atan2(T_world_sensor[1, 2], T_world_sensor[0, 2]))
 
 
-def levelled(T_world_sensor: np.ndarray, up_sensor) -> np.ndarray:
-    """The pose with its position and heading kept and its roll and pitch from ``up_sensor``."""
+def levelled(T_world_sensor: np.ndarray, up_sensor: np.ndarray | tuple[float, float, float] | None) -> np.ndarray:
+    """A pose with its position and heading kept and its roll and pitch from a measured up.
+
+    Args:
+        T_world_sensor: 4x4 sensor-to-world pose, metres.
+        up_sensor: Gravity up in the sensor frame (an IMU's); None means level.
+
+    Returns:
+        The levelled ``T_world_sensor``.
+
+    Raises:
+        VerifyError: Up is zero, not finite, or along the optical axis.
+    """
     return prior_pose(T_world_sensor[:3, 3], heading_deg(T_world_sensor), up_sensor)
