@@ -83,15 +83,15 @@ def run_site_day(out_dir: Path, seed: int = 0, workers: int = 2, minutes: float 
     ``mission_config`` and registers with ``icp``; the twin judges with ``twin_config``'s presets (the demo passes
     ``Settings.mission``, ``Settings.registration`` and ``Settings.twin``). The robot's camera sees the building
     and reads its frames with ``detector`` (:mod:`bim2rdt.demo.perceivers`). ``record``: also write the robot's run
-    as a ROS 2 bag there (:mod:`bim2rdt.demo.record`); ``max_targets``: verify only the first N site objects (a
-    short day, fewer stations)."""
+    as a ROS 2 bag there (:mod:`bim2rdt.demo.record`); ``max_targets``: stations for the first N site objects only (a
+    short day; what they see of the others is judged too)."""
     out_dir.mkdir(parents=True, exist_ok=True)
     model = load_ifc(build_site_ifc(out_dir / "site.ifc"), cache_dir=_model_cache())
     tick("bim")
     planned = objects_of_interest(model)
     reality = simulate_reality(model, [t.global_id for t in planned], seed=seed, unplanned_at=UNPLANNED_DRUM_XY,
                                building=True, removed=REMOVED_OBJECTS)
-    targets = planned[:max_targets]  # the site changes as on a full day; the robot sees only these objects
+    targets = planned[:max_targets]  # the site changes as on a full day; the robot's stations face these objects
     priors = KnowledgeBasePriors().priors(sorted({t.family for t in planned} | {t.family for t in reality.truth}))
     twin = open_day_twin(out_dir, model, priors, twin_config)
     events, timeline = _hav_day(twin, out_dir / "state", workers, minutes, fs)
@@ -104,7 +104,8 @@ def run_site_day(out_dir: Path, seed: int = 0, workers: int = 2, minutes: float 
         return DemoPerception(detector, model, reality, priors, seed, yoloe)
 
     route = route_for_today()
-    context = MissionContext(targets, route.plan.stations, model, priors, mesh_for_family, route.config, icp,
+    # every planned object is a target: one the short day's stations see by chance is that element, not a new one
+    context = MissionContext(planned, route.plan.stations, model, priors, mesh_for_family, route.config, icp,
                              twin_config.tolerance_policy(), twin_config.min_fitness, tick=lambda: tick("station"))
     with _recorder(record) as recording:
         mission, localization = localized_mission(context, perception, ROBOT_START_XY, seed, route=route.route,
