@@ -10,11 +10,15 @@ import json
 import numpy as np
 import pytest
 import yaml
+from results_bag import check_fixes, check_grid, check_markers, messages
 from rosbags.highlevel import AnyReader
 from typer.testing import CliRunner
 
 from bim2rdt.cli import app
+from bim2rdt.demo.publish import publish_day
+from bim2rdt.demo.routes import write_route_files
 from bim2rdt.demo.site_day import run_site_day
+from bim2rdt.sources import open_source
 from bim2rdt.sources.bag_writer import COLOUR, DEPTH, IMU, INFO
 from bim2rdt.twin.deviation import pose_deviation
 
@@ -25,6 +29,8 @@ runner = CliRunner()
 def round_trip(tmp_path_factory):
     out = tmp_path_factory.mktemp("day")
     day = run_site_day(out, workers=1, minutes=2.0, record=out / "run.mcap", max_targets=2)
+    write_route_files(day, out)  # the Nav2 maps the demo's report writes
+    publish_day(out / "results.mcap", day)  # demo --publish
     day.twin.close()
     result = runner.invoke(app, ["verify", str(out / "site.ifc"), str(out / "run" / "run.mcap"), "--out",
                                  str(out / "verify"), "--json"])
@@ -104,3 +110,21 @@ def test_verify_gives_every_element_the_demo_judged_the_demos_status_and_a_pose_
     for global_id, element in verify.items():  # nothing the demo did not see is called off-plan by verify
         if global_id not in demo or demo[global_id]["status"] == "not observed":
             assert element["status"] not in ("deviating", "missing"), element
+
+
+def test_demo_publish_writes_verify_publishs_topics_from_the_demos_mission(round_trip):
+    """``demo --publish``: each station's BIM-fixed pose as map -> odom over the odometry the recorded bag holds
+    at that station's capture (so both bags play together), the pose with its fix's covariance, a marker at the
+    twin's pose per element, and the grids equal to the Nav2 maps the demo writes."""
+    out, day, _ = round_trip
+    topics = messages(out / "results")
+    recorded = list(open_source(out / "run"))  # the robot's own poses, as the recorded bag gives them
+    fixes = []
+    for station in day.localization.stations:
+        applied = [look.fix for look in station.looks if look.applied]
+        frame = recorded[station.located.capture]
+        fixes.append((frame.time, station.estimate, applied[-1].covariance, frame.T_world_camera))
+    check_fixes(topics, fixes)
+    check_markers(topics, _elements(out / "twin.json"))
+    check_grid(topics, "/map", out / "nav2" / "site.pgm")
+    check_grid(topics, "/keepout_filter_mask", out / "nav2" / "site_keepout.pgm")
