@@ -75,7 +75,7 @@ def source_read(bag: Path) -> tuple[int, float, set]:
     return frames, time.perf_counter() - start, topics
 
 
-def decode_row(bag: Path, repeats: int = 3) -> dict:
+def decode_row(bag: Path, repeats: int = 7) -> dict:
     """The best of ``repeats`` for both readers, alternated."""
     ours, bare = [], []
     frames, topics = 0, set()
