@@ -14,6 +14,7 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
+import bim2rdt
 from bim2rdt.cli import app
 from bim2rdt.sim.site import build_site_ifc
 from tests.sources.bags import write_bag
@@ -47,7 +48,7 @@ def test_on_a_terminal_verify_shows_a_bar_with_the_frames_counted_and_the_time_l
     ifc, bag, folder = small_bag
     main, terminal = pty.openpty()
     env = {**os.environ, "COLUMNS": "150", "LINES": "40", "TERM": "xterm-256color",
-           "PYTHONPATH": os.pathsep.join([str(Path(__file__).resolve().parents[2] / "src"),
+           "PYTHONPATH": os.pathsep.join([str(Path(bim2rdt.__file__).resolve().parents[1]),  # the code under test
                                           os.environ.get("PYTHONPATH", "")])}
     env.pop("NO_COLOR", None)
     process = subprocess.Popen([sys.executable, "-m", "bim2rdt", "verify", str(ifc), str(bag), "--out",

@@ -80,8 +80,8 @@ class PlannedConfig:
                                                              score_distance=0.05, restarts=1, yaw_jitter_deg=0.0,
                                                              hop_rounds=0))
     upright: bool = False
-    """Keep the kept pose upright (yaw only), skipping the mission's fit under the family's prior: the
-    check as it was before verify fitted the way the mission does (a knocked cone then reads as planned)."""
+    """Keep the plan search's pose (upright, yaw only) and skip the mission's fit under the family's prior: a
+    knocked cone then reads as planned (what the round-trip test must catch)."""
 
 
 @dataclass(frozen=True)
@@ -148,7 +148,7 @@ def fitted(body, points: np.ndarray, kept: np.ndarray, prior: UprightPrior | Non
     released when the data overrule the prior (docs/decisions/0012). ``kept`` itself when registration fails."""
     samples, normals = body
     rules = FitRules(config.icp, slab_contact=config.slab_contact, refine_detector_pose=True)
-    try:
+    try:  # the kept pose is also the "detector's": the result of the plan search, refined, not searched again
         return fit_detection(samples, normals, points, kept, [kept], prior, slab, rules).pose
     except RegistrationError:
         return kept
