@@ -52,8 +52,11 @@ class _Edge:
     quaternions: list[np.ndarray] = field(default_factory=list)
     static: np.ndarray | None = None
     _sorted: bool = True
+    _last: tuple = (None, None)
+    """(time, T or reason) of the last lookup: a frame's prior and its IMU's look the same edges up at one time."""
 
     def add(self, time: float, translation, quaternion) -> None:
+        self._last = (None, None)
         if self.times and time < self.times[-1]:
             self._sorted = False
         self.times.append(time)
@@ -64,6 +67,13 @@ class _Edge:
         """T_parent_child at ``time``, or why not (a sentence)."""
         if self.static is not None:
             return self.static
+        if self._last[0] == time:
+            return self._last[1]
+        found = self._at(time, tolerance, max_gap)
+        self._last = (time, found)
+        return found
+
+    def _at(self, time: float, tolerance: float, max_gap: float) -> np.ndarray | str:
         if not self._sorted:
             order = np.argsort(self.times, kind="stable")
             self.times = [self.times[i] for i in order]
@@ -122,6 +132,7 @@ class TfBuffer:
             cut = min(cut, max(0, len(edge.times) - 2))
             if cut > 64:
                 del edge.times[:cut], edge.translations[:cut], edge.quaternions[:cut]
+                edge._last = (None, None)
 
     @property
     def frames(self) -> set[str]:
