@@ -40,8 +40,8 @@ def demo_command(
                                         "the rosbag2 folder NAME/), as verify --publish: /tf map->odom from the "
                                         "robot's BIM fixes, /bim2rdt/pose, /bim2rdt/objects, /map, "
                                         "/keepout_filter_mask."),
-    targets: int | None = typer.Option(None, "--targets", min=1, help="Verify only the first N site objects (a "
-                                       "short day with fewer stations)."),
+    targets: int | None = typer.Option(None, "--targets", min=1, help="Stations for the first N site objects only "
+                                       "(a short day; what they see of the others is judged too)."),
 ) -> None:
     """Run a simulated day on the embedded site: the robot verifies the BIM's site objects with SG-ICP, the twin
     is updated and hand-arm vibration exposure becomes IfcEvent/IfcTask records; then the paper's registration
