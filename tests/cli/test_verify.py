@@ -67,6 +67,9 @@ def test_verify_finds_every_furniture_box_of_office1_as_planned(corrected):
     states = {e["global_id"]: e for e in json.loads((out / "twin.json").read_text())["elements"]}
     for box in truth["furniture"]:
         assert states[box["GlobalId"]]["status"] == "as planned", box["name"]
+    # 4 new objects from the unmodelled clutter (truth: unmodelled_clutter); nothing else judged
+    assert summary["verdicts"] == {"as planned": len(truth["furniture"]), "deviating": 0, "missing": 0, "new": 4,
+                                   "unverified": 0}
     assert not summary["miscalibrated"]
     for name in ("twin.ifc", "issues.bcf", "report.html"):
         assert (out / name).stat().st_size > 0

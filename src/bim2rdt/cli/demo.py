@@ -36,8 +36,12 @@ def demo_command(
     record: Path | None = typer.Option(None, "--record", help="Also write the robot's run as a ROS 2 bag (NAME.mcap: "
                                        "the rosbag2 folder NAME/ with NAME.mcap and metadata.yaml): RealSense "
                                        "colour + depth + CameraInfo + IMU, /tf with the drifting odometry."),
-    targets: int | None = typer.Option(None, "--targets", min=1, help="Verify only the first N site objects (a "
-                                       "short day with fewer stations)."),
+    publish: Path | None = typer.Option(None, "--publish", help="Also write the results as a ROS 2 bag (NAME.mcap: "
+                                        "the rosbag2 folder NAME/), as verify --publish: /tf map->odom from the "
+                                        "robot's BIM fixes, /bim2rdt/pose, /bim2rdt/objects, /map, "
+                                        "/keepout_filter_mask."),
+    targets: int | None = typer.Option(None, "--targets", min=1, help="Stations for the first N site objects only "
+                                       "(a short day; what they see of the others is judged too)."),
 ) -> None:
     """Run a simulated day on the embedded site: the robot verifies the BIM's site objects with SG-ICP, the twin
     is updated and hand-arm vibration exposure becomes IfcEvent/IfcTask records; then the paper's registration
@@ -56,8 +60,8 @@ def demo_command(
         check_detector(detector, yoloe)
     except PerceptionError as error:
         raise typer.BadParameter(str(error)) from None
-    if ifc is not None and (record is not None or targets is not None):
-        raise typer.BadParameter("--record and --targets run on the embedded site, not with --ifc")
+    if ifc is not None and (record is not None or targets is not None or publish is not None):
+        raise typer.BadParameter("--record, --publish and --targets run on the embedded site, not with --ifc")
 
     stages = {"bim": "site model read", "site": "site objects placed", "station": "robot station",
               "twin": "objects registered, twin updated", "hav": "vibration day monitored",
@@ -71,7 +75,8 @@ def demo_command(
                                   yoloe=yoloe, objects=objects)
         else:
             result = run_demo(out, trials=trials, seed=seed, workers=workers, minutes=minutes, tick=tick,
-                              detector=detector, yoloe=yoloe, record=record, max_targets=targets)
+                              detector=detector, yoloe=yoloe, record=record, max_targets=targets,
+                              publish=publish)
     _show_site_day(result)
     if result.registration is not None:
         show_run(result.registration, targets=False)
@@ -83,6 +88,9 @@ def demo_command(
         from bim2rdt.sources.bag_writer import bag_folder, storage_file
 
         console.print(f"recorded the robot's run: {bag_folder(record)}/ ({storage_file(record).name} + metadata.yaml)")
+    if getattr(result, "published", None) is not None:
+        console.print(f"published the results: {result.published}/ (/tf map->odom, /bim2rdt/pose, /bim2rdt/objects, "
+                      "/map, /keepout_filter_mask)")
     console.print(f"twin: {twin} (history {out / 'twin.db'}, issues {out / 'site_issues.bcf'}); report: "
                   f"{result.report['html']} and {result.report['report']}; plots and JSON in {out}")
     console.print(f"see the twin: {follow_up_command(result.site_day.model.path, out / 'twin.db')}", markup=False,

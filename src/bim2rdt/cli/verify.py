@@ -74,13 +74,14 @@ def verify_command(
     if not _is_bag(source) and (every or max_frames):
         frames = _Subsampled(frames, every or 1, max_frames)
     config = VerifyConfig(find_new=detector != "none")
-    with _progress(frames, as_json, every, max_frames) as progress:
-        result = verify_frames(frames, model, T_prior, config, progress=progress)
-    with record_twin(result, model, out, settings.twin) as twin:
-        files = write_outputs(result, twin, out)
-        counts = verdict_counts(twin.state())
-        if publish is not None:
-            published = _publish(publish, result, twin.state(), model, out)
+    with _progress(frames, as_json, every, max_frames) as tick:
+        result = verify_frames(frames, model, T_prior, config, progress=lambda frame: tick("frame"))
+        with record_twin(result, model, out, settings.twin) as twin:
+            files = write_outputs(result, twin, out)
+            counts = verdict_counts(twin.state())
+            if publish is not None:
+                published = _publish(publish, result, twin.state(), model, out)
+            tick("twin")
     summary = {"frames": len(result.frames), "localized": sum(f.accepted for f in result.frames),
                "verdicts": {k: v for k, v in counts.items() if k != "not observed"},
                "miscalibrated": result.miscalibrated, "warnings": result.warnings,
@@ -150,36 +151,25 @@ def _is_bag(source: Path) -> bool:
     return source.suffix.lower() in BAG_SUFFIXES or (source.is_dir() and (source / "metadata.yaml").is_file())
 
 
+FRAME_STAGES = {"frame": "frames verified", "twin": "twin recorded and exported"}
+
+
 def _progress(frames, quiet: bool, every: int | None, max_frames: int | None):
-    """A progress bar with counts and ETA for a source that knows its length (a bag), else a line per frame."""
-    from contextlib import contextmanager
+    """``tick(stage)`` (:class:`~bim2rdt.cli.progress.StageProgress`): on a terminal a bar with the frames done
+    (of the source's length when it knows it: a bag), the time spent and left; piped, one plain line per stage
+    (its count and time) and one every half minute in a long one. ``quiet`` (--json): nothing."""
+    from contextlib import nullcontext
 
-    @contextmanager
-    def bar():
-        expected = getattr(frames, "expected_frames", None)
-        if quiet:
-            yield None
-            return
-        if not expected:
-            yield lambda f: console.print(f"frame {f.index}: {'localized' if f.accepted else 'not localized'} in "
-                                          f"{f.seconds:.1f} s")
-            return
-        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+    from bim2rdt.cli.progress import StageProgress
 
+    if quiet:
+        return nullcontext(lambda stage: None)
+    expected = getattr(frames, "expected_frames", None)
+    totals = {"twin": 1}
+    if expected:
         total = -(-expected // (every or 1))
-        total = min(total, max_frames) if max_frames else total
-        counts = {"localized": 0}
-        with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn(),
-                      console=console, transient=True) as progress:
-            task = progress.add_task("frames", total=total)
-
-            def tick(f) -> None:
-                counts["localized"] += f.accepted
-                dropped = len(getattr(frames, "dropped", []))
-                progress.update(task, advance=1, description=f"frames: {counts['localized']} localized, "
-                                                             f"{dropped} dropped")
-            yield tick
-    return bar()
+        totals["frame"] = min(total, max_frames) if max_frames else total
+    return StageProgress(console, FRAME_STAGES, totals)
 
 
 def _frames(source: Path, correction, extra: dict | None = None):

@@ -35,15 +35,19 @@ def _rigid(R: np.ndarray, t=(0.0, 0.0, 0.0)) -> np.ndarray:
 
 class RecordingRobot:
     """A :class:`~bim2rdt.mission.robot.Robot` that passes every command to ``robot`` (a simulated robot) and
-    writes what it measured into ``bag``: its odometry as TF, and every captured frame."""
+    writes what it measured into ``bag``: its odometry as TF, and every captured frame. Without a bag it only
+    keeps ``captures``: each capture's (time, T_odom_camera) on the robot's clock, as the bag would hold them
+    (what ``demo --publish`` corrects into ``map -> odom``)."""
 
-    def __init__(self, robot, bag: BagWriter, dock: np.ndarray, start_time: float) -> None:
+    def __init__(self, robot, bag: BagWriter | None, dock: np.ndarray, start_time: float) -> None:
         self.robot, self.bag, self.time = robot, bag, start_time
         self.state, self.tilt = to_planar(dock)
         self.frames = 0
+        self.captures: list[tuple[float, np.ndarray]] = []
         T_link_optical = _rigid(R_LINK_OPTICAL)
-        bag.write_tf([("camera_link", OPTICAL, T_link_optical), ("camera_link", IMU_FRAME, T_link_optical)],
-                     start_time, static=True)
+        if bag is not None:
+            bag.write_tf([("camera_link", OPTICAL, T_link_optical), ("camera_link", IMU_FRAME, T_link_optical)],
+                         start_time, static=True)
         self._write_tf()
 
     def drive(self, increment: np.ndarray, R_level_camera: np.ndarray):
@@ -69,6 +73,8 @@ class RecordingRobot:
         self.time += distance / SPEED + turned / TURN_RATE
 
     def _write_tf(self) -> None:
+        if self.bag is None:
+            return
         T_odom_optical = from_planar(self.state, self.tilt)
         x, y, _, yaw = self.state
         c, s = np.cos(yaw), np.sin(yaw)
@@ -81,9 +87,12 @@ class RecordingRobot:
         self.time += CAPTURE_S
         self._write_tf()
         t = self.time
+        self.captures.append((t, from_planar(self.state, self.tilt)))
+        self.frames += 1
+        if self.bag is None:
+            return
         self.bag.write_camera_info(INFO, OPTICAL, t, frame.intrinsics)
         self.bag.write_colour(COLOUR, OPTICAL, t, frame.rgb)
         self.bag.write_depth(DEPTH, OPTICAL, t, frame.depth)
         R_world_camera = self.robot.T_world_camera[:3, :3]
         self.bag.write_imu(IMU, IMU_FRAME, t, R_world_camera.T @ np.array([0.0, 0.0, 1.0]))
-        self.frames += 1

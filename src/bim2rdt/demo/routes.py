@@ -115,6 +115,13 @@ def save_route_map(day_route: DayRoute, objects: Sequence[MapObject], stations: 
                                f"{len(navigator.replans)} replans")
 
 
+def known_grid(day, states):
+    """What the robot knows at the end of the day as an occupancy grid: the BIM's, with the twin's observed
+    objects (``states``) and the off-limits zones (the keep-out mask): the Nav2 map the demo writes and
+    publishes."""
+    return day.route.grid.with_obstacles(states).with_zones(day.model.zones)
+
+
 def write_route_files(day, out_dir: Path) -> dict[str, Path]:
     """For a day with a planned route (a ``SiteDay``): ``plan_map.png`` (the robot's map, the objects by their
     twin status, the walk, stations and zones; ``report.html`` shows it) and the Nav2 map of what the robot knows
@@ -129,7 +136,7 @@ def write_route_files(day, out_dir: Path) -> dict[str, Path]:
         states, objects = {}, map_objects(day.model, day.mission.observations)
     written = {"plan_map": save_route_map(day.route, objects, day.mission.stations, out_dir / "plan_map.png",
                                           states if day.twin is not None else None)}
-    known = day.route.grid.with_obstacles(states).with_zones(day.model.zones)
+    known = known_grid(day, states)
     written.update({f"nav2_{what}": path for what, path in known.save_nav2(out_dir / "nav2", "site").items()})
     return written
 

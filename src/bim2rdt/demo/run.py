@@ -31,15 +31,18 @@ class DemoResult:
     site_day: SiteDay
     report: dict[str, Path]
     registration: RegistrationRun
+    published: Path | None = None
+    """The results bag's folder (``publish``)."""
 
 
 def run_demo(out_dir: Path, trials: int = DEMO_TRIALS, seed: int = DEMO_SEED, workers: int = 2,
              minutes: float = 60.0, tick: Callable[[str], None] = lambda stage: None, detector: str = "geometric",
              yoloe: tuple[Path, Path] | None = None, record: Path | None = None,
-             max_targets: int | None = None) -> DemoResult:
+             max_targets: int | None = None, publish: Path | None = None) -> DemoResult:
     """Run the site day and the registration scenarios into ``out_dir`` (created), with the settings read once
     from the environment; the robot reads its frames with ``detector`` (``yoloe``: local weights and prompt
-    embeddings). ``config.json`` records those settings (secrets masked), the detector, the seed and the versions."""
+    embeddings). ``config.json`` records those settings (secrets masked), the detector, the seed and the versions.
+    ``publish``: also write the results as a ROS 2 bag there (:mod:`bim2rdt.demo.publish`)."""
     from bim2rdt.config import settings_record
     from bim2rdt.demo.settings import demo_settings
     from bim2rdt.demo.site_report import write_site_report
@@ -48,8 +51,13 @@ def run_demo(out_dir: Path, trials: int = DEMO_TRIALS, seed: int = DEMO_SEED, wo
     settings = demo_settings()
     day = run_site_day(out_dir, seed=seed, workers=workers, minutes=minutes, mission_config=settings.mission,
                        icp=settings.registration, twin_config=settings.twin, tick=tick, detector=detector,
-                       yoloe=yoloe, record=record, max_targets=max_targets)
+                       yoloe=yoloe, record=record, max_targets=max_targets, keep_odometry=publish is not None)
     report = write_site_report(day, out_dir)
+    published = None
+    if publish is not None:
+        from bim2rdt.demo.publish import publish_day
+
+        published = publish_day(publish, day)
     run = run_registration_scenarios(out_dir / "registration", trials, seed, settings.registration, peers=False,
                                      tick=lambda: tick("trial"))
     save_run(run, out_dir / "registration", settings_record(settings))
@@ -58,7 +66,7 @@ def run_demo(out_dir: Path, trials: int = DEMO_TRIALS, seed: int = DEMO_SEED, wo
                 "versions": versions()}
     write_bytes_atomic(out_dir / "config.json", json.dumps(resolved, indent=2).encode("utf-8"))
     report["html"] = _html(day, run, out_dir)
-    return DemoResult(day, report, run)
+    return DemoResult(day, report, run, published)
 
 
 def _html(day: SiteDay, run: RegistrationRun, out_dir: Path) -> Path:

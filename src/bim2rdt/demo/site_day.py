@@ -25,6 +25,8 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
 from bim2rdt.bim import BimModel, load_ifc
 from bim2rdt.demo.localized import MissionLocalization, localized_mission
 from bim2rdt.demo.routes import UNPLANNED_DRUM_XY, DayRoute, plan_day_route
@@ -62,6 +64,9 @@ class SiteDay:
     twin_files: TwinFiles | None = None
     route: DayRoute | None = None
     localization: MissionLocalization | None = None  # the robot's fixes, and the dead-reckoning comparison run
+    odometry: list[tuple[float, np.ndarray]] | None = None
+    """Each capture's (time, T_odom_camera) on the robot's clock, as ``--record`` writes them (kept with
+    ``record`` or ``keep_odometry``)."""
 
 
 def objects_of_interest(model: BimModel) -> list[Target]:
@@ -76,22 +81,23 @@ def run_site_day(out_dir: Path, seed: int = 0, workers: int = 2, minutes: float 
                  twin_config: TwinConfig = TwinConfig(),
                  tick: Callable[[str], None] = lambda stage: None, detector: str = "geometric",
                  yoloe: tuple[Path, Path] | None = None, record: Path | None = None,
-                 max_targets: int | None = None) -> SiteDay:
+                 max_targets: int | None = None, keep_odometry: bool = False) -> SiteDay:
     """Run the day into ``out_dir``: ``site.ifc`` (as designed), the day's twin (``twin.db``) and its exports
     (``site_twin.ifc`` as built with safety records, ``site_issues.bcf``, ``twin.json``), and the monitor's state
     under ``state/`` (both started afresh: the demo simulates a new day). The mission runs with
     ``mission_config`` and registers with ``icp``; the twin judges with ``twin_config``'s presets (the demo passes
     ``Settings.mission``, ``Settings.registration`` and ``Settings.twin``). The robot's camera sees the building
     and reads its frames with ``detector`` (:mod:`bim2rdt.demo.perceivers`). ``record``: also write the robot's run
-    as a ROS 2 bag there (:mod:`bim2rdt.demo.record`); ``max_targets``: verify only the first N site objects (a
-    short day, fewer stations)."""
+    as a ROS 2 bag there (:mod:`bim2rdt.demo.record`); ``max_targets``: stations for the first N site objects only (a
+    short day; what they see of the others is judged too); ``keep_odometry``: keep the robot's odometry at each
+    capture (``SiteDay.odometry``) without a bag."""
     out_dir.mkdir(parents=True, exist_ok=True)
     model = load_ifc(build_site_ifc(out_dir / "site.ifc"), cache_dir=_model_cache())
     tick("bim")
     planned = objects_of_interest(model)
     reality = simulate_reality(model, [t.global_id for t in planned], seed=seed, unplanned_at=UNPLANNED_DRUM_XY,
                                building=True, removed=REMOVED_OBJECTS)
-    targets = planned[:max_targets]  # the site changes as on a full day; the robot sees only these objects
+    targets = planned[:max_targets]  # the site changes as on a full day; the robot's stations face these objects
     priors = KnowledgeBasePriors().priors(sorted({t.family for t in planned} | {t.family for t in reality.truth}))
     twin = open_day_twin(out_dir, model, priors, twin_config)
     events, timeline = _hav_day(twin, out_dir / "state", workers, minutes, fs)
@@ -104,30 +110,42 @@ def run_site_day(out_dir: Path, seed: int = 0, workers: int = 2, minutes: float 
         return DemoPerception(detector, model, reality, priors, seed, yoloe)
 
     route = route_for_today()
-    context = MissionContext(targets, route.plan.stations, model, priors, mesh_for_family, route.config, icp,
+    # every planned object is a target: one the short day's stations see by chance is that element, not a new one
+    context = MissionContext(planned, route.plan.stations, model, priors, mesh_for_family, route.config, icp,
                              twin_config.tolerance_policy(), twin_config.min_fitness, tick=lambda: tick("station"))
-    with _recorder(record) as recording:
+    recorded: list = []
+    with _recorder(record, keep_odometry, recorded) as recording:
         mission, localization = localized_mission(context, perception, ROBOT_START_XY, seed, route=route.route,
                                                   comparison_route=route_for_today().route, record=recording)
     record_mission(twin, mission.observations, mission.stations, times=route.route.arrivals, missing=mission.missing)
     tick("twin")
     files = export_day_twin(twin, out_dir)
     return SiteDay(model, priors, reality, mission, files.ifc, events, timeline, ifc_records(files.ifc), twin, files,
-                   route, localization)
+                   route, localization, recorded[0].captures if recorded else None)
 
 
 @contextmanager
-def _recorder(path: Path | None):
+def _recorder(path: Path | None, keep_odometry: bool, robots: list):
     """None, or ``record(robot, dock)`` wrapping the robot in a :class:`~bim2rdt.demo.record.RecordingRobot`
-    that writes the bag at ``path`` (closed, and renamed into place, when the run ends)."""
-    if path is None:
+    (appended to ``robots``) that writes the bag at ``path`` (closed, and renamed into place, when the run ends),
+    or with ``keep_odometry`` and no ``path`` only keeps its odometry."""
+    if path is None and not keep_odometry:
         yield None
         return
     from bim2rdt.demo.record import RecordingRobot
     from bim2rdt.sources.bag_writer import BagWriter
 
+    def recording(bag):
+        def wrap(robot, dock):
+            robots.append(RecordingRobot(robot, bag, dock, _shift_start()))
+            return robots[-1]
+        return wrap
+
+    if path is None:
+        yield recording(None)
+        return
     with BagWriter(path) as bag:
-        yield lambda robot, dock: RecordingRobot(robot, bag, dock, _shift_start())
+        yield recording(bag)
 
 
 def _hav_day(twin: DigitalTwin, state_dir: Path, workers: int, minutes: float, fs: float,

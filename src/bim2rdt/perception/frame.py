@@ -66,8 +66,8 @@ class Frame:
             object.__setattr__(self, "up", _unit(self.up, self._name))
         if self.time is not None:
             object.__setattr__(self, "time", _seconds(self.time, self._name))
-        valid = depth[np.isfinite(depth) & (depth > 0)]
-        valid = valid[:: max(1, valid.size // 20_000)]  # the median of a 20k-pixel sample tells the unit as well
+        sample = depth.reshape(-1)[:: max(1, depth.size // 4_000)]  # a 4k-pixel sample tells the unit as well
+        valid = sample[np.isfinite(sample) & (sample > 0)]
         if valid.size and float(np.median(valid)) > MAX_DEPTH_MEDIAN:
             raise PerceptionError(f"{self._name}: median depth {float(np.median(valid)):.0f} looks like "
                                   "millimetres; depth must be metres")

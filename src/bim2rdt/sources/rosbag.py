@@ -84,6 +84,8 @@ class RosbagSource:
         self.bag_paths = _bag_paths(self.path)
         self.dropped: list[dict] = []
         self.warnings: list[str] = []
+        self._undistorters: dict[tuple, Undistorter] = {}
+        self._firsts: dict[str, object] = {}
         opened = self._reader()
         reader = opened.__enter__()
         try:
@@ -94,6 +96,7 @@ class RosbagSource:
             self._check_tf()
             self.world_frame = self.tf.root(self.camera_frame) if self.tf else None
             """The frame the priors are in: map, else odom, else the camera tree's root (None: no TF)."""
+            self._firsts.clear()  # a first image is a frame's worth of memory
         except BaseException as error:
             opened.__exit__(type(error), error, None)
             raise
@@ -147,6 +150,12 @@ class RosbagSource:
         return Topics(depth_topic, colour_topic, info, imu, odometry)
 
     def _first(self, reader, topic: str):
+        """The topic's first message (read once: opening asks for it twice), its clock checked."""
+        if topic not in self._firsts:
+            self._firsts[topic] = self._read_first(reader, topic)
+        return self._firsts[topic]
+
+    def _read_first(self, reader, topic: str):
         for connection, log_time, raw in reader.messages([c for c in reader.connections if c.topic == topic]):
             message = reader.deserialize(raw, connection.msgtype)
             header_time = stamp(message.header)
@@ -261,7 +270,12 @@ class RosbagSource:
         depths: list = []
         waiting: list = []
         state = {"info": None, "imu": None, "tf": -math.inf}
+        last_info = None
         for connection, log_time, raw in reader.messages(wanted):
+            if connection.topic == topics.camera_info:
+                if last_info is None or not _same_after_stamp(raw, last_info):
+                    state["info"], last_info = reader.deserialize(raw, connection.msgtype), raw
+                continue
             message = reader.deserialize(raw, connection.msgtype)
             if connection in tf_connections:
                 latest = self._add(self.tf, message, connection)
@@ -270,9 +284,6 @@ class RosbagSource:
                                    _stamp_of(waiting[0]) + self.tolerance <= state["tf"]):
                     yield waiting.pop(0)
                 self.tf.forget_before(state["tf"] - TF_KEEP_S)
-                continue
-            if connection.topic == topics.camera_info:
-                state["info"] = message
                 continue
             if connection.topic == topics.imu:
                 state["imu"] = message
@@ -324,10 +335,7 @@ class RosbagSource:
             return {"time": when, "reason": f"no CameraInfo on {self.topics.camera_info} before this frame"}
         found = None
         if info is not None:
-            try:
-                undistort = Undistorter(info)
-            except ImageError as error:
-                raise SourceError(self.path, f"{self.topics.camera_info}: {error}") from None
+            undistort = self._undistorter(info)
             raw = undistort.depth(raw)
             rgb = None if rgb is None else undistort.colour(rgb)
             found = undistort.intrinsics
@@ -347,13 +355,30 @@ class RosbagSource:
             except SourceError as error:
                 return {"time": when, "reason": error.problem}
         else:  # REP 118 fixes the units (16UC1 mm, 32FC1 m); the Frame still refuses a millimetre-looking median
-            depth_m = raw if units == 1.0 else raw.astype(np.float32) * np.float32(1.0 / units)
-            if not np.any(depth_m > 0):
+            if units == 1.0:
+                depth_m, any_valid = raw, bool(np.any(raw > 0))
+            else:  # integer millimetres: one pass to metres; a zero is no return
+                depth_m, any_valid = np.multiply(raw, np.float32(1.0 / units), dtype=np.float32), bool(raw.any())
+            if not any_valid:
                 return {"time": when, "reason": "the depth image has no valid pixel (all 0 or NaN)"}
         return build_frame(self.path, rgb, depth_m, intrinsics, self.options, time=when, prior=prior,
-                           up=self._up(imu, when), source=name)
+                           up=self._up(imu, when, prior), source=name)
 
-    def _up(self, imu, when: float) -> np.ndarray | None:
+    def _undistorter(self, info) -> Undistorter:
+        """The CameraInfo's :class:`Undistorter`, built once per distinct calibration (a camera publishes the same
+        one with every frame; building it maps the whole image when it has distortion)."""
+        key = (int(info.width), int(info.height), info.distortion_model,
+               tuple(np.asarray(info.k if hasattr(info, "k") else info.K, float).tolist()),
+               tuple(np.asarray(info.d if hasattr(info, "d") else info.D, float).tolist()))
+        cached = self._undistorters.get(key)
+        if cached is None:
+            try:
+                cached = self._undistorters[key] = Undistorter(info)
+            except ImageError as error:
+                raise SourceError(self.path, f"{self.topics.camera_info}: {error}") from None
+        return cached
+
+    def _up(self, imu, when: float, T_root_camera: np.ndarray | None = None) -> np.ndarray | None:
         """Gravity's up in the camera frame from the IMU's specific force (at rest it points up), rotated by TF."""
         if imu is None:
             return None
@@ -367,7 +392,9 @@ class RosbagSource:
         root = self.world_frame
         if root is None:
             return None
-        T_root_imu, T_root_camera = self.tf.lookup(root, imu_frame, when), self.tf.lookup(root, self.camera_frame, when)
+        T_root_imu = self.tf.lookup(root, imu_frame, when)
+        if T_root_camera is None:
+            T_root_camera = self.tf.lookup(root, self.camera_frame, when)
         if isinstance(T_root_imu, str) or isinstance(T_root_camera, str):
             return None
         up = T_root_camera[:3, :3].T @ T_root_imu[:3, :3] @ up_imu
@@ -421,6 +448,17 @@ class _Guarded:
             return self.reader.deserialize(raw, msgtype)
         except Exception as error:
             raise SourceError(self.path, f"a {msgtype} message does not decode ({_first_line(error)})") from None
+
+
+STAMP_END = 12
+"""Bytes up to the end of a message's header stamp, in ROS 2 CDR (4 encapsulation bytes, sec, nanosec) and in
+ROS 1 (seq, sec, nsec) alike: two messages equal after it differ only in their stamps."""
+
+
+def _same_after_stamp(raw, previous) -> bool:
+    """Whether serialized message ``raw`` equals ``previous`` but for its header stamp (a CameraInfo repeated with
+    every frame: its calibration is decoded once)."""
+    return len(raw) == len(previous) and memoryview(raw)[STAMP_END:] == memoryview(previous)[STAMP_END:]
 
 
 def _stamp_of(pair) -> float:

@@ -13,15 +13,30 @@ import bisect
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.spatial.transform import Rotation, Slerp
+from scipy.spatial.transform import Rotation
 
 
 def matrix(translation, quaternion_xyzw) -> np.ndarray:
-    """4x4 from a translation (3,) and a unit quaternion (x, y, z, w), ROS's order."""
-    T = np.eye(4)
-    T[:3, :3] = Rotation.from_quat(np.asarray(quaternion_xyzw, float)).as_matrix()
-    T[:3, 3] = translation
-    return T
+    """4x4 from a translation (3,) and a quaternion (x, y, z, w), ROS's order (normalised here)."""
+    x, y, z, w = np.asarray(quaternion_xyzw, float) / np.linalg.norm(quaternion_xyzw)
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w), translation[0]],
+                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w), translation[1]],
+                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y), translation[2]],
+                     [0.0, 0.0, 0.0, 1.0]])
+
+
+def slerp(q0: np.ndarray, q1: np.ndarray, s: float) -> np.ndarray:
+    """The unit quaternion a share ``s`` of the way from ``q0`` to ``q1`` (x, y, z, w) on the shorter arc, as
+    tf2 interpolates (scipy's ``Slerp`` in a few scalar operations: it is called once per edge per frame)."""
+    q0, q1 = q0 / np.linalg.norm(q0), q1 / np.linalg.norm(q1)
+    dot = float(q0 @ q1)
+    if dot < 0.0:
+        q1, dot = -q1, -dot
+    if dot > 0.9995:  # nearly the same rotation: linear, then normalised
+        q = q0 + s * (q1 - q0)
+        return q / np.linalg.norm(q)
+    theta = np.arccos(dot)
+    return (np.sin((1 - s) * theta) * q0 + np.sin(s * theta) * q1) / np.sin(theta)
 
 
 def translation_quaternion(T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -37,8 +52,11 @@ class _Edge:
     quaternions: list[np.ndarray] = field(default_factory=list)
     static: np.ndarray | None = None
     _sorted: bool = True
+    _last: tuple = (None, None)
+    """(time, T or reason) of the last lookup: a frame's prior and its IMU's look the same edges up at one time."""
 
     def add(self, time: float, translation, quaternion) -> None:
+        self._last = (None, None)
         if self.times and time < self.times[-1]:
             self._sorted = False
         self.times.append(time)
@@ -49,6 +67,13 @@ class _Edge:
         """T_parent_child at ``time``, or why not (a sentence)."""
         if self.static is not None:
             return self.static
+        if self._last[0] == time:
+            return self._last[1]
+        found = self._at(time, tolerance, max_gap)
+        self._last = (time, found)
+        return found
+
+    def _at(self, time: float, tolerance: float, max_gap: float) -> np.ndarray | str:
         if not self._sorted:
             order = np.argsort(self.times, kind="stable")
             self.times = [self.times[i] for i in order]
@@ -68,11 +93,8 @@ class _Edge:
         if t1 - t0 > max_gap and min(time - t0, t1 - time) > tolerance:
             return f"in a {t1 - t0:.2f} s gap between samples"
         s = (time - t0) / (t1 - t0)
-        rotation = Slerp([0.0, 1.0], Rotation.from_quat([self.quaternions[i - 1], self.quaternions[i]]))([s])[0]
-        T = np.eye(4)
-        T[:3, :3] = rotation.as_matrix()
-        T[:3, 3] = (1 - s) * self.translations[i - 1] + s * self.translations[i]
-        return T
+        return matrix((1 - s) * self.translations[i - 1] + s * self.translations[i],
+                      slerp(self.quaternions[i - 1], self.quaternions[i], s))
 
 
 class TfBuffer:
@@ -110,6 +132,7 @@ class TfBuffer:
             cut = min(cut, max(0, len(edge.times) - 2))
             if cut > 64:
                 del edge.times[:cut], edge.translations[:cut], edge.quaternions[:cut]
+                edge._last = (None, None)
 
     @property
     def frames(self) -> set[str]:

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import time as clock
 from collections import Counter
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -23,6 +23,8 @@ from bim2rdt.localization.cloud import OccludedMap, scan_points
 from bim2rdt.perception.background import explained, structure_for
 from bim2rdt.perception.frame import Frame
 from bim2rdt.perception.observation import Observation
+from bim2rdt.perception.structure import movable_elements
+from bim2rdt.semantics import KnowledgeBasePriors, UprightPrior
 from bim2rdt.twin import ElementStatus
 from bim2rdt.verify.depth_check import DepthCheck, DepthCheckConfig, check_depth
 from bim2rdt.verify.errors import VerifyError
@@ -130,7 +132,8 @@ class VerifyResult:
 
 def verify_frames(frames: Iterable, model: BimModel, prior: np.ndarray | None = None,
                   config: VerifyConfig = VerifyConfig(),
-                  progress: Callable[[FrameResult], None] | None = None) -> VerifyResult:
+                  progress: Callable[[FrameResult], None] | None = None,
+                  priors: Mapping[str, UprightPrior] | None = None) -> VerifyResult:
     """Each frame of ``frames`` localized on ``model`` and checked (see the module's note). An item is a
     :class:`Frame` or a scan (anything with ``.points`` (N, 3) in the sensor frame, and ``.path``: a
     ``sources.Cloud``). Each item's prior:
@@ -142,6 +145,9 @@ def verify_frames(frames: Iterable, model: BimModel, prior: np.ndarray | None = 
     - without ``prior``: the frame's own pose, taken as in the model's frame (none: refused with the reason),
       until a fix is accepted: from then on the own poses are odometry anchored at the last fix, as with
       ``prior`` (a ROS bag's camera in ``map``: the fix is what map -> odom should be).
+
+    ``priors`` (family -> upright prior; default: :func:`family_priors`) fit each planned object as the mission
+    fits it.
 
     A source that drops frames (``dropped``: a list of ``{"time", "reason"}``, read after iterating) or warns about
     the recording (``warnings``) has them carried into the result.
@@ -164,11 +170,12 @@ def verify_frames(frames: Iterable, model: BimModel, prior: np.ndarray | None = 
         scene = OccludedMap.of(model)
     except LocalizationError as error:
         raise VerifyError(str(error)) from None
+    priors = family_priors(model) if priors is None else priors
     results: list[FrameResult] = []
     anchor: tuple[np.ndarray | None, np.ndarray] | None = None if prior is None else (None, np.asarray(prior))
     for index, frame in enumerate(frames):
         own = frame.T_world_camera if isinstance(frame, Frame) else None
-        result = verify_frame(index, frame, model, scene, _prior_for(own, anchor), config)
+        result = verify_frame(index, frame, model, scene, _prior_for(own, anchor), config, priors)
         result.recorded = own
         if result.accepted and (anchor is not None or own is not None):
             anchor = (own, result.pose)
@@ -188,6 +195,13 @@ def verify_frames(frames: Iterable, model: BimModel, prior: np.ndarray | None = 
     return VerifyResult(results, dropped, list(getattr(frames, "warnings", [])))
 
 
+def family_priors(model: BimModel) -> dict[str, UprightPrior]:
+    """The offline knowledge base's upright prior of each family of the model's movable elements (the demo's
+    provider: verify and the demo's mission fit and judge with the same priors and symmetries)."""
+    families = {el.family: el.ifc_class for el in movable_elements(model) if el.family}
+    return KnowledgeBasePriors().priors(families, families)
+
+
 def _prior_for(own: np.ndarray | None, anchor) -> np.ndarray | None:
     """A frame's prior from its own pose and the anchor (see :func:`verify_frames`)."""
     if anchor is None:
@@ -199,7 +213,7 @@ def _prior_for(own: np.ndarray | None, anchor) -> np.ndarray | None:
 
 
 def verify_frame(index: int, frame, model: BimModel, scene: OccludedMap, prior: np.ndarray | None,
-                 config: VerifyConfig) -> FrameResult:
+                 config: VerifyConfig, priors: Mapping[str, UprightPrior] | None = None) -> FrameResult:
     """One frame or scan from ``prior`` (see :func:`verify_frames`); a frame's IMU ``up`` sets the prior's roll
     and pitch."""
     start = clock.perf_counter()
@@ -231,7 +245,8 @@ def verify_frame(index: int, frame, model: BimModel, scene: OccludedMap, prior: 
     result.pose, result.covariance, result.degenerate = loc.pose, loc.covariance, list(loc.degenerate)
     result.residual, result.inliers, result.accepted = loc.residual, loc.inliers, True
     result.depth = check_depth(scan, scene, loc.pose, config.localization.max_range, config.depth)
-    result.observations, result.missing = _observe(index, points_sensor, loc.pose, model, scene, config)
+    result.observations, result.missing = _observe(index, points_sensor, loc.pose, model, scene, config,
+                                                    priors)
     if result.depth.miscalibrated:
         reason = f"(sensor looks miscalibrated: {result.depth.reason})"
         result.observations = [replace(o, status=ElementStatus.UNVERIFIED, reason=reason) for o in result.observations]
@@ -271,7 +286,8 @@ class _Cloud:
 
 
 def _observe(index: int, points_sensor: np.ndarray, pose: np.ndarray, model: BimModel, scene: OccludedMap,
-             config: VerifyConfig) -> tuple[list[Observation], list[str]]:
+             config: VerifyConfig, priors: Mapping[str, UprightPrior] | None = None
+             ) -> tuple[list[Observation], list[str]]:
     """The planned objects in view checked, and the new ones, from the fixed ``pose``; and the GlobalIds of the
     planned objects whose place the sensor saw empty."""
     points_sensor = points_sensor[:: max(1, len(points_sensor) // 90_000)]
@@ -296,7 +312,7 @@ def _observe(index: int, points_sensor: np.ndarray, pose: np.ndarray, model: Bim
         return scene.permanent.first_hit(pose[:3, 3], offset / distance[:, None]) < distance - 0.03
 
     fits = check_planned(left, elements, model, slab, index, pose[:3, 3], behind_walls, lookup.seen_through,
-                         config.planned)
+                         config.planned, priors)
     # judged: a fit the twin will take (enough of its points on the body); the rest may have been seen empty
     judged = {f.element.global_id for f in fits if f.observation.fitness >= config.min_fitness}
     empty = seen_empty([el for el in elements if el.global_id not in judged], model, pose[:3, 3], behind_walls,

@@ -5,13 +5,14 @@ from __future__ import annotations
 
 import html
 import json
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
 from bim2rdt.atomic import write_bytes_atomic
 from bim2rdt.bim import BimModel
 from bim2rdt.twin import DigitalTwin, ElementState, ElementStatus, TwinConfig, TwinError
-from bim2rdt.verify.chain import VerifyResult
+from bim2rdt.verify.chain import VerifyResult, family_priors
 
 TWIN_DB = "twin.db"
 
@@ -29,7 +30,7 @@ class VerifyFiles:
 
 
 def record_twin(result: VerifyResult, model: BimModel, out_dir: Path, config: TwinConfig = TwinConfig(),
-                robot: str = "verify") -> DigitalTwin:
+                robot: str = "verify", symmetry: Mapping[str, float] | None = None) -> DigitalTwin:
     """A fresh twin at ``out_dir/twin.db`` with every frame's observations and the places it saw empty (time: the
     frame's, else its index; camera: the fixed pose).
 
@@ -39,14 +40,18 @@ def record_twin(result: VerifyResult, model: BimModel, out_dir: Path, config: Tw
         out_dir: The verify folder; a twin.db already there is replaced.
         config: The twin's tolerances and ``min_fitness``.
         robot: The records' source.
+        symmetry: Each family's rotational order about up (default: its upright prior's,
+            :func:`~bim2rdt.verify.chain.family_priors`), as the demo's twin has them.
 
     Returns:
         The open twin (the caller closes it).
     """
     for stale in (TWIN_DB, f"{TWIN_DB}-wal", f"{TWIN_DB}-shm"):
         (out_dir / stale).unlink(missing_ok=True)
+    if symmetry is None:
+        symmetry = {family: prior.symmetry for family, prior in family_priors(model).items()}
     twin = DigitalTwin.open(f"sqlite:///{out_dir / TWIN_DB}", model, tolerances=config.tolerance_policy(),
-                            min_fitness=config.min_fitness, robot=robot)
+                            symmetry=dict(symmetry), min_fitness=config.min_fitness, robot=robot)
     for frame in result.frames:
         when = frame.time if frame.time is not None else float(frame.index)
         for observation in frame.observations:
