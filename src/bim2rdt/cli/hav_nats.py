@@ -34,6 +34,7 @@ def listen_partition(settings, url: str, partition: int, partitions: int, durati
     from bim2rdt.cli.hav_output import _leave, _password, watch
     from bim2rdt.bus.partitions import partition_of
     from bim2rdt.safety import BusSink, HavMonitor
+    from bim2rdt.safety.last_delivery import apply_last_delivery
 
     user = settings.mqtt.username
     hav = settings.hav
@@ -48,6 +49,7 @@ def listen_partition(settings, url: str, partition: int, partitions: int, durati
         monitor.attach(bus)
         bus.accepting = lambda: monitor.failure is None  # nothing more is handled or acknowledged after a failure
         bus.on_fetched = monitor.flush  # each fetch is one group commit: no waiting for a group to fill
+        bus.on_last_delivery = lambda topic, payload, n: apply_last_delivery(monitor, topic, payload, n)
         bus.connect()
         console.print(f"partition {partition}/{partitions} of site {site!r} on {url} (pid {os.getpid()}); "
                       f"{len(monitor.devices())} device(s) restored")
