@@ -32,8 +32,8 @@ def listen_partition(settings, url: str, partition: int, partitions: int, durati
     from bim2rdt.bus.nats_bus import NatsBus, StreamLimits
     from bim2rdt.cli.common import stop_requested
     from bim2rdt.cli.hav_output import _leave, _password, watch
-    from bim2rdt.bus.partitions import partition_of
     from bim2rdt.safety import BusSink, HavMonitor
+    from bim2rdt.safety.persistence import Share
     from bim2rdt.safety.last_delivery import apply_last_delivery
 
     user = settings.mqtt.username
@@ -45,7 +45,7 @@ def listen_partition(settings, url: str, partition: int, partitions: int, durati
         site = settings.mqtt.site  # a store shared by the partitions (hav.store_url) holds every device's streams
         monitor = HavMonitor(partition_data_dir(settings, partition, partitions), settings.hav.site_secret,
                              sinks + [BusSink(bus, site)], settings.hav.monitor_config(),
-                             owns=lambda device: partition_of(site, device, partitions) == partition)
+                             owns=Share(site, partition, partitions))  # its devices, its share of the days
         monitor.attach(bus)
         bus.accepting = lambda: monitor.failure is None  # nothing more is handled or acknowledged after a failure
         bus.on_fetched = monitor.flush  # each fetch is one group commit: no waiting for a group to fill
