@@ -29,7 +29,7 @@ def partition_data_dir(settings, partition: int, partitions: int) -> Path:
 def listen_partition(settings, url: str, partition: int, partitions: int, duration: float, max_offline: float,
                      sinks: list) -> None:
     """Run the monitor of one partition until stopped; acknowledges each message after its commit."""
-    from bim2rdt.bus.nats_bus import NatsBus, StreamLimits
+    from bim2rdt.bus.nats_bus import FETCH_BATCH, NatsBus, StreamLimits
     from bim2rdt.cli.common import stop_requested
     from bim2rdt.cli.hav_output import _leave, _password, watch
     from bim2rdt.safety import BusSink, HavMonitor
@@ -44,7 +44,8 @@ def listen_partition(settings, url: str, partition: int, partitions: int, durati
     with stop_requested() as stop:
         site = settings.mqtt.site  # a store shared by the partitions (hav.store_url) holds every device's streams
         monitor = HavMonitor(partition_data_dir(settings, partition, partitions), settings.hav.site_secret,
-                             sinks + [BusSink(bus, site)], settings.hav.monitor_config(),
+                             sinks + [BusSink(bus, site)],  # one group commit per fetch, however large:
+                             settings.hav.monitor_config(commit_batches=max(hav.commit_batches, FETCH_BATCH)),
                              owns=Share(site, partition, partitions))  # its devices, its share of the days
         monitor.attach(bus)
         bus.accepting = lambda: monitor.failure is None  # nothing more is handled or acknowledged after a failure
