@@ -50,9 +50,9 @@ def run_scale(devices: int = 100, batches: int = 60, fs: float = 5000.0, summari
     ``LATENCY_LOAD`` of the 1-process throughput (see the module docstring)."""
     tick = tick or (lambda: None)
     raw = _raw_payloads(devices, batches, fs)
-    publisher, runs = _drain_runs(raw)
+    publisher, runs = _drain_runs(raw, fs)
     tick()
-    summary_run = _backlog_run(_summary_payloads(devices, summaries, fs), 1)
+    summary_run = _backlog_run(_summary_payloads(devices, summaries, fs), 1, fs)
     tick()
     one, two = runs[1]["msgs_per_s"], runs[2]["msgs_per_s"]
     latency = _latency_run(devices, fs, LATENCY_LOAD * one, latency_s)
@@ -171,7 +171,7 @@ def _delete_consumers(server: NatsServer, partitions: int) -> None:
     asyncio.run(delete())
 
 
-def _drain_runs(messages: list[tuple[str, str, bytes]]) -> tuple[dict, dict[int, dict]]:
+def _drain_runs(messages: list[tuple[str, str, bytes]], fs: float) -> tuple[dict, dict[int, dict]]:
     """Publish ``messages`` once into a 2-partition stream; drain it with 1 process, then with 2."""
     devices = {device for device, _, _ in messages}
     expected = [sum(1 for d, _, _ in messages if partition_of(SITE, d, 2) == k) for k in range(2)]
@@ -182,15 +182,17 @@ def _drain_runs(messages: list[tuple[str, str, bytes]]) -> tuple[dict, dict[int,
             for processes, groups in ((1, [[0, 1]]), (2, [[0], [1]])):
                 if processes == 2:
                     _delete_consumers(server, 2)
-                runs[processes] = _drain(server, groups, expected, Path(folder) / f"run-{processes}", len(messages))
+                runs[processes] = _drain(server, groups, expected, Path(folder) / f"run-{processes}", len(messages),
+                                         fs)
     return publisher, runs
 
 
-def _drain(server: NatsServer, groups: list[list[int]], expected: list[int], folder: Path, total: int) -> dict:
+def _drain(server: NatsServer, groups: list[list[int]], expected: list[int], folder: Path, total: int,
+           fs: float) -> dict:
     """Each group of partitions consumed by one process; msgs/s, CPU seconds, the server's CPU, the load."""
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else None
     server_cpu = _cpu_seconds(server.pid)
-    results = _consume(server, groups, 2, expected, folder)
+    results = _consume(server, groups, server.layout.partitions, expected, folder, fs)
     server_cpu = _cpu_seconds(server.pid) - server_cpu
     start, done = min(r["start"] for r in results), max(r["done"] for r in results)
     cpu = [r["cpu_s"] for r in results]
@@ -201,7 +203,7 @@ def _drain(server: NatsServer, groups: list[list[int]], expected: list[int], fol
             "load_average_1min_before": load}
 
 
-def _backlog_run(messages: list[tuple[str, str, bytes]], processes: int) -> dict:
+def _backlog_run(messages: list[tuple[str, str, bytes]], processes: int, fs: float) -> dict:
     """Publish ``messages`` first (one partition per process), then drain them (the summaries' run)."""
     devices = {device for device, _, _ in messages}
     with tempfile.TemporaryDirectory(prefix="bim2rdt-bench-scale-") as folder:
@@ -209,7 +211,7 @@ def _backlog_run(messages: list[tuple[str, str, bytes]], processes: int) -> dict
             _publish(server, messages)
             expected = [sum(1 for d, _, _ in messages if partition_of(SITE, d, processes) == k)
                         for k in range(processes)]
-            return _drain(server, [[k] for k in range(processes)], expected, Path(folder), len(messages))
+            return _drain(server, [[k] for k in range(processes)], expected, Path(folder), len(messages), fs)
 
 
 def _latency_run(devices: int, fs: float, rate: float, seconds: float) -> dict:
@@ -224,7 +226,8 @@ def _latency_run(devices: int, fs: float, rate: float, seconds: float) -> dict:
             ctx = multiprocessing.get_context("spawn")
             go, queue = ctx.Event(), ctx.Queue()
             workers = [ctx.Process(target=consume_partition, args=(server.url, [k], 2, expected[k], folder, go,
-                                                                    queue, True)) for k in range(2)]
+                                                                    queue, True, fs), daemon=True)
+                       for k in range(2)]
             for worker in workers:
                 worker.start()
             _wait_ready(queue, 2)
@@ -235,13 +238,21 @@ def _latency_run(devices: int, fs: float, rate: float, seconds: float) -> dict:
             for worker in workers:
                 worker.join(60)
     committed = {key: when for r in results for key, when in r["committed"].items()}
+    stages = {key: when for r in results for key, when in r["stages"].items()}
     first = min(published.values())
-    steady = {key: sent for key, sent in published.items() if sent - first >= WARMUP_S}
-    delays = np.array([committed[key] - sent for key, sent in steady.items() if key in committed]) * 1000.0
-    return {"messages": len(steady), "committed": len(delays), "warmup_s_left_out": WARMUP_S,
-            "offered_msgs_per_s": rate, "offered_fraction_of_one_process": LATENCY_LOAD, "publisher_cpu_s": cpu,
+    steady = [key for key, sent in published.items() if sent - first >= WARMUP_S and key in committed]
+    delays = np.array([committed[key] - published[key] for key in steady]) * 1000.0
+    timed = [key for key in steady if key in stages]
+    parts = {"publish_to_stored": [stages[k][0] - published[k] for k in timed],
+             "stored_to_fetched": [stages[k][1] - stages[k][0] for k in timed],
+             "fetched_to_committed": [committed[k] - stages[k][1] for k in timed]}
+    return {"messages": sum(1 for sent in published.values() if sent - first >= WARMUP_S), "committed": len(delays),
+            "warmup_s_left_out": WARMUP_S, "offered_msgs_per_s": rate,
+            "offered_fraction_of_one_process": LATENCY_LOAD, "publisher_cpu_s": cpu,
             "p50_ms": float(np.percentile(delays, 50)), "p99_ms": float(np.percentile(delays, 99)),
-            "max_ms": float(delays.max())}
+            "max_ms": float(delays.max()),
+            "stages_ms": {name: {"p50": float(np.percentile(v, 50) * 1000), "p99": float(np.percentile(v, 99) * 1000)}
+                          for name, v in parts.items() if v}}
 
 
 def _publish_paced(server: NatsServer, messages: list[tuple[str, str, bytes]], rate: float
@@ -256,9 +267,9 @@ def _publish_paced(server: NatsServer, messages: list[tuple[str, str, bytes]], r
                                         password=f"{device}-pw", mqtt_version=3).connect()
         start, cpu = time.time(), time.process_time()
         for i, (device, topic, payload) in enumerate(messages):
-            due = start + i / rate
-            if due > time.time():
-                time.sleep(due - time.time())
+            wait = start + i / rate - time.time()
+            if wait > 0:
+                time.sleep(wait)
             sent[(device, seqs[i])] = time.time()
             buses[device].publish(topic, payload, qos=1)
         for bus in buses.values():
@@ -281,12 +292,12 @@ def _seqs(messages: list[tuple[str, str, bytes]]) -> list[int]:
 
 
 def _consume(server: NatsServer, groups: list[list[int]], partitions: int, expected: list[int],
-             folder: Path) -> list[dict]:
+             folder: Path, fs: float) -> list[dict]:
     ctx = multiprocessing.get_context("spawn")
     go, queue = ctx.Event(), ctx.Queue()
     workers = [ctx.Process(target=consume_partition, args=(server.url, group, partitions,
                                                             sum(expected[k] for k in group), str(folder), go, queue,
-                                                            False)) for group in groups]
+                                                            False, fs), daemon=True) for group in groups]
     for worker in workers:
         worker.start()
     _wait_ready(queue, len(workers))
@@ -311,7 +322,8 @@ def _wait_ready(queue, count: int) -> None:
         assert queue.get(timeout=300) == "ready"
 
 
-def consume_partition(url: str, ks: list[int], n: int, expected: int, folder: str, go, queue, timed: bool) -> None:
+def consume_partition(url: str, ks: list[int], n: int, expected: int, folder: str, go, queue, timed: bool,
+                      fs: float = 5000.0) -> None:
     """A monitor process of the benchmark: partitions ``ks`` of ``n`` (one consumer each, one monitor) until
     ``expected`` messages are committed."""
     from bim2rdt.bus.nats_bus import FETCH_BATCH, NatsBus
@@ -329,12 +341,18 @@ def consume_partition(url: str, ks: list[int], n: int, expected: int, folder: st
                 committed.update({(b.device, b.seq): when for b in batches})
             return events
 
+    from bim2rdt.safety.filters import design_weighting
+
+    design_weighting(fs)  # the process's one-time filter fit (~0.5 s), before the clock starts as in a running monitor
     monitor = TimedMonitor(Path(folder) / f"p{ks[0]}-of-{n}", SECRET,
                            config=MonitorConfig(site=SITE, commit_batches=FETCH_BATCH))
     buses = [NatsBus(url, MONITOR, "monitor-pw", SITE, partition=k, partitions=n) for k in ks]
+    stages: dict = {}
     for bus in buses:
         monitor.attach(bus)
         bus.on_fetched = monitor.flush
+        if timed:
+            _time_stages(bus, stages)
     queue.put("ready")
     go.wait()
     start, cpu = time.time(), time.process_time()
@@ -348,4 +366,18 @@ def consume_partition(url: str, ks: list[int], n: int, expected: int, folder: st
         bus.close()
     monitor.close()
     queue.put({"start": start, "done": done, "cpu_s": cpu, "delivered": sum(bus.delivered for bus in buses),
-               "committed": committed})
+               "committed": committed, "stages": stages})
+
+
+def _time_stages(bus, stages: dict) -> None:
+    """Record, per (device, seq), when JetStream stored the message and when the monitor took it from the fetch
+    (the k-th message of a device is its batch k: the latency run publishes each device's batches in order)."""
+    dispatch, counts = bus._dispatch, {}
+
+    def timed(message) -> None:
+        device = message.subject.split(".")[5]
+        seq = counts[device] = counts.get(device, -1) + 1
+        stages[(device, seq)] = (message.metadata.timestamp.timestamp(), time.time())
+        dispatch(message)
+
+    bus._dispatch = timed

@@ -303,5 +303,8 @@ def _bench_scale(devices: int, fs: float, as_json: bool) -> None:
                 f"({lat['offered_fraction_of_one_process']:.0%} of one process's throughput)",
                 ["messages", "committed", "p50 ms", "p99 ms", "max ms"],
                 [(lat["messages"], lat["committed"], lat["p50_ms"], lat["p99_ms"], lat["max_ms"])])
+    if lat.get("stages_ms"):
+        print_table("Where the latency goes", ["stage", "p50 ms", "p99 ms"],
+                    [(name.replace("_", " "), v["p50"], v["p99"]) for name, v in lat["stages_ms"].items()])
     for name, ok in result["targets"].items():
         console.print(f"{name}: {'[green]PASS[/green]' if ok else '[red]FAIL[/red]'}")
