@@ -140,6 +140,8 @@ class NatsBus:
         self.earlier = Earlier()
         """Deliveries to the partition's earlier consumers (set on connect)."""
         self._handlers: list[tuple[str, Handler, bool]] = []
+        self._routes: dict[str, list[tuple[Handler, bool]]] = {}
+        """The handlers of each topic seen (a device's topics come thousands of times: matched once)."""
         self._loop = asyncio.new_event_loop()
         self._thread = threading.Thread(target=self._loop.run_forever, name="nats-bus", daemon=True)
         self._nc = None
@@ -181,6 +183,7 @@ class NatsBus:
     def subscribe(self, pattern: str, handler: Handler, qos: int = 1, manual_ack: bool = False) -> int:
         """Call ``handler(topic, payload[, ack])`` for this partition's messages whose MQTT topic matches."""
         self._handlers.append((pattern, handler, manual_ack))
+        self._routes.clear()
         return 0
 
     def publish(self, topic: str, payload: bytes, qos: int = 0, retain: bool = False, wait: bool = False) -> int:
@@ -367,9 +370,11 @@ class NatsBus:
             ack()
             return
         topic, handed_over, failed = found[1], False, False
-        for pattern, handler, takes_ack in self._handlers:
-            if not topic_matches(pattern, topic):
-                continue
+        routes = self._routes.get(topic)
+        if routes is None:
+            routes = self._routes[topic] = [(handler, takes_ack) for pattern, handler, takes_ack in self._handlers
+                                            if topic_matches(pattern, topic)]
+        for handler, takes_ack in routes:
             try:
                 handler(topic, message.data, ack) if takes_ack else handler(topic, message.data)
                 handed_over |= takes_ack
