@@ -86,9 +86,6 @@ def test_a_killed_monitor_process_loses_and_doubles_nothing_on_a_shared_postgres
         pytest.fail("Debian's nats-server is required (.ci/run installs it)")
     plans = default_plans(DEVICES, MINUTES)
     devices = {p.device: f"{p.device}-pw" for p in plans}
-    t0, reference = time.time(), {}  # the in-memory reference is worked out while the monitors start
-    referee = threading.Thread(target=lambda: reference.update(reference_days(plans, t0)), daemon=True)
-    referee.start()
     with NatsServer(SITE, devices, {"monitor": "monitor-pw"}, partitions=PARTITIONS,
                     folder=tmp_path / "nats") as server:
         env = {**os.environ, "BIM2RDT_DATA_DIR": str(tmp_path / "data"), "BIM2RDT_MQTT__SITE": SITE,
@@ -106,7 +103,7 @@ def test_a_killed_monitor_process_loses_and_doubles_nothing_on_a_shared_postgres
                 pids[k] = int(match.group(1))
             print(f"\nmonitors up after {time.monotonic() - started:.1f} s")
             buses = {device: wearable(server, device, password) for device, password in devices.items()}
-            total = max(sum(s for _, s in p.pieces) for p in plans)
+            t0, total = time.time(), max(sum(s for _, s in p.pieces) for p in plans)
             killed = {}
 
             def kill_at_40_percent(elapsed: float) -> None:
@@ -154,8 +151,7 @@ def test_a_killed_monitor_process_loses_and_doubles_nothing_on_a_shared_postgres
            for d in devices for day in monitor.days_of(monitor.session(d).subject)}
     counted = {d: monitor.stream_status(d)["batches"] for d in devices}
     monitor.close()
-    referee.join(300)
-    want = reference
+    want = reference_days(plans, t0)
     assert got.keys() == want.keys() and len(want) == DEVICES
     for key, (a8, seconds) in want.items():
         assert abs(got[key][0] - a8) <= 1e-9 and abs(got[key][1] - seconds) <= 1e-9, (key, got[key], want[key])
