@@ -60,8 +60,9 @@ class HavSettings(MonitorConfig):
 
     ack_wait_s: float = Field(30.0, gt=0, le=3600, description="NATS path: seconds JetStream waits for a monitor's "
                               "acknowledgement (sent after the commit) before redelivering a message.")
-    max_deliver: int = Field(20, ge=2, le=10_000, description="NATS path: deliveries of one message at most (a "
-                             "message whose commit keeps failing is then dropped by JetStream, with an advisory).")
+    max_deliver: int = Field(20, ge=2, le=10_000, description="NATS path: deliveries of one message at most, "
+                             "counted across monitor restarts; on its last one a message whose commit keeps failing "
+                             "is dead-lettered under its device (with the reason) and terminated.")
 
     stream_replicas: int = Field(1, ge=1, le=5, description="NATS path: replicas of the HAV stream when a monitor "
                                  "creates it (3 on a 3-node cluster).")

@@ -181,3 +181,49 @@ def test_poison_over_nats_is_refused_and_counted_as_over_mqtt_and_leaves_the_goo
     assert monitor.day(subject, day).energy == pytest.approx(reference.day(subject, day).energy, rel=1e-9)
     reference.close()
     monitor.close()
+
+
+def test_a_worker_whose_two_devices_fall_in_two_partitions_reads_as_one_process_counts_the_pair(nats_server,
+                                                                                                  tmp_path):
+    """Two partition monitors on one shared store each count one of the worker's devices; the read API
+    (/api/workers' SafetyView on a reader of that store) gives the worker the A(8) and seconds one in-memory
+    monitor gives the pair."""
+    from bim2rdt.safety.persistence import Share
+    from bim2rdt.server.safety_view import SafetyView
+    from bim2rdt.sim.wearables import WorkerPlan
+
+    left = "w1"
+    right = next(d for d in ("w2", "w3", "w4", "w5", "w6") if partition_of(SITE, d, 3) != partition_of(SITE, left, 3))
+    plans = [WorkerPlan(left, "ann", None, (("idle", 2.0), ("hammer_drill", 20.0), ("idle", 3.0))),
+             WorkerPlan(right, "ann", None, (("idle", 6.0), ("grinder", 25.0), ("idle", 3.0)), 0.8)]
+    t0 = time.time()
+    reference = HavMonitor(None, SECRET, config=CONFIG)
+    local = LocalBus().connect()
+    reference.attach(local)
+    publish_plans(lambda device: local, plans, SITE, FS, t0=t0)
+    reference.flush()
+    subject = reference.session(left).subject
+    want = reference.day(subject)
+    assert reference.session(right).subject == subject and want.seconds > 40  # both devices' time counts
+
+    shared = CONFIG.model_copy(update={"store_url": f"sqlite:///{tmp_path / 'shared.sqlite'}"})
+    parts = []
+    for device in (left, right):
+        k = partition_of(SITE, device, 3)
+        monitor = HavMonitor(tmp_path / f"p{k}", SECRET, config=shared, owns=Share(SITE, k, 3))
+        bus = NatsBus(nats_server.url, "monitor", nats_server.layout.monitors["monitor"], SITE, partition=k,
+                      partitions=3)
+        monitor.attach(bus)
+        bus.on_fetched = monitor.flush
+        parts.append((monitor, bus.connect()))
+    sent = publish_over_mqtt(nats_server, plans, t0)
+    wait_delivered([bus for _, bus in parts], sent)
+    for monitor, bus in parts:
+        monitor.flush()
+        bus.close()
+    reader = HavMonitor(tmp_path / "serve", SECRET, config=shared)
+    worker = next(w for w in SafetyView(reader).workers() if w["subject"] == subject)
+    assert abs(worker["a8"] - want.a8) <= 1e-9 and abs(worker["exposure_s"] - want.seconds) <= 1e-9
+    assert {d["device"] for d in worker["devices"]} == {left, right}
+    for monitor in (*[m for m, _ in parts], reader, reference):
+        monitor.close()

@@ -54,3 +54,56 @@ def test_serve_nats_without_a_shared_store_is_refused_in_one_line(tmp_path):
                             env={k: v for k, v in os.environ.items() if k != "BIM2RDT_HAV__STORE_URL"})
     assert result.returncode == 1 and "BIM2RDT_HAV__STORE_URL" in result.stderr
     assert len(result.stderr.strip().splitlines()) == 1
+
+
+def _two_partitions(site: str, partitions: int) -> tuple[str, str]:
+    """Two device ids of ``site`` that hash to different partitions."""
+    from bim2rdt.bus.partitions import partition_of
+
+    first = "d1"
+    other = next(f"d{i}" for i in range(2, 100) if partition_of(site, f"d{i}", partitions) !=
+                 partition_of(site, first, partitions))
+    return first, other
+
+
+def test_a_worker_wearing_two_devices_in_two_partitions_reads_the_sum_of_both_as_one_process_counts_it(tmp_path):
+    from bim2rdt.bus.partitions import partition_of
+    from bim2rdt.safety.persistence import OTHERS_REFRESH_S, Share
+
+    site, n = "demo", 3
+    config = MonitorConfig(site=site, store_url=f"sqlite:///{tmp_path / 'shared.sqlite'}")
+    left, right = _two_partitions(site, n)
+    t0 = time.time() - 120
+    shifts = {left: shift(left, t0, 30.0), right: shift(right, t0 + 7.0, 40.0)}
+
+    reference = HavMonitor(None, SECRET, config=MonitorConfig(site=site))
+    ann = reference.start_session(left, "ann", "hammer_drill")
+    reference.start_session(right, "ann", "grinder")
+    reference.ingest_many(shifts[left] + shifts[right])
+    day = reference.days_of(ann)[0]
+    want = reference.day(ann, day)
+    assert want.seconds > 60  # both devices' trigger time counts
+
+    now = [time.time()]
+    monitors = {d: HavMonitor(tmp_path / d, SECRET, config=config, owns=Share(site, partition_of(site, d, n), n),
+                              clock=lambda: now[0]) for d in (left, right)}
+    for device, monitor in monitors.items():
+        monitor.start_session(device, "ann", "hammer_drill" if device == left else "grinder")
+    for half in (slice(0, 25), slice(25, None)):  # the two processes commit in turn, each its own share
+        for device, monitor in monitors.items():
+            monitor.ingest_many(shifts[device][half])
+    monitors[left].close()  # a partition restarts: its share comes back from the store, not the whole day
+    monitors[left] = HavMonitor(tmp_path / left, SECRET, config=config,
+                                owns=Share(site, partition_of(site, left, n), n), clock=lambda: now[0])
+    monitors[right].ingest_many(shifts[right][-1:])  # a redelivered batch: a duplicate, counted once
+
+    reader = HavMonitor(tmp_path / "serve", SECRET, config=config)
+    worker = next(w for w in SafetyView(reader).workers() if w["subject"] == ann)
+    assert abs(worker["a8"] - want.a8) <= 1e-9 and abs(worker["exposure_s"] - want.seconds) <= 1e-9
+    assert {d["device"] for d in worker["devices"]} == {left, right}
+    now[0] += OTHERS_REFRESH_S
+    for device, monitor in monitors.items():  # each writer's memory holds the whole day too (its EAV/ELV events
+        monitor.ingest_many(shifts[device][-1:])  # see it), the other share re-read at its next commit
+        assert abs(monitor.day(ann, day).a8 - want.a8) <= 1e-9
+    for monitor in (*monitors.values(), reader, reference):
+        monitor.close()

@@ -32,10 +32,11 @@ from bim2rdt.sim.vibration import WEARABLE_RANGE, ToolSignal
 
 SITE, SECRET, MONITOR = "bench", "bench-secret", "monitor"
 TARGET_SCALING = 1.7
-WARMUP_ROUNDS = 4
-"""Half-second rounds of the latency run left out of its figures: the monitors connecting and creating their
-consumers while the first batches are already published."""
+WARMUP_S = 2.0
+"""Seconds of the latency run left out of its figures: the monitors' first fetches and commits (imports, caches)."""
 TARGET_P99_MS = 100.0
+LATENCY_LOAD = 0.5
+"""The latency run's offered load, as a fraction of the measured 1-process throughput."""
 
 
 def targets(result: dict) -> dict[str, bool]:
@@ -45,23 +46,25 @@ def targets(result: dict) -> dict[str, bool]:
 
 def run_scale(devices: int = 100, batches: int = 60, fs: float = 5000.0, summaries: int = 200,
               latency_s: float = 10.0, tick=None) -> dict:
-    """Throughput with 1 and 2 processes, summaries with 1, latency with 2 (see the module docstring)."""
+    """Publisher, then throughput with 1 and 2 processes on one backlog, summaries with 1, latency with 2 at
+    ``LATENCY_LOAD`` of the 1-process throughput (see the module docstring)."""
     tick = tick or (lambda: None)
     raw = _raw_payloads(devices, batches, fs)
-    runs = {}
-    for processes in (1, 2):
-        runs[processes] = _backlog_run(raw, processes)
-        tick()
-    summary_run = _backlog_run(_summary_payloads(devices, summaries, fs), 1)
+    publisher, runs = _drain_runs(raw, fs)
     tick()
-    latency = _latency_run(devices, fs, latency_s)
+    summary_run = _backlog_run(_summary_payloads(devices, summaries, fs), 1, fs)
     tick()
     one, two = runs[1]["msgs_per_s"], runs[2]["msgs_per_s"]
+    latency = _latency_run(devices, fs, LATENCY_LOAD * one, latency_s)
+    tick()
     bytes_per_batch = float(np.mean([len(p) for _, _, p in raw]))
-    return {"throughput": {"devices": devices, "messages": len(raw), "fs": fs, "bytes_per_message": bytes_per_batch,
+    per_cpu = [runs[k]["msgs_per_cpu_s_per_process"] for k in (1, 2)]
+    return {"publisher": publisher,
+            "throughput": {"devices": devices, "messages": len(raw), "fs": fs, "bytes_per_message": bytes_per_batch,
                            "one_process_msgs_per_s": one, "two_processes_msgs_per_s": two, "scaling": two / one,
-                           "per_process": runs},
+                           "cpu_scaling": 2 * per_cpu[1] / per_cpu[0], "per_process": runs},
             "summaries": {"messages": summary_run["messages"], "msgs_per_s_per_process": summary_run["msgs_per_s"],
+                          "msgs_per_cpu_s": summary_run["msgs_per_cpu_s_per_process"],
                           "bytes_per_message": float(np.mean([len(p) for _, _, p in
                                                               _summary_payloads(2, 3, fs)]))},
             "latency": latency, "cpus": len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else
@@ -102,8 +105,9 @@ def _server(devices: set[str], partitions: int, folder: Path) -> NatsServer:
                       folder=folder)
 
 
-def _publish(server: NatsServer, messages: list[tuple[str, str, bytes]]) -> None:
-    buses = {}
+def _publish(server: NatsServer, messages: list[tuple[str, str, bytes]]) -> dict:
+    """Publish over MQTT (QoS 1, a client per device) until the stream holds every message: the publisher's row."""
+    buses, start, cpu = {}, time.time(), time.process_time()
     try:
         for device, topic, payload in messages:
             bus = buses.get(device)
@@ -116,91 +120,187 @@ def _publish(server: NatsServer, messages: list[tuple[str, str, bytes]]) -> None
     finally:
         for bus in buses.values():
             bus.close()
+    _wait_stored(server, len(messages))
+    seconds = time.time() - start
+    return {"messages": len(messages), "seconds": seconds, "msgs_per_s": len(messages) / seconds,
+            "mb_per_s": sum(len(p) for _, _, p in messages) / seconds / 1e6, "cpu_s": time.process_time() - cpu}
 
 
-def _backlog_run(messages: list[tuple[str, str, bytes]], processes: int) -> dict:
-    """Publish ``messages`` first, then let ``processes`` monitors consume them; msgs/s and per-process counts."""
+def _wait_stored(server: NatsServer, count: int, timeout_s: float = 120.0) -> None:
+    """Until the HAV stream holds ``count`` messages (the MQTT listener's PUBACK comes before the stream has them)."""
+    import asyncio
+
+    import nats
+
+    from bim2rdt.bus.partitions import STREAM
+
+    async def stored() -> int:
+        nc = await nats.connect(server.url, user=MONITOR, password="monitor-pw")
+        try:
+            deadline = time.monotonic() + timeout_s
+            while True:
+                held = (await nc.jetstream().stream_info(STREAM)).state.messages
+                if held >= count or time.monotonic() > deadline:
+                    return held
+                await asyncio.sleep(0.01)
+        finally:
+            await nc.close()
+
+    held = asyncio.run(stored())
+    if held < count:
+        raise RuntimeError(f"the stream holds {held} of {count} messages published")
+
+
+def _delete_consumers(server: NatsServer, partitions: int) -> None:
+    """Forget the partitions' durable consumers, so the next monitors drain the backlog from its start again."""
+    import asyncio
+
+    import nats
+
+    from bim2rdt.bus.nats_bus import consumer_name
+    from bim2rdt.bus.partitions import STREAM
+
+    async def delete() -> None:
+        nc = await nats.connect(server.url, user=MONITOR, password="monitor-pw")
+        try:
+            for k in range(partitions):
+                await nc.jetstream().delete_consumer(STREAM, consumer_name(SITE, k, partitions))
+        finally:
+            await nc.close()
+
+    asyncio.run(delete())
+
+
+def _drain_runs(messages: list[tuple[str, str, bytes]], fs: float) -> tuple[dict, dict[int, dict]]:
+    """Publish ``messages`` once into a 2-partition stream; drain it with 1 process, then with 2."""
+    devices = {device for device, _, _ in messages}
+    expected = [sum(1 for d, _, _ in messages if partition_of(SITE, d, 2) == k) for k in range(2)]
+    runs = {}
+    with tempfile.TemporaryDirectory(prefix="bim2rdt-bench-scale-") as folder:
+        with _server(devices, 2, Path(folder) / "nats") as server:
+            publisher = _publish(server, messages)
+            for processes, groups in ((1, [[0, 1]]), (2, [[0], [1]])):
+                if processes == 2:
+                    _delete_consumers(server, 2)
+                runs[processes] = _drain(server, groups, expected, Path(folder) / f"run-{processes}", len(messages),
+                                         fs)
+    return publisher, runs
+
+
+def _drain(server: NatsServer, groups: list[list[int]], expected: list[int], folder: Path, total: int,
+           fs: float) -> dict:
+    """Each group of partitions consumed by one process; msgs/s, CPU seconds, the server's CPU, the load."""
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else None
+    server_cpu = _cpu_seconds(server.pid)
+    results = _consume(server, groups, server.layout.partitions, expected, folder, fs)
+    server_cpu = _cpu_seconds(server.pid) - server_cpu
+    start, done = min(r["start"] for r in results), max(r["done"] for r in results)
+    cpu = [r["cpu_s"] for r in results]
+    return {"messages": total, "seconds": done - start, "msgs_per_s": total / (done - start),
+            "per_process": [r["delivered"] for r in results], "cpu_s_per_process": cpu,
+            "msgs_per_cpu_s_per_process": float(np.mean([r["delivered"] / r["cpu_s"] for r in results])),
+            "server_cpu_s": server_cpu, "server_msgs_per_cpu_s": total / server_cpu if server_cpu else None,
+            "load_average_1min_before": load}
+
+
+def _backlog_run(messages: list[tuple[str, str, bytes]], processes: int, fs: float) -> dict:
+    """Publish ``messages`` first (one partition per process), then drain them (the summaries' run)."""
     devices = {device for device, _, _ in messages}
     with tempfile.TemporaryDirectory(prefix="bim2rdt-bench-scale-") as folder:
         with _server(devices, processes, Path(folder) / "nats") as server:
             _publish(server, messages)
             expected = [sum(1 for d, _, _ in messages if partition_of(SITE, d, processes) == k)
                         for k in range(processes)]
-            server_cpu = _cpu_seconds(server.pid)
-            results = _consume(server, processes, expected, Path(folder), None)
-            server_cpu = _cpu_seconds(server.pid) - server_cpu
-    start = min(r["start"] for r in results)
-    done = max(r["done"] for r in results)
-    return {"messages": len(messages), "seconds": done - start, "msgs_per_s": len(messages) / (done - start),
-            "per_process": [r["delivered"] for r in results],
-            "cpu_s_per_process": [r["cpu_s"] for r in results],
-            "msgs_per_cpu_s": len(messages) / sum(r["cpu_s"] for r in results),
-            "server_cpu_s": server_cpu, "server_msgs_per_cpu_s": len(messages) / server_cpu if server_cpu else None}
+            return _drain(server, [[k] for k in range(processes)], expected, Path(folder), len(messages), fs)
 
 
-def _latency_run(devices: int, fs: float, seconds: float) -> dict:
-    """2 monitors running; the wearables publish batches in real time; publish -> commit per batch."""
-    batches = int(seconds / 0.5)
-    messages = _raw_payloads(devices, batches, fs)
+def _latency_run(devices: int, fs: float, rate: float, seconds: float) -> dict:
+    """2 monitors running; the wearables publish at ``rate`` msgs/s in all, evenly spread; publish -> commit."""
+    count = max(int(rate * seconds), devices)
+    batches = -(-count // devices)
+    messages = _raw_payloads(devices, batches, fs)[:count]
     names = {device for device, _, _ in messages}
     with tempfile.TemporaryDirectory(prefix="bim2rdt-bench-scale-") as folder:
         with _server(names, 2, Path(folder) / "nats") as server:
             expected = [sum(1 for d, _, _ in messages if partition_of(SITE, d, 2) == k) for k in range(2)]
             ctx = multiprocessing.get_context("spawn")
             go, queue = ctx.Event(), ctx.Queue()
-            workers = [ctx.Process(target=consume_partition, args=(server.url, k, 2, expected[k], folder, go,
-                                                                    queue, True)) for k in range(2)]
+            workers = [ctx.Process(target=consume_partition, args=(server.url, [k], 2, expected[k], folder, go,
+                                                                    queue, True, fs), daemon=True)
+                       for k in range(2)]
             for worker in workers:
                 worker.start()
             _wait_ready(queue, 2)
             go.set()
-            published = _publish_paced(server, messages, devices)
+            time.sleep(0.5)  # the consumers exist before the first message
+            published, cpu = _publish_paced(server, messages, rate)
             results = [queue.get(timeout=300) for _ in workers]
             for worker in workers:
                 worker.join(60)
     committed = {key: when for r in results for key, when in r["committed"].items()}
-    steady = {key: sent for key, sent in published.items() if key[1] >= WARMUP_ROUNDS}
-    delays = np.array([committed[key] - sent for key, sent in steady.items() if key in committed]) * 1000.0
-    return {"messages": len(steady), "committed": len(delays), "warmup_rounds_left_out": WARMUP_ROUNDS, "rate_msgs_per_s": devices * 2.0,
+    stages = {key: when for r in results for key, when in r["stages"].items()}
+    first = min(published.values())
+    steady = [key for key, sent in published.items() if sent - first >= WARMUP_S and key in committed]
+    delays = np.array([committed[key] - published[key] for key in steady]) * 1000.0
+    timed = [key for key in steady if key in stages]
+    parts = {"publish_to_stored": [stages[k][0] - published[k] for k in timed],
+             "stored_to_fetched": [stages[k][1] - stages[k][0] for k in timed],
+             "fetched_to_committed": [committed[k] - stages[k][1] for k in timed]}
+    return {"messages": sum(1 for sent in published.values() if sent - first >= WARMUP_S), "committed": len(delays),
+            "warmup_s_left_out": WARMUP_S, "offered_msgs_per_s": rate,
+            "offered_fraction_of_one_process": LATENCY_LOAD, "publisher_cpu_s": cpu,
             "p50_ms": float(np.percentile(delays, 50)), "p99_ms": float(np.percentile(delays, 99)),
-            "max_ms": float(delays.max())}
+            "max_ms": float(delays.max()),
+            "stages_ms": {name: {"p50": float(np.percentile(v, 50) * 1000), "p99": float(np.percentile(v, 99) * 1000)}
+                          for name, v in parts.items() if v}}
 
 
-def _publish_paced(server: NatsServer, messages: list[tuple[str, str, bytes]], devices: int) -> dict:
-    """Each device's batches every 0.5 s (all devices in one round per half second); {(device, seq): sent}."""
-    import json
-
-    buses = {}
-    sent = {}
+def _publish_paced(server: NatsServer, messages: list[tuple[str, str, bytes]], rate: float
+                   ) -> tuple[dict, float]:
+    """Message i at start + i / rate (each device's in order); ({(device, seq): sent}, publisher CPU seconds)."""
+    buses, sent = {}, {}
+    seqs = _seqs(messages)
     try:
-        for device, _, _ in messages[:devices]:
-            buses[device] = MqttBus("127.0.0.1", server.mqtt_port, client_id=device, username=device,
-                                    password=f"{device}-pw", mqtt_version=3).connect()
-        start = time.time()
-        for i in range(0, len(messages), devices):
-            due = start + (i // devices) * 0.5
-            if due > time.time():
-                time.sleep(due - time.time())
-            for device, topic, payload in messages[i:i + devices]:
-                seq = json.loads(payload[6:6 + int.from_bytes(payload[4:6], "little")])["seq"]
-                sent[(device, seq)] = time.time()
-                buses[device].publish(topic, payload, qos=1)
+        for device, _, _ in messages:
+            if device not in buses:
+                buses[device] = MqttBus("127.0.0.1", server.mqtt_port, client_id=device, username=device,
+                                        password=f"{device}-pw", mqtt_version=3).connect()
+        start, cpu = time.time(), time.process_time()
+        for i, (device, topic, payload) in enumerate(messages):
+            wait = start + i / rate - time.time()
+            if wait > 0:
+                time.sleep(wait)
+            sent[(device, seqs[i])] = time.time()
+            buses[device].publish(topic, payload, qos=1)
         for bus in buses.values():
             bus.drain(60.0)
+        cpu = time.process_time() - cpu
     finally:
         for bus in buses.values():
             bus.close()
-    return sent
+    return sent, cpu
 
 
-def _consume(server: NatsServer, processes: int, expected: list[int], folder: Path, latency) -> list[dict]:
+def _seqs(messages: list[tuple[str, str, bytes]]) -> list[int]:
+    """Each message's batch seq (its device's count so far: the payloads are made in seq order)."""
+    counts: dict[str, int] = {}
+    out = []
+    for device, _, _ in messages:
+        out.append(counts.get(device, 0))
+        counts[device] = out[-1] + 1
+    return out
+
+
+def _consume(server: NatsServer, groups: list[list[int]], partitions: int, expected: list[int],
+             folder: Path, fs: float) -> list[dict]:
     ctx = multiprocessing.get_context("spawn")
     go, queue = ctx.Event(), ctx.Queue()
-    workers = [ctx.Process(target=consume_partition, args=(server.url, k, processes, expected[k], str(folder), go,
-                                                            queue, False)) for k in range(processes)]
+    workers = [ctx.Process(target=consume_partition, args=(server.url, group, partitions,
+                                                            sum(expected[k] for k in group), str(folder), go, queue,
+                                                            False, fs), daemon=True) for group in groups]
     for worker in workers:
         worker.start()
-    _wait_ready(queue, processes)
+    _wait_ready(queue, len(workers))
     go.set()
     results = [queue.get(timeout=600) for _ in workers]
     for worker in workers:
@@ -222,15 +322,14 @@ def _wait_ready(queue, count: int) -> None:
         assert queue.get(timeout=300) == "ready"
 
 
-def consume_partition(url: str, k: int, n: int, expected: int, folder: str, go, queue, timed: bool) -> None:
-    """A monitor process of the benchmark: partition ``k`` of ``n`` until ``expected`` messages are committed."""
-    from bim2rdt.bus.nats_bus import NatsBus
+def consume_partition(url: str, ks: list[int], n: int, expected: int, folder: str, go, queue, timed: bool,
+                      fs: float = 5000.0) -> None:
+    """A monitor process of the benchmark: partitions ``ks`` of ``n`` (one consumer each, one monitor) until
+    ``expected`` messages are committed."""
+    from bim2rdt.bus.nats_bus import FETCH_BATCH, NatsBus
     from bim2rdt.safety.config import MonitorConfig
     from bim2rdt.safety.monitor import HavMonitor
 
-    if hasattr(os, "sched_setaffinity"):
-        cpus = sorted(os.sched_getaffinity(0))
-        os.sched_setaffinity(0, {cpus[k % len(cpus)]})
     committed: dict = {}
 
     class TimedMonitor(HavMonitor):
@@ -242,18 +341,43 @@ def consume_partition(url: str, k: int, n: int, expected: int, folder: str, go, 
                 committed.update({(b.device, b.seq): when for b in batches})
             return events
 
-    monitor = TimedMonitor(Path(folder) / f"p{k}-of-{n}", SECRET, config=MonitorConfig(site=SITE))
-    bus = NatsBus(url, MONITOR, "monitor-pw", SITE, partition=k, partitions=n)
-    monitor.attach(bus)
-    bus.on_fetched = monitor.flush
+    from bim2rdt.safety.filters import design_weighting
+
+    design_weighting(fs)  # the process's one-time filter fit (~0.5 s), before the clock starts as in a running monitor
+    monitor = TimedMonitor(Path(folder) / f"p{ks[0]}-of-{n}", SECRET,
+                           config=MonitorConfig(site=SITE, commit_batches=FETCH_BATCH))
+    buses = [NatsBus(url, MONITOR, "monitor-pw", SITE, partition=k, partitions=n) for k in ks]
+    stages: dict = {}
+    for bus in buses:
+        monitor.attach(bus)
+        bus.on_fetched = monitor.flush
+        if timed:
+            _time_stages(bus, stages)
     queue.put("ready")
     go.wait()
     start, cpu = time.time(), time.process_time()
-    bus.connect()
-    while bus.delivered < expected:
+    for bus in buses:
+        bus.connect()
+    while sum(bus.delivered for bus in buses) < expected:
         time.sleep(0.002)
     monitor.flush()
     done, cpu = time.time(), time.process_time() - cpu
-    bus.close()
+    for bus in buses:
+        bus.close()
     monitor.close()
-    queue.put({"start": start, "done": done, "cpu_s": cpu, "delivered": bus.delivered, "committed": committed})
+    queue.put({"start": start, "done": done, "cpu_s": cpu, "delivered": sum(bus.delivered for bus in buses),
+               "committed": committed, "stages": stages})
+
+
+def _time_stages(bus, stages: dict) -> None:
+    """Record, per (device, seq), when JetStream stored the message and when the monitor took it from the fetch
+    (the k-th message of a device is its batch k: the latency run publishes each device's batches in order)."""
+    dispatch, counts = bus._dispatch, {}
+
+    def timed(message) -> None:
+        device = message.subject.split(".")[5]
+        seq = counts[device] = counts.get(device, -1) + 1
+        stages[(device, seq)] = (message.metadata.timestamp.timestamp(), time.time())
+        dispatch(message)
+
+    bus._dispatch = timed

@@ -8,6 +8,12 @@ interrupts is redelivered (after ``ack_wait_s``, up to ``max_deliver`` times) to
 A handler that raises leaves its message unacknowledged (it comes again); messages no handler takes are
 acknowledged at once. The consumer is durable (``hav-<site>-<k>-of-<n>``): a restarted monitor resumes where the
 last acknowledgement left off.
+
+Last deliveries: a message delivered ``max_deliver`` times (JetStream's count, plus the deliveries to the
+partition's earlier consumers, which each restart recreates: :class:`Earlier`) is not left to vanish. The bus
+commits what waits before it, then hands it alone to ``on_last_delivery(topic, payload, deliveries)``, which
+applies it or dead-letters it (the monitor's rules, with the reason) and returns True when it dead-lettered it;
+the message is then acknowledged (applied) or terminated (dead-lettered): either way never delivered again.
 """
 
 from __future__ import annotations
@@ -15,6 +21,7 @@ from __future__ import annotations
 import asyncio
 import logging
 import queue
+import re
 import threading
 from collections.abc import Callable
 from concurrent.futures import Future
@@ -26,9 +33,12 @@ from bim2rdt.bus.topics import topic_matches
 
 Handler = Callable[..., object]
 PREFETCH = 2
-FOLLOW_S = 0.02
-"""Seconds a fetch waits for the messages following one that came alone (the latency an idle stream adds)."""
 """Fetched batches waiting for the dispatcher: the next fetch travels while the monitor commits the last."""
+FOLLOW_S = 0.002
+"""Seconds a fetch waits for the messages following one that came alone: the latency a lightly loaded stream adds
+to every message, so kept short; what arrives while the monitor commits a group is taken by the next fetch anyway."""
+FETCH_BATCH = 256
+"""Messages one fetch takes at most (one group commit: the monitor's ``commit_batches`` should be at least this)."""
 log = logging.getLogger(__name__)
 
 
@@ -39,6 +49,39 @@ class StreamLimits:
     max_age_s: float = 24 * 3600.0
     max_bytes: int = 2**30
     replicas: int = 1
+
+
+@dataclass(frozen=True)
+class Earlier:
+    """Stream seqs ``first``..``through`` were delivered ``times`` times to the partition's earlier consumers and
+    never acknowledged (each consumer life counts once). Kept in the description of the consumer a restart
+    creates, so the count survives the next restart too (nats-server 2.9 has no consumer metadata)."""
+
+    first: int = 0
+    through: int = -1
+    times: int = 0
+
+    def of(self, stream_seq: int) -> int:
+        """Deliveries of ``stream_seq`` to earlier consumers."""
+        return self.times if self.first <= stream_seq <= self.through else 0
+
+    def describe(self) -> str:
+        return f"bim2rdt hav: stream seqs {self.first}..{self.through} delivered {self.times}x to earlier consumers"
+
+    @classmethod
+    def parse(cls, description: str | None) -> Earlier:
+        found = re.search(r"stream seqs (\d+)\.\.(\d+) delivered (\d+)x", description or "")
+        return cls(*map(int, found.groups())) if found else cls()
+
+    def after_restart(self, start: int, delivered_through: int) -> Earlier:
+        """The count for a consumer starting at ``start`` (the ack floor + 1) that replaces one which delivered
+        through ``delivered_through``: one more life for the messages it delivered unacknowledged (and for those an
+        earlier life left from ``start`` on); nothing when it left none."""
+        if delivered_through < start:
+            return Earlier()
+        if self.first <= start <= self.through:
+            return Earlier(start, max(self.through, delivered_through), self.times + 1)
+        return Earlier(start, delivered_through, 1)
 
 
 def consumer_name(site: str, partition: int, partitions: int) -> str:
@@ -59,22 +102,25 @@ async def ensure_stream(js, limits: StreamLimits = StreamLimits()) -> None:
         await js.add_stream(config)
 
 
-async def _resume_from(js, durable: str) -> int | None:
-    """Where a (re)starting partition consumer begins: just after its acknowledgement floor, in stream order.
+async def _resume_from(js, durable: str) -> tuple[int | None, Earlier]:
+    """Where a (re)starting partition consumer begins: just after its acknowledgement floor, in stream order; and
+    what the consumers before it delivered there unacknowledged.
 
     The durable consumer is recreated there (with the current ack_wait and max_deliver): what a killed monitor
     had fetched but not acknowledged comes again at once and in order, not after ``ack_wait`` behind newer
     messages (which the monitor's reorder window would have declared a gap). None: no consumer yet, start at
-    the stream's beginning. The monitor drops what it had committed as duplicates."""
+    the stream's beginning. The monitor drops what it had committed as duplicates. Recreating resets
+    JetStream's delivery counts, so the earlier deliveries are carried over (:class:`Earlier`)."""
     from nats.js.errors import NotFoundError
 
     try:
         info = await js.consumer_info(STREAM, durable)
     except NotFoundError:
-        return None
-    floor = info.ack_floor.stream_seq if info.ack_floor is not None else 0
+        return None, Earlier()
+    floor = (info.ack_floor.stream_seq if info.ack_floor is not None else 0) or 0
+    delivered = (info.delivered.stream_seq if info.delivered is not None else 0) or 0
     await js.delete_consumer(STREAM, durable)
-    return (floor or 0) + 1
+    return floor + 1, Earlier.parse(info.config.description).after_restart(floor + 1, delivered)
 
 
 class NatsBus:
@@ -83,14 +129,18 @@ class NatsBus:
 
     def __init__(self, url: str, user: str | None, password: str | None, site: str, partition: int | None = None,
                  partitions: int = 1, ack_wait_s: float = 30.0, max_deliver: int = 20,
-                 limits: StreamLimits = StreamLimits(), fetch_batch: int = 256, timeout_s: float = 10.0):
+                 limits: StreamLimits = StreamLimits(), fetch_batch: int = FETCH_BATCH, timeout_s: float = 10.0):
         self.url, self.user, self.password, self.site = url, user, password, site
         self.partition, self.partitions = partition, partitions
         self.ack_wait_s, self.max_deliver, self.limits = ack_wait_s, max_deliver, limits
         self.fetch_batch, self.timeout_s = fetch_batch, timeout_s
         self.handler_errors, self.delivered, self.redelivered, self.disconnects = 0, 0, 0, 0
-        self.fetch_errors = 0
+        self.fetch_errors, self.last_deliveries, self.terminated = 0, 0, 0
+        self.earlier = Earlier()
+        """Deliveries to the partition's earlier consumers (set on connect)."""
         self._handlers: list[tuple[str, Handler, bool]] = []
+        self._routes: dict[str, list[tuple[Handler, bool]]] = {}
+        """The handlers of each topic seen (a device's topics come thousands of times: matched once)."""
         self._loop = asyncio.new_event_loop()
         self._thread = threading.Thread(target=self._loop.run_forever, name="nats-bus", daemon=True)
         self._nc = None
@@ -99,12 +149,19 @@ class NatsBus:
         self._fetched: queue.Queue = queue.Queue(maxsize=PREFETCH)
         self._closing = False
         self._acks: set = set()
+        self._unsent: list = []
+        """(message, terminate) acknowledgements made since the last send: sent together, in one hop to the loop."""
+        self._unsent_lock = threading.Lock()
         self.on_fetched: Callable[[], object] | None = None
         """Called after each fetched batch of messages was handed to the handlers: ``monitor.flush`` makes every
         fetch one group commit (as large as the backlog, a single message when idle: no waiting for a group)."""
         self.accepting: Callable[[], bool] = lambda: True
         """False stops dispatching (and fetching): set it to ``lambda: monitor.failure is None``, so a monitor whose
         store failed handles and acknowledges nothing more; what it had not committed comes again to its restart."""
+        self.on_last_delivery: Callable[[str, bytes, int], bool] | None = None
+        """``(topic, payload, deliveries) -> dead-lettered``: a message on its last delivery (see the module
+        docstring), alone; True terminates it, False acknowledges it, raising leaves it unacknowledged. None: such a
+        message goes to the handlers like any other (and JetStream drops it after its last delivery)."""
 
     # --- the MqttBus interface ------------------------------------------------------------------------------
     def connect(self) -> NatsBus:
@@ -125,6 +182,7 @@ class NatsBus:
     def subscribe(self, pattern: str, handler: Handler, qos: int = 1, manual_ack: bool = False) -> int:
         """Call ``handler(topic, payload[, ack])`` for this partition's messages whose MQTT topic matches."""
         self._handlers.append((pattern, handler, manual_ack))
+        self._routes.clear()
         return 0
 
     def publish(self, topic: str, payload: bytes, qos: int = 0, retain: bool = False, wait: bool = False) -> int:
@@ -151,6 +209,7 @@ class NatsBus:
         self._closing = True
         if self._dispatcher is not None:
             self._dispatcher.join(self.timeout_s)
+        self._send_acks()
         if self._fetcher is not None:
             try:
                 self._fetcher.result(self.timeout_s)
@@ -193,11 +252,12 @@ class NatsBus:
             return
         subject = partition_filter(self.site, self.partition)
         durable = consumer_name(self.site, self.partition, self.partitions)
-        start = await _resume_from(js, durable)
+        start, self.earlier = await _resume_from(js, durable)
         config = ConsumerConfig(ack_policy=AckPolicy.EXPLICIT, ack_wait=self.ack_wait_s, max_deliver=self.max_deliver,
                                 max_ack_pending=max(4 * self.fetch_batch, 1024), filter_subject=subject,
                                 deliver_policy=DeliverPolicy.ALL if start is None else DeliverPolicy.BY_START_SEQUENCE,
-                                opt_start_seq=start)
+                                opt_start_seq=start, description=self.earlier.describe() if self.earlier.times
+                                else None)
         self._sub = await js.pull_subscribe(subject, durable=durable, stream=STREAM, config=config)
 
     async def _fetch_loop(self) -> None:
@@ -248,17 +308,56 @@ class NatsBus:
             try:
                 messages = self._fetched.get(timeout=0.1)
             except queue.Empty:
+                self._send_acks()  # those a background commit made
                 continue
             for message in messages:
                 if self._closing or not self.accepting():
                     return  # the rest stays unacknowledged: the partition's next start gets it again
-                self._dispatch(message)
-            if self.on_fetched is not None:
-                try:
-                    self.on_fetched()
-                except Exception:  # e.g. the store failed: the monitor reports it; the messages stay unacknowledged
-                    self.handler_errors += 1
-                    log.exception("committing a fetched batch failed")
+                deliveries = self.deliveries(message)
+                if deliveries >= self.max_deliver and self.on_last_delivery is not None:
+                    self._last_delivery(message, deliveries)
+                else:
+                    self._dispatch(message)
+            self._commit_fetched()
+            self._send_acks()
+
+    def deliveries(self, message) -> int:
+        """How often ``message`` was delivered, this one included, to this consumer and the partition's earlier ones."""
+        return message.metadata.num_delivered + self.earlier.of(message.metadata.sequence.stream)
+
+    def _commit_fetched(self) -> bool:
+        """``on_fetched``: commit (and acknowledge) what the handlers hold; False when that failed."""
+        if self.on_fetched is None:
+            return True
+        try:
+            self.on_fetched()
+            return True
+        except Exception:  # e.g. the store failed: the monitor reports it; the messages stay unacknowledged
+            self.handler_errors += 1
+            log.exception("committing a fetched batch failed")
+            return False
+
+    def _last_delivery(self, message, deliveries: int) -> None:
+        """Commit what waits, then the message alone through ``on_last_delivery``; acknowledge it when applied,
+        terminate it when dead-lettered (never delivered again), leave it when that failed too."""
+        found = topic_of(message.subject)
+        self.delivered += 1
+        self.redelivered += 1
+        if found is None or found[0] != self.partition:
+            _Ack(self, message)()
+            return
+        if not self._commit_fetched() or not self.accepting():
+            return
+        self.last_deliveries += 1
+        try:
+            dead_lettered = self.on_last_delivery(found[1], message.data, deliveries)
+        except Exception:
+            self.handler_errors += 1
+            log.exception("the last delivery of %s failed; it stays unacknowledged", found[1])
+            return
+        if dead_lettered:
+            self.terminated += 1
+        _Ack(self, message, terminate=bool(dead_lettered))()
 
     def _dispatch(self, message) -> None:
         found = topic_of(message.subject)
@@ -270,9 +369,11 @@ class NatsBus:
             ack()
             return
         topic, handed_over, failed = found[1], False, False
-        for pattern, handler, takes_ack in self._handlers:
-            if not topic_matches(pattern, topic):
-                continue
+        routes = self._routes.get(topic)
+        if routes is None:
+            routes = self._routes[topic] = [(handler, takes_ack) for pattern, handler, takes_ack in self._handlers
+                                            if topic_matches(pattern, topic)]
+        for handler, takes_ack in routes:
             try:
                 handler(topic, message.data, ack) if takes_ack else handler(topic, message.data)
                 handed_over |= takes_ack
@@ -283,8 +384,19 @@ class NatsBus:
         if not handed_over and not failed:
             ack()
 
-    def _send_ack(self, message) -> None:
-        task = self._loop.create_task(message.ack())
+    def _queue_ack(self, message, terminate: bool) -> None:
+        with self._unsent_lock:
+            self._unsent.append((message, terminate))
+
+    def _send_acks(self) -> None:
+        """Hand the acknowledgements made so far to the loop at once (one wake-up, one task, not one per message)."""
+        with self._unsent_lock:
+            unsent, self._unsent = self._unsent, []
+        if unsent:
+            self._loop.call_soon_threadsafe(self._start_acks, unsent)
+
+    def _start_acks(self, unsent: list) -> None:
+        task = self._loop.create_task(_acknowledge(unsent))
         self._acks.add(task)
         task.add_done_callback(self._acks.discard)
 
@@ -306,12 +418,21 @@ class NatsBus:
 class _Ack:
     """Acknowledges one JetStream message once, from any thread."""
 
-    __slots__ = ("_bus", "_message", "_done")
+    __slots__ = ("_bus", "_message", "_done", "_terminate")
 
-    def __init__(self, bus: NatsBus, message):
-        self._bus, self._message, self._done = bus, message, False
+    def __init__(self, bus: NatsBus, message, terminate: bool = False):
+        self._bus, self._message, self._done, self._terminate = bus, message, False, terminate
 
     def __call__(self) -> None:
         if not self._done:
             self._done = True
-            self._bus._loop.call_soon_threadsafe(self._bus._send_ack, self._message)
+            self._bus._queue_ack(self._message, self._terminate)
+
+
+async def _acknowledge(unsent: list) -> None:
+    """Acknowledge (or terminate) each message, in order; one that fails is logged (it comes again)."""
+    for message, terminate in unsent:
+        try:
+            await (message.term() if terminate else message.ack())
+        except Exception as error:
+            log.warning("acknowledging a message failed: %s: %s", type(error).__name__, error)

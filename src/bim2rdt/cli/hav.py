@@ -288,15 +288,23 @@ def _bench_scale(devices: int, fs: float, as_json: bool) -> None:
     if as_json:
         print_json(result)
         return
-    t, s, lat = result["throughput"], result["summaries"], result["latency"]
+    t, s, lat, pub = result["throughput"], result["summaries"], result["latency"], result["publisher"]
+    runs = t["per_process"]
     print_table(f"NATS path: {t['messages']} raw batches ({t['bytes_per_message'] / 1000:.1f} kB, 0.5 s at "
-                f"{t['fs']:g} Hz) from {t['devices']} wearables, backlog consumed on {result['cpus']} CPUs",
-                ["monitor processes", "msgs/s", "x one process"],
-                [(1, t["one_process_msgs_per_s"], 1.0), (2, t["two_processes_msgs_per_s"], t["scaling"])])
-    print_table("On-device summaries (1 Hz), one process", ["messages", "bytes each", "msgs/s"],
-                [(s["messages"], s["bytes_per_message"], s["msgs_per_s_per_process"])])
-    print_table(f"Publish-to-commit latency, 2 processes, {lat['rate_msgs_per_s']:g} msgs/s in real time",
+                f"{t['fs']:g} Hz) from {t['devices']} wearables, one backlog drained on {result['cpus']} CPUs",
+                ["", "msgs/s", "x one process", "msgs per CPU-s per process", "load before"],
+                [("publisher (MQTT 3.1.1 QoS 1 into the stream)", pub["msgs_per_s"], "", "", ""),
+                 *[(f"{k} monitor process{'es' if k > 1 else ''}", runs[k]["msgs_per_s"],
+                    runs[k]["msgs_per_s"] / runs[1]["msgs_per_s"], runs[k]["msgs_per_cpu_s_per_process"],
+                    runs[k]["load_average_1min_before"]) for k in (1, 2)]])
+    print_table("On-device summaries (1 Hz), one process", ["messages", "bytes each", "msgs/s", "msgs per CPU-s"],
+                [(s["messages"], s["bytes_per_message"], s["msgs_per_s_per_process"], s["msgs_per_cpu_s"])])
+    print_table(f"Publish-to-commit latency, 2 processes, offered {lat['offered_msgs_per_s']:.0f} msgs/s "
+                f"({lat['offered_fraction_of_one_process']:.0%} of one process's throughput)",
                 ["messages", "committed", "p50 ms", "p99 ms", "max ms"],
                 [(lat["messages"], lat["committed"], lat["p50_ms"], lat["p99_ms"], lat["max_ms"])])
+    if lat.get("stages_ms"):
+        print_table("Where the latency goes", ["stage", "p50 ms", "p99 ms"],
+                    [(name.replace("_", " "), v["p50"], v["p99"]) for name, v in lat["stages_ms"].items()])
     for name, ok in result["targets"].items():
         console.print(f"{name}: {'[green]PASS[/green]' if ok else '[red]FAIL[/red]'}")

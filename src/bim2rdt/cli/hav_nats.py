@@ -29,11 +29,12 @@ def partition_data_dir(settings, partition: int, partitions: int) -> Path:
 def listen_partition(settings, url: str, partition: int, partitions: int, duration: float, max_offline: float,
                      sinks: list) -> None:
     """Run the monitor of one partition until stopped; acknowledges each message after its commit."""
-    from bim2rdt.bus.nats_bus import NatsBus, StreamLimits
+    from bim2rdt.bus.nats_bus import FETCH_BATCH, NatsBus, StreamLimits
     from bim2rdt.cli.common import stop_requested
     from bim2rdt.cli.hav_output import _leave, _password, watch
-    from bim2rdt.bus.partitions import partition_of
     from bim2rdt.safety import BusSink, HavMonitor
+    from bim2rdt.safety.persistence import Share
+    from bim2rdt.safety.last_delivery import apply_last_delivery
 
     user = settings.mqtt.username
     hav = settings.hav
@@ -43,11 +44,13 @@ def listen_partition(settings, url: str, partition: int, partitions: int, durati
     with stop_requested() as stop:
         site = settings.mqtt.site  # a store shared by the partitions (hav.store_url) holds every device's streams
         monitor = HavMonitor(partition_data_dir(settings, partition, partitions), settings.hav.site_secret,
-                             sinks + [BusSink(bus, site)], settings.hav.monitor_config(),
-                             owns=lambda device: partition_of(site, device, partitions) == partition)
+                             sinks + [BusSink(bus, site)],  # one group commit per fetch, however large:
+                             settings.hav.monitor_config(commit_batches=max(hav.commit_batches, FETCH_BATCH)),
+                             owns=Share(site, partition, partitions))  # its devices, its share of the days
         monitor.attach(bus)
         bus.accepting = lambda: monitor.failure is None  # nothing more is handled or acknowledged after a failure
         bus.on_fetched = monitor.flush  # each fetch is one group commit: no waiting for a group to fill
+        bus.on_last_delivery = lambda topic, payload, n: apply_last_delivery(monitor, topic, payload, n)
         bus.connect()
         console.print(f"partition {partition}/{partitions} of site {site!r} on {url} (pid {os.getpid()}); "
                       f"{len(monitor.devices())} device(s) restored")

@@ -13,7 +13,7 @@ below (a smartwatch at 800 Hz) it follows Wh over the bands the rate covers (see
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cached_property, lru_cache
 
 import numpy as np
 import scipy.optimize
@@ -36,8 +36,15 @@ class WeightingFilter:
     def settled_state(self, first: np.ndarray) -> np.ndarray:
         """Filter state (k, m, 2) as if each of the m channels had held its ``first`` value forever:
         a constant (gravity, sensor offset) then enters without a transient."""
+        return self.unit_state[:, None, :] * np.asarray(first, dtype=float)[None, :, None]
+
+    @cached_property
+    def unit_state(self) -> np.ndarray:
+        """``sosfilt_zi(sos)`` (k, 2): the settled state for a unit input; the same for every stream, so computed once
+        per filter (0.6 ms), not once per new stream."""
         unit = scipy.signal.sosfilt_zi(self.sos)
-        return unit[:, None, :] * np.asarray(first, dtype=float)[None, :, None]
+        unit.setflags(write=False)
+        return unit
 
 
 @lru_cache(maxsize=32)

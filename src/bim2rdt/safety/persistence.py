@@ -6,21 +6,52 @@ activity and clock state, the touched worker-days, the events (queued in the out
 the activities they start or end. A restart therefore resumes exactly where the last commit left off: batches
 redelivered after it are duplicates, batches it had not committed are new (see :class:`~bim2rdt.safety.monitor.
 HavMonitor` for the group-commit window).
+
+A store shared by partitioned monitors (the NATS path) holds each one's contribution to a worker-day apart
+(:class:`Share`, the store's ``day_parts``): a worker wearing two devices that fall into two partitions is counted
+by two processes, and the day is the sum of their rows. Each monitor keeps the whole day in memory (its own
+share plus the others', re-read every ``OTHERS_REFRESH_S``, so its EAV/ELV events see the sum) and writes back
+only its own share.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable
+from dataclasses import dataclass
 
 from bim2rdt.bus.event import Event
 from bim2rdt.bus.payloads import AccelBatch
-from bim2rdt.safety.activity import ACTIVITY_ENDED, ACTIVITY_STARTED, ActivityState, DayState
+from bim2rdt.bus.partitions import partition_of
+from bim2rdt.safety.activity import ACTIVITY_ENDED, ACTIVITY_STARTED, ActivityState, DayState, utc_day
 from bim2rdt.safety.engine import ExposureEngine, Stream
 from bim2rdt.safety.mounting import MountingCorrection
 from bim2rdt.safety.retention import RawRetention
 from bim2rdt.safety.sessions import Session
 from bim2rdt.safety.store import ExposureStore
 from bim2rdt.safety.weighing import FilterState
+
+
+OTHERS_REFRESH_S = 1.0
+"""Seconds (of the monitor's clock) between re-reads of the other partitions' shares of the worker-days."""
+DayFigures = tuple[dict, "float | None", "float | None"]
+"""(hands {hand: [energy, seconds]}, EAV time, ELV time) of a worker-day or of one share of it."""
+
+
+@dataclass(frozen=True)
+class Share:
+    """Partition ``partition`` of ``partitions`` of a site's devices: which devices a monitor serves when several
+    share one store (``HavMonitor(owns=...)``), and the key of its share of the worker-days ('K/N')."""
+
+    site: str
+    partition: int
+    partitions: int
+
+    def __call__(self, device: str) -> bool:
+        return partition_of(self.site, device, self.partitions) == self.partition
+
+    @property
+    def key(self) -> str:
+        return f"{self.partition}/{self.partitions}"
 
 
 class MonitorJournal:
@@ -32,6 +63,12 @@ class MonitorJournal:
         self._raw_devices: set[str] = set()  # streams that may have raw rows to drop
         self.outbox: list[str] = []
         """Names of the durable sinks: each commit's events are queued for each of them."""
+        self.part = ""
+        """The key of this monitor's share of the worker-days: '' (the ``days`` rows) unless it serves a
+        :class:`Share` (set on restore)."""
+        self._others: dict[tuple[str, str], DayFigures] = {}
+        """The other shares of each worker-day, as last read: memory holds them plus this monitor's own."""
+        self._others_read_at = -float("inf")
 
     def corrections(self) -> list[MountingCorrection]:
         return [MountingCorrection.from_json(text) for text in self.store.corrections()]
@@ -41,7 +78,10 @@ class MonitorJournal:
         streams of the devices it ``owns`` (all by default: a store shared by partitions holds others' too)."""
         if self.retention is not None:
             self.retention.restore()
-        engine.days.update({key: DayState(*row) for key, row in self.store.days().items()})  # (hands, eav, elv)
+        self.part = getattr(owns, "key", "") if owns is not None else ""
+        self._others = self.store.days(exclude=self.part)
+        everyone = self.store.days()
+        engine.days.update({key: DayState(*row) for key, row in everyone.items()})  # (hands, eav, elv)
         sessions = self.store.sessions()
         for device, ((buffer_state, activity, clock_offset_s, counters), blob) in self.store.streams().items():
             if owns is not None and not owns(device):
@@ -76,8 +116,7 @@ class MonitorJournal:
             if self.retention is not None and self.raw_retention_s > 0:
                 self.retention.note_events(events, _offsets(engine, events), now)
             self._drop_raw(engine, now, streams)
-            self.store.save_days([(subject, day, engine.days[(subject, day)])
-                                  for subject, day in engine.touched_days])
+            self._save_days(engine)
             self.store.add_events(events, self.outbox)
             self.store.save_activities([(e.data["activity"], e.subject, e.data["day"], {**e.data, "open": False})
                                         for e in events if e.kind == ACTIVITY_ENDED])
@@ -85,6 +124,33 @@ class MonitorJournal:
                 self.store.save_session(device, vars(session))
             self.store.save_malformed(malformed)
         engine.touched_days.clear()
+        if now - self._others_read_at >= OTHERS_REFRESH_S:
+            self._others_read_at = now
+            self._read_others(engine, utc_day(now - 86400.0))
+
+    def _save_days(self, engine: ExposureEngine) -> None:
+        """This monitor's share of the touched worker-days: what memory holds minus the other shares."""
+        rows = [(subject, day, _minus(engine.days[(subject, day)], self._others.get((subject, day))))
+                for subject, day in engine.touched_days]
+        if self.part:
+            self.store.save_day_parts(self.part, rows)
+        else:
+            self.store.save_days(rows)
+
+    def _read_others(self, engine: ExposureEngine, since_day: str) -> None:
+        """Add to memory what the other shares counted since they were last read (their EAV/ELV times too)."""
+        for key, (hands, eav, elv) in self.store.days(exclude=self.part, since_day=since_day).items():
+            before = self._others.get(key, ({}, None, None))
+            state = engine.days.get(key)
+            if state is None:
+                state = engine.days[key] = DayState()
+            for hand, (energy, seconds) in hands.items():
+                old = before[0].get(hand, (0.0, 0.0))
+                if energy != old[0] or seconds != old[1]:
+                    state.add(hand, energy - old[0], seconds - old[1])
+            state.eav_at = _earliest(state.eav_at, eav)
+            state.elv_at = _earliest(state.elv_at, elv)
+            self._others[key] = (hands, eav, elv)
 
     def save_correction(self, correction: MountingCorrection) -> None:
         with self.store.transaction():
@@ -102,6 +168,22 @@ class MonitorJournal:
                                   if s.buffer.next_seq is not None], now,
                                  lambda device: engine.streams[device].buffer.next_seq
                                  if device in engine.streams else None)
+
+
+def _minus(state: DayState, others: DayFigures | None) -> DayState:
+    """The share of ``state`` that is not ``others``' (``state`` itself when there are none)."""
+    if not others:
+        return state
+    hands = {}
+    for hand, (energy, seconds) in state.hands.items():
+        other = others[0].get(hand, (0.0, 0.0))
+        if hand not in others[0] or energy != other[0] or seconds != other[1]:
+            hands[hand] = [energy - other[0], seconds - other[1]]
+    return DayState(hands, state.eav_at, state.elv_at)
+
+
+def _earliest(a: float | None, b: float | None) -> float | None:
+    return b if a is None else a if b is None else min(a, b)
 
 
 def _offsets(engine: ExposureEngine, events: list[Event]) -> dict[str, float]:

@@ -66,6 +66,13 @@ days_table = sa.Table(
     "days", metadata, sa.Column("subject", sa.Text, primary_key=True), sa.Column("day", sa.Text, primary_key=True),
     sa.Column("energy", sa.Double), sa.Column("seconds", sa.Double), sa.Column("eav_at", sa.Double),
     sa.Column("elv_at", sa.Double), sa.Column("hands", sa.Text))
+day_parts_table = sa.Table(
+    "day_parts", metadata, sa.Column("subject", sa.Text, primary_key=True), sa.Column("day", sa.Text, primary_key=True),
+    sa.Column("part", sa.Text, primary_key=True), sa.Column("eav_at", sa.Double), sa.Column("elv_at", sa.Double),
+    sa.Column("hands", sa.Text, nullable=False))
+"""Contributions to a worker-day by the monitors of a partitioned store (the NATS path), one row per partition
+(``part`` 'K/N'): a worker whose devices fall into two partitions has two rows, and the day is their sum. The
+single-process monitor's contribution is the ``days`` row (part '')."""
 sessions_table = sa.Table("sessions", metadata, sa.Column("device", sa.Text, primary_key=True),
                           sa.Column("session", sa.Text))
 activities_table = sa.Table("activities", metadata, sa.Column("id", sa.Text, primary_key=True),
@@ -111,6 +118,7 @@ MIGRATIONS: list[tuple[int, str, Callable[[Connection], None]]] = [
     (2, "the expiry index raw_received replaced by the covering raw_expiry", _drop_raw_received),
     (3, "compressed raw blobs", _add_column("raw", "codec", "SMALLINT NOT NULL DEFAULT 0")),
     (4, "raw batches kept around events", _add_column("raw", "kept", "SMALLINT NOT NULL DEFAULT 0")),
+    (5, "worker-days summed over the partitions' contributions (day_parts)", lambda conn: None),
 ]
 """(version, what, step) in order: each step runs once, in its own transaction, on a store older than it; a new
 store is created at the last version. Tables and indexes a step does not name are created as they are defined."""
@@ -325,12 +333,31 @@ class ExposureStore:
                                    "eav_at": state.eav_at, "elv_at": state.elv_at, "hands": _hands_json(state.hands)}
                                   for subject, day, state in rows], ("subject", "day"))
 
-    def days(self) -> dict[tuple[str, str], tuple[dict, float | None, float | None]]:
-        """(subject, day) -> (hands, EAV time, ELV time)."""
-        t = days_table.c
-        rows = self._read(sa.select(t.subject, t.day, t.energy, t.seconds, t.hands, t.eav_at, t.elv_at))
-        return {(subject, day): (json.loads(hands) if hands else {"": [energy, seconds]}, eav, elv)
-                for subject, day, energy, seconds, hands, eav, elv in rows}
+    def save_day_parts(self, part: str, rows: Iterable[tuple[str, str, Any]]) -> None:
+        """(subject, day, DayState) rows: partition ``part``'s contributions to worker-days (see ``day_parts``)."""
+        self._upsert(day_parts_table, [{"subject": subject, "day": day, "part": part, "eav_at": state.eav_at,
+                                        "elv_at": state.elv_at, "hands": json.dumps(state.hands)}
+                                       for subject, day, state in rows], ("subject", "day", "part"))
+
+    def days(self, part: str | None = None, exclude: str | None = None, since_day: str = ""
+             ) -> dict[tuple[str, str], tuple[dict, float | None, float | None]]:
+        """(subject, day) -> (hands, EAV time, ELV time), summed over the contributions (the ``days`` row, part '',
+        and the partitions' ``day_parts`` rows): of ``part`` only, or of every part but ``exclude``; days from
+        ``since_day`` ('YYYY-MM-DD') on. Per hand energy and seconds add up; EAV/ELV times are the earliest."""
+        t, p = days_table.c, day_parts_table.c
+        found: dict[tuple[str, str], tuple[dict, float | None, float | None]] = {}
+        if part in (None, "") and exclude != "":
+            for subject, day, energy, seconds, hands, eav, elv in self._read(
+                    sa.select(t.subject, t.day, t.energy, t.seconds, t.hands, t.eav_at, t.elv_at)
+                    .where(t.day >= since_day)):
+                _add_day(found, (subject, day), json.loads(hands) if hands else {"": [energy, seconds]}, eav, elv)
+        if part != "":
+            query = sa.select(p.subject, p.day, p.hands, p.eav_at, p.elv_at).where(p.day >= since_day)
+            query = query.where(p.part == part) if part is not None else query
+            query = query.where(p.part != exclude) if exclude is not None else query
+            for subject, day, hands, eav, elv in self._read(query):
+                _add_day(found, (subject, day), json.loads(hands), eav, elv)
+        return found
 
     def save_session(self, device: str, session: dict[str, Any]) -> None:
         self._upsert(sessions_table, [{"device": device, "session": json.dumps(session)}], ("device",))
@@ -587,6 +614,23 @@ def _xyz(blob: bytes, n: int, scale: float | None, codec: int | None = RAW_PLAIN
     if scale is None:
         return np.frombuffer(blob, np.float32).reshape(n, 3)
     return np.frombuffer(blob, "<i2").reshape(n, 3).astype(np.float32) * np.float32(scale)
+
+
+def _add_day(found: dict, key: tuple[str, str], hands: dict, eav: float | None, elv: float | None) -> None:
+    """Add one contribution to a worker-day: energy and seconds per hand, the earliest EAV and ELV times."""
+    if key not in found:
+        found[key] = ({hand: list(figures) for hand, figures in hands.items()}, eav, elv)
+        return
+    summed, eav0, elv0 = found[key]
+    for hand, (energy, seconds) in hands.items():
+        figures = summed.setdefault(hand, [0.0, 0.0])
+        figures[0] += energy
+        figures[1] += seconds
+    found[key] = (summed, _earliest(eav0, eav), _earliest(elv0, elv))
+
+
+def _earliest(a: float | None, b: float | None) -> float | None:
+    return b if a is None else a if b is None else min(a, b)
 
 
 def _hands_json(hands: dict[str, list[float]]) -> str | None:
