@@ -146,9 +146,6 @@ def verify_frames(frames: Iterable, model: BimModel, prior: np.ndarray | None = 
       until a fix is accepted: from then on the own poses are odometry anchored at the last fix, as with
       ``prior`` (a ROS bag's camera in ``map``: the fix is what map -> odom should be).
 
-    ``priors`` (family -> upright prior; default: :func:`family_priors`) fit each planned object as the mission
-    fits it.
-
     A source that drops frames (``dropped``: a list of ``{"time", "reason"}``, read after iterating) or warns about
     the recording (``warnings``) has them carried into the result.
 
@@ -159,6 +156,8 @@ def verify_frames(frames: Iterable, model: BimModel, prior: np.ndarray | None = 
             frames' own poses until a fix is accepted.
         config: Localization, depth check and perception settings.
         progress: Called with each frame's result as it is done.
+        priors: Family -> upright prior, to fit each planned object as the mission fits it (default:
+            :func:`family_priors` of ``model``).
 
     Returns:
         Every frame's result in source order, with what the source dropped and warned about.
