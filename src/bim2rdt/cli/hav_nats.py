@@ -50,7 +50,7 @@ def listen_partition(settings, url: str, partition: int, partitions: int, durati
         bus.on_fetched = monitor.flush  # each fetch is one group commit: no waiting for a group to fill
         bus.connect()
         console.print(f"partition {partition}/{partitions} of site {site!r} on {url} (pid {os.getpid()}); "
-                      f"{len(monitor.devices())} device(s) restored")
+                      f"{len(monitor.queries.devices())} device(s) restored")
         try:
             watch(monitor, bus, duration, max_offline, stop=stop)
         finally:

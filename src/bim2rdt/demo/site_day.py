@@ -150,7 +150,7 @@ def _hav_day(twin: DigitalTwin, state_dir: Path, workers: int, minutes: float, f
     publish_plans(lambda device: bus, default_plans(workers, minutes, zone), settings.mqtt.site, fs,
                   t0=_shift_start())
     monitor.close()
-    return events.events, list(monitor.timeline)
+    return events.events, list(monitor.queries.timeline)
 
 
 def _model_cache() -> Path | None:
