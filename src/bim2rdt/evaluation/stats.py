@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from bim2rdt.bench.registration.calibration import calibration, check_covariance
+from bim2rdt.evaluation.calibration import calibration, check_covariance
 from bim2rdt.registration import hausdorff
 from bim2rdt.sim.scenarios import Scenario
 from bim2rdt.registration.symmetry import closest_equivalent
@@ -42,7 +42,7 @@ class MethodStats:
     knocked_tilt_deg: float = float("nan")  # median tilt error over truly tilted objects (nan: none in the run)
     knocked: int = 0
     calibration: float = float("nan")  # share of judged estimates inside their 95 % covariance ellipsoid
-    calibrated: int = 0  # how many were judged (well-constrained, right basin; see bench.registration.calibration)
+    calibrated: int = 0  # how many were judged (well-constrained, right basin; see evaluation.calibration)
     well_constrained: float = float("nan")  # share of estimates with no unobservable direction
 
 
