@@ -12,10 +12,11 @@ from pathlib import Path
 from bim2rdt.atomic import write_bytes_atomic
 from bim2rdt.registration import IcpConfig
 from bim2rdt.evaluation.aliases import ALIAS_FAMILIES, alias_scenario
-from bim2rdt.evaluation.stats import (COLUMNS, Prior, ScenarioResult, Target, alias_agreement,
-                                              check_alias_targets, check_calibration_target, check_family_targets,
-                                              check_peer_accuracy, check_targets, cut_interval, improvement,
-                                              pooled_median_ms, run_scenario, worst_family)
+from bim2rdt.evaluation.checks import TargetCheck
+from bim2rdt.evaluation.stats import (COLUMNS, Prior, ScenarioResult, alias_agreement, check_alias_targets,
+                                      check_calibration_target, check_family_targets, check_peer_accuracy,
+                                      check_targets, cut_interval, improvement, pooled_median_ms, run_scenario,
+                                      worst_family)
 from bim2rdt.evaluation.peers import Open3dIcp, SgIcp, SmallGicp, small_gicp_available
 from bim2rdt.evaluation.plots import plot_before_after
 from bim2rdt.sim.families import FAMILIES, family_scenario
@@ -31,7 +32,7 @@ class RegistrationRun:
     seed: int
     priors: dict[str, Prior]
     results: list[ScenarioResult]
-    targets: list[Target]
+    targets: list[TargetCheck]
     plots: list[Path]
     families: list[ScenarioResult] = field(default_factory=list)  # F1-F11 (sim.families, bench...aliases), when run
 
