@@ -1,5 +1,5 @@
-"""The import layers (.importlinter, docs/DESIGN.md): library packages never import sim, demo or bench, and no
-layer imports one above it. Checked with import-linter on the real import graph, not with a grep."""
+"""The import layers (.importlinter, docs/concepts/architecture.md): library packages never import sim, demo or
+bench, and no layer imports one above it. Checked with import-linter on the real import graph, not with a grep."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The world frame every package shares: z-up, metres (docs/DESIGN.md, "Units and frames").
+"""The world frame every package shares: z-up, metres (docs/concepts/frames-and-units.md).
 
 ``UP`` is the world's up axis; ``UP_BODY`` a body frame's own up (a family's model, built upright along +z). They are
 the same vector in two frames, so the registration's upright prior and the perception's fits pull a body's up
