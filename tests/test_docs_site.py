@@ -62,7 +62,7 @@ def test_the_reference_shows_every_name_in_each_packages_all(built_site):
 
 
 def test_the_guide_pages_are_built(built_site):
-    for page in ("guide/demo", "guide/sources", "concepts/layers", "benchmarks", "decisions"):
+    for page in ("guide/demo", "guide/sources", "concepts/architecture", "benchmarks", "decisions"):
         assert (built_site / page / "index.html").exists(), page
 
 
@@ -81,3 +81,28 @@ def test_the_benchmarks_page_is_what_the_saved_runs_give():
     assert page == benchmarks_page.render(), "run `python scripts/benchmarks_page.py render`"
     for run in runs:
         assert f"## {run.stem}\n" in page
+
+
+def architecture_layers(page: str) -> list[str]:
+    """The numbered list of the architecture page's "Layers" section: each item's first code span, top down."""
+    section = page.split("\n## Layers", 1)[1].split("\n## ", 1)[0]
+    return [match.group(1) for match in re.finditer(r"^\d+\. `([^`]+)`", section, flags=re.M)]
+
+
+def importlinter_layers(text: str) -> list[str]:
+    """The ``layers =`` lines of .importlinter's layers contract, top down."""
+    block = text.split("layers =\n", 1)[1]
+    return [line.strip() for line in block.splitlines() if line.startswith((" ", "\t")) and line.strip()]
+
+
+def test_the_architecture_pages_layers_are_the_import_contracts_layers():
+    page = (ROOT / "docs" / "concepts" / "architecture.md").read_text(encoding="utf-8")
+    contract = importlinter_layers((ROOT / ".importlinter").read_text(encoding="utf-8"))
+    assert contract[:2] == ["__main__", "cli"] and contract[-1] == "errors"
+    assert architecture_layers(page) == contract
+
+
+def test_the_architecture_page_is_built_and_links_into_the_reference(built_site):
+    html = (built_site / "concepts" / "architecture" / "index.html").read_text(encoding="utf-8")
+    assert "Registration: what the loop minimises" in html
+    assert 'href="../../reference/safety/"' in html

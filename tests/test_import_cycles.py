@@ -10,13 +10,6 @@ import bim2rdt
 
 PACKAGE_ROOT = Path(bim2rdt.__file__).parent
 
-ALLOWED_CYCLES: dict[frozenset[str], str] = {
-    frozenset({"bim2rdt.safety.monitor", "bim2rdt.safety.subscriber"}):
-        "HavMonitor <-> its bus subscriber: the safety package's read/ingest split (issue 25 section 3) removes it; "
-        "delete this entry then",
-}
-"""Cycles known and owned elsewhere, each with who removes it. Nothing else may form a cycle."""
-
 
 def module_name(path: Path) -> str:
     parts = path.relative_to(PACKAGE_ROOT.parent).with_suffix("").parts
@@ -105,13 +98,6 @@ def test_the_import_graph_sees_lazy_and_relative_imports():
 
 
 def test_no_module_of_bim2rdt_is_in_an_import_cycle():
-    cycles = [component for component in strongly_connected(import_graph())
-              if frozenset(component) not in ALLOWED_CYCLES]
+    cycles = strongly_connected(import_graph())
     report = "; ".join(" <-> ".join(sorted(component)) for component in cycles)
     assert not cycles, f"import cycles: {report}"
-
-
-def test_every_allowed_cycle_still_exists():
-    existing = {frozenset(component) for component in strongly_connected(import_graph())}
-    stale = [", ".join(sorted(cycle)) for cycle in ALLOWED_CYCLES if cycle not in existing]
-    assert not stale, f"remove these ALLOWED_CYCLES entries, the cycle is gone: {stale}"

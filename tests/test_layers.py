@@ -1,5 +1,5 @@
-"""The import layers (.importlinter, docs/DESIGN.md): library packages never import sim, demo or bench, and no
-layer imports one above it. Checked with import-linter on the real import graph, not with a grep."""
+"""The import layers (.importlinter, docs/concepts/architecture.md): library packages never import sim, demo or
+bench, and no layer imports one above it. Checked with import-linter on the real import graph, not with a grep."""
 
 from __future__ import annotations
 
@@ -37,3 +37,14 @@ def test_the_contract_catches_the_mission_importing_the_simulators_truth(tmp_pat
     result = _lint(CONTRACT, tmp_path)
     assert result.returncode != 0
     assert "bim2rdt.mission.run -> bim2rdt.sim.truth" in result.stdout
+
+
+def test_the_contract_keeps_the_demo_and_the_benchmarks_apart(tmp_path):
+    """``demo | bench``: the demo runs the paper's scenarios from ``evaluation``, never from ``bench``."""
+    shutil.copytree(Path(bim2rdt.__file__).parent, tmp_path / "bim2rdt",
+                    ignore=shutil.ignore_patterns("__pycache__"))
+    run = tmp_path / "bim2rdt" / "demo" / "run.py"
+    run.write_text(run.read_text() + "\nfrom bim2rdt.bench.planning import run_planning_bench  # noqa: E402,F401\n")
+    result = _lint(CONTRACT, tmp_path)
+    assert result.returncode != 0
+    assert "bim2rdt.demo.run -> bim2rdt.bench.planning" in result.stdout

@@ -45,7 +45,7 @@ def _reference_energy(good: list) -> float:
     monitor = HavMonitor(None, "fuzz", [], MonitorConfig(), clock=lambda: T0)
     subject = monitor.start_session("w1", "fay", "hammer_drill")
     monitor.ingest_many(good, now=T0 + 100)
-    energy = monitor.day(subject, DAY).energy
+    energy = monitor.queries.day(subject, DAY).energy
     monitor.close()
     return energy
 
@@ -64,11 +64,11 @@ def target():
 @given(message=st.one_of(poison_accel.map(lambda p: (ACCEL, p)), BAD_STATUS.map(lambda p: (STATUS, p))))
 def test_thousands_of_hostile_messages_never_raise_and_each_is_counted(target, message):
     topic, payload = message
-    before = target.malformed_messages().get("w1")
+    before = target.queries.malformed_messages().get("w1")
     handled = target.ingest_payload(topic, payload) if topic == ACCEL else target.on_status(topic, payload)
     assert handled == []
-    assert target.malformed_messages()["w1"].count == (before.count if before else 0) + 1
-    assert target.devices() == [] and target.session("w1") is None
+    assert target.queries.malformed_messages()["w1"].count == (before.count if before else 0) + 1
+    assert target.queries.devices() == [] and target.queries.session("w1") is None
 
 
 @settings(FUZZ, max_examples=25)
@@ -82,8 +82,8 @@ def test_a_good_stream_interleaved_with_poison_gives_its_own_a8(slots):
         for topic, payload in poison:
             monitor.ingest_payload(topic, payload) if topic == ACCEL else monitor.on_status(topic, payload)
         monitor.ingest_payload(ACCEL, encode_accel(batch))
-    assert monitor.day(subject, DAY).energy == pytest.approx(REFERENCE, rel=1e-9)
-    refused = monitor.malformed_messages().get("w1")
+    assert monitor.queries.day(subject, DAY).energy == pytest.approx(REFERENCE, rel=1e-9)
+    refused = monitor.queries.malformed_messages().get("w1")
     assert (refused.count if refused else 0) == sum(len(poison) for poison in slots)
     monitor.close()
 
@@ -128,13 +128,13 @@ def test_a_live_listener_through_mosquitto_survives_thousands_of_hostile_message
 
     monitor = HavMonitor(tmp_path / "hav", "fuzz-site", [], MonitorConfig(site=site))
     day = datetime.fromtimestamp(t0, timezone.utc).strftime("%Y-%m-%d")
-    subject = monitor.session(device).subject
+    subject = monitor.queries.session(device).subject
     reference = HavMonitor(None, "fuzz-site", [], MonitorConfig(site=site), clock=lambda: t0)
     reference.start_session(device, "fay", "hammer_drill")
     reference.ingest_many(good, now=t0 + 100)
     assert sent["poison"] >= 1000
-    assert monitor.malformed_messages()[device].count == sent["poison"]
-    assert monitor.day(subject, day).energy == pytest.approx(reference.day(subject, day).energy, rel=1e-9)
+    assert monitor.queries.malformed_messages()[device].count == sent["poison"]
+    assert monitor.queries.day(subject, day).energy == pytest.approx(reference.queries.day(subject, day).energy, rel=1e-9)
     reference.close()
     monitor.close()
 

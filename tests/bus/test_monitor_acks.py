@@ -48,13 +48,13 @@ def test_a_monitor_killed_before_its_group_commit_gets_the_messages_again(broker
             child.kill()
     sink = ListSink()
     monitor = HavMonitor(tmp_path, "secret", [sink], MonitorConfig(site="s", commit_delay_s=0.05))
-    assert monitor.stream_status("w1") is None  # nothing had been committed ...
+    assert monitor.queries.stream_status("w1") is None  # nothing had been committed ...
     bus = MqttBus("127.0.0.1", broker.port, client_id="hav-monitor-acks", username="monitor-acks",
                   password=broker.users["monitor-acks"], session_expiry_s=600, manual_ack=True)
     monitor.attach(bus)
     bus.connect()
-    wait_for(lambda: (monitor.stream_status("w1") or {}).get("next_seq") == len(sent), "redelivery of all 20")
-    assert monitor.stats.get("duplicates", 0) == 0  # ... and nothing is counted twice
+    wait_for(lambda: (monitor.queries.stream_status("w1") or {}).get("next_seq") == len(sent), "redelivery of all 20")
+    assert monitor.queries.stats.get("duplicates", 0) == 0  # ... and nothing is counted twice
     assert "hav.activity_started" in sink.kinds()
     bus.close()
     w1.close()
@@ -85,7 +85,7 @@ def test_without_manual_acks_the_same_kill_loses_the_waiting_group(broker, tmp_p
                   password=broker.users["monitor-auto"], session_expiry_s=600).connect()
     monitor.attach(bus)
     time.sleep(1.0)  # nothing is queued for us: there is nothing to wait for
-    assert monitor.stream_status("w2") is None
+    assert monitor.queries.stream_status("w2") is None
     bus.close()
     w2.close()
     monitor.close()

@@ -111,9 +111,9 @@ def test_the_monitor_over_mqtt_ignores_payloads_whose_device_is_not_the_topics(b
     for item in sent:
         w1.publish(accel_topic("s", "w1"), encode_accel(item), qos=1)
     wait_for(lambda: "hav.activity_started" in sink.kinds(), "an activity start from w1's batches")
-    assert monitor.stats["mismatched"] == 3
-    assert monitor.session("w2") is None
-    assert monitor.session("w1").tool == "grinder"
+    assert monitor.queries.stats["mismatched"] == 3
+    assert monitor.queries.session("w2") is None
+    assert monitor.queries.session("w1").tool == "grinder"
     started = next(e for e in sink.events if e.kind == "hav.activity_started")
     assert started.source == "w1" and started.received is not None
     bus.close()
@@ -132,7 +132,7 @@ def test_a_restarted_monitor_gets_what_was_published_while_it_was_away(broker, t
     w2 = connect(broker, "w2")
     for item in sent[:4]:
         w2.publish(accel_topic("s", "w2"), encode_accel(item), qos=1, wait=True)
-    wait_for(lambda: (first.stream_status("w2") or {}).get("next_seq") == 4, "the first monitor taking 4 batches")
+    wait_for(lambda: (first.queries.stream_status("w2") or {}).get("next_seq") == 4, "the first monitor taking 4 batches")
     bus.close()  # the monitor stops mid-shift ...
     first.close()
     for item in sent[2:]:  # ... the device keeps publishing (and repeats two batches it was unsure about)
@@ -141,8 +141,8 @@ def test_a_restarted_monitor_gets_what_was_published_while_it_was_away(broker, t
     bus = client(broker, "monitor", client_id="hav-monitor-s", session_expiry_s=600)
     second.attach(bus)
     bus.connect()
-    wait_for(lambda: second.stream_status("w2")["next_seq"] == len(sent), "the restarted monitor catching up")
-    assert second.stats["duplicates"] == 2
+    wait_for(lambda: second.queries.stream_status("w2")["next_seq"] == len(sent), "the restarted monitor catching up")
+    assert second.queries.stats["duplicates"] == 2
     assert "hav.activity_started" in sink.kinds()
     bus.close()
     w2.close()
@@ -236,9 +236,9 @@ def test_a_poison_message_queued_for_a_stopped_monitor_does_not_stop_its_restart
         monitor.attach(bus)
         bus.connect()  # SUBACK received: the poison delivered first did not stop the network thread
         if attempt == 0:
-            wait_for(lambda: (monitor.stream_status("w4") or {}).get("next_seq") == len(good), "the good batches")
+            wait_for(lambda: (monitor.queries.stream_status("w4") or {}).get("next_seq") == len(good), "the good batches")
         time.sleep(0.5)
-        assert monitor.malformed_messages()["w4"].count == 1 and bus.alive
+        assert monitor.queries.malformed_messages()["w4"].count == 1 and bus.alive
         bus.close()
         monitor.close()
     w4.close()

@@ -77,7 +77,7 @@ def test_a_message_whose_commit_always_fails_is_dead_lettered_after_max_deliver_
         monitor.store.close()
     assert failed_lives == MAX_DELIVER - 1  # two lives fail on it; the third is its last delivery
     assert bus.terminated == 1 and bus.last_deliveries >= 1
-    dead = monitor.malformed_messages()[device]
+    dead = monitor.queries.malformed_messages()[device]
     assert dead.count == 1
     assert f"not committed after {MAX_DELIVER} deliveries" in dead.last_reason and "disk full" in dead.last_reason
     assert monitor.stats[UNDELIVERABLE] == 1

@@ -65,9 +65,9 @@ def reference_days(plans, t0: float) -> dict:
     monitor.attach(bus)
     publish_plans(lambda device: bus, plans, SITE, FS, t0=t0)
     monitor.flush()
-    return {(d, day): (monitor.day(monitor.session(d).subject, day).a8, monitor.day(monitor.session(d).subject,
+    return {(d, day): (monitor.queries.day(monitor.queries.session(d).subject, day).a8, monitor.queries.day(monitor.queries.session(d).subject,
                                                                                   day).seconds)
-            for d in [p.device for p in plans] for day in monitor.days_of(monitor.session(d).subject)}
+            for d in [p.device for p in plans] for day in monitor.queries.days_of(monitor.queries.session(d).subject)}
 
 
 def applied_per_device(url: str) -> dict[str, int]:
@@ -146,10 +146,10 @@ def test_a_killed_monitor_process_loses_and_doubles_nothing_on_a_shared_postgres
           f"served again {killed['back_at'] - killed['at']:.1f} s after its SIGKILL")
     assert killed["back_at"] - killed["at"] <= 10.0  # the partition is served again within 10 s
     monitor = HavMonitor(tmp_path / "check", SECRET, config=MonitorConfig(site=SITE, store_url=store_url))
-    got = {(d, day): (monitor.day(monitor.session(d).subject, day).a8,
-                      monitor.day(monitor.session(d).subject, day).seconds)
-           for d in devices for day in monitor.days_of(monitor.session(d).subject)}
-    counted = {d: monitor.stream_status(d)["batches"] for d in devices}
+    got = {(d, day): (monitor.queries.day(monitor.queries.session(d).subject, day).a8,
+                      monitor.queries.day(monitor.queries.session(d).subject, day).seconds)
+           for d in devices for day in monitor.queries.days_of(monitor.queries.session(d).subject)}
+    counted = {d: monitor.queries.stream_status(d)["batches"] for d in devices}
     monitor.close()
     want = reference_days(plans, t0)
     assert got.keys() == want.keys() and len(want) == DEVICES

@@ -33,11 +33,11 @@ def reference_days(plans, t0: float) -> dict:
 def days_of(monitor, devices) -> dict:
     out = {}
     for device in devices:
-        session = monitor.session(device)
+        session = monitor.queries.session(device)
         if session is None:
             continue
-        for day in monitor.days_of(session.subject):
-            state = monitor.day(session.subject, day)
+        for day in monitor.queries.days_of(session.subject):
+            state = monitor.queries.day(session.subject, day)
             out[(device, day)] = (state.a8, state.seconds)
     return out
 
@@ -89,8 +89,8 @@ def test_three_partition_monitors_count_what_one_in_memory_monitor_counts(nats_s
     for k, (monitor, bus) in enumerate(parts):
         monitor.flush()
         bus.close()
-        assert {d for d in monitor.devices()} == {p.device for p in plans if partition_of(SITE, p.device, 3) == k}
-        got.update(days_of(monitor, monitor.devices()))
+        assert {d for d in monitor.queries.devices()} == {p.device for p in plans if partition_of(SITE, p.device, 3) == k}
+        got.update(days_of(monitor, monitor.queries.devices()))
         monitor.close()
     want = reference_days(plans, t0)
     assert len(want) == 6 and sum(seconds for _, seconds in want.values()) > 60
@@ -120,8 +120,8 @@ def test_a_message_whose_commit_failed_is_redelivered_and_applied_once(nats_serv
     monitor, bus = partition_monitor(nats_server, k, tmp_path)
     wait_delivered([bus], failures[0])
     deadline = time.monotonic() + 30
-    while monitor.stream_status(device) is None or monitor.stream_status(device)["next_seq"] is None or \
-            monitor.stream_status(device)["batches"] < sent - 4 and time.monotonic() < deadline:
+    while monitor.queries.stream_status(device) is None or monitor.queries.stream_status(device)["next_seq"] is None or \
+            monitor.queries.stream_status(device)["batches"] < sent - 4 and time.monotonic() < deadline:
         time.sleep(0.1)
     time.sleep(0.5)
     monitor.flush()
@@ -175,10 +175,10 @@ def test_poison_over_nats_is_refused_and_counted_as_over_mqtt_and_leaves_the_goo
     reference = HavMonitor(None, SECRET, config=CONFIG, clock=lambda: t0)
     subject = reference.start_session(device, "fay", "hammer_drill")
     reference.ingest_many(good, now=t0 + 100)
-    day = reference.days_of(subject)[0]
+    day = reference.queries.days_of(subject)[0]
     assert sent["poison"] >= 200
-    assert monitor.malformed_messages()[device].count == sent["poison"]
-    assert monitor.day(subject, day).energy == pytest.approx(reference.day(subject, day).energy, rel=1e-9)
+    assert monitor.queries.malformed_messages()[device].count == sent["poison"]
+    assert monitor.queries.day(subject, day).energy == pytest.approx(reference.queries.day(subject, day).energy, rel=1e-9)
     reference.close()
     monitor.close()
 

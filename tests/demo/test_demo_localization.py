@@ -10,7 +10,8 @@ from bim2rdt.bim import load_ifc
 from bim2rdt.demo.localization_report import localization_markdown, localization_record, verdict_tally
 from bim2rdt.demo.localized import localized_mission
 from bim2rdt.demo.perceivers import DemoPerception
-from bim2rdt.demo.site_day import ROBOT_START_XY, objects_of_interest
+from bim2rdt.sim.reality import objects_of_interest
+from bim2rdt.sim.site import ROBOT_START_XY
 from bim2rdt.mission import MissionConfig, MissionContext, plan_stations
 from bim2rdt.semantics import KnowledgeBasePriors
 from bim2rdt.sim.meshes import mesh_for_family

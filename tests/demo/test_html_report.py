@@ -15,7 +15,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from bim2rdt.bench.registration.stats import MethodStats, ScenarioResult  # noqa: E402
+from bim2rdt.evaluation.stats import MethodStats, ScenarioResult  # noqa: E402
 from bim2rdt.demo.html_report import HtmlReport, WorkerExposure, write_html_report  # noqa: E402
 from bim2rdt.perception.observation import Observation  # noqa: E402
 from bim2rdt.twin import DigitalTwin, TwinConfig  # noqa: E402

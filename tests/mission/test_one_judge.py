@@ -81,3 +81,16 @@ def test_the_mission_and_the_twin_trust_a_fit_by_the_same_fitness_setting(site_m
             state = twin.record(Observation(proxy.family, proxy.global_id, fit.pose, 0.004, fitness, 200), 0.0)
         expected = ElementStatus.AS_PLANNED if fitness >= config.min_fitness else ElementStatus.UNVERIFIED
         assert mission is state.status is expected
+
+
+def test_verify_trusts_a_fit_by_the_twins_rule_and_setting():
+    """verify decides which fits count as seen (the rest may be judged seen empty) by the twin's rule,
+    ``fit_trusted``, with the twin's setting: its default is the twin's, and its chain has no comparison of its own."""
+    import inspect
+
+    from bim2rdt.verify import chain
+
+    assert chain.VerifyConfig().min_fitness == TwinConfig().min_fitness
+    source = inspect.getsource(chain)
+    assert "fit_trusted(f.observation.fitness, config.min_fitness)" in source
+    assert ">= config.min_fitness" not in source

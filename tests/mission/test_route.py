@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from bim2rdt.bim import load_ifc
-from bim2rdt.demo.site_day import ROBOT_START_XY, objects_of_interest
+from bim2rdt.sim.reality import objects_of_interest
+from bim2rdt.sim.site import ROBOT_START_XY
 from bim2rdt.mission import MissionConfig, plan_route
 from bim2rdt.mission.stations import plan_stations
 from bim2rdt.planning import OccupancyGrid, line_of_sight, path_length, reachable

@@ -21,7 +21,7 @@ def test_runs_counted_in_one_step_match_block_by_block_exactly(make_monitor, clo
         monitor, sink = make_monitor(f"{name}-{chunk}", keep_timeline=timeline)
         subject = monitor.start_session("dev-1", "ola", "hammer_drill")
         feed(monitor, items, clock, chunk=chunk)
-        day = monitor.day(subject, DAY)
+        day = monitor.queries.day(subject, DAY)
         outcomes.append(((day.energy, day.seconds, day.eav_at, day.elv_at),
                          [(e.kind, e.time, e.data) for e in sink.events]))
     assert outcomes[0] == outcomes[1]

@@ -244,8 +244,8 @@ def test_hav_listen_stopped_by_a_signal_prints_the_day_and_exits_0(tmp_path, cli
         text = "".join(out)
         assert text.count("activity_ended") == 3 and "Daily exposure" in text and "w1" in text.split("Daily")[1]
     monitor = HavMonitor(tmp_path / "var" / "hav", "test-site", [], MonitorConfig(site="t"))
-    subject, status = monitor.session("w1").subject, monitor.stream_status("w1")
-    days = monitor.days_of(subject)
+    subject, status = monitor.queries.session("w1").subject, monitor.queries.stream_status("w1")
+    days = monitor.queries.days_of(subject)
     monitor.close()
     assert status["restarts"] == 1 and status.get("duplicates", 0) == 0 and status["time_base"] == "receive"
     assert days == [time.strftime("%Y-%m-%d", time.gmtime())]

@@ -43,21 +43,21 @@ def _run(make_monitor, name, batches, skew):
 def test_a_clock_counting_from_boot_files_the_exposure_on_the_day_it_was_received(make_monitor, items):
     wall, wall_sink, subject = _run(make_monitor, "wall", items, skew=0.0)
     boot, boot_sink, _ = _run(make_monitor, "boot", _boot_clock(items), skew=T0 - UPTIME)
-    assert boot.days_of(subject) == [DAY]  # not 1970-01-01
-    assert boot.day(subject, DAY).energy == pytest.approx(wall.day(subject, DAY).energy, rel=1e-12)
-    assert boot.day(subject, DAY).seconds == pytest.approx(wall.day(subject, DAY).seconds)
+    assert boot.queries.days_of(subject) == [DAY]  # not 1970-01-01
+    assert boot.queries.day(subject, DAY).energy == pytest.approx(wall.queries.day(subject, DAY).energy, rel=1e-12)
+    assert boot.queries.day(subject, DAY).seconds == pytest.approx(wall.queries.day(subject, DAY).seconds)
     assert [e.kind for e in boot_sink.events] == [e.kind for e in wall_sink.events]
     for placed, true in zip(boot_sink.events, wall_sink.events):  # on the receive clock: late by the delay only
         assert placed.time - true.time == pytest.approx(DELAY, abs=1e-6)
         assert placed.data["time_base"] == "receive" and true.data["time_base"] == "device"
     ended = next(e for e in boot_sink.events if e.kind == "hav.activity_ended")
     assert ended.data["started"] - T0 == pytest.approx(2.0 + DELAY, abs=0.51)
-    assert boot.stream_status("dev-1")["time_base"] == "receive"
+    assert boot.queries.stream_status("dev-1")["time_base"] == "receive"
 
 
 def test_a_wall_clock_device_keeps_its_own_times_however_late_it_arrives(make_monitor, items):
     monitor, sink, subject = _run(make_monitor, "late", items, skew=90_000.0)  # the next day at our end
-    assert monitor.days_of(subject) == [DAY]
+    assert monitor.queries.days_of(subject) == [DAY]
     started = next(e for e in sink.events if e.kind == "hav.activity_started")
     assert started.time - T0 == pytest.approx(2.0, abs=0.51) and started.data["time_base"] == "device"
 
@@ -73,9 +73,9 @@ def test_a_monitor_restart_on_a_boot_clock_loses_nothing_and_counts_nothing_twic
         second, _ = make_monitor(f"cut-{cut}")
         _ingest(second, stream[cut - 4:cut], skew=T0 - UPTIME + 30.0)
         _ingest(second, stream[cut:], skew=T0 - UPTIME)
-        assert second.days_of(subject) == [DAY], cut
-        assert second.day(subject, DAY).energy == pytest.approx(wall.day(subject, DAY).energy, rel=1e-12), cut
-        assert second.stats["duplicates"] == 4, cut
+        assert second.queries.days_of(subject) == [DAY], cut
+        assert second.queries.day(subject, DAY).energy == pytest.approx(wall.queries.day(subject, DAY).energy, rel=1e-12), cut
+        assert second.queries.stats["duplicates"] == 4, cut
 
 
 def test_a_boot_clock_device_that_restarts_starts_over_on_the_receive_clock(make_monitor, items):
@@ -90,8 +90,8 @@ def test_a_boot_clock_device_that_restarts_starts_over_on_the_receive_clock(make
     subject = monitor.start_session("dev-1", "kai", "hammer_drill")
     _ingest(monitor, restarted[:reboot], skew=T0 - UPTIME)
     _ingest(monitor, restarted[reboot:], skew=stream[reboot].device_time - 0.5 + T0 - UPTIME)
-    assert monitor.days_of(subject) == [DAY] and monitor.stream_status("dev-1")["restarts"] == 1
-    assert monitor.day(subject, DAY).seconds == pytest.approx(30.0, abs=0.6)
+    assert monitor.queries.days_of(subject) == [DAY] and monitor.queries.stream_status("dev-1")["restarts"] == 1
+    assert monitor.queries.day(subject, DAY).seconds == pytest.approx(30.0, abs=0.6)
     assert all(0.0 <= e.time - T0 < 40.0 for e in sink.events)  # on the shift's clock, both epochs
 
 
@@ -136,10 +136,10 @@ def test_a_clock_reset_within_one_boot_files_the_rest_of_the_shift_on_the_receiv
         control.ingest_many([batch], now=received)
         sent = batch if k < 60 else dataclasses.replace(batch, device_time=(k - 60) * batch.duration_s)
         reset.ingest_many([sent], now=received)
-    assert reset.days_of(subject) == control.days_of(subject) == [DAY]  # before: 90 s on 1970-01-01
+    assert reset.queries.days_of(subject) == control.queries.days_of(subject) == [DAY]  # before: 90 s on 1970-01-01
     # the same A(8) to the displayed 0.01 m/s^2 (0.447 against 0.448): the jump starts a segment whose weighting
     # filter restarts settled, as after a reboot, so the first half-second of grinding is weighed afresh
-    assert reset.day(subject, DAY).a8 == pytest.approx(control.day(subject, DAY).a8, rel=5e-3)
-    assert reset.day(subject, DAY).seconds == pytest.approx(control.day(subject, DAY).seconds, abs=0.5)
+    assert reset.queries.day(subject, DAY).a8 == pytest.approx(control.queries.day(subject, DAY).a8, rel=5e-3)
+    assert reset.queries.day(subject, DAY).seconds == pytest.approx(control.queries.day(subject, DAY).seconds, abs=0.5)
     assert all(e.time >= T0 for e in reset_sink.events)
-    assert reset.stream_status("dev-1")["time_base"] == "receive"
+    assert reset.queries.stream_status("dev-1")["time_base"] == "receive"

@@ -18,11 +18,11 @@ def test_poison_on_a_device_topic_is_counted_under_that_device_and_never_raises(
     monitor, _ = make_monitor()
     for payload in POISON:
         assert monitor.ingest_payload(accel_topic("demo", "w7"), payload) == []
-    refused = monitor.malformed_messages()
+    refused = monitor.queries.malformed_messages()
     assert set(refused) == {"w7"} and refused["w7"].count == len(POISON)
     assert "HAV1" in refused["w7"].last_reason or "header" in refused["w7"].last_reason
-    assert refused["w7"].last_received == clock.now and monitor.stats["malformed"] == len(POISON)
-    assert monitor.devices() == []  # no stream, no exposure
+    assert refused["w7"].last_received == clock.now and monitor.queries.stats["malformed"] == len(POISON)
+    assert monitor.queries.devices() == []  # no stream, no exposure
 
 
 def test_refused_counts_survive_a_restart(make_monitor, clock):
@@ -31,14 +31,14 @@ def test_refused_counts_survive_a_restart(make_monitor, clock):
     monitor.on_status(status_topic("demo", "w8"), b'{"online": "yes"}')
     monitor.close()
     again, _ = make_monitor()
-    assert {d: m.count for d, m in again.malformed_messages().items()} == {"w7": 1, "w8": 1}
+    assert {d: m.count for d, m in again.queries.malformed_messages().items()} == {"w7": 1, "w8": 1}
 
 
 def test_a_malformed_status_is_dead_lettered_and_starts_no_session(make_monitor, clock):
     monitor, _ = make_monitor()
     for payload in (b'{"online": true, "worker": {"x": 1}}', b'{"online": 1}', b"[]", b"{" * 5000):
         assert monitor.on_status(status_topic("demo", "w2"), payload) == []
-    assert monitor.session("w2") is None and monitor.malformed_messages()["w2"].count == 4
+    assert monitor.queries.session("w2") is None and monitor.queries.malformed_messages()["w2"].count == 4
 
 
 def test_refused_messages_are_logged_with_their_device_then_thinned(make_monitor, caplog):
@@ -58,17 +58,17 @@ def test_an_engine_failure_dead_letters_its_group_and_memory_matches_the_store(m
     monitor.attach(bus)
     for batch in items[:8]:
         bus.publish(accel_topic("demo", "dev-1"), encode_accel(batch))
-    committed = monitor.day(subject, DAY).energy
+    committed = monitor.queries.day(subject, DAY).energy
     engine = type(monitor._engine)
     original = engine.push
     monkeypatch.setattr(engine, "push", lambda self, *a, **k: (_ for _ in ()).throw(ZeroDivisionError("bug")))
     for batch in items[8:12]:
         bus.publish(accel_topic("demo", "dev-1"), encode_accel(batch))  # a group the engine fails on
     monkeypatch.setattr(engine, "push", original)
-    assert monitor.malformed_messages()["dev-1"].count == 4
-    assert "internal error: ZeroDivisionError" in monitor.malformed_messages()["dev-1"].last_reason
-    assert monitor.stream_status("dev-1")["next_seq"] == 8 and monitor.day(subject, DAY).energy == committed
+    assert monitor.queries.malformed_messages()["dev-1"].count == 4
+    assert "internal error: ZeroDivisionError" in monitor.queries.malformed_messages()["dev-1"].last_reason
+    assert monitor.queries.stream_status("dev-1")["next_seq"] == 8 and monitor.queries.day(subject, DAY).energy == committed
     for batch in items[12:]:
         bus.publish(accel_topic("demo", "dev-1"), encode_accel(batch))  # it goes on: a gap, then exposure again
     monitor.flush()
-    assert monitor.day(subject, DAY).energy > committed and monitor.stream_status("dev-1")["gaps"] == 1
+    assert monitor.queries.day(subject, DAY).energy > committed and monitor.queries.stream_status("dev-1")["gaps"] == 1

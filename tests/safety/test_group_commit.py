@@ -27,8 +27,8 @@ def test_group_commits_give_the_exposure_of_one_commit_per_batch_in_far_fewer_tr
         monitor.attach(bus)
         _publish(bus, items)
         monitor.flush()
-    subject = alone.session("dev-1").subject
-    assert grouped.day(subject, DAY).energy == pytest.approx(alone.day(subject, DAY).energy, rel=1e-9)
+    subject = alone.queries.session("dev-1").subject
+    assert grouped.queries.day(subject, DAY).energy == pytest.approx(alone.queries.day(subject, DAY).energy, rel=1e-9)
     assert alone.store.commits >= len(items)
     assert grouped.store.commits <= len(items) // 16 + 3
     assert "hav.activity_started" in sink.kinds()
@@ -51,11 +51,11 @@ def test_a_crash_on_the_in_process_bus_loses_at_most_the_waiting_group(make_moni
     first.identity.close()
 
     second, _ = make_monitor("crash")
-    assert second.stream_status("dev-1")["next_seq"] == 20  # lost: the 7 waiting, fewer than commit_batches
+    assert second.queries.stream_status("dev-1")["next_seq"] == 20  # lost: the 7 waiting, fewer than commit_batches
     second.ingest_many(items[27:], now=items[-1].device_time + 1.0)  # the device goes on; 7 batches stay lost
-    lost = second.stream_status("dev-1")["gap_s"]
+    lost = second.queries.stream_status("dev-1")["gap_s"]
     assert lost == pytest.approx(7 * 0.5)
-    energy_lost = reference.day(subject, DAY).energy - second.day(subject, DAY).energy
+    energy_lost = reference.queries.day(subject, DAY).energy - second.queries.day(subject, DAY).energy
     assert 0 < energy_lost < 10 * 0.5 * 12.0**2  # at most commit_batches x 0.5 s at the drill's a_hv (10 m/s^2)
 
 

@@ -33,7 +33,7 @@ def test_a_day_with_three_tools_emits_start_eav_elv_and_end_events_in_order(make
                                 "hav.activity_started", "hav.eav_reached", "hav.activity_ended",
                                 "hav.activity_started", "hav.elv_reached", "hav.activity_ended"]
     expected = combine_exposures([(DAY_AHV[t], s) for t, s in DAY_PLAN if t != "idle"])
-    assert monitor.day(subject, DAY).a8 == pytest.approx(expected, rel=0.01)
+    assert monitor.queries.day(subject, DAY).a8 == pytest.approx(expected, rel=0.01)
     # EAV: the grinder's energy, then (E_EAV - that) / 15^2 seconds into the hammer drill (starts at 330 s)
     eav = next(e for e in sink.events if e.kind == "hav.eav_reached")
     assert eav.time - T0 == pytest.approx(330 + (E_EAV - 25 * 300) / 15**2, abs=2.0)
@@ -43,10 +43,10 @@ def test_a_day_with_three_tools_emits_start_eav_elv_and_end_events_in_order(make
     assert [round(e.data["a_hv"], 1) for e in ended] == [5.0, 15.0, 25.0]
     assert [e.data["trigger_s"] for e in ended] == pytest.approx([300, 900, 900], abs=1.5)
     assert ended[-1].data["risk"] == "above_elv" and ended[-1].data["day_a8"] == pytest.approx(expected, rel=0.01)
-    day = monitor.day(subject, DAY)  # the day is exactly the sum of its activities: no block lost or counted twice
+    day = monitor.queries.day(subject, DAY)  # the day is exactly the sum of its activities: no block lost or counted twice
     assert day.seconds == pytest.approx(sum(e.data["trigger_s"] for e in ended), rel=1e-9)
     assert day.a8**2 == pytest.approx(sum(e.data["activity_a8"] ** 2 for e in ended), rel=1e-9)
-    assert monitor.days_of(subject) == [DAY]
+    assert monitor.queries.days_of(subject) == [DAY]
     assert all(e.subject == subject and e.data["zone"] == "zone-A" for e in sink.events)
 
 
@@ -64,7 +64,7 @@ def test_a_restart_mid_shift_loses_nothing_and_double_counts_nothing(make_monito
     reference, ref_sink = make_monitor("uninterrupted")
     reference.start_session("dev-1", "carol", "hammer_drill")
     feed(reference, items, clock)
-    ref_day = reference.day(reference.session("dev-1").subject, DAY)
+    ref_day = reference.queries.day(reference.queries.session("dev-1").subject, DAY)
     clock.now = T0
 
     first, first_sink = make_monitor()
@@ -74,11 +74,11 @@ def test_a_restart_mid_shift_loses_nothing_and_double_counts_nothing(make_monito
     first.close()  # the process dies here: no end_session, nothing flushed
     second, second_sink = make_monitor()
     feed(second, items[half - 5:], clock)  # QoS 1 redelivers the last five before the new ones
-    day = second.day(subject, DAY)
+    day = second.queries.day(subject, DAY)
     assert day.energy == pytest.approx(ref_day.energy, rel=1e-6)
     assert day.seconds == pytest.approx(ref_day.seconds, rel=1e-9)
     assert main_kinds(first_sink) + main_kinds(second_sink) == main_kinds(ref_sink)
-    assert second.stats["duplicates"] == 5
+    assert second.queries.stats["duplicates"] == 5
 
 
 def test_duplicates_and_out_of_order_batches_give_the_same_exposure(make_monitor, clock):
@@ -91,9 +91,9 @@ def test_duplicates_and_out_of_order_batches_give_the_same_exposure(make_monitor
     monitor.start_session("dev-1", "dan", "hammer_drill")
     for batch in messy:
         monitor.ingest_many([batch], now=batch.device_time + 1.0)
-    assert monitor.day(subject, DAY).energy == pytest.approx(ordered.day(subject, DAY).energy, rel=1e-6)
-    assert monitor.stats["duplicates"] == len(messy) - len(items)
-    assert monitor.stats.get("gaps", 0) == 0
+    assert monitor.queries.day(subject, DAY).energy == pytest.approx(ordered.queries.day(subject, DAY).energy, rel=1e-6)
+    assert monitor.queries.stats["duplicates"] == len(messy) - len(items)
+    assert monitor.queries.stats.get("gaps", 0) == 0
 
 
 def _shuffle_with_duplicates(items, rng):
@@ -136,7 +136,7 @@ def test_artefacts_are_rejected_and_flagged(make_monitor, clock, kind):
     clean, _ = make_monitor("clean")
     subject = clean.start_session("dev-1", "gus", "hammer_drill")
     feed(clean, items, clock)
-    clean_energy = clean.day(subject, DAY).energy
+    clean_energy = clean.queries.day(subject, DAY).energy
     spoiled = [dataclasses.replace(b, xyz=_spoil(b.xyz, kind, b.full_scale)) if i == 50 else b
                for i, b in enumerate(items)]
     clock.now = T0
@@ -147,7 +147,7 @@ def test_artefacts_are_rejected_and_flagged(make_monitor, clock, kind):
     flagged = [e for e in sink_events if e.kind == "hav.artefact"]
     assert flagged[0].data["kinds"] == [kind]
     assert flagged[-1].data["kinds"] == ["settling"]  # the block after, while the filter rings down
-    day = monitor.day(subject, DAY)
+    day = monitor.queries.day(subject, DAY)
     assert np.isfinite(day.energy) and day.energy < clean_energy  # rejected frames do not count
     assert day.energy > 0.9 * clean_energy  # ... and only those
     ended = next(e for e in sink_events if e.kind == "hav.activity_ended")
@@ -192,12 +192,12 @@ def test_ending_a_session_ends_the_running_activity_with_the_day_exposure(make_m
     monitor, sink = make_monitor()
     subject = monitor.start_session("dev-1", "jo", "breaker")
     feed(monitor, plan_batches("dev-1", [("idle", 2), ("breaker", 30)]), clock)
-    assert monitor.activity("dev-1").id is not None
+    assert monitor.queries.activity("dev-1").id is not None
     clock.now += 300.0  # the offline status (last will) reaches us five minutes after the last sample
     events = monitor.end_session("dev-1")
     assert [e.kind for e in events][-1] == "hav.activity_ended"
     assert events[-1].time - T0 == events[-1].data["ended"] - T0 == pytest.approx(32.0, abs=1e-6)  # device time, last sample
-    assert events[-1].data["day_a8"] == pytest.approx(monitor.day(subject, DAY).a8)
+    assert events[-1].data["day_a8"] == pytest.approx(monitor.queries.day(subject, DAY).a8)
     assert monitor.store.activities(subject)[-1]["open"] is False
 
 
@@ -208,7 +208,7 @@ def test_with_both_hands_exposed_the_day_counts_the_greater_hand(make_monitor, c
     left = plan_batches("left-1", [("idle", 2), ("grinder", 60)], a_hv={"grinder": 5.0}, seed=1)
     right = plan_batches("right-1", [("idle", 2), ("breaker", 60)], a_hv={"breaker": 12.0}, seed=2)
     feed(monitor, [b for pair in zip(left, right) for b in pair], clock)
-    day = monitor.day(subject, DAY)
+    day = monitor.queries.day(subject, DAY)
     assert day.a8 == pytest.approx(combine_exposures([(12.0, 60.0)]), rel=0.02)  # not the sum of both hands
     assert set(day.hands) == {"left", "right"}
     assert day.hand_energy("left") == pytest.approx(25.0 * 60, rel=0.03)
@@ -218,7 +218,7 @@ def test_a_batch_at_a_rate_below_every_wh_band_is_counted_and_ignored_not_fatal(
     monitor, sink = make_monitor()
     slow = AccelBatch("dev-1", 0, T0, 10.0, np.ones((20, 3), np.float32))  # 10 Hz: Nyquist below the 8 Hz band
     assert monitor.ingest_payload("site/demo/wearable/dev-1/accel", encode_accel(slow)) == []
-    assert monitor.stats["malformed"] == 1
+    assert monitor.queries.stats["malformed"] == 1
     with pytest.raises(HavError, match="10 Hz"):
         monitor.ingest(slow)
     feed(monitor, plan_batches("dev-1", SHORT_PLAN), clock)  # the stream itself is untouched and still works

@@ -49,7 +49,7 @@ def test_the_monitor_applies_the_correction_and_labels_the_figures_estimates(mak
     ended = next(e for e in sink.events if e.kind == "hav.activity_ended")
     assert ended.data["a_hv"] == pytest.approx(5.0, rel=0.1)
     assert ended.data["estimate"] is True and ended.data["corrected"] is True
-    assert monitor.day(subject, DAY).a8 > 0
+    assert monitor.queries.day(subject, DAY).a8 > 0
 
 
 def test_a_correction_survives_a_round_trip_through_json():

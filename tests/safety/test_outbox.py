@@ -54,8 +54,8 @@ def test_a_failing_durable_sink_gets_every_event_in_order_once(store_url, tmp_pa
     feed(monitor, plan_batches("dev-1", PLAN), clock, chunk=4)
     fed_s = time.monotonic() - started
     assert monitor.drain_outbox(10.0)
-    status = monitor.outbox_status()["test"]
-    committed = [(e.kind, e.time) for e in monitor.reads.events()]
+    status = monitor.queries.outbox_status()["test"]
+    committed = [(e.kind, e.time) for e in monitor.queries.reads.events()]
     monitor.close()
     assert [(e.kind, e.time) for e in sink.events] == committed and len(committed) > 10  # in order, none doubled
     assert status["failures"] == 5 and status["pending"] == 0
@@ -68,7 +68,7 @@ def test_events_queued_when_the_monitor_stopped_are_delivered_at_the_next_start(
     first = HavMonitor(tmp_path / "m", "s", [down], _config().model_copy(update={"outbox_drain_s": 0.2}), clock)
     first.start_session("dev-1", "eva", "grinder")
     feed(first, plan_batches("dev-1", PLAN), clock)
-    queued = first.outbox_status()["test"]["pending"]
+    queued = first.queries.outbox_status()["test"]["pending"]
     first.close()
     up = FlakySink()
     second = HavMonitor(tmp_path / "m", "s", [up], _config(), clock)
@@ -90,7 +90,7 @@ def test_monitors_sharing_a_postgresql_store_deliver_its_outbox_once(postgres_ad
         for k, monitor in enumerate(monitors):
             feed(monitor, plan_batches(f"dev-{k}", PLAN), clock)
         assert all(m.drain_outbox(10.0) for m in monitors)
-        committed = len(monitors[0].reads.events())
+        committed = len(monitors[0].queries.reads.events())
         for monitor in monitors:
             monitor.close()
     delivered = [e.data["outbox_id"] for sink in sinks for e in sink.events]

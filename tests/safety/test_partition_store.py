@@ -27,19 +27,19 @@ def test_partitions_on_one_store_restore_their_own_devices_and_a_reader_sees_eve
     one.ingest_many(w1[:20])
     two.ingest_many(w2)
     reader = HavMonitor(tmp_path / "serve", SECRET, config=config)
-    view = SafetyView(reader)
+    view = SafetyView(reader.queries)
     assert {w["subject"] for w in view.workers()} == {ann, bob}
-    day = reader.days_of(ann)[0]
-    before = reader.day(ann, day).energy
+    day = reader.queries.days_of(ann)[0]
+    before = reader.queries.day(ann, day).energy
     one.ingest_many(w1[20:])
-    assert reader.day(ann, day).energy == before  # a reader holds what it last read ...
+    assert reader.queries.day(ann, day).energy == before  # a reader holds what it last read ...
     reader.refresh()
-    assert reader.day(ann, day).energy == one.day(ann, day).energy > before  # ... and grows with the store
-    assert reader.day(bob, day).energy == two.day(bob, day).energy
+    assert reader.queries.day(ann, day).energy == one.queries.day(ann, day).energy > before  # ... and grows with the store
+    assert reader.queries.day(bob, day).energy == two.queries.day(bob, day).energy
     one.close()
     again = HavMonitor(tmp_path / "p0", SECRET, config=config, owns=lambda device: device == "w1")
-    assert again.devices() == ["w1"]  # a restarted partition takes back only its own streams
-    assert again.day(ann, day).energy == reader.day(ann, day).energy
+    assert again.queries.devices() == ["w1"]  # a restarted partition takes back only its own streams
+    assert again.queries.day(ann, day).energy == reader.queries.day(ann, day).energy
     for monitor in (again, two, reader):
         monitor.close()
 
@@ -104,6 +104,6 @@ def test_a_worker_wearing_two_devices_in_two_partitions_reads_the_sum_of_both_as
     now[0] += OTHERS_REFRESH_S
     for device, monitor in monitors.items():  # each writer's memory holds the whole day too (its EAV/ELV events
         monitor.ingest_many(shifts[device][-1:])  # see it), the other share re-read at its next commit
-        assert abs(monitor.day(ann, day).a8 - want.a8) <= 1e-9
+        assert abs(monitor.queries.day(ann, day).a8 - want.a8) <= 1e-9
     for monitor in (*monitors.values(), reader, reference):
         monitor.close()

@@ -30,10 +30,10 @@ def test_a_ten_minute_simulated_day_stays_under_the_stated_size(tmp_path):
         now[0] = when + 0.05
         bus.publish(topic, payload, qos=1, retain=retain)
     monitor.flush()
-    newest = {d: monitor.reads.last_sample_time(d) for d in monitor.devices()}
-    live = {d: monitor.reads.raw_window(d, newest[d] - 10.0, newest[d]) for d in newest}
-    started = [e for e in monitor.reads.events("hav.activity_started")]
-    around = [monitor.reads.raw_window(e.source, e.time - 5.0, e.time + 5.0) for e in started]
+    newest = {d: monitor.queries.reads.last_sample_time(d) for d in monitor.queries.devices()}
+    live = {d: monitor.queries.reads.raw_window(d, newest[d] - 10.0, newest[d]) for d in newest}
+    started = [e for e in monitor.queries.reads.events("hav.activity_started")]
+    around = [monitor.queries.reads.raw_window(e.source, e.time - 5.0, e.time + 5.0) for e in started]
     monitor.close()
     assert _store_mb(tmp_path / "hav") < DAY_LIMIT_MB
     assert all(len(batches) == 20 for batches in live.values())  # the dashboard's live view: the last 10 s
@@ -48,7 +48,7 @@ def test_raw_samples_away_from_events_go_and_those_around_events_come_back_exact
     started = next(e for e in sink.events if e.kind == "hav.activity_started")
     kept = monitor.store.raw_seqs("dev-1")
     sent = {b.seq: b for b in items}
-    back = monitor.reads.raw_window("dev-1", started.time - 4.0, started.time + 4.0)
+    back = monitor.queries.reads.raw_window("dev-1", started.time - 4.0, started.time + 4.0)
     assert 0 not in kept and 100 not in kept  # quiet and mid-activity, older than 20 s: gone
     assert len(back) >= 16 and all(np.array_equal(b.xyz, np.float32(sent[b.seq].xyz)) for b in back)
     assert kept[-40:] == list(range(len(items) - 40, len(items)))  # the newest 20 s

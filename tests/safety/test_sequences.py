@@ -29,21 +29,21 @@ def reference(make_monitor, clock, items):
     subject = monitor.start_session("dev-1", "rae", "hammer_drill")
     feed(monitor, items, clock)
     clock.now = T0
-    return monitor.day(subject, DAY)
+    return monitor.queries.day(subject, DAY)
 
 
 def _run(make_monitor, clock, batches, chunk: int = 1):
     monitor, sink = make_monitor()
     subject = monitor.start_session("dev-1", "rae", "hammer_drill")
     feed(monitor, batches, clock, chunk=chunk)
-    return monitor, sink, monitor.day(subject, DAY)
+    return monitor, sink, monitor.queries.day(subject, DAY)
 
 
 def test_one_batch_whose_seq_jumps_by_a_million_costs_nothing(make_monitor, clock, items, reference):
     jumped = [dataclasses.replace(b, seq=b.seq + 10**6) if b.seq == 20 else b for b in items]
     monitor, _, day = _run(make_monitor, clock, jumped)
     assert day.seconds == pytest.approx(reference.seconds) and day.energy == pytest.approx(reference.energy, rel=1e-9)
-    status = monitor.stream_status("dev-1")
+    status = monitor.queries.stream_status("dev-1")
     assert status.get("late", 0) == 0 and status.get("gaps", 0) == 0 and status["renumbered"] == 1
 
 
@@ -51,7 +51,7 @@ def test_a_device_reboot_that_restarts_seq_from_zero_loses_nothing(make_monitor,
     rebooted = items[:28] + [dataclasses.replace(b, seq=b.seq - 28) for b in items[28:]]
     monitor, _, day = _run(make_monitor, clock, rebooted, chunk=4)
     assert day.energy == pytest.approx(reference.energy, rel=1e-9)
-    status = monitor.stream_status("dev-1")
+    status = monitor.queries.stream_status("dev-1")
     assert status.get("duplicates", 0) == 0 and status["renumbered"] == 1
 
 
@@ -61,7 +61,7 @@ def test_after_a_reboot_redeliveries_of_the_old_numbering_are_still_duplicates(m
     redelivered = rebooted + items[25:28] + [dataclasses.replace(b, seq=b.seq - 28) for b in items[40:]]
     monitor, _, day = _run(make_monitor, clock, redelivered)
     assert day.energy == pytest.approx(reference.energy, rel=1e-9)
-    assert monitor.stream_status("dev-1")["duplicates"] == 3
+    assert monitor.queries.stream_status("dev-1")["duplicates"] == 3
 
 
 def test_a_reboot_after_a_pause_is_a_gap_and_the_rest_counts(make_monitor, clock, items):
@@ -69,7 +69,7 @@ def test_a_reboot_after_a_pause_is_a_gap_and_the_rest_counts(make_monitor, clock
     monitor, sink, day = _run(make_monitor, clock, paused)
     gaps = [e for e in sink.events if e.kind == "hav.gap"]
     assert [g.data["reason"] for g in gaps] == ["device time jump"] and gaps[0].data["seconds"] == pytest.approx(20.0)
-    assert monitor.stream_status("dev-1").get("duplicates", 0) == 0
+    assert monitor.queries.stream_status("dev-1").get("duplicates", 0) == 0
     assert day.seconds == pytest.approx(32.0, abs=1.0)
 
 
@@ -86,8 +86,8 @@ def test_a_seq_of_1e20_is_refused_and_later_commits_work(make_monitor, clock, it
         monitor.ingest_payload(accel_topic("demo", "dev-1"), encode_accel(batch))
         if batch.seq == 10:
             assert monitor.ingest_payload(accel_topic("demo", "dev-1"), poison) == []
-    assert monitor.malformed_messages()["dev-1"].count == 1
-    assert monitor.day(subject, DAY).energy == pytest.approx(reference.energy, rel=1e-3)  # int16 quantisation
+    assert monitor.queries.malformed_messages()["dev-1"].count == 1
+    assert monitor.queries.day(subject, DAY).energy == pytest.approx(reference.energy, rel=1e-3)  # int16 quantisation
 
 
 @pytest.mark.parametrize("scale", [1e30, 1.0])
@@ -103,7 +103,7 @@ def test_an_int16_batch_with_an_impossible_scale_is_an_artefact_not_exposure(mak
             head = json.dumps({**json.loads(payload[6:6 + head_len]), "scale": scale}).encode()
             payload = MAGIC + struct.pack("<H", len(head)) + head + payload[6 + head_len:]
         monitor.ingest_payload(accel_topic("demo", "dev-1"), payload)
-    day = monitor.day(subject, DAY)
+    day = monitor.queries.day(subject, DAY)
     assert np.isfinite(day.energy) and day.a8 < 1.01 * reference.a8 and day.a8 > 0.9 * reference.a8
     assert "hav.elv_reached" not in sink.kinds()
     kinds = {k for e in sink.events if e.kind == "hav.artefact" for k in e.data["kinds"]}
@@ -130,7 +130,7 @@ def halves(make_monitor, clock, items):
         subject = monitor.start_session("dev-1", "rae", "hammer_drill")
         for batch in part:
             monitor.ingest_many([batch], now=batch.device_time + 0.6)
-        energy, seconds = energy + monitor.day(subject, DAY).energy, seconds + monitor.day(subject, DAY).seconds
+        energy, seconds = energy + monitor.queries.day(subject, DAY).energy, seconds + monitor.queries.day(subject, DAY).seconds
     return energy, seconds
 
 
@@ -143,10 +143,10 @@ def test_a_reboot_that_resets_the_device_clock_counts_both_halves(make_monitor, 
     monitor, sink = make_monitor()
     subject = monitor.start_session("dev-1", "rae", "hammer_drill")
     _ingest(monitor, items[:REBOOT_AT] + _clock_reset(items))
-    day = monitor.day(subject, DAY)
+    day = monitor.queries.day(subject, DAY)
     assert day.energy == pytest.approx(halves[0], rel=1e-9) and day.seconds == pytest.approx(halves[1])
     assert day.seconds == pytest.approx(32.0)
-    status = monitor.stream_status("dev-1")
+    status = monitor.queries.stream_status("dev-1")
     assert status.get("duplicates", 0) == 0 and status.get("late", 0) == 0 and status["restarts"] == 1
     assert [e.data["reason"] for e in sink.events if e.kind == "hav.gap"] == ["device restarted"]
 
@@ -157,8 +157,8 @@ def test_after_a_clock_reset_a_replayed_batch_of_either_epoch_still_counts_once(
     monitor, _ = make_monitor()
     subject = monitor.start_session("dev-1", "rae", "hammer_drill")
     _ingest(monitor, replayed)
-    assert monitor.day(subject, DAY).energy == pytest.approx(halves[0], rel=1e-9)
-    status = monitor.stream_status("dev-1")
+    assert monitor.queries.day(subject, DAY).energy == pytest.approx(halves[0], rel=1e-9)
+    status = monitor.queries.stream_status("dev-1")
     assert status["duplicates"] == 7 and status["restarts"] == 1
 
 
@@ -171,13 +171,13 @@ def test_a_clock_reset_onto_the_same_times_counts_when_the_device_announces_its_
         monitor, _ = make_monitor(f"boot-{boot}")
         online = {"online": True, "worker": "rae", "tool": "hammer_drill"}
         monitor.on_status(status_topic("demo", "dev-1"), json.dumps({**online, "boot": "boot-1"}).encode())
-        subject = monitor.session("dev-1").subject
+        subject = monitor.queries.session("dev-1").subject
         _ingest(monitor, same_times[:REBOOT_AT])
         if boot:
             monitor.on_status(status_topic("demo", "dev-1"), json.dumps({**online, "boot": boot}).encode())
         _ingest(monitor, same_times[REBOOT_AT:] + items[REBOOT_AT - 2:REBOOT_AT])  # and two replays of the old epoch
-        status = monitor.stream_status("dev-1")
-        counted[boot] = monitor.day(subject, DAY).seconds, status.get("restarts", 0), status["duplicates"]
+        status = monitor.queries.stream_status("dev-1")
+        counted[boot] = monitor.queries.day(subject, DAY).seconds, status.get("restarts", 0), status["duplicates"]
     assert counted[None] == (pytest.approx(18.0), 0, 30)  # 28 repeat old times: dropped, never added twice
     assert counted["boot-2"] == (pytest.approx(32.0), 1, 2)
 
@@ -192,5 +192,5 @@ def test_a_monitor_restart_across_a_clock_reset_loses_nothing_and_double_counts_
         first.close()  # the process dies: QoS 1 redelivers the last four before the new ones
         second, _ = make_monitor(f"cut-{cut}")
         _ingest(second, stream[cut - 4:])
-        assert second.day(subject, DAY).energy == pytest.approx(halves[0], rel=1e-9), cut
-        assert second.stream_status("dev-1")["restarts"] == 1 and second.stats["duplicates"] == 4, cut
+        assert second.queries.day(subject, DAY).energy == pytest.approx(halves[0], rel=1e-9), cut
+        assert second.queries.stream_status("dev-1")["restarts"] == 1 and second.queries.stats["duplicates"] == 4, cut

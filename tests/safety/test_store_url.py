@@ -22,7 +22,7 @@ def _reference_energy(items, clock: Clock) -> float:
     reference = HavMonitor(None, "test-secret", [], MonitorConfig(), clock)
     subject = reference.start_session("dev-1", "ana", "hammer_drill")
     feed(reference, items, clock)
-    energy = reference.day(subject, DAY).energy
+    energy = reference.queries.day(subject, DAY).energy
     reference.close()
     return energy
 
@@ -36,9 +36,9 @@ def test_a_monitor_on_a_store_url_resumes_where_it_stopped(store_url, tmp_path):
     feed(first, items[:25], clock)
     first.close()
     second = _monitor(tmp_path / "second", store_url, clock)  # another host: only the URL is shared
-    assert second.stream_status("dev-1")["next_seq"] == 25
+    assert second.queries.stream_status("dev-1")["next_seq"] == 25
     feed(second, items[25:], clock)
-    assert second.day(subject, DAY).energy == pytest.approx(reference, rel=1e-9)
+    assert second.queries.day(subject, DAY).energy == pytest.approx(reference, rel=1e-9)
     assert second.store.applied_count() == len(items)
     second.close()
 
@@ -54,12 +54,12 @@ def test_a_batch_is_applied_at_most_once_when_two_monitors_share_a_store(store_u
     stale = _monitor(tmp_path / "b", store_url, clock)  # restored now: it knows the session, no batch yet
     feed(first, items[:30], clock)  # the first process applies 0..29, then stalls
     feed(stale, items[20:], clock)  # 20..29 redelivered to the second, with the rest
-    assert stale.stream_status("dev-1")["duplicates"] == 10
-    assert stale.day(subject, DAY).energy == pytest.approx(reference, rel=1e-9)
+    assert stale.queries.stream_status("dev-1")["duplicates"] == 10
+    assert stale.queries.day(subject, DAY).energy == pytest.approx(reference, rel=1e-9)
     first.close()
     stale.close()
     again = _monitor(tmp_path / "c", store_url, clock)
-    assert again.day(subject, DAY).energy == pytest.approx(reference, rel=1e-9)
+    assert again.queries.day(subject, DAY).energy == pytest.approx(reference, rel=1e-9)
     assert again.store.applied_count() == len(items)
     again.close()
 

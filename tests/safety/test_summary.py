@@ -23,9 +23,9 @@ SECRET = "summary-test"
 def day_figures(monitor, devices) -> dict:
     out = {}
     for device in devices:
-        subject = monitor.session(device).subject
-        for day in monitor.days_of(subject):
-            state = monitor.day(subject, day)
+        subject = monitor.queries.session(device).subject
+        for day in monitor.queries.days_of(subject):
+            state = monitor.queries.day(subject, day)
             out[(device, day)] = (state.a8, state.seconds)
     return out
 
@@ -42,9 +42,9 @@ def test_a8_from_summaries_equals_a8_from_the_raw_stream_within_one_percent_on_s
     for key, (a8, seconds) in want.items():
         assert a8 > 1.0 and seconds > 300
         assert got[key][0] == pytest.approx(a8, rel=0.01), key
-    assert {raw.stream_status(d)["stream"] for d in devices} == {"raw"}
-    assert {summary.stream_status(d)["stream"] for d in devices} == {"summary"}
-    assert all(summary.stream_status(d)["summaries"] > 400 for d in devices)
+    assert {raw.queries.stream_status(d)["stream"] for d in devices} == {"raw"}
+    assert {summary.queries.stream_status(d)["stream"] for d in devices} == {"summary"}
+    assert all(summary.queries.stream_status(d)["summaries"] > 400 for d in devices)
 
 
 def test_a_device_summary_is_the_per_axis_weighted_rms_of_its_second():
@@ -77,13 +77,13 @@ def test_redelivered_summaries_count_once_even_after_a_restart_and_a_skipped_one
     monitor = HavMonitor(tmp_path, SECRET)  # restored: the summary seq and end come back with the stream
     monitor.ingest_many(summaries[:15])  # 12 again (redelivered), 3 new
     monitor.ingest_many(summaries[16:])  # one missing
-    day = monitor.days_of(subject)[0]
-    status = monitor.stream_status("w1")
+    day = monitor.queries.days_of(subject)[0]
+    status = monitor.queries.stream_status("w1")
     assert status["summaries"] == 19 and status["duplicates"] == 12 and status["summary_gap_s"] == 1.0
     reference = HavMonitor(None, SECRET)
     reference.start_session("w1", "ann", "hammer_drill")
     reference.ingest_many(summaries[:15] + summaries[16:])
-    assert monitor.day(subject, day).energy == pytest.approx(reference.day(subject, day).energy, rel=1e-12)
+    assert monitor.queries.day(subject, day).energy == pytest.approx(reference.queries.day(subject, day).energy, rel=1e-12)
     monitor.close()
 
 
@@ -99,6 +99,6 @@ def test_a_malformed_summary_is_dead_lettered_never_counted(payload):
     good = encode_summary(DeviceSummary("w2", 0, time.time(), 1.0, 5000.0, (1.0, 1.0, 1.0), (5.0, 5.0, 5.0)))
     bus.publish(summary_topic("demo", "w1"), good)  # w2's summary on w1's topic: mismatched
     monitor.flush()
-    assert monitor.malformed_messages()["w1"].count == 2
-    assert monitor.devices() == []
+    assert monitor.queries.malformed_messages()["w1"].count == 2
+    assert monitor.queries.devices() == []
     monitor.close()

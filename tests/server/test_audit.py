@@ -91,7 +91,7 @@ def flaky(tmp_path, twin, monitor):
 
 def test_a_reveal_whose_record_cannot_be_written_is_503_and_reveals_nothing(flaky, monitor):
     client, disk = flaky
-    subject = monitor.session("dev-1").subject
+    subject = monitor.queries.session("dev-1").subject
     safety = auth(client.tokens["safety"])
     for path, body in ((f"/api/workers/{subject}/identity", REASON),
                        (f"/api/workers/{subject}/raw", {**REASON, "seconds": 1.0})):
@@ -107,7 +107,7 @@ def test_a_reveal_whose_record_cannot_be_written_is_503_and_reveals_nothing(flak
 
 def test_refused_reveal_attempts_are_audited(flaky, monitor):
     client, _ = flaky
-    subject = monitor.session("dev-1").subject
+    subject = monitor.queries.session("dev-1").subject
     viewer, safety = auth(client.tokens["viewer"]), auth(client.tokens["safety"])
     assert client.post(f"/api/workers/{subject}/identity", json=REASON, headers=viewer).status_code == 403
     assert client.post("/api/workers/w-0000000000000000/identity", json=REASON, headers=safety).status_code == 404

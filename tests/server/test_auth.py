@@ -122,7 +122,7 @@ def limited(tmp_path, twin, monitor):
 
 
 def test_write_endpoints_are_rate_limited_per_token(limited, monitor):
-    subject = monitor.session("dev-1").subject
+    subject = monitor.queries.session("dev-1").subject
     safety = auth(limited.tokens["safety"])
     codes = [limited.post(f"/api/workers/{subject}/identity", json=REASON, headers=safety).status_code
              for _ in range(4)]
@@ -136,7 +136,7 @@ def test_write_endpoints_are_rate_limited_per_token(limited, monitor):
 
 
 def test_bodies_over_the_limit_are_refused_whole_or_chunked(limited, monitor):
-    subject = monitor.session("dev-1").subject
+    subject = monitor.queries.session("dev-1").subject
     safety = auth(limited.tokens["safety"])
     big = {"reason": "x" * 2000}
     assert limited.post(f"/api/workers/{subject}/identity", json=big, headers=safety).status_code == 413

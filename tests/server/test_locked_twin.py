@@ -41,8 +41,8 @@ def _publish(bus, batches) -> None:
 
 
 def _day_a8(monitor, subject: str) -> float:
-    days = monitor.days_of(subject)
-    return monitor.day(subject, days[-1]).a8
+    days = monitor.queries.days_of(subject)
+    return monitor.queries.day(subject, days[-1]).a8
 
 
 @pytest.mark.parametrize("busy_timeout_s, lock_s", [(None, 3.0), (0.2, 2.0)],
@@ -56,7 +56,7 @@ def test_a_write_locked_twin_stalls_nothing_and_gets_every_event_after_the_lock(
     batches = _batches(today_since(120, 40))
     control, control_subject, control_bus = _monitor(tmp_path / "control")
     _publish(control_bus, batches)
-    expected_a8, expected = _day_a8(control, control_subject), [(e.kind, e.time) for e in control.reads.events()]
+    expected_a8, expected = _day_a8(control, control_subject), [(e.kind, e.time) for e in control.queries.reads.events()]
     control.close()
 
     if busy_timeout_s is not None:  # the twin's SQLite writer gives up after this (its default waits 60 s)
@@ -79,16 +79,16 @@ def test_a_write_locked_twin_stalls_nothing_and_gets_every_event_after_the_lock(
         feeder.join(timeout=lock_s)
         fed_while_locked = not feeder.is_alive()
         time.sleep(max(0.0, lock_s - (time.monotonic() - locked_at)))
-        waiting_in_lock = monitor.outbox_status()["twin"]["pending"]
+        waiting_in_lock = monitor.queries.outbox_status()["twin"]["pending"]
         lock.execute("ROLLBACK")
         lock.close()
         feeder.join()
         _publish(bus, batches[40:])
         assert monitor.drain_outbox(20.0)
-        outbox = monitor.outbox_status()["twin"]
+        outbox = monitor.queries.outbox_status()["twin"]
     recorded = [e.data for e in twin.events(kinds=[SAFETY])]
     got_a8 = _day_a8(monitor, subject)
-    refused, stats = monitor.malformed_messages(), dict(monitor.stats)
+    refused, stats = monitor.queries.malformed_messages(), dict(monitor.queries.stats)
     monitor.close()
     twin.close()
 

@@ -84,7 +84,7 @@ def test_the_page_shows_the_twin_and_warns_the_moment_a_worker_crosses_the_eav(p
         expect(banner).to_have_attribute("data-level", "warning", timeout=5_000)
         expect(banner).to_be_visible()
         shown = time.time() - crossed
-        expect(banner).to_contain_text(monitor.session("dev-1").subject)
+        expect(banner).to_contain_text(monitor.queries.session("dev-1").subject)
         expect(gauge).to_have_attribute("data-risk", "above_eav")
         expect(page.locator("#timeline li[data-kind='hav.eav_reached']")).to_have_count(1)
         shots.append(_shot(page, tmp_path / "page-eav-warning.png"))

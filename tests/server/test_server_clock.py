@@ -37,7 +37,7 @@ def test_the_demos_wearables_and_header_run_on_the_twins_simulated_day(tmp_path,
         wearables._threads[0].join(30)  # the publisher: done once the 6 s plan is sent
         wearables.stop()
         monitor.flush()
-        times = [event.time for event in monitor.reads.events()]
+        times = [event.time for event in monitor.queries.reads.events()]
         assert times and all(clock.origin_s <= t <= clock.origin_s + 7.0 for t in times), times
 
         config, tokens = config_with_tokens(tmp_path)

@@ -25,7 +25,7 @@ def test_a_monitor_event_reaches_the_stream_within_a_second(served, monitor):
                                             and m["data"]["source"] == "dev-2")
     assert received - produced < 1.0
     assert received - message["sent"] < 1.0
-    assert message["data"]["subject"] == monitor.session("dev-2").subject
+    assert message["data"]["subject"] == monitor.queries.session("dev-2").subject
 
 
 def test_exposure_and_twin_records_follow_on_the_stream(served, monitor, twin, site_model):

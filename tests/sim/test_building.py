@@ -95,7 +95,7 @@ def test_surface_colours_come_from_material_styles_in_a_real_archicad_file(sampl
 
 
 def test_a_reality_with_the_building_has_the_same_truth_and_coloured_objects(model):
-    from bim2rdt.demo.site_day import objects_of_interest
+    from bim2rdt.sim.reality import objects_of_interest
     from bim2rdt.sim.reality import simulate_reality
 
     ids = [t.global_id for t in objects_of_interest(model)]

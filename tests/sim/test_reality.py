@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from bim2rdt.bim import load_ifc
-from bim2rdt.demo.site_day import objects_of_interest
+from bim2rdt.sim.reality import objects_of_interest
 from bim2rdt.sim.reality import simulate_reality
 from bim2rdt.sim.site import build_site_ifc
 

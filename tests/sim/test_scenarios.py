@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from bim2rdt.registration import IcpConfig
-from bim2rdt.bench.registration.stats import run_scenario
-from bim2rdt.bench.registration.peers import SgIcp
-from bim2rdt.bench.registration.runs import upright_priors
+from bim2rdt.evaluation.stats import run_scenario
+from bim2rdt.evaluation.peers import SgIcp
+from bim2rdt.evaluation.runs import upright_priors
 from bim2rdt.sim.scenarios import SCENARIOS, scenario
 from bim2rdt.registration import register
 from bim2rdt.sim.truth import FAILURE_MODES, pose_error

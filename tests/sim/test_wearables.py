@@ -60,10 +60,10 @@ def _simulate(tmp_path, plan, strip_boot: bool = False):
         monitor.on_status = lambda topic, payload: original(topic, _without_boot(payload))
     started = time.time()
     run_in_process([plan], monitor, "s", FS)
-    subject = monitor.session("w1").subject
-    days = monitor.days_of(subject)
+    subject = monitor.queries.session("w1").subject
+    days = monitor.queries.days_of(subject)
     assert set(days) <= {utc_day(started), utc_day(time.time())}  # the day it ran (never 1970-01-01)
-    result = days, monitor.day(subject, days[-1]).seconds, monitor.stream_status("w1")
+    result = days, monitor.queries.day(subject, days[-1]).seconds, monitor.queries.stream_status("w1")
     monitor.close()
     return result
 

@@ -45,7 +45,7 @@ def test_the_fix_is_published_as_map_to_odom_and_the_pose_in_map_with_its_covari
 
 
 def test_the_covariance_goes_out_in_ros_order():
-    C = np.diag([1.0, 2.0, 3.0, 4.0, 5.0, 6.0])  # dx, dy, dz, dtheta_x, dtheta_y, dtheta_z (DESIGN.md)
+    C = np.diag([1.0, 2.0, 3.0, 4.0, 5.0, 6.0])  # dx, dy, dz, dtheta_x, dtheta_y, dtheta_z (docs: architecture)
     C[0, 5] = C[5, 0] = 0.5  # x with yaw
     ros = ros_covariance(C).reshape(6, 6)
     assert np.diag(ros).tolist() == [1.0, 2.0, 3.0, 4.0, 5.0, 6.0] and ros[0, 5] == 0.5 and ros[5, 0] == 0.5

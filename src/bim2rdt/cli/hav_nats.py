@@ -53,7 +53,7 @@ def listen_partition(settings, url: str, partition: int, partitions: int, durati
         bus.on_last_delivery = lambda topic, payload, n: apply_last_delivery(monitor, topic, payload, n)
         bus.connect()
         console.print(f"partition {partition}/{partitions} of site {site!r} on {url} (pid {os.getpid()}); "
-                      f"{len(monitor.devices())} device(s) restored")
+                      f"{len(monitor.queries.devices())} device(s) restored")
         try:
             watch(monitor, bus, duration, max_offline, stop=stop)
         finally:

@@ -22,14 +22,15 @@ def event_line(event) -> None:
                   soft_wrap=True)
 
 
-def print_summary(monitor, devices) -> None:
-    """The latest day of each device's worker: A(8), points, trigger minutes, risk."""
+def print_summary(queries, devices) -> None:
+    """The latest day of each device's worker (``queries``: a monitor's read side): A(8), points, trigger minutes,
+    risk."""
     rows = []
     for device in devices:
-        session = monitor.session(device)
+        session = queries.session(device)
         if session is not None:
-            days = monitor.days_of(session.subject)
-            day = monitor.day(session.subject, days[-1] if days else None)
+            days = queries.days_of(session.subject)
+            day = queries.day(session.subject, days[-1] if days else None)
             rows.append((session.subject, device, day.a8, day.points, day.seconds / 60.0, day.risk))
     print_table("Daily exposure", ["worker (pseudonym)", "device", "A(8) m/s²", "points", "trigger min", "risk"], rows)
 
@@ -100,9 +101,9 @@ def check_twin_target(ifc: Path | None, out: Path | None) -> Path | None:
     return check_writable_file(target)
 
 
-def print_malformed(monitor) -> None:
+def print_malformed(queries) -> None:
     """Refused messages per device (what a device sending garbage looks like), if there were any."""
-    rows = [(device, m.count, m.last_reason) for device, m in monitor.malformed_messages().items()]
+    rows = [(device, m.count, m.last_reason) for device, m in queries.malformed_messages().items()]
     if rows:
         print_table("Refused messages (dead-lettered, never counted as exposure)",
                     ["device", "messages", "last reason"], rows)
@@ -185,6 +186,6 @@ def _leave(monitor, bus) -> None:
     if not monitor.failure:
         monitor.flush()
     bus.close()
-    print_summary(monitor, monitor.devices())
-    print_malformed(monitor)
+    print_summary(monitor.queries, monitor.queries.devices())
+    print_malformed(monitor.queries)
     monitor.close()

@@ -36,7 +36,7 @@ def bench_registration(
 ) -> None:
     """Run S1-S4 with ICP, SG-ICP (priors from the knowledge base), Open3D and small_gicp, then the scene
     families F1-F11; print the tables and targets."""
-    from bim2rdt.bench.registration.runs import FAMILY_NAMES, run_registration_scenarios, run_record, save_run
+    from bim2rdt.evaluation.runs import FAMILY_NAMES, run_registration_scenarios, run_record, save_run
     from bim2rdt.config import get_settings, settings_record
 
     if one_core and hasattr(os, "sched_setaffinity"):
@@ -57,7 +57,7 @@ def bench_registration(
 
 def show_run(run, targets: bool = True) -> None:
     """Print the paper's table plus success/tilt/time per scenario, then (with ``targets``) the targets."""
-    from bim2rdt.bench.registration.stats import cut_interval, improvement
+    from bim2rdt.evaluation.stats import cut_interval, improvement
 
     peers = [name for name in PEER_COLUMNS if name in run.results[0].stats]
     rows = []
@@ -97,7 +97,7 @@ def show_families(run) -> None:
     """One row per scene family: mean surface error (mm) of ICP and SG-ICP with the cut and its paired
     interval, the peers (Open3D, small_gicp's better method), success, failure modes, alias agreement (F10-F11);
     then the worst family again."""
-    from bim2rdt.bench.registration.stats import best_peer, cut_interval, improvement, worst_family
+    from bim2rdt.evaluation.stats import best_peer, cut_interval, improvement, worst_family
 
     peer = "Open3D pt-plane" if "Open3D pt-plane" in run.families[0].stats else None
     small = any(best_peer(r, "mean") for r in run.families)
@@ -128,7 +128,7 @@ def show_families(run) -> None:
 
 def show_speed(run) -> None:
     """Median time per object over S1-S4 of every method, and SG-ICP's ratio to it."""
-    from bim2rdt.bench.registration.runs import speed_record
+    from bim2rdt.evaluation.runs import speed_record
 
     speed = speed_record(run.results)
     print_table("Speed over S1-S4: median time per object (same starts, same restarts, same run)",

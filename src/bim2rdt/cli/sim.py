@@ -80,7 +80,7 @@ def _in_process(plans, fs: float, speed: float, tick, ifc: Path | None, out: Pat
     with twin_sink(ifc, out) as ifc_sink:
         monitor = open_monitor(settings, [CallbackSink(event_line)] + ([ifc_sink] if ifc_sink else []))
         run_in_process(plans, monitor, settings.mqtt.site, fs, speed, tick, summaries=summaries)
-        print_summary(monitor, [p.device for p in plans])
+        print_summary(monitor.queries, [p.device for p in plans])
         monitor.close()
 
 

@@ -40,7 +40,7 @@ class WorkerExposure:
 @dataclass
 class HtmlReport:
     """What the page shows. ``images`` are PNG bytes by caption; ``links`` are file names (beside the page) by
-    label; ``registration`` is a run of the registration scenarios (``bench.registration.runs``), or None."""
+    label; ``registration`` is a run of the registration scenarios (``evaluation.runs``), or None."""
 
     title: str
     summary: Sequence[str] = ()

@@ -21,7 +21,8 @@ from pathlib import Path
 from bim2rdt.bim import load_ifc
 from bim2rdt.demo.perceivers import DemoPerception
 from bim2rdt.demo.routes import plan_day_route
-from bim2rdt.demo.site_day import SiteDay, _hav_day, _model_cache, _shift_start, objects_of_interest
+from bim2rdt.sim.reality import objects_of_interest
+from bim2rdt.demo.site_day import SiteDay, _hav_day, _model_cache, _shift_start
 from bim2rdt.demo.site_twin import export_day_twin, ifc_records, open_day_twin, record_mission
 from bim2rdt.mission import MissionConfig, MissionContext, building_surfaces, run_mission
 from bim2rdt.planning import OccupancyGrid, PlanningError
@@ -85,7 +86,7 @@ def run_ifc_demo(ifc_path: Path, out_dir: Path, seed: int = 0, workers: int = 1,
     import json
 
     from bim2rdt.atomic import write_bytes_atomic
-    from bim2rdt.bench.registration.runs import versions
+    from bim2rdt.evaluation.runs import versions
     from bim2rdt.config import settings_record
     from bim2rdt.demo.run import DemoResult, _html
     from bim2rdt.demo.settings import demo_settings

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from bim2rdt.frames import UP
 from bim2rdt.localization import Turned
 from bim2rdt.localization.planar import compose, from_planar, to_planar
 from bim2rdt.sources.bag_writer import COLOUR, DEPTH, IMU, IMU_FRAME, INFO, OPTICAL, BagWriter
@@ -95,4 +96,4 @@ class RecordingRobot:
         self.bag.write_colour(COLOUR, OPTICAL, t, frame.rgb)
         self.bag.write_depth(DEPTH, OPTICAL, t, frame.depth)
         R_world_camera = self.robot.T_world_camera[:3, :3]
-        self.bag.write_imu(IMU, IMU_FRAME, t, R_world_camera.T @ np.array([0.0, 0.0, 1.0]))
+        self.bag.write_imu(IMU, IMU_FRAME, t, R_world_camera.T @ UP)

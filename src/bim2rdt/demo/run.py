@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from bim2rdt.atomic import write_bytes_atomic
-from bim2rdt.bench.registration.runs import RegistrationRun, run_registration_scenarios, save_run, versions
+from bim2rdt.evaluation.runs import RegistrationRun, run_registration_scenarios, save_run, versions
 from bim2rdt.demo.site_day import SiteDay, run_site_day
 
 DEMO_TRIALS = 6

@@ -31,17 +31,15 @@ from bim2rdt.bim import BimModel, load_ifc
 from bim2rdt.demo.localized import MissionLocalization, localized_mission
 from bim2rdt.demo.routes import UNPLANNED_DRUM_XY, DayRoute, plan_day_route
 from bim2rdt.demo.site_twin import TwinFiles, export_day_twin, ifc_records, open_day_twin, record_mission
-from bim2rdt.mission import MissionConfig, MissionContext, MissionResult, Target
+from bim2rdt.mission import MissionConfig, MissionContext, MissionResult
 from bim2rdt.registration import IcpConfig
 from bim2rdt.semantics import KnowledgeBasePriors, UprightPrior
 from bim2rdt.sim.meshes import mesh_for_family
 from bim2rdt.demo.perceivers import DemoPerception
-from bim2rdt.sim.reality import Reality, body_mesh, simulate_reality
-from bim2rdt.sim.site import ZONES, build_site_ifc
+from bim2rdt.sim.reality import Reality, objects_of_interest, simulate_reality
+from bim2rdt.sim.site import ROBOT_START_XY, ZONES, build_site_ifc
 from bim2rdt.twin import DigitalTwin, TwinConfig
 
-ROBOT_START_XY = (1.0, 1.0)
-"""Where the robot's dock is on the default site, metres."""
 WORK_ZONE = ZONES[0][0]
 REMOVED_OBJECTS = 1
 """Planned objects the day's reality takes off the site (the last unchanged one: the tripod at seed 0): the
@@ -67,13 +65,6 @@ class SiteDay:
     odometry: list[tuple[float, np.ndarray]] | None = None
     """Each capture's (time, T_odom_camera) on the robot's clock, as ``--record`` writes them (kept with
     ``record`` or ``keep_odometry``)."""
-
-
-def objects_of_interest(model: BimModel) -> list[Target]:
-    """The site objects the robot verifies: proxies (temporary works, materials, equipment) with a body."""
-    return [Target(el.global_id, el.family or el.name or el.ifc_class, el.placement, body_mesh(model, el.global_id),
-                   el.ifc_class)
-            for el in model.elements if el.ifc_class == "IfcBuildingElementProxy" and model.has_mesh(el.global_id)]
 
 
 def run_site_day(out_dir: Path, seed: int = 0, workers: int = 2, minutes: float = 60.0, fs: float = 5000.0,
@@ -168,7 +159,7 @@ def _hav_day(twin: DigitalTwin, state_dir: Path, workers: int, minutes: float, f
     publish_plans(lambda device: bus, default_plans(workers, minutes, zone), settings.mqtt.site, fs,
                   t0=_shift_start())
     monitor.close()
-    return events.events, list(monitor.timeline)
+    return events.events, list(monitor.queries.timeline)
 
 
 def _model_cache() -> Path | None:

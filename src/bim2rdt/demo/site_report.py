@@ -19,7 +19,8 @@ from bim2rdt.demo.localization_report import (localization_markdown, localizatio
                                               plot_localization)
 from bim2rdt.demo.plan_map import outline  # noqa: E402
 from bim2rdt.demo.routes import draw_walk, route_markdown, write_route_files  # noqa: E402
-from bim2rdt.demo.site_day import SiteDay, objects_of_interest  # noqa: E402
+from bim2rdt.sim.reality import objects_of_interest  # noqa: E402
+from bim2rdt.demo.site_day import SiteDay  # noqa: E402
 from bim2rdt.sim.meshes import mesh_for_family  # noqa: E402
 from bim2rdt.sim.reality import TrueObject  # noqa: E402
 from bim2rdt.sim.truth import match_truth, pose_error  # noqa: E402

@@ -10,6 +10,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 
 import numpy as np
+
+from bim2rdt.frames import UP_BODY
 from bim2rdt.registration import matching
 from bim2rdt.registration.config import IcpConfig
 from bim2rdt.registration.fit import report_fit
@@ -17,10 +19,6 @@ from bim2rdt.registration.so3 import axis_angle, invert_poses, rotation_angle, t
 from bim2rdt.registration.solvers import SOLVERS, gravity_weight
 from bim2rdt.registration.uncertainty import PoseUncertainty
 from bim2rdt.registration.validation import Problem, validate_problem
-
-BODY_UP = np.array([0.0, 0.0, 1.0])
-"""The canonical upright axis of every model, in body coordinates (meshes are built upright along +z)."""
-
 
 @dataclass(frozen=True)
 class RegistrationResult:
@@ -463,7 +461,7 @@ def _iterate(restarts: _Restarts, active: np.ndarray, problem: Problem, model: m
     if problem.support_height is not None:
         scene_body, dst, normals, w = _with_contact_pair(T, up_body, problem, model.extreme_points, cfg.support_weight,
                                                          (scene_body, dst, normals, w))
-    dR, dt = SOLVERS[cfg.method].step(scene_body, dst, normals, w, up_body, BODY_UP, lam, yaw_only)
+    dR, dt = SOLVERS[cfg.method].step(scene_body, dst, normals, w, up_body, UP_BODY, lam, yaw_only)
     _advance(restarts, active, dR, dt, matching.truncated_score(pairs, cfg.score_distance), cfg, annealing)
 
 

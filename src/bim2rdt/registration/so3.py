@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from bim2rdt.frames import UP
+
 
 def skew(v: np.ndarray) -> np.ndarray:
     """(..., 3) -> (..., 3, 3) with skew(a) @ b == cross(a, b)."""
@@ -36,7 +38,7 @@ def rotation_angle(R: np.ndarray) -> np.ndarray:
     return np.arccos(np.clip(cos, -1.0, 1.0))
 
 
-def tilt_angle(R: np.ndarray, up: np.ndarray = np.array([0.0, 0.0, 1.0])) -> np.ndarray:
+def tilt_angle(R: np.ndarray, up: np.ndarray = UP) -> np.ndarray:
     """Angle between the body's upright axis (+z) mapped to the world and the world ``up``, radians."""
     cos = np.einsum("...i,i->...", R[..., :, 2], up)
     return np.arccos(np.clip(cos, -1.0, 1.0))

@@ -11,9 +11,8 @@ import math
 
 import numpy as np
 
+from bim2rdt.frames import UP_BODY
 from bim2rdt.registration.so3 import axis_angle
-
-UP_BODY = np.array([0.0, 0.0, 1.0])
 
 
 def closest_equivalent(T: np.ndarray, T_ref: np.ndarray, order: float) -> np.ndarray:

@@ -89,10 +89,10 @@ def analyze_recording(recording: Recording, tool: str = "unknown", position: str
     for first in range(0, len(batches), GROUP):  # groups, as on the bus: one filtering pass per group
         monitor.ingest_many(batches[first:first + GROUP])
     monitor.end_session("file")
-    days = monitor.days_of(subject)
-    day = monitor.day(subject, days[-1] if days else None)
-    timeline = [(t, a8) for t, _, a8 in monitor.timeline]
-    status = monitor.stream_status("file") or {}
+    days = monitor.queries.days_of(subject)
+    day = monitor.queries.day(subject, days[-1] if days else None)
+    timeline = [(t, a8) for t, _, a8 in monitor.queries.timeline]
+    status = monitor.queries.stream_status("file") or {}
     monitor.close()
     ended = [e.data for e in sink.events if e.kind == ACTIVITY_ENDED]
     artefacts = [e.data for e in sink.events if e.kind == ARTEFACT]

@@ -35,16 +35,17 @@ from bim2rdt.safety.errors import HavError, StoreError
 from bim2rdt.safety.weighting import require_weighable_rate
 
 if TYPE_CHECKING:
-    from bim2rdt.safety.monitor import HavMonitor
+    from bim2rdt.safety.ingest import MonitorIngest
 
 Ack = Callable[[], None]
 log = logging.getLogger("bim2rdt.safety")
 
 
 class BusSubscriber:
-    """Feeds a :class:`HavMonitor` from a bus in group commits (see the module docstring)."""
+    """Feeds a monitor's write side (:class:`~bim2rdt.safety.ingest.MonitorIngest`) from a bus in group commits
+    (see the module docstring)."""
 
-    def __init__(self, monitor: HavMonitor, commit_batches: int, commit_delay_s: float,
+    def __init__(self, monitor: MonitorIngest, commit_batches: int, commit_delay_s: float,
                  lock: threading.RLock):
         self.monitor, self.commit_batches, self.commit_delay_s = monitor, commit_batches, commit_delay_s
         self._waiting: list[AccelBatch] = []

@@ -10,7 +10,7 @@ arrive in order on a partition (NATS) or a device's MQTT session; per device the
 summary seq and the last summary's end in the stream's counters (persisted with the stream in the same commit):
 a lower seq whose second starts before that end is a duplicate (a redelivery), a lower seq after it is a restarted
 device's new numbering, a seq jump is a gap of the missing seconds. ``stream_kind`` tells raw from summary
-streams for ``HavMonitor.stream_status()``.
+streams for ``MonitorQueries.stream_status()``.
 """
 
 from __future__ import annotations

@@ -90,7 +90,7 @@ def create_app(twin: DigitalTwin | None = None, monitor: HavMonitor | None = Non
 
     hub = hub or Hub(backlog=config.stream_backlog)
     twin_view = TwinView(twin) if twin is not None else None
-    safety_view = SafetyView(monitor, identity) if monitor is not None else None
+    safety_view = SafetyView(monitor.queries, identity) if monitor is not None else None
     if monitor is not None:
         monitor.sinks.append(HubSink(hub))  # first: the stream hears of an event before anything slower runs
         if record_safety and twin_view is not None:

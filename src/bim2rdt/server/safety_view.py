@@ -1,9 +1,10 @@
 """What the API reads from the HAV monitor: each worker's day under their pseudonym, live activity, events, and
 (for the safety role only) the identity behind a pseudonym and raw sensor windows.
 
-Exposure figures come from the monitor's public reads (``devices``, ``session``, ``activity``, ``day``,
-``stream_status``), which hold its lock; events and raw windows come from the safety package's read API
-(``monitor.reads``: the store's pooled connections, never the monitor's lock nor its file opened here).
+Everything comes from the monitor's read side (``monitor.queries``, :class:`~bim2rdt.safety.queries.MonitorQueries`):
+exposure figures from its in-memory reads (``devices``, ``session``, ``activity``, ``day``, ``stream_status``), which
+hold the monitor's lock; events and raw windows from its store reads (``queries.reads``: the store's pooled
+connections, never the monitor's lock nor its file opened here).
 """
 
 from __future__ import annotations
@@ -31,12 +32,12 @@ def seconds_to(limit_energy: float, energy: float, a_hv: float) -> float | None:
 
 
 class SafetyView:
-    """Reads one HavMonitor for the API; ``identity`` is an ``IdentityMap`` opened with role 'safety' (None:
-    identities cannot be revealed on this server)."""
+    """Reads one HavMonitor's read side (``monitor.queries``) for the API; ``identity`` is an ``IdentityMap``
+    opened with role 'safety' (None: identities cannot be revealed on this server)."""
 
-    def __init__(self, monitor, identity=None):
-        self.monitor, self.identity = monitor, identity
-        self._reader = monitor.reads
+    def __init__(self, queries, identity=None):
+        self.queries, self.identity = queries, identity
+        self._reader = queries.reads
         self._lock = threading.Lock()
 
     def close(self) -> None:
@@ -46,9 +47,9 @@ class SafetyView:
     def workers(self) -> list[dict]:
         """Every worker on a device today: A(8), points, risk, time to EAV/ELV and what each device does now."""
         by_subject: dict[str, list[dict]] = {}
-        refused = self.monitor.malformed_messages()
-        for device in sorted(self.monitor.devices()):
-            session = self.monitor.session(device)
+        refused = self.queries.malformed_messages()
+        for device in sorted(self.queries.devices()):
+            session = self.queries.session(device)
             if session is not None:
                 by_subject.setdefault(session.subject, []).append(self._device(device, session, refused))
         return [self._worker(subject, devices) for subject, devices in sorted(by_subject.items())]
@@ -56,15 +57,15 @@ class SafetyView:
     def worker(self, subject: str) -> dict | None:
         found = next((w for w in self.workers() if w["subject"] == subject), None)
         if found is not None:
-            found["days"] = self.monitor.days_of(subject)
+            found["days"] = self.queries.days_of(subject)
         return found
 
     def refused(self) -> list[dict]:
         """Per device, the messages the monitor refused (dead-lettered), most first; with the wearer's pseudonym
         where the device has a session (a device sending only garbage has none)."""
         rows = []
-        for device, refused in self.monitor.malformed_messages().items():
-            session = self.monitor.session(device)
+        for device, refused in self.queries.malformed_messages().items():
+            session = self.queries.session(device)
             rows.append({"device": device, "count": refused.count, "last_reason": refused.last_reason,
                          "last_received": refused.last_received, "subject": session.subject if session else None})
         return sorted(rows, key=lambda row: (-row["count"], row["device"]))
@@ -92,8 +93,8 @@ class SafetyView:
         """The raw samples (m/s^2, per axis) of every device the worker wears, in device time [start,
         start + seconds); ``start`` None means the last ``seconds`` of each device's stored data."""
         windows = []
-        for device in sorted(self.monitor.devices()):
-            session = self.monitor.session(device)
+        for device in sorted(self.queries.devices()):
+            session = self.queries.session(device)
             if session is None or session.subject != subject:
                 continue
             with self._lock:
@@ -104,9 +105,9 @@ class SafetyView:
 
     # ---- helpers ----------------------------------------------------------------------------------------
     def _device(self, device: str, session, refused: dict) -> dict:
-        activity = self.monitor.activity(device)
+        activity = self.queries.activity(device)
         running = activity is not None and activity.id is not None
-        status = self.monitor.stream_status(device) or {}
+        status = self.queries.stream_status(device) or {}
         counters = {k: v for k, v in status.items() if isinstance(v, int | float) and not isinstance(v, bool)
                     and k not in ("next_seq", "clock_offset_s")}
         counters["malformed"] = refused[device].count if device in refused else 0
@@ -116,7 +117,7 @@ class SafetyView:
                 "activity_started": activity.started if running else None, "counters": counters}
 
     def _worker(self, subject: str, devices: list[dict]) -> dict:
-        day = self.monitor.day(subject)
+        day = self.queries.day(subject)
         a_hv = max((d["a_hv"] for d in devices if d["active"]), default=0.0)
         return {"subject": subject, "a8": _finite(day.a8), "points": _finite(day.points), "risk": day.risk,
                 "eav": EAV, "elv": ELV, "eav_at": day.eav_at, "elv_at": day.elv_at,

@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import trimesh
 
+from bim2rdt.frames import UP
 from bim2rdt.registration.sampling import sample_model
 from bim2rdt.registration.so3 import axis_angle
 from bim2rdt.sim.meshes import steel_i_beam
@@ -155,7 +156,7 @@ def true_pose(mesh: trimesh.Trimesh, rng: np.random.Generator, lean_deg: tuple[f
     """A random yaw at the origin, resting on z = 0; with ``lean_deg``, tilted by U(lean_deg) about a random
     horizontal axis and lowered to rest on its lowest point."""
     T = np.eye(4)
-    T[:3, :3] = axis_angle(np.array([0.0, 0.0, 1.0]), np.array(rng.uniform(0.0, 2 * np.pi)))
+    T[:3, :3] = axis_angle(UP, np.array(rng.uniform(0.0, 2 * np.pi)))
     if lean_deg is not None:
         heading = rng.uniform(0.0, 2 * np.pi)
         T[:3, :3] = axis_angle(np.array([np.cos(heading), np.sin(heading), 0.0]),
@@ -206,7 +207,7 @@ def perturbed_start(T_true: np.ndarray, centroid_body: np.ndarray, spec: ViewFam
     heading = rng.uniform(0.0, 2 * np.pi)
     turn = axis_angle(np.array([np.cos(heading), np.sin(heading), 0.0]),
                       np.array(np.deg2rad(rng.uniform(*spec.start_tilt_deg)))) @ axis_angle(
-        np.array([0.0, 0.0, 1.0]), np.array(np.deg2rad(rng.uniform(-1.0, 1.0) * spec.start_yaw_deg)))
+        UP, np.array(np.deg2rad(rng.uniform(-1.0, 1.0) * spec.start_yaw_deg)))
     centre = T_true[:3, :3] @ centroid_body + T_true[:3, 3]
     T = np.eye(4)
     T[:3, :3] = turn @ T_true[:3, :3]

@@ -15,6 +15,8 @@ import numpy as np
 import trimesh
 
 from bim2rdt.bim import BimModel
+from bim2rdt.frames import UP
+from bim2rdt.mission import Target
 from bim2rdt.perception.library import element_body_mesh
 from bim2rdt.registration.so3 import axis_angle
 from bim2rdt.sim.building import DEFAULT_COLOUR, building_scene, element_colours
@@ -102,7 +104,7 @@ def _changed(model: BimModel, global_id: str, rng: np.random.Generator, move_fra
         return TrueObject(global_id, element.family or "", element.placement.copy(), "unchanged")
     heading = rng.uniform(0.0, 2 * np.pi)
     shift = rng.uniform(0.15, 0.6) * np.array([np.cos(heading), np.sin(heading), 0.0])
-    turn = axis_angle(np.array([0.0, 0.0, 1.0]), np.array(np.deg2rad(rng.uniform(-40.0, 40.0))))
+    turn = axis_angle(UP, np.array(np.deg2rad(rng.uniform(-40.0, 40.0))))
     T = element.placement.copy()
     T[:3, :3] = turn @ T[:3, :3]
     T[:3, 3] += shift
@@ -126,3 +128,10 @@ def _knock_one_cone(truth: list[TrueObject]) -> list[TrueObject]:
 
 def _mesh(model: BimModel, obj: TrueObject) -> trimesh.Trimesh:
     return mesh_for_family(obj.family) if obj.global_id is None else body_mesh(model, obj.global_id)
+
+
+def objects_of_interest(model: BimModel) -> list[Target]:
+    """The site objects the robot verifies: proxies (temporary works, materials, equipment) with a body."""
+    return [Target(el.global_id, el.family or el.name or el.ifc_class, el.placement, body_mesh(model, el.global_id),
+                   el.ifc_class)
+            for el in model.elements if el.ifc_class == "IfcBuildingElementProxy" and model.has_mesh(el.global_id)]

@@ -29,6 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from bim2rdt.errors import Bim2RdtError
+from bim2rdt.frames import UP
 from bim2rdt.perception.camera import Intrinsics, look_at
 from bim2rdt.perception.edges import EdgeFilter
 from bim2rdt.perception.slab import off_the_slab
@@ -212,7 +213,7 @@ def perturb(T_true: np.ndarray, centroid_body: np.ndarray, spec: ScenarioSpec, r
     heading = rng.uniform(0.0, 2 * np.pi)
     tilt = axis_angle(np.array([np.cos(heading), np.sin(heading), 0.0]),
                       np.array(np.deg2rad(rng.uniform(0.0, spec.max_tilt_deg))))
-    yaw = axis_angle(np.array([0.0, 0.0, 1.0]), np.array(np.deg2rad(rng.uniform(-1, 1) * spec.max_yaw_deg)))
+    yaw = axis_angle(UP, np.array(np.deg2rad(rng.uniform(-1, 1) * spec.max_yaw_deg)))
     direction = rng.normal(size=3)
     centre = T_true[:3, :3] @ centroid_body + T_true[:3, 3]
     turn = tilt @ yaw

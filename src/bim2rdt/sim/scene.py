@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import trimesh
 
+from bim2rdt.frames import UP
 from bim2rdt.registration.so3 import axis_angle
 
 GROUND = -2
@@ -110,7 +111,7 @@ class SiteScene:
 def ground_pose(x: float, y: float, yaw_rad: float) -> np.ndarray:
     """T_world_model of an upright object standing on the slab at (x, y) m, turned by ``yaw_rad`` about +z."""
     T = np.eye(4)
-    T[:3, :3] = axis_angle(np.array([0.0, 0.0, 1.0]), np.array(yaw_rad))
+    T[:3, :3] = axis_angle(UP, np.array(yaw_rad))
     T[:3, 3] = (x, y, 0.0)
     return T
 

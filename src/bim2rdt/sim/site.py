@@ -88,6 +88,9 @@ ZONES = (
     ("Exclusion Zone - Material Storage", (14.0, 1.0, 19.0, 5.0), True, "exclusion"),
 )
 
+ROBOT_START_XY = (1.0, 1.0)
+"""Where the robot's dock is on the default site, metres."""
+
 
 def build_site_ifc(path: str | Path, schema: str = "IFC4", *, replace_special: bool = False) -> Path:
     """Write the default construction site (IFC4 by default; IFC4X3 also works) atomically; returns the path.

@@ -25,7 +25,8 @@ from bim2rdt.perception.frame import Frame
 from bim2rdt.perception.observation import Observation
 from bim2rdt.perception.structure import movable_elements
 from bim2rdt.semantics import KnowledgeBasePriors, UprightPrior
-from bim2rdt.twin import ElementStatus
+from bim2rdt.twin import ElementStatus, TwinConfig
+from bim2rdt.twin.verdict import fit_trusted
 from bim2rdt.verify.depth_check import DepthCheck, DepthCheckConfig, check_depth
 from bim2rdt.verify.errors import VerifyError
 from bim2rdt.verify.new_objects import NewObjectConfig, new_objects
@@ -53,9 +54,9 @@ class VerifyConfig:
     depth_noise: tuple[float, float] = (0.002, 0.0015)
     surface_tolerance: float = 0.03
     """A point this close to a permanent surface (plus 3 sigma of depth noise) is the building's."""
-    min_fitness: float = 0.5
+    min_fitness: float = TwinConfig().min_fitness
     """A fit with less of its points on the body than this is no evidence the object is there (the twin's
-    ``min_fitness``): its place may be judged seen empty instead."""
+    ``min_fitness``, ``Settings.twin.min_fitness``: the edge passes it): its place may be judged seen empty instead."""
     find_new: bool = True
     """Cluster what neither the building nor a planned object explains into new objects."""
 
@@ -313,7 +314,7 @@ def _observe(index: int, points_sensor: np.ndarray, pose: np.ndarray, model: Bim
     fits = check_planned(left, elements, model, slab, index, pose[:3, 3], behind_walls, lookup.seen_through,
                          config.planned, priors)
     # judged: a fit the twin will take (enough of its points on the body); the rest may have been seen empty
-    judged = {f.element.global_id for f in fits if f.observation.fitness >= config.min_fitness}
+    judged = {f.element.global_id for f in fits if fit_trusted(f.observation.fitness, config.min_fitness)}
     empty = seen_empty([el for el in elements if el.global_id not in judged], model, pose[:3, 3], behind_walls,
                        lookup.compare, config.planned)
     gone = {el.global_id for el in empty}

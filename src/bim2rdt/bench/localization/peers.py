@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from bim2rdt.bench.registration.peers import import_open3d
+from bim2rdt.evaluation.peers import import_open3d
 from bim2rdt.localization import LocalizationConfig
 from bim2rdt.localization.depth import depth_points
 from bim2rdt.localization.surfaces import PermanentMap

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bim2rdt.bench.checks import TargetCheck
+from bim2rdt.evaluation.checks import TargetCheck
 from bim2rdt.bench.localization.run import LocalizationRun
 
 BIM_MEDIAN_POSITION = 0.02

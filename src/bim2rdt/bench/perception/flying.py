@@ -10,9 +10,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from bim2rdt.bench.registration.peers import SgIcp
-from bim2rdt.bench.registration.runs import upright_priors
-from bim2rdt.bench.registration.stats import MethodStats, run_scenario
+from bim2rdt.evaluation.peers import SgIcp
+from bim2rdt.evaluation.runs import upright_priors
+from bim2rdt.evaluation.stats import MethodStats, run_scenario
 from bim2rdt.perception import EdgeFilter
 from bim2rdt.registration import IcpConfig
 from bim2rdt.sim.scenarios import SCENARIOS, scenario

@@ -11,7 +11,8 @@ from pathlib import Path
 import numpy as np
 
 from bim2rdt.bim import BimModel, load_ifc
-from bim2rdt.demo.site_day import ROBOT_START_XY, objects_of_interest
+from bim2rdt.sim.reality import objects_of_interest
+from bim2rdt.sim.site import ROBOT_START_XY
 from bim2rdt.mission import MissionConfig
 from bim2rdt.mission.route import plan_route
 from bim2rdt.perception import Frame, Intrinsics

@@ -11,13 +11,14 @@ from pathlib import Path
 
 from bim2rdt.atomic import write_bytes_atomic
 from bim2rdt.registration import IcpConfig
-from bim2rdt.bench.registration.aliases import ALIAS_FAMILIES, alias_scenario
-from bim2rdt.bench.registration.stats import (COLUMNS, Prior, ScenarioResult, Target, alias_agreement,
-                                              check_alias_targets, check_calibration_target, check_family_targets,
-                                              check_peer_accuracy, check_targets, cut_interval, improvement,
-                                              pooled_median_ms, run_scenario, worst_family)
-from bim2rdt.bench.registration.peers import Open3dIcp, SgIcp, SmallGicp, small_gicp_available
-from bim2rdt.bench.registration.plots import plot_before_after
+from bim2rdt.evaluation.aliases import ALIAS_FAMILIES, alias_scenario
+from bim2rdt.evaluation.checks import TargetCheck
+from bim2rdt.evaluation.stats import (COLUMNS, Prior, ScenarioResult, alias_agreement, check_alias_targets,
+                                      check_calibration_target, check_family_targets, check_peer_accuracy,
+                                      check_targets, cut_interval, improvement, pooled_median_ms, run_scenario,
+                                      worst_family)
+from bim2rdt.evaluation.peers import Open3dIcp, SgIcp, SmallGicp, small_gicp_available
+from bim2rdt.evaluation.plots import plot_before_after
 from bim2rdt.sim.families import FAMILIES, family_scenario
 from bim2rdt.sim.scenarios import SCENARIOS, scenario
 
@@ -31,7 +32,7 @@ class RegistrationRun:
     seed: int
     priors: dict[str, Prior]
     results: list[ScenarioResult]
-    targets: list[Target]
+    targets: list[TargetCheck]
     plots: list[Path]
     families: list[ScenarioResult] = field(default_factory=list)  # F1-F11 (sim.families, bench...aliases), when run
 
@@ -84,7 +85,7 @@ def run_family(name: str, trials: int, seed: int, config: IcpConfig, peers: bool
                tick: Callable[[], None] = lambda: None) -> ScenarioResult:
     """ICP, SG-ICP (and Open3D point-to-plane and small_gicp on one thread with ``peers``) on scene family
     ``name`` (F1-F9: :data:`bim2rdt.sim.families.FAMILIES`; F10-F11, the yaw aliases:
-    :data:`bim2rdt.bench.registration.aliases.ALIAS_FAMILIES`, with the alias agreement). The family's own
+    :data:`bim2rdt.evaluation.aliases.ALIAS_FAMILIES`, with the alias agreement). The family's own
     model density and its user-given upright bias apply, as they would for a user calling ``register``."""
     spec = FAMILIES[name] if name in FAMILIES else ALIAS_FAMILIES[name]
     family_config = config.model_copy(update={"sample_count": spec.sample_count})

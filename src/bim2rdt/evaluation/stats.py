@@ -17,7 +17,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from bim2rdt.bench.registration.calibration import calibration, check_covariance
+from bim2rdt.evaluation.calibration import calibration, check_covariance
+from bim2rdt.evaluation.checks import TargetCheck
 from bim2rdt.registration import hausdorff
 from bim2rdt.sim.scenarios import Scenario
 from bim2rdt.registration.symmetry import closest_equivalent
@@ -42,7 +43,7 @@ class MethodStats:
     knocked_tilt_deg: float = float("nan")  # median tilt error over truly tilted objects (nan: none in the run)
     knocked: int = 0
     calibration: float = float("nan")  # share of judged estimates inside their 95 % covariance ellipsoid
-    calibrated: int = 0  # how many were judged (well-constrained, right basin; see bench.registration.calibration)
+    calibrated: int = 0  # how many were judged (well-constrained, right basin; see evaluation.calibration)
     well_constrained: float = float("nan")  # share of estimates with no unobservable direction
 
 
@@ -141,16 +142,7 @@ def cut_interval(result: ScenarioResult, metric: str = "rmse", before: str = "IC
     return float(low), float(high)
 
 
-@dataclass(frozen=True)
-class Target:
-    """One of the issue's targets, checked on a finished benchmark."""
-
-    name: str
-    passed: bool
-    detail: str
-
-
-def check_targets(results: Sequence[ScenarioResult], peer: str = "Open3D pt-plane") -> list[Target]:
+def check_targets(results: Sequence[ScenarioResult], peer: str = "Open3D pt-plane") -> list[TargetCheck]:
     """The targets: >= 60 % RMSE cut in the two scenarios hardest for ICP; SG-ICP not worse than ICP on RMSE
     or Max anywhere, where worse means beyond the benchmark's noise (the whole 95 % paired bootstrap interval
     of the cut below zero; a point estimate below zero within the noise is shown, not failed); SG-ICP success
@@ -171,26 +163,26 @@ def check_targets(results: Sequence[ScenarioResult], peer: str = "Open3D pt-plan
     if within_noise:
         detail += "; behind within noise: " + ", ".join(within_noise)
     targets = [
-        Target("RMSE cut >= 60 % in the 2 hardest", all(c >= 60.0 for c in cuts.values()),
+        TargetCheck("RMSE cut >= 60 % in the 2 hardest", all(c >= 60.0 for c in cuts.values()),
                ", ".join(f"{r.name} {cuts[r.name]:.1f} % [{lo:.1f}, {hi:.1f}]"
                          for r in by_icp for lo, hi in [cut_interval(r)])),
-        Target("SG-ICP RMSE and Max not worse than ICP anywhere", not worse, detail),
+        TargetCheck("SG-ICP RMSE and Max not worse than ICP anywhere", not worse, detail),
     ]
     if all(peer in r.stats for r in results):
         behind = [r.name for r in results if r.stats["SG-ICP"].success < r.stats[peer].success]
         ours, theirs = pooled_median_ms(results, "SG-ICP"), pooled_median_ms(results, peer)
         targets += [
-            Target(f"SG-ICP success >= {peer} everywhere", not behind,
+            TargetCheck(f"SG-ICP success >= {peer} everywhere", not behind,
                    "behind in " + ", ".join(behind) if behind else "ok"),
-            Target(f"median time per object <= {SPEED_RATIO}x {peer}", ours <= SPEED_RATIO * theirs,
+            TargetCheck(f"median time per object <= {SPEED_RATIO}x {peer}", ours <= SPEED_RATIO * theirs,
                    f"{ours:.1f} ms vs {theirs:.1f} ms ({ours / theirs:.2f}x)"),
         ]
     for small in SMALL_GICP[:1]:
         if all(small in r.stats for r in results):
             ours, theirs = pooled_median_ms(results, "SG-ICP"), pooled_median_ms(results, small)
-            targets.append(Target(f"moonshot: median time per object <= {small}", ours <= theirs,
+            targets.append(TargetCheck(f"moonshot: median time per object <= {small}", ours <= theirs,
                                   f"{ours:.1f} ms vs {theirs:.1f} ms ({ours / theirs:.2f}x)"))
-    targets += [Target(f"S4 SG-ICP success >= {S4_SUCCESS:.0%}", r.stats["SG-ICP"].success >= S4_SUCCESS,
+    targets += [TargetCheck(f"S4 SG-ICP success >= {S4_SUCCESS:.0%}", r.stats["SG-ICP"].success >= S4_SUCCESS,
                        f"{r.stats['SG-ICP'].success:.1%} (ICP {r.stats['ICP'].success:.1%})")
                 for r in results if r.name == "S4"]
     return targets
@@ -217,7 +209,7 @@ def worst_family(results: Sequence[ScenarioResult]) -> ScenarioResult:
     return min(results, key=lambda r: improvement(r.stats["ICP"].mean, r.stats["SG-ICP"].mean))
 
 
-def check_family_targets(results: Sequence[ScenarioResult]) -> list[Target]:
+def check_family_targets(results: Sequence[ScenarioResult]) -> list[TargetCheck]:
     """The targets on the scene families (on the mean surface error): SG-ICP no
     worse than ICP in any family beyond the noise (the whole 95 % paired interval of the cut below zero), and
     at least :data:`TILT_TRAP_CUT` % better where the start's tilt is the trap."""
@@ -235,8 +227,8 @@ def check_family_targets(results: Sequence[ScenarioResult]) -> list[Target]:
     traps = [r for r in results if "tilt trap" in r.tags]
     trap_cuts = {r.name: improvement(r.stats["ICP"].mean, r.stats["SG-ICP"].mean) for r in traps}
     return [
-        Target("families: SG-ICP mean error not worse than ICP anywhere", not worse, detail),
-        Target(f"families: SG-ICP >= {TILT_TRAP_CUT:.0f} % better where the start's tilt is the trap",
+        TargetCheck("families: SG-ICP mean error not worse than ICP anywhere", not worse, detail),
+        TargetCheck(f"families: SG-ICP >= {TILT_TRAP_CUT:.0f} % better where the start's tilt is the trap",
                bool(traps) and all(c >= TILT_TRAP_CUT for c in trap_cuts.values()),
                ", ".join(f"{name} {cut:.1f} %" for name, cut in trap_cuts.items()) or "no tilt-trap family run"),
     ]
@@ -254,14 +246,14 @@ def pooled_calibration(results: Sequence[ScenarioResult], methods: Sequence[str]
     return calibration(checks)
 
 
-def check_calibration_target(results: Sequence[ScenarioResult]) -> list[Target]:
+def check_calibration_target(results: Sequence[ScenarioResult]) -> list[TargetCheck]:
     """The covariance is calibrated when 90-98 % of the judged true errors (well-constrained, right basin;
     ICP and SG-ICP over every scenario and family run) fall inside their 95 % ellipsoid."""
     share, judged = pooled_calibration(results)
     low, high = CALIBRATION_RANGE
     detail = (f"{share:.3f} of {judged} well-constrained estimates in the right basin inside their 95 % ellipsoid"
               if judged else "no well-constrained estimate in the right basin to judge")
-    return [Target(f"covariance calibration {low:.2f}-{high:.2f}", judged > 0 and low <= share <= high, detail)]
+    return [TargetCheck(f"covariance calibration {low:.2f}-{high:.2f}", judged > 0 and low <= share <= high, detail)]
 
 
 ALIAS_AGREEMENT = 0.95
@@ -288,7 +280,7 @@ def alias_agreement(scenario: Scenario, result: ScenarioResult, before: str = "I
     return (float(np.mean(agree)) if agree else float("nan")), len(agree)
 
 
-def check_alias_targets(results: Sequence[ScenarioResult]) -> list[Target]:
+def check_alias_targets(results: Sequence[ScenarioResult]) -> list[TargetCheck]:
     """The targets on the alias families: SG-ICP's mean surface error not worse than ICP's beyond the
     noise (the whole 95 % paired interval of the cut below zero), and alias agreement >= :data:`ALIAS_AGREEMENT`."""
     if not results:
@@ -304,8 +296,8 @@ def check_alias_targets(results: Sequence[ScenarioResult]) -> list[Target]:
         detail += "; behind within noise: " + ", ".join(behind)
     agreements = {r.name: r.alias_agreement for r in results if r.alias_agreement is not None}
     return [
-        Target("aliases: SG-ICP mean error not worse than ICP", not worse, detail),
-        Target(f"aliases: alias agreement >= {ALIAS_AGREEMENT:.0%}",
+        TargetCheck("aliases: SG-ICP mean error not worse than ICP", not worse, detail),
+        TargetCheck(f"aliases: alias agreement >= {ALIAS_AGREEMENT:.0%}",
                bool(agreements) and all(share >= ALIAS_AGREEMENT for share, _ in agreements.values()),
                ", ".join(f"{name} {share:.1%} of {count}" for name, (share, count) in agreements.items())),
     ]
@@ -321,7 +313,7 @@ def best_peer(result: ScenarioResult, metric: str, peers: Sequence[str] = SMALL_
     return min(ran, key=lambda p: getattr(result.stats[p], metric)) if ran else None
 
 
-def check_peer_accuracy(scenarios: Sequence[ScenarioResult], families: Sequence[ScenarioResult]) -> list[Target]:
+def check_peer_accuracy(scenarios: Sequence[ScenarioResult], families: Sequence[ScenarioResult]) -> list[TargetCheck]:
     """SG-ICP at least as accurate as small_gicp's best method on every scenario (RMSE) and family
     (mean surface error): not worse beyond the noise (the whole 95 % paired interval below zero)."""
     checked = [(r, "rmse") for r in scenarios] + [(r, "mean") for r in families]
@@ -338,4 +330,4 @@ def check_peer_accuracy(scenarios: Sequence[ScenarioResult], families: Sequence[
     detail = ("worse in " + ", ".join(worse)) if worse else "ok"
     if behind:
         detail += "; behind within noise: " + ", ".join(behind)
-    return [Target("SG-ICP as accurate as small_gicp's best everywhere", not worse, detail)]
+    return [TargetCheck("SG-ICP as accurate as small_gicp's best everywhere", not worse, detail)]

@@ -15,12 +15,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from bim2rdt.errors import Bim2RdtError
+from bim2rdt.frames import UP
 from bim2rdt.registration import IcpConfig, RegistrationResult, register
 from bim2rdt.registration.icp import score_poses, yaw_restarts
 from bim2rdt.registration.matching import ModelIndex
 from bim2rdt.registration.so3 import invert_poses
 
-UP = np.array([0.0, 0.0, 1.0])
 
 
 @dataclass(frozen=True)

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from bim2rdt.bench.registration.aliases import ALIAS_FAMILIES, alias_scenario
+from bim2rdt.evaluation.aliases import ALIAS_FAMILIES, alias_scenario
 from bim2rdt.registration import IcpConfig, register
 from bim2rdt.sim.truth import pose_error
 
@@ -40,7 +40,7 @@ def test_the_cone_plain_icp_finds_is_not_lost_to_the_priors_slide():
 def test_one_draw_more_in_one_view_changes_no_other_object_or_trial(monkeypatch):
     """Issue 24: a view's draw count follows its ray hits (last bits differ between machines); each object of
     each trial has its own generator, so trial 0's first view drawing once more changes nothing else."""
-    import bim2rdt.bench.registration.aliases as aliases
+    import bim2rdt.evaluation.aliases as aliases
 
     name = next(iter(ALIAS_FAMILIES))
     before = alias_scenario(name, trials=3, seed=2)

@@ -6,7 +6,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from bim2rdt.bench.registration.calibration import CovarianceCheck, calibration, check_covariance, pose_error_vector
+from bim2rdt.evaluation.calibration import CovarianceCheck, calibration, check_covariance, pose_error_vector
 from bim2rdt.registration.so3 import axis_angle
 
 MODEL = np.array([[x, y, z] for x in (-0.2, 0.4) for y in (-0.1, 0.3) for z in (0.0, 0.5)])

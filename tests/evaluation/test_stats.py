@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from bim2rdt.bench.registration.stats import ScenarioResult, _summarise, check_targets, cut_interval, improvement
+from bim2rdt.evaluation.stats import ScenarioResult, _summarise, check_targets, cut_interval, improvement
 
 
 def _result(name: str, icp_rmse, sg_rmse) -> ScenarioResult:

@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 import trimesh
 
+from bim2rdt.frames import UP
 from bim2rdt.perception.camera import Intrinsics, look_at
 from bim2rdt.registration.sampling import sample_model
 from bim2rdt.registration.so3 import axis_angle
@@ -35,7 +36,6 @@ from bim2rdt.sim.render import cast_rays
 from bim2rdt.sim.scenarios import ObjectTrial, Scenario, ScenarioError, draws
 from bim2rdt.sim.scene import PlacedObject, SiteScene
 
-UP = np.array([0.0, 0.0, 1.0])
 INTRINSICS = Intrinsics(320, 240, 262.5, 262.5, 159.5, 119.5)
 """A QVGA depth camera: enough pixels for 100-200 points per object, a quarter of the rays of VGA."""
 

@@ -13,7 +13,7 @@ import numpy as np
 
 from bim2rdt.atomic import write_bytes_atomic
 from bim2rdt.perception.camera import Intrinsics, look_at
-from bim2rdt.bench.registration.stats import ScenarioResult
+from bim2rdt.evaluation.stats import ScenarioResult
 from bim2rdt.sim.scenarios import Scenario
 
 _COLOURS = ("tab:orange", "tab:blue", "tab:green", "tab:purple")
