@@ -80,12 +80,12 @@ def test_a_message_whose_commit_always_fails_is_dead_lettered_after_max_deliver_
     dead = monitor.queries.malformed_messages()[device]
     assert dead.count == 1
     assert f"not committed after {MAX_DELIVER} deliveries" in dead.last_reason and "disk full" in dead.last_reason
-    assert monitor.stats[UNDELIVERABLE] == 1
+    assert monitor.queries.stats()[UNDELIVERABLE] == 1
     assert monitor.store.applied_count() == accel - 1  # every other batch counted, once
     monitor.close()
 
     quiet, bus = _life(nats_server, k, tmp_path, poisoned=False, until=lambda m, b: False, timeout_s=2.5)
     assert bus.delivered == 0  # terminated: neither JetStream (ack_wait 1 s) nor a restart delivers it again
-    assert quiet.malformed_messages()[device].count == 1  # the dead letter was committed
+    assert quiet.queries.malformed_messages()[device].count == 1  # the dead letter was committed
     assert quiet.store.applied_count() == accel - 1
     quiet.close()

@@ -202,9 +202,9 @@ def test_a_worker_whose_two_devices_fall_in_two_partitions_reads_as_one_process_
     reference.attach(local)
     publish_plans(lambda device: local, plans, SITE, FS, t0=t0)
     reference.flush()
-    subject = reference.session(left).subject
-    want = reference.day(subject)
-    assert reference.session(right).subject == subject and want.seconds > 40  # both devices' time counts
+    subject = reference.queries.session(left).subject
+    want = reference.queries.day(subject)
+    assert reference.queries.session(right).subject == subject and want.seconds > 40  # both devices' time counts
 
     shared = CONFIG.model_copy(update={"store_url": f"sqlite:///{tmp_path / 'shared.sqlite'}"})
     parts = []

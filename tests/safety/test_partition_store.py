@@ -80,8 +80,8 @@ def test_a_worker_wearing_two_devices_in_two_partitions_reads_the_sum_of_both_as
     ann = reference.start_session(left, "ann", "hammer_drill")
     reference.start_session(right, "ann", "grinder")
     reference.ingest_many(shifts[left] + shifts[right])
-    day = reference.days_of(ann)[0]
-    want = reference.day(ann, day)
+    day = reference.queries.days_of(ann)[0]
+    want = reference.queries.day(ann, day)
     assert want.seconds > 60  # both devices' trigger time counts
 
     now = [time.time()]
