@@ -80,7 +80,7 @@ def test_a_message_whose_commit_always_fails_is_dead_lettered_after_max_deliver_
     dead = monitor.queries.malformed_messages()[device]
     assert dead.count == 1
     assert f"not committed after {MAX_DELIVER} deliveries" in dead.last_reason and "disk full" in dead.last_reason
-    assert monitor.queries.stats()[UNDELIVERABLE] == 1
+    assert monitor.queries.stats[UNDELIVERABLE] == 1
     assert monitor.store.applied_count() == accel - 1  # every other batch counted, once
     monitor.close()
 

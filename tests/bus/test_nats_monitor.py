@@ -222,7 +222,7 @@ def test_a_worker_whose_two_devices_fall_in_two_partitions_reads_as_one_process_
         monitor.flush()
         bus.close()
     reader = HavMonitor(tmp_path / "serve", SECRET, config=shared)
-    worker = next(w for w in SafetyView(reader).workers() if w["subject"] == subject)
+    worker = next(w for w in SafetyView(reader.queries).workers() if w["subject"] == subject)
     assert abs(worker["a8"] - want.a8) <= 1e-9 and abs(worker["exposure_s"] - want.seconds) <= 1e-9
     assert {d["device"] for d in worker["devices"]} == {left, right}
     for monitor in (*[m for m, _ in parts], reader, reference):

@@ -98,7 +98,7 @@ def test_a_worker_wearing_two_devices_in_two_partitions_reads_the_sum_of_both_as
     monitors[right].ingest_many(shifts[right][-1:])  # a redelivered batch: a duplicate, counted once
 
     reader = HavMonitor(tmp_path / "serve", SECRET, config=config)
-    worker = next(w for w in SafetyView(reader).workers() if w["subject"] == ann)
+    worker = next(w for w in SafetyView(reader.queries).workers() if w["subject"] == ann)
     assert abs(worker["a8"] - want.a8) <= 1e-9 and abs(worker["exposure_s"] - want.seconds) <= 1e-9
     assert {d["device"] for d in worker["devices"]} == {left, right}
     now[0] += OTHERS_REFRESH_S
