@@ -45,16 +45,25 @@ log = logging.getLogger("bim2rdt.safety")
 
 
 class MonitorIngest:
-    """Streaming ISO 5349-1 exposure for many wearables, the write side; thread-safe (one lock around each call)."""
+    """Streaming ISO 5349-1 exposure for many wearables, the write side; thread-safe (one lock around each call).
+
+    State lives under ``data_dir`` (``hav.sqlite``, ``private/identity.sqlite``), or in the database at
+    ``config.store_url`` (the identity map stays under ``data_dir``).
+
+    Args:
+        data_dir: The monitor's folder; None (and no ``config.store_url``) keeps everything in memory, for a
+            throw-away monitor that must write nothing (``hav analyze``).
+        site_secret: The key of the worker pseudonyms.
+        sinks: Where events go; those with an ``outbox`` name are durable (see :meth:`add_sink`).
+        config: Thresholds, group commit, retention and the store's URL.
+        clock: The wall clock, UTC seconds.
+        owns: ``owns(device)`` says which devices this monitor serves when several share one store (a partition
+            of the NATS path); only their streams are restored. None serves every device.
+    """
 
     def __init__(self, data_dir: Path | None, site_secret: str, sinks: Sequence[EventSink] = (),
                  config: MonitorConfig = MonitorConfig(), clock: Callable[[], float] = time.time,
                  owns: Callable[[str], bool] | None = None):
-        """State under ``data_dir`` (``hav.sqlite``, ``private/identity.sqlite``), or in the database at
-        ``config.store_url`` (the identity map stays under ``data_dir``); ``data_dir`` None (and no URL) keeps it
-        in memory, for a throw-away monitor that must write nothing (``hav analyze``). ``sinks`` with an
-        ``outbox`` name are durable (see :meth:`add_sink`). ``owns(device)``: the devices this monitor serves
-        when several share one store (a partition of the NATS path); only their streams are restored."""
         self.config, self.sinks, self.clock, self._owns = config, [], clock, owns
         folder = Path(data_dir) if data_dir is not None else None
         self.store = ExposureStore.for_folder(folder, config.store_url)
@@ -77,7 +86,14 @@ class MonitorIngest:
         """Send the events of every later commit to ``sink``: at once, or, for a sink with an ``outbox`` name
         (the twin's), through the store's outbox: queued in each commit's transaction, delivered in order by a
         background thread that retries every ``config.outbox_retry_s`` while the sink fails, none lost or
-        doubled; events queued for that name by an earlier run are delivered too."""
+        doubled; events queued for that name by an earlier run are delivered too.
+
+        Args:
+            sink: Anything with ``emit(event)``; an ``outbox`` attribute names a durable one.
+
+        Raises:
+            HavError: The monitor already has a durable sink of that name.
+        """
         name = outbox_name(sink)
         if name is None:
             self.sinks.append(sink)
@@ -89,13 +105,35 @@ class MonitorIngest:
             self._journal.outbox.append(name)
 
     def drain_outbox(self, timeout_s: float) -> bool:
-        """Wait up to ``timeout_s`` for every durable sink to take what is queued; True when all did."""
+        """Wait for every durable sink to take what is queued.
+
+        Args:
+            timeout_s: How long to wait for each sink, seconds.
+
+        Returns:
+            True when all did.
+        """
         return all([d.drain(timeout_s) for d in self._deliveries.values()])
 
     # --- sessions and corrections ------------------------------------------------------------------------
     def start_session(self, device: str, worker: str, tool: str = "unknown", position: str = "handle",
                       zone: str | None = None, hand: str = "") -> str:
-        """Bind ``device`` to a worker (stored as a pseudonym), a tool, a body position, a work zone and a hand."""
+        """Bind a device to a worker (stored as a pseudonym), a tool, a body position, a work zone and a hand.
+
+        Args:
+            device: The wearable's device id.
+            worker: The worker's real id; only its pseudonym is stored with exposure.
+            tool: The tool the worker uses.
+            position: Where the wearable sits (an ISO 5349 position, or an estimate elsewhere).
+            zone: The work zone (a BIM zone name or GlobalId), if known.
+            hand: "left" or "right" when known.
+
+        Returns:
+            The worker's pseudonym (the subject of the session's events).
+
+        Raises:
+            HavError: An empty worker id.
+        """
         with self._lock:
             session = self._sessions.claim(worker, tool, position, zone, hand)
             outcome = self._engine.rebind(device, session)
@@ -105,7 +143,15 @@ class MonitorIngest:
 
     def end_session(self, device: str, when: float | None = None) -> list[Event]:
         """The device went offline or the session is over: flush its stream and end its activity at ``when``
-        (default: the device time of its last sample, not when the news reached us)."""
+        (default: the device time of its last sample, not when the news reached us).
+
+        Args:
+            device: The wearable's device id.
+            when: When the activity ended, UTC seconds; None takes its last sample's time.
+
+        Returns:
+            The events the end caused (and emitted).
+        """
         with self._lock:
             outcome = self._engine.close(device, when)
             if outcome.streams:
@@ -113,20 +159,43 @@ class MonitorIngest:
             return outcome.events
 
     def add_correction(self, correction: MountingCorrection) -> None:
-        """Use ``correction`` for every stream of that subject at that position (persisted)."""
+        """Use a mounting correction for every stream of its subject at its position (persisted).
+
+        Args:
+            correction: Band gains of one subject at one wearable position.
+        """
         with self._lock:
             self._sessions.add_correction(correction)
             self._journal.save_correction(correction)
 
     # --- ingest ------------------------------------------------------------------------------------------
     def ingest(self, batch: AccelBatch) -> list[Event]:
+        """Take one batch (see :meth:`ingest_many`).
+
+        Args:
+            batch: Accelerations (n,3) in m/s^2 from one device.
+
+        Returns:
+            The events it caused (and emitted).
+        """
         return self.ingest_many([batch])
 
     def ingest_many(self, batches: Iterable[AccelBatch], now: float | None = None) -> list[Event]:
         """Take batches (and on-device summaries, :mod:`~bim2rdt.safety.summary`) from any devices in any order;
         returns (and emits) the events they caused. HavError,
         before any state changes, if a batch's rate is too low to weigh or it holds more than ``MAX_BATCH_S``
-        of samples (as the bus refuses: the store finds a raw window's batches within that reach)."""
+        of samples (as the bus refuses: the store finds a raw window's batches within that reach).
+
+        Args:
+            batches: Accel batches ((n,3) m/s^2) and on-device summaries, from any devices in any order.
+            now: The receive time, UTC seconds; None reads the monitor's clock.
+
+        Returns:
+            The events they caused (and emitted).
+
+        Raises:
+            HavError: A batch's rate is too low to weigh, or it holds more than ``MAX_BATCH_S`` of samples.
+        """
         batches, summaries = split_summaries(batches)  # on-device summaries (safety.summary) ride along
         for batch in batches:
             require_weighable_rate(batch.fs)
@@ -151,7 +220,15 @@ class MonitorIngest:
 
     def on_status(self, topic: str, payload: bytes) -> list[Event]:
         """A wearable's retained status: online with a worker starts a session, offline ends it; a malformed
-        one is dead-lettered."""
+        one is dead-lettered.
+
+        Args:
+            topic: The message's topic, ``site/{site}/wearable/{device}/status``.
+            payload: The status message.
+
+        Returns:
+            The events an ended session caused (and emitted).
+        """
         device = device_of(topic) or "?"
         try:
             status = decode_status(payload)
@@ -167,7 +244,15 @@ class MonitorIngest:
 
     def announce_boot(self, device: str, boot: str) -> bool:
         """The device names its boot (status ``boot``); True when it differs from the last one: it restarted, and
-        its next batch whose seq goes back starts a new epoch that counts (persisted)."""
+        its next batch whose seq goes back starts a new epoch that counts (persisted).
+
+        Args:
+            device: The wearable's device id.
+            boot: The boot's id as the device sends it.
+
+        Returns:
+            True when the device restarted since its last announced boot.
+        """
         with self._lock:
             stream = self._engine.stream(device)
             previous = stream.buffer.boot
@@ -177,7 +262,14 @@ class MonitorIngest:
             return changed
 
     def expire(self, now: float) -> list[Event]:
-        """Declare overdue gaps on streams whose missing batches never came."""
+        """Declare overdue gaps on streams whose missing batches never came.
+
+        Args:
+            now: UTC seconds.
+
+        Returns:
+            The events caused (and emitted).
+        """
         with self._lock:
             outcome = self._engine.expire(now)
             if outcome.streams:
@@ -185,13 +277,26 @@ class MonitorIngest:
             return outcome.events
 
     def count(self, name: str, amount: float = 1) -> None:
+        """Add to one of the monitor's counters (:attr:`~bim2rdt.safety.queries.MonitorQueries.stats`).
+
+        Args:
+            name: The counter.
+            amount: What to add.
+        """
         with self._lock:
             self._engine.count(name, amount)
 
     # --- refused messages and failures --------------------------------------------------------------------
     def refuse(self, device: str, reason: str, received: float, kind: str = "malformed") -> None:
         """Dead-letter a message from ``device``: counted (``stats[kind]`` and per device), logged, persisted
-        with the next commit."""
+        with the next commit.
+
+        Args:
+            device: The device id the message came from ("?" when unknown).
+            reason: Why it was refused, one line.
+            received: When it arrived, UTC seconds.
+            kind: The counter it is counted under.
+        """
         with self._lock:
             self._engine.count(kind)
             self._dead.record(device, reason, received)
@@ -205,12 +310,21 @@ class MonitorIngest:
                     self.store.save_malformed(rows)
 
     def fail(self, reason: str) -> None:
-        """Record that the monitor cannot go on (see :attr:`failure`)."""
+        """Record that the monitor cannot go on (see :attr:`failure`); the first reason is kept.
+
+        Args:
+            reason: Why, one line.
+        """
         self.failure = self.failure or reason
 
     def recover(self, batches: list[AccelBatch], reason: str) -> None:
         """The engine failed on ``batches``: dead-letter them and reload the engine from the store, so memory
-        holds exactly what was committed."""
+        holds exactly what was committed.
+
+        Args:
+            batches: The batches the engine failed on.
+            reason: Why, one line.
+        """
         with self._lock:
             for batch in batches:
                 self.refuse(batch.device, reason, self.clock())

@@ -12,6 +12,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from bim2rdt.bus.event import Event
 from bim2rdt.safety.config import MonitorConfig
@@ -22,17 +23,35 @@ from bim2rdt.safety.sessions import ISO_POSITIONS, Session
 from bim2rdt.safety.sinks import EventSink
 from bim2rdt.safety.subscriber import BusSubscriber
 
+if TYPE_CHECKING:
+    from bim2rdt.bus.local import LocalBus
+    from bim2rdt.bus.mqtt import MqttBus
+    from bim2rdt.bus.nats_bus import NatsBus
+
 __all__ = ["ISO_POSITIONS", "HavMonitor", "MalformedMessages", "MonitorConfig", "Session"]
 
 
 class HavMonitor(MonitorIngest):
     """Streaming ISO 5349-1 exposure for many wearables: the write side fed from a bus, its reads in
-    :attr:`queries`; thread-safe (one lock around each call)."""
+    :attr:`queries`; thread-safe (one lock around each call).
+
+    State lives under ``data_dir`` (``hav.sqlite``, ``private/identity.sqlite``), or in the database at
+    ``config.store_url`` (the identity map stays under ``data_dir``).
+
+    Args:
+        data_dir: The monitor's folder; None (and no ``config.store_url``) keeps everything in memory, for a
+            throw-away monitor that must write nothing (``hav analyze``).
+        site_secret: The key of the worker pseudonyms.
+        sinks: Where events go; those with an ``outbox`` name are durable (see :meth:`add_sink`).
+        config: Thresholds, group commit, retention and the store's URL.
+        clock: The wall clock, UTC seconds.
+        owns: ``owns(device)`` says which devices this monitor serves when several share one store (a partition
+            of the NATS path); only their streams are restored. None serves every device.
+    """
 
     def __init__(self, data_dir: Path | None, site_secret: str, sinks: Sequence[EventSink] = (),
                  config: MonitorConfig = MonitorConfig(), clock: Callable[[], float] = time.time,
                  owns: Callable[[str], bool] | None = None):
-        """See :class:`~bim2rdt.safety.ingest.MonitorIngest` for the arguments."""
         super().__init__(data_dir, site_secret, sinks, config, clock, owns)
         self._subscriber = BusSubscriber(self, config.commit_batches, config.commit_delay_s, self._lock)
         self.queries = MonitorQueries(self.store, self._lock, lambda: self._engine, lambda: self._dead,
@@ -41,26 +60,50 @@ class HavMonitor(MonitorIngest):
 
     def ingest_payload(self, topic: str, payload: bytes, received: float | None = None) -> list[Event]:
         """An MQTT accel message, ingested now; ignored (and counted) if malformed, too slowly sampled to weigh,
-        or its device id is not the topic's. Never raises on bad input."""
+        or its device id is not the topic's. Never raises on bad input.
+
+        Args:
+            topic: The message's topic, ``site/{site}/wearable/{device}/accel``.
+            payload: The message.
+            received: When it arrived, UTC seconds; None reads the monitor's clock.
+
+        Returns:
+            The events it caused (and emitted); none for a refused message.
+        """
         with self._lock:
             batch = self._subscriber.accept(topic, payload, self.clock() if received is None else received)
             return self.ingest_many([batch]) if batch is not None else []
 
     def tick(self, now: float | None = None) -> list[Event]:
         """Commit a bus group that waited long enough; declare overdue gaps on streams whose missing batches
-        never came."""
+        never came.
+
+        Args:
+            now: UTC seconds; None reads the monitor's clock.
+
+        Returns:
+            The events caused (and emitted).
+        """
         with self._lock:
             now = self.clock() if now is None else now
             events = self._subscriber.tick(now)
             return events + self.expire(now)
 
-    def attach(self, bus) -> None:
-        """Subscribe to every wearable's accel and status topics of the configured site on ``bus`` (attach
-        before connecting an MQTT bus with a persistent session, so queued messages find their handler)."""
+    def attach(self, bus: LocalBus | MqttBus | NatsBus) -> None:
+        """Subscribe to every wearable's accel and status topics of the configured site (attach before
+        connecting an MQTT bus with a persistent session, so queued messages find their handler).
+
+        Args:
+            bus: The site event bus.
+        """
         self._subscriber.attach(bus)
 
     def flush(self) -> list[Event]:
-        """Commit the bus messages waiting for their group commit now."""
+        """Commit the bus messages waiting for their group commit now.
+
+        Returns:
+            The events they caused (and emitted).
+        """
         return self._subscriber.flush()
 
     def close(self) -> None:

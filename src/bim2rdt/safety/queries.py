@@ -22,7 +22,16 @@ __all__ = ["MonitorQueries"]
 
 class MonitorQueries:
     """What a reader may ask of a monitor. ``engine`` and ``dead_letters`` return the write side's current ones
-    (a reload replaces them); every in-memory read holds ``lock``, the write side's."""
+    (a reload replaces them); every in-memory read holds ``lock``, the write side's.
+
+    Args:
+        store: The write side's store, for :attr:`reads`.
+        lock: The write side's lock, held by every in-memory read.
+        engine: Returns the write side's current exposure engine (days, streams, counters, timeline).
+        dead_letters: Returns the write side's current refused-message counts.
+        deliveries: The write side's durable-sink deliveries, by sink name.
+        clock: The wall clock, UTC seconds (which day is today).
+    """
 
     def __init__(self, store: ExposureStore, lock: threading.RLock, engine: Callable[[], ExposureEngine],
                  dead_letters: Callable[[], DeadLetters], deliveries: Mapping[str, OutboxDelivery],
@@ -45,7 +54,12 @@ class MonitorQueries:
         return MonitorReads(self.store)
 
     def outbox_status(self) -> dict[str, dict]:
-        """Per durable sink: events waiting, delivered by this process, failed deliveries, the last error."""
+        """How the durable sinks' deliveries stand.
+
+        Returns:
+            {sink name: {"pending", "delivered", "failures", "last_error"}}: events waiting, delivered by this
+                process, failed deliveries, the last error.
+        """
         return {name: {"pending": d.pending(), "delivered": d.delivered, "failures": d.failures,
                        "last_error": d.last_error} for name, d in self._deliveries.items()}
 
@@ -61,28 +75,59 @@ class MonitorQueries:
 
     def malformed_messages(self) -> dict[str, MalformedMessages]:
         """Refused (dead-lettered) messages per device since the store was created: count, last reason, when
-        the last one arrived. For the dashboard: a device sending garbage shows here, never as exposure."""
+        the last one arrived. For the dashboard: a device sending garbage shows here, never as exposure.
+
+        Returns:
+            {device: its refused messages}, by device id.
+        """
         with self._lock:
             return {device: MalformedMessages(m.count, m.last_reason, m.last_received)
                     for device, m in sorted(self._dead.by_device.items())}
 
     def day(self, subject: str, day: str | None = None) -> DayState:
-        """The worker-day's exposure (A(8), points, trigger time); today (UTC) by default."""
+        """A worker-day's exposure.
+
+        Args:
+            subject: The worker's pseudonym.
+            day: The UTC day, 'YYYY-MM-DD'; None is today.
+
+        Returns:
+            Its weighted energy (m^2/s^3) and trigger time (s) per hand, and when the EAV and ELV were reached
+                (UTC seconds); empty for a day without exposure.
+        """
         with self._lock:
             return self._engine.days.get((subject, day or utc_day(self.clock())), DayState())
 
     def days_of(self, subject: str) -> list[str]:
-        """The days (UTC, 'YYYY-MM-DD') with exposure on record for a worker, oldest first."""
+        """The days with exposure on record for a worker.
+
+        Args:
+            subject: The worker's pseudonym.
+
+        Returns:
+            UTC days, 'YYYY-MM-DD', oldest first.
+        """
         with self._lock:
             return sorted(day for who, day in self._engine.days if who == subject)
 
     def devices(self) -> list[str]:
-        """Every device the monitor has seen (or restored)."""
+        """Every device the monitor has seen (or restored).
+
+        Returns:
+            Their device ids.
+        """
         with self._lock:
             return list(self._engine.streams)
 
     def session(self, device: str) -> Session | None:
-        """Who wears ``device`` now (None for a device never seen)."""
+        """Who wears a device now.
+
+        Args:
+            device: The wearable's device id.
+
+        Returns:
+            Its session (pseudonym, tool, position, zone, hand), or None for a device never seen.
+        """
         with self._lock:
             stream = self._engine.streams.get(device)
             return stream.session if stream else None
@@ -90,7 +135,14 @@ class MonitorQueries:
     def stream_status(self, device: str) -> dict | None:
         """Where a device's stream stands: next expected seq, batches waiting, counters, clock offset (s), the
         time base its events and days are on ('receive' for a device without wall time, else 'device') and what
-        the device sends ('stream': 'raw' batches, on-device 'summary' seconds, 'mixed' or 'none')."""
+        the device sends ('stream': 'raw' batches, on-device 'summary' seconds, 'mixed' or 'none').
+
+        Args:
+            device: The wearable's device id.
+
+        Returns:
+            The stream's state, or None for a device never seen.
+        """
         with self._lock:
             stream = self._engine.streams.get(device)
             if stream is None:
@@ -100,7 +152,14 @@ class MonitorQueries:
                     "stream": stream_kind(stream.counters), **stream.counters}
 
     def activity(self, device: str) -> ActivityState | None:
-        """The activity running on ``device``'s stream (``id`` None when idle); None for an unknown device."""
+        """The activity running on a device's stream.
+
+        Args:
+            device: The wearable's device id.
+
+        Returns:
+            Its state (``id`` None when idle), or None for a device never seen.
+        """
         with self._lock:
             stream = self._engine.streams.get(device)
             return stream.tracker.state if stream else None
