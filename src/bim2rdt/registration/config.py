@@ -98,14 +98,15 @@ class IcpConfig(BaseModel):
                     "Without it the lowest of many upright near-ties wins by clutter luck on sparse views.")
     prior_free_pass: bool = Field(
         True,
-        description="Under an upright prior, also run plain ICP's restarts (the unlevelled starts, no prior) in the "
-                    "same batch, and let the data choose among all (registration.icp.pick_restart): SG-ICP's "
-                    "candidates then include ICP's, so the prior cannot leave it in a worse yaw or slide alias "
-                    "than ICP. False = the prior's restarts only.")
+        description="Under an upright prior, also run plain ICP's search (the unlevelled starts, no prior) in the "
+                    "same batch, and keep ICP's result (polished with the prior) unless the prior's objective "
+                    "beats it beyond the data's noise (registration.icp.keep_data_choice): the prior then cannot "
+                    "leave SG-ICP in a worse yaw or slide alias than ICP. False = the prior's search only.")
     polish_iterations: int = Field(
         10, ge=0, le=1000,
         description="Iterations of the loop with the prior, at the final Huber scale, from the prior-free pass's "
-                    "pose when the data chose it (prior_free_pass): the prior levels it within its basin.")
+                    "pose before the choice (prior_free_pass): the prior levels it within its basin, and it is "
+                    "judged and kept as levelled.")
     tie_distance: float = Field(
         0.03, gt=0.0,
         description="Among tied restarts, a centroid this much farther (m) from the initial guess's weighs as "
