@@ -8,7 +8,8 @@ import pytest
 
 from bim2rdt.registration import IcpConfig, register
 from bim2rdt.registration import icp
-from bim2rdt.registration.icp import RegistrationResult, data_choice, keep_data_choice, prior_beats_data
+from bim2rdt.registration.icp import (RegistrationResult, data_choice, keep_data_choice, prior_beats_data,
+                                      prior_kept)
 from bim2rdt.registration.matching import ModelIndex
 from bim2rdt.registration.validation import validate_problem
 
@@ -76,6 +77,21 @@ def test_within_the_noise_the_prior_wins_where_it_knows_the_tilt():
     penalty = 3.0 * noise + max(0.0, -difference.mean())
     assert data_choice(per_point, np.array([0.0, penalty]), 2.0) == 0
     assert data_choice(per_point, np.array([0.0, 1.0 * noise]), 2.0) == 1
+
+
+def test_a_leaning_objects_basin_is_kept_when_the_data_prefer_icps_pose_as_found():
+    """A truly leaning object: the prior's polish takes part of ICP's lean, and against that polished pose
+    the prior's (a wrong basin, less tilted) wins on the objective; but ICP's pose as found fits the data
+    beyond the noise better than the prior's, so ICP's basin is kept (the release test gives the lean back)."""
+    rng = np.random.default_rng(4)
+    prior = rng.uniform(0.0, 1e-4, 300)
+    polished = prior + rng.normal(1e-6, 2e-5, 300)  # a tie on the data ...
+    found = prior - 2e-5 + rng.normal(0.0, 2e-5, 300)  # ... ICP as found is lower by ~17 standard errors
+    per_point = np.stack([prior, polished, found])
+    penalties = np.array([0.0, 2e-5, 4e-5])  # the polished pose is still tilted: the prior wins its objective
+    assert data_choice(per_point[:2], penalties[:2], 2.0) == 0
+    assert not prior_kept(per_point, penalties, 2.0)
+    assert prior_kept(np.stack([prior, polished, polished]), penalties, 2.0)
 
 
 def test_the_surface_terms_read_the_distance_to_the_surface_not_a_samples_plane(crate_model, make_pose, placed):

@@ -179,20 +179,22 @@ def keep_data_choice(prior: RegistrationResult, free: RegistrationResult, proble
                      model: matching.ModelIndex, normals_world: np.ndarray | None, cfg: IcpConfig
                      ) -> RegistrationResult:
     """The prior's result, or plain ICP's polished with the prior (:func:`_polish`), as :func:`data_choice`
-    says. Both candidates are judged as they would be kept: ICP's pose after the polish (the prior levels it
-    within its basin, so a tilt of a degree or two fitted to noise is not held against ICP's basin), on the
-    distance of the scene points to the model SURFACE (:func:`surface_terms`: what the fit reports, not the
-    nearest sample's plane the step works with, which at 2,000 samples is dominated by the gaps between
-    samples) plus the upright penalty. The prior's result is kept only when that objective prefers it beyond
+    says, against ICP's pose after the polish that keeps it (the prior levels it within its basin, so a tilt
+    of a degree or two fitted to noise is not held against ICP's basin), unless the data clearly prefer ICP's
+    pose as found (a truly leaning object: the polish takes part of its lean, the release test gives it back).
+    Both on the distance of the scene points to the model SURFACE (:func:`surface_terms`: what the fit
+    reports, not the nearest sample's plane the step works with, which at 2,000 samples is dominated by the
+    gaps between samples) plus the upright penalty. The prior's result is kept only when that objective prefers it beyond
     the data's paired noise and the data do not clearly prefer ICP's: a prior that knows how an object stands,
     not which yaw or slide alias a sparse view shows, changes the basin only through the tilt it knows."""
     polished = _polish(free.pose, problem, model, normals_world, cfg)
     pose = polished.poses[0]
-    poses = np.stack([prior.pose, pose])
+    poses = np.stack([prior.pose, pose, free.pose])
     scores, pairs = score_poses(model, poses, problem.scene_pts_world, cfg)
     penalties = upright_penalty(poses, pairs, problem, cfg)
+    per_point = surface_terms(model, poses, problem.scene_pts_world, cfg)
     total = prior.total_iterations + free.total_iterations + int(polished.iterations[0])
-    if data_choice(surface_terms(model, poses, problem.scene_pts_world, cfg), penalties, cfg.tie_sigmas) == 0:
+    if prior_kept(per_point, penalties, cfg.tie_sigmas):
         return replace(prior, total_iterations=total)
     return replace(free, pose=pose.copy(), iterations=free.iterations + int(polished.iterations[0]),
                    score=float(scores[1] + penalties[1]),
@@ -206,6 +208,14 @@ def surface_terms(model: matching.ModelIndex, poses: np.ndarray, scene_pts_world
     body = _transform(invert_poses(poses), scene_pts_world)
     return np.stack([np.minimum(matching.surface_distances(model, points, cfg.score_distance),
                                 cfg.score_distance) ** 2 for points in body])
+
+
+def prior_kept(per_point: np.ndarray, penalties: np.ndarray, sigmas: float) -> bool:
+    """Whether the prior's pose is kept, from the per-point data terms (3, N) (m^2) and upright penalties (3,)
+    of the prior's pose, ICP's pose polished with the prior, and ICP's pose as found: when
+    :func:`data_choice` picks it over the polished pose and the data do not prefer the pose as found beyond
+    ``sigmas`` standard errors (:func:`prior_beats_data`)."""
+    return data_choice(per_point[:2], penalties[:2], sigmas) == 0 and not prior_beats_data(per_point[[2, 0]], sigmas)
 
 
 def data_choice(per_point: np.ndarray, penalties: np.ndarray, sigmas: float) -> int:
@@ -233,21 +243,32 @@ def prior_beats_data(per_point: np.ndarray, sigmas: float, penalties: np.ndarray
 
 
 def _search(starts: np.ndarray, problem: Problem, model: matching.ModelIndex, normals_world: np.ndarray | None,
-            cfg: IcpConfig, yaw_only: bool) -> _Restarts:
-    """The loop from every start (K, 4, 4) at once: annealed Huber scale, losers pruned at ``prune_after``."""
+            cfg: IcpConfig, yaw_only: bool, hopping: bool = False) -> _Restarts:
+    """The loop from every start (K, 4, 4) at once: annealed Huber scale, losers pruned at ``prune_after``
+    (:func:`prune_keep`; ``hopping``: the starts are hops)."""
     restarts = _Restarts.start(starts)
     for iteration in range(cfg.max_iterations):
         active = restarts.active()
         if len(active) == 0:
             break
         _iterate(restarts, active, problem, model, normals_world, cfg, iteration, yaw_only)
-        if iteration + 1 == cfg.prune_after:
-            restarts.prune(cfg.prune_ratio, cfg.prune_keep)
+        keep = prune_keep(iteration, cfg, hopping)
+        if keep is not None:
+            restarts.prune(cfg.prune_ratio, keep)
     return restarts
 
 
+def prune_keep(iteration: int, cfg: IcpConfig, hopping: bool) -> int | None:
+    """How many restarts at most survive the pruning after loop iteration ``iteration`` (0-based), or None when
+    none runs then: at ``prune_after``, ``prune_keep`` (``hop_prune_keep`` among hops)."""
+    if iteration + 1 == cfg.prune_after:
+        return cfg.hop_prune_keep if hopping else cfg.prune_keep
+    return None
+
+
 def _search_together(problems: list[Problem], model: matching.ModelIndex, normals_world: np.ndarray | None,
-                     cfg: IcpConfig, starts: list[np.ndarray] | None = None) -> list[_Restarts]:
+                     cfg: IcpConfig, starts: list[np.ndarray] | None = None, hopping: bool = False
+                     ) -> list[_Restarts]:
     """:func:`_search` of each problem's restarts (:func:`_restart_starts`, not yaw_only), the problems
     differing only in their upright bias, as ONE batch through the loop: each restart steps under its own
     problem's bias, and each problem's restarts are pruned among themselves, when its own search would have
@@ -267,9 +288,10 @@ def _search_together(problems: list[Problem], model: matching.ModelIndex, normal
             break
         running = [g for g in groups if np.any(~restarts.done[g] & ~restarts.pruned[g])]
         _iterate(restarts, active, problems[0], model, normals_world, cfg, iteration, False, bias[active])
-        if iteration + 1 == cfg.prune_after:
+        keep = prune_keep(iteration, cfg, hopping)
+        if keep is not None:
             for group in running:
-                restarts.prune(cfg.prune_ratio, cfg.prune_keep, group)
+                restarts.prune(cfg.prune_ratio, keep, group)
     return [restarts.part(group) for group in groups]
 
 
@@ -290,7 +312,7 @@ def hop(best: RegistrationResult, problem: Problem, model: matching.ModelIndex, 
     rounds = _hop_rounds(best, problem, model, cfg, yaw_only)
     starts, best = _next_round(rounds, None)
     while starts is not None:
-        starts, best = _next_round(rounds, _search(starts, problem, model, normals_world, cfg, yaw_only))
+        starts, best = _next_round(rounds, _search(starts, problem, model, normals_world, cfg, yaw_only, True))
     return best
 
 
@@ -340,7 +362,7 @@ def _hop_together(kept: list[RegistrationResult], problems: list[Problem], model
     while any(starts is not None for starts, _ in steps):
         order = [i for i, (starts, _) in enumerate(steps) if starts is not None]
         searched = _search_together([problems[i] for i in order], model, normals_world, cfg,
-                                    [steps[i][0] for i in order])
+                                    [steps[i][0] for i in order], hopping=True)
         for i, restarts in zip(order, searched):
             steps[i] = _next_round(rounds[i], restarts)
     return [result for _, result in steps]
