@@ -4,7 +4,6 @@ data's basin for one it likes."""
 from __future__ import annotations
 
 import numpy as np
-import pytest
 
 from bim2rdt.registration import IcpConfig, register
 from bim2rdt.registration import icp

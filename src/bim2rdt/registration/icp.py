@@ -184,9 +184,10 @@ def keep_data_choice(prior: RegistrationResult, free: RegistrationResult, proble
     pose as found (a truly leaning object: the polish takes part of its lean, the release test gives it back).
     Both on the distance of the scene points to the model SURFACE (:func:`surface_terms`: what the fit
     reports, not the nearest sample's plane the step works with, which at 2,000 samples is dominated by the
-    gaps between samples) plus the upright penalty. The prior's result is kept only when that objective prefers it beyond
-    the data's paired noise and the data do not clearly prefer ICP's: a prior that knows how an object stands,
-    not which yaw or slide alias a sparse view shows, changes the basin only through the tilt it knows."""
+    gaps between samples) plus the upright penalty. The prior's result is kept only when that objective
+    prefers it beyond the data's paired noise and the data do not clearly prefer ICP's (:func:`prior_kept`): a
+    prior that knows how an object stands, not which yaw or slide alias a sparse view shows, changes the basin
+    only through the tilt it knows."""
     polished = _polish(free.pose, problem, model, normals_world, cfg)
     pose = polished.poses[0]
     poses = np.stack([prior.pose, pose, free.pose])
