@@ -276,7 +276,7 @@ def _search_together(problems: list[Problem], model: matching.ModelIndex, normal
     pruned them (it was still running). Every restart's arithmetic is the same as in its own search (the loop
     is per restart; batching shares the per-call overhead, most of an iteration's time), so each result is
     that search's, and the per-call numpy overhead is paid once for all of them. ``starts``: each problem's
-    initial poses (K_i, 4, 4) (hops), instead of its restarts."""
+    initial poses (K_i, 4, 4) (hops), instead of its restarts; ``hopping``: they are hops (:func:`prune_keep`)."""
     if starts is None:
         starts = [_restart_starts(problem, model, cfg, False) for problem in problems]
     edges = np.cumsum([0] + [len(s) for s in starts])
