@@ -69,3 +69,17 @@ def test_hops_run_together_keep_exactly_what_each_search_alone_keeps(problems, m
     for best, batched, single in zip(kept, together, alone):
         assert np.array_equal(batched.pose, single.pose)
         assert batched.total_iterations == single.total_iterations > best.total_iterations
+
+
+def test_hops_searches_keep_at_most_hop_prune_keep_restarts(problems):
+    """Hops start a few degrees and centimetres apart, so the score ratio keeps nearly all of them at
+    prune_after; hop_prune_keep caps the survivors of a hop search (and only of a hop search)."""
+    cfg = IcpConfig(hop_prune_keep=3)
+    model = ModelIndex.cached(problems[0].model_pts_body, problems[0].model_normals_body)
+    starts = icp.hop_starts(problems[0].T_world_model_init, model.centroid, problems[0].up_world, cfg, level=True)
+    hopped = icp._search(starts, problems[0], model, None, cfg, False, hopping=True)
+    searched = icp._search(starts, problems[0], model, None, cfg, False)
+    assert (~hopped.pruned).sum() == 3
+    assert (~searched.pruned).sum() > 3
+    together = icp._search_together(list(problems), model, None, cfg, [starts, starts], hopping=True)
+    assert all((~part.pruned).sum() == 3 for part in together)

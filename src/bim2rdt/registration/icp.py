@@ -195,69 +195,104 @@ def keep_data_choice(prior: RegistrationResult, free: RegistrationResult, proble
                      model: matching.ModelIndex, normals_world: np.ndarray | None, cfg: IcpConfig
                      ) -> RegistrationResult:
     """The prior's result, or plain ICP's polished with the prior (:func:`_polish`), as :func:`data_choice`
-    says: the data term (the truncated surface residual, no upright penalty) decides beyond its paired noise;
-    within it the prior breaks the tie. A prior that knows how an object stands, not which yaw or slide alias
-    a sparse view shows, cannot then keep an alias the data score worse."""
-    poses = np.stack([prior.pose, free.pose])
-    _, pairs = score_poses(model, poses, problem.scene_pts_world, cfg)
-    per_point = np.minimum(pairs.residual, cfg.score_distance) ** 2
-    total = prior.total_iterations + free.total_iterations
-    if data_choice(per_point, upright_penalty(poses, pairs, problem, cfg), cfg.tie_sigmas) == 0:
-        return replace(prior, total_iterations=total)
+    says, against ICP's pose after the polish that keeps it (the prior levels it within its basin, so a tilt
+    of a degree or two fitted to noise is not held against ICP's basin), unless the data clearly prefer ICP's
+    pose as found (a truly leaning object: the polish takes part of its lean, the release test gives it back).
+    Both on the distance of the scene points to the model SURFACE (:func:`surface_terms`: what the fit
+    reports, not the nearest sample's plane the step works with, which at 2,000 samples is dominated by the
+    gaps between samples) plus the upright penalty. The prior's result is kept only when that objective
+    prefers it beyond the data's paired noise and the data do not clearly prefer ICP's (:func:`prior_kept`): a
+    prior that knows how an object stands, not which yaw or slide alias a sparse view shows, changes the basin
+    only through the tilt it knows."""
     polished = _polish(free.pose, problem, model, normals_world, cfg)
     pose = polished.poses[0]
-    scores, repaired = score_poses(model, pose[None], problem.scene_pts_world, cfg)
+    poses = np.stack([prior.pose, pose, free.pose])
+    scores, pairs = score_poses(model, poses, problem.scene_pts_world, cfg)
+    penalties = upright_penalty(poses, pairs, problem, cfg)
+    per_point = surface_terms(model, poses, problem.scene_pts_world, cfg)
+    total = prior.total_iterations + free.total_iterations + int(polished.iterations[0])
+    if prior_kept(per_point, penalties, cfg.tie_sigmas):
+        return replace(prior, total_iterations=total)
     return replace(free, pose=pose.copy(), iterations=free.iterations + int(polished.iterations[0]),
-                   score=float(scores[0] + upright_penalty(pose[None], repaired, problem, cfg)[0]),
-                   tilt_deg=float(np.rad2deg(tilt_angle(pose[:3, :3], problem.up_world))),
-                   total_iterations=total + int(polished.iterations[0]))
+                   score=float(scores[1] + penalties[1]),
+                   tilt_deg=float(np.rad2deg(tilt_angle(pose[:3, :3], problem.up_world))), total_iterations=total)
+
+
+def surface_terms(model: matching.ModelIndex, poses: np.ndarray, scene_pts_world: np.ndarray, cfg: IcpConfig
+                  ) -> np.ndarray:
+    """Per-point data terms (K, N), m^2, of poses (K, 4, 4): min(d, score_distance)^2 with d the scene point's
+    distance to the posed model's surface (:func:`matching.surface_distances`)."""
+    body = _transform(invert_poses(poses), scene_pts_world)
+    return np.stack([np.minimum(matching.surface_distances(model, points, cfg.score_distance),
+                                cfg.score_distance) ** 2 for points in body])
+
+
+def prior_kept(per_point: np.ndarray, penalties: np.ndarray, sigmas: float) -> bool:
+    """Whether the prior's pose is kept, from the per-point data terms (3, N) (m^2) and upright penalties (3,)
+    of the prior's pose, ICP's pose polished with the prior, and ICP's pose as found: when
+    :func:`data_choice` picks it over the polished pose and the data do not prefer the pose as found beyond
+    ``sigmas`` standard errors (:func:`prior_beats_data`)."""
+    return data_choice(per_point[:2], penalties[:2], sigmas) == 0 and not prior_beats_data(per_point[[2, 0]], sigmas)
 
 
 def data_choice(per_point: np.ndarray, penalties: np.ndarray, sigmas: float) -> int:
-    """0 (the prior's pose) or 1 (plain ICP's) from their per-point data terms (2, N) (m^2) and upright penalties
-    (2,): the one whose data term is lower by more than ``sigmas`` standard errors of the paired per-point
-    difference (:func:`prior_beats_data`); within that noise, the lower data term plus penalty (the loop's
-    objective: there the prior breaks the tie, and it decides a tilt the data cannot tell), the prior's on
-    equality."""
-    if prior_beats_data(per_point[::-1], sigmas):
-        return 1
-    if prior_beats_data(per_point, sigmas):
-        return 0
-    totals = per_point.mean(axis=1) + penalties
-    return int(totals[1] < totals[0])
-
-
-def prior_beats_data(per_point: np.ndarray, sigmas: float) -> bool:
-    """Whether the pose of row 0 of per-point score terms (2, N) (m^2) scores lower on the data than that of
-    row 1 by more than ``sigmas`` standard errors of their paired per-point difference."""
+    """0 (the prior's pose) or 1 (plain ICP's, polished with the prior) from their per-point data terms (2, N)
+    (m^2) and upright penalties (2,). With d_i the per-point difference (ICP's minus the prior's) and SE its
+    standard error, the prior's pose is kept only when the objective it shapes, data term plus penalty, is
+    lower by more than ``sigmas`` SE (:func:`prior_beats_data`) and the data term alone is not higher by more
+    than ``sigmas`` SE; otherwise plain ICP's. Within the data's noise the prior may still win where it is
+    informed, a tilt (its penalty grows as 1 - cos tilt), but never on a tie between upright aliases: there it
+    knows nothing, and the prior-free search's basin stands."""
     difference = per_point[1] - per_point[0]
     noise = difference.std() / np.sqrt(len(difference))
-    return bool(difference.mean() > sigmas * noise)
+    data_against = difference.mean() < -sigmas * noise
+    return 0 if prior_beats_data(per_point, sigmas, penalties) and not data_against else 1
+
+
+def prior_beats_data(per_point: np.ndarray, sigmas: float, penalties: np.ndarray | None = None) -> bool:
+    """Whether the pose of row 0 of per-point score terms (2, N) (m^2), plus its penalty (``penalties`` (2,),
+    none by default), scores lower than that of row 1 by more than ``sigmas`` standard errors of their paired
+    per-point difference."""
+    difference = per_point[1] - per_point[0]
+    noise = difference.std() / np.sqrt(len(difference))
+    gap = difference.mean() + (0.0 if penalties is None else float(penalties[1] - penalties[0]))
+    return bool(gap > sigmas * noise)
 
 
 def _search(starts: np.ndarray, problem: Problem, model: matching.ModelIndex, normals_world: np.ndarray | None,
-            cfg: IcpConfig, yaw_only: bool) -> _Restarts:
-    """The loop from every start (K, 4, 4) at once: annealed Huber scale, losers pruned at ``prune_after``."""
+            cfg: IcpConfig, yaw_only: bool, hopping: bool = False) -> _Restarts:
+    """The loop from every start (K, 4, 4) at once: annealed Huber scale, losers pruned at ``prune_after``
+    (:func:`prune_keep`; ``hopping``: the starts are hops)."""
     restarts = _Restarts.start(starts)
     for iteration in range(cfg.max_iterations):
         active = restarts.active()
         if len(active) == 0:
             break
         _iterate(restarts, active, problem, model, normals_world, cfg, iteration, yaw_only)
-        if iteration + 1 == cfg.prune_after:
-            restarts.prune(cfg.prune_ratio, cfg.prune_keep)
+        keep = prune_keep(iteration, cfg, hopping)
+        if keep is not None:
+            restarts.prune(cfg.prune_ratio, keep)
     return restarts
 
 
+def prune_keep(iteration: int, cfg: IcpConfig, hopping: bool) -> int | None:
+    """How many restarts at most survive the pruning after loop iteration ``iteration`` (0-based), or None when
+    none runs then: at ``prune_after``, ``prune_keep`` (``hop_prune_keep`` among hops)."""
+    if iteration + 1 == cfg.prune_after:
+        return cfg.hop_prune_keep if hopping else cfg.prune_keep
+    return None
+
+
 def _search_together(problems: list[Problem], model: matching.ModelIndex, normals_world: np.ndarray | None,
-                     cfg: IcpConfig, starts: list[np.ndarray] | None = None) -> list[_Restarts]:
+                     cfg: IcpConfig, starts: list[np.ndarray] | None = None, hopping: bool = False
+                     ) -> list[_Restarts]:
     """:func:`_search` of each problem's restarts (:func:`_restart_starts`, not yaw_only), the problems
     differing only in their upright bias, as ONE batch through the loop: each restart steps under its own
     problem's bias, and each problem's restarts are pruned among themselves, when its own search would have
     pruned them (it was still running). Every restart's arithmetic is the same as in its own search (the loop
     is per restart; batching shares the per-call overhead, most of an iteration's time), so each result is
     that search's, and the per-call numpy overhead is paid once for all of them. ``starts``: each problem's
-    initial poses (K_i, 4, 4) (hops), instead of its restarts."""
+    initial poses (K_i, 4, 4) (hops), instead of its restarts; ``hopping``: they are hops (:func:`prune_keep`)."""
     if starts is None:
         starts = [_restart_starts(problem, model, cfg, False) for problem in problems]
     edges = np.cumsum([0] + [len(s) for s in starts])
@@ -270,9 +305,10 @@ def _search_together(problems: list[Problem], model: matching.ModelIndex, normal
             break
         running = [g for g in groups if np.any(~restarts.done[g] & ~restarts.pruned[g])]
         _iterate(restarts, active, problems[0], model, normals_world, cfg, iteration, False, bias[active])
-        if iteration + 1 == cfg.prune_after:
+        keep = prune_keep(iteration, cfg, hopping)
+        if keep is not None:
             for group in running:
-                restarts.prune(cfg.prune_ratio, cfg.prune_keep, group)
+                restarts.prune(cfg.prune_ratio, keep, group)
     return [restarts.part(group) for group in groups]
 
 
@@ -293,7 +329,7 @@ def hop(best: RegistrationResult, problem: Problem, model: matching.ModelIndex, 
     rounds = _hop_rounds(best, problem, model, cfg, yaw_only)
     starts, best = _next_round(rounds, None)
     while starts is not None:
-        starts, best = _next_round(rounds, _search(starts, problem, model, normals_world, cfg, yaw_only))
+        starts, best = _next_round(rounds, _search(starts, problem, model, normals_world, cfg, yaw_only, True))
     return best
 
 
@@ -343,7 +379,7 @@ def _hop_together(kept: list[RegistrationResult], problems: list[Problem], model
     while any(starts is not None for starts, _ in steps):
         order = [i for i, (starts, _) in enumerate(steps) if starts is not None]
         searched = _search_together([problems[i] for i in order], model, normals_world, cfg,
-                                    [steps[i][0] for i in order])
+                                    [steps[i][0] for i in order], hopping=True)
         for i, restarts in zip(order, searched):
             steps[i] = _next_round(rounds[i], restarts)
     return [result for _, result in steps]
