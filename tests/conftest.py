@@ -39,6 +39,28 @@ def sensors() -> Path:
 
 
 @pytest.fixture(scope="session")
+def office1(sensors):
+    """The real office1 Kinect frame (pcl/office1.pcd, depth corrected as its truth file says), its as-built IFC
+    and its truth: ``model`` (BimModel), ``frame`` (Frame; its depth read-only), ``truth`` (dict) and
+    ``T_world_camera`` (4, 4). Read once per session; skipped with a reason where ../shared/data/sensors is
+    absent. Read-only: copy before changing anything."""
+    import json
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from bim2rdt.bim import load_ifc
+    from bim2rdt.sources import open_source
+
+    folder = sensors / "pcl"
+    truth = json.loads((folder / "office1_truth.json").read_text())
+    frame = next(iter(open_source(folder / "office1.pcd", depth_correction=truth["depth_correction"]["g"])))
+    frame.depth.flags.writeable = False
+    return SimpleNamespace(model=load_ifc(folder / "office1.ifc"), frame=frame, truth=truth,
+                           T_world_camera=np.array(truth["T_world_camera"]))
+
+
+@pytest.fixture(scope="session")
 def site_ifc(tmp_path_factory):
     """The default construction site as an IFC4 file (read-only for tests: copy it before writing)."""
     from bim2rdt.sim.site import build_site_ifc

@@ -3,7 +3,6 @@ office1 Kinect frame as a cloud (truth from office1_truth.json), and bad input."
 
 from __future__ import annotations
 
-import json
 from types import SimpleNamespace
 
 import numpy as np
@@ -49,17 +48,13 @@ def test_a_360_degree_scan_is_fixed_from_a_prior_off_by_25_cm_and_5_degrees(site
 
 
 @pytest.fixture(scope="module")
-def office(sensors):
-    from bim2rdt.bim import load_ifc
-    from bim2rdt.sources import open_source
-
-    folder = sensors / "pcl"
-    truth = json.loads((folder / "office1_truth.json").read_text())
-    frame = next(iter(open_source(folder / "office1.pcd", depth_correction=truth["depth_correction"]["g"])))
+def office(office1):
+    """office1's model, its frame as a cloud (every valid depth pixel back-projected) and its true pose."""
+    frame = office1.frame
     valid = frame.valid_depth
     v, u = np.nonzero(valid)
     points = frame.intrinsics.backproject(np.stack([u, v], axis=1).astype(float), frame.depth[valid].astype(float))
-    return load_ifc(folder / "office1.ifc"), SimpleNamespace(points=points), np.array(truth["T_world_camera"])
+    return office1.model, SimpleNamespace(points=points), office1.T_world_camera
 
 
 @pytest.mark.parametrize("dx, dy, dyaw", [(0.14, 0.14, 5.0), (-0.2, 0.0, -5.0)])
@@ -85,3 +80,11 @@ def test_bad_clouds_are_refused_in_one_line(office):
     far[:3, 3] += (30.0, 0.0, 0.0)  # nothing of the model within reach: no permanent element seen
     with pytest.raises(LocalizationError, match="sees no permanent element"):
         localize_cloud(cloud, model, far, config=REAL_SENSOR)
+
+
+def test_a_cloud_fix_that_turned_beyond_a_smaller_basin_is_rejected_naming_the_sensor(office):
+    model, cloud, T_true = office
+    narrow = REAL_SENSOR.model_copy(update={"max_correction_deg": 3.0})
+    with pytest.raises(LocalizationError, match=r"moved the sensor 0\.\d\d m and turned it [45]\.\d deg .* beyond the "
+                                                r"basin \(0\.\d+ m, 3\.0 deg\): rejected"):
+        localize_cloud(cloud, model, offset(T_true, 0.0, 0.0, 5.0), config=narrow)

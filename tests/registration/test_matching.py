@@ -184,3 +184,28 @@ def test_sample_tree_answers_exactly_what_scipy_answers(samples, k, bound):
     scipy = cKDTree(points).query(queries, k=k, distance_upper_bound=bound)
     np.testing.assert_array_equal(ours[1], scipy[1])
     np.testing.assert_array_equal(ours[0], scipy[0])
+
+
+@pytest.mark.parametrize("apart_deg, another_face", [(60.0 + 1e-10, False), (60.0, False), (61.0, True)])
+def test_patches_exactly_60_degrees_apart_are_one_surface_whatever_the_last_bit(apart_deg, another_face):
+    """OTHER_FACE_DEG is 'more than 60 degrees' with a margin: a tube's facets two apart (exactly 60 degrees) must
+    not count as another face on one machine and as the same surface on the next (their cosine sits on the
+    threshold to the last bit)."""
+    grid = np.arange(3) * 0.01
+    points = np.stack(np.meshgrid(grid, grid, grid, indexing="ij"), -1).reshape(-1, 3)
+    normals = np.tile([1.0, 0.0, 0.0], (len(points), 1))
+    turned = np.deg2rad(apart_deg)
+    normals[1] = (np.cos(turned), np.sin(turned), 0.0)  # the sample at (0, 0, 0.01): a near neighbour
+    patches = matching.nearest_patches(_index(points, normals), np.array([[0.0, 0.002, 0.001]]))
+    assert patches.sample[0] == 0
+    assert np.isfinite(patches.other_face[0]) == another_face
+
+
+def test_a_point_as_near_to_two_patches_as_the_last_bit_keeps_the_nearer_sample():
+    """Two patches of one face a few ulps apart in height: np.argmin would pick by those bits (which follow the
+    CPU's BLAS kernel upstream); the nearest patch is the first candidate within a nanometre of the best."""
+    grid = np.arange(5) * 0.01
+    points = np.c_[np.stack(np.meshgrid(grid, grid), -1).reshape(-1, 2), np.zeros(25)]
+    points[1, 2] = 1e-18  # (0.01, 0): farther from the point than sample 0, and a few ulps nearer in height
+    patches = matching.nearest_patches(_index(points), np.array([[0.001, 0.0, 0.001]]))
+    assert patches.sample[0] == 0

@@ -10,16 +10,8 @@ import numpy as np
 import pytest
 import trimesh
 
-from bim2rdt.bim import load_ifc
 from bim2rdt.perception import look_at
-from bim2rdt.sim.site import build_site_ifc
 from bim2rdt.verify import VerifyError, verify_frames
-
-
-@pytest.fixture(scope="module")
-def site_model(tmp_path_factory):
-    folder = tmp_path_factory.mktemp("site")
-    return load_ifc(build_site_ifc(folder / "site.ifc"), cache_dir=folder / "cache")
 
 
 def _scan(model, T_world_sensor, step_deg=0.7, noise=0.004):

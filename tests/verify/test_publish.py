@@ -62,10 +62,8 @@ def test_the_map_equals_the_pgm_save_nav2_writes(published):
     check_grid(topics, "/map", folder / "out" / "maps" / "site.pgm")
 
 
-def test_a_keepout_zone_is_published_as_the_filter_mask_equal_to_its_pgm(tmp_path, sensors):
-    from bim2rdt.bim import load_ifc
-
-    model = load_ifc(sensors / "pcl" / "office1.ifc")
+def test_a_keepout_zone_is_published_as_the_filter_mask_equal_to_its_pgm(tmp_path, office1):
+    model = office1.model
     grid = OccupancyGrid.from_bim(model)
     centre = grid.frame.origin_xy[0] + 1.0, grid.frame.origin_xy[1] + 1.0
     grid = grid.with_zones([KeepOut.circle("crane", centre, 0.5)])

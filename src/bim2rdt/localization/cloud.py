@@ -27,8 +27,8 @@ from scipy.spatial import cKDTree
 from bim2rdt.bim import BimModel
 from bim2rdt.localization.config import LocalizationConfig
 from bim2rdt.localization.errors import LocalizationError
-from bim2rdt.localization.fix import (Localization, _coarse_icp, _correction, _observability, _pairs, _polish_icp,
-                                      _rigid_prior, _unit_up, _within)
+from bim2rdt.localization.fix import (Localization, _observability, _pairs, _rigid_prior, _unit_up, _within,
+                                      _within_basin)
 from bim2rdt.localization.surfaces import GRAZING_COS, PermanentMap, SurfaceSamples, permanent_map
 from bim2rdt.registration import IcpConfig, RegistrationError, register
 from bim2rdt.registration.so3 import invert_poses
@@ -77,15 +77,11 @@ def localize_cloud(cloud: object, model: BimModel, prior_T_world_sensor: np.ndar
     prior, up_world = _rigid_prior(prior_T_world_sensor), _unit_up(up)
     scan = cloud if isinstance(cloud, ScanPoints) else scan_points(cloud, cfg)
     scene = OccludedMap.of(model)
-    coarse, near = _fit(scan, scene, prior, prior, up_world, _coarse_icp(cfg), cfg, 2 * cfg.cloud_ray_deg)
-    pose = coarse
-    if cfg.polish_iterations > 0:
-        pose, _ = _fit(scan, scene, coarse, coarse, up_world, _polish_icp(cfg), cfg, cfg.cloud_ray_deg)
-    moved, turned = _correction(prior, pose, up_world)
-    if moved > cfg.max_correction or turned > cfg.max_correction_deg:
-        raise LocalizationError(f"the fix moved the sensor {moved:.2f} m and turned it {turned:.1f} deg from the "
-                                f"prior, beyond the basin ({cfg.max_correction} m, {cfg.max_correction_deg} deg): "
-                                "rejected")
+
+    def fit(start: np.ndarray, icp: IcpConfig, coarse: bool) -> tuple[np.ndarray, int]:
+        return _fit(scan, scene, start, start, up_world, icp, cfg, (2 if coarse else 1) * cfg.cloud_ray_deg)
+
+    pose, near, moved, turned = _within_basin(fit, prior, up_world, cfg, "sensor")
     visible = scene.visible(pose, scan.directions, cfg.cloud_ray_deg, cfg.cloud_margin_deg, cfg.max_range * 1.2)
     return _judge(scan, scene, visible, pose, prior, up_world, near, moved, turned, cfg)
 

@@ -14,6 +14,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -87,18 +88,30 @@ def localize(frame: Frame, model: BimModel, prior_T_world_camera: np.ndarray,
     if len(points_cam) < cfg.min_points:
         raise LocalizationError(f"the frame has {len(points_cam)} depth returns in {cfg.min_range}-{cfg.max_range} m "
                                 f"on its {cfg.pixel_stride}-pixel grid, need {cfg.min_points}")
-    coarse, near = _fit(points_cam, surfaces, frame, prior, prior, up_world, _coarse_icp(cfg), cfg,
-                        cfg.coarse_model_stride)
-    pose = coarse
-    if cfg.polish_iterations > 0:
-        pose, _ = _fit(points_cam, surfaces, frame, coarse, coarse, up_world, _polish_icp(cfg), cfg, cfg.model_stride)
-    moved, turned = _correction(prior, pose, up_world)
-    if moved > cfg.max_correction or turned > cfg.max_correction_deg:
-        raise LocalizationError(f"the fix moved the camera {moved:.2f} m and turned it {turned:.1f} deg from the "
-                                f"prior, beyond the basin ({cfg.max_correction} m, {cfg.max_correction_deg} deg): "
-                                "rejected")
+
+    def fit(start: np.ndarray, icp: IcpConfig, coarse: bool) -> tuple[np.ndarray, int]:
+        stride = cfg.coarse_model_stride if coarse else cfg.model_stride
+        return _fit(points_cam, surfaces, frame, start, start, up_world, icp, cfg, stride)
+
+    pose, near, moved, turned = _within_basin(fit, prior, up_world, cfg, "camera")
     visible = surfaces.visible(pose, frame.intrinsics, cfg.model_stride, cfg.view_margin, cfg.max_range * 1.2)
     return _judge(points_cam, normals_cam, surfaces, visible, pose, prior, up_world, near, moved, turned, cfg)
+
+
+def _within_basin(fit: Callable[[np.ndarray, IcpConfig, bool], tuple[np.ndarray, int]], prior: np.ndarray,
+                  up_world: np.ndarray, cfg: LocalizationConfig, sensor: str) -> tuple[np.ndarray, int, float, float]:
+    """The coarse fit from the prior, polished from the coarse fix (``fit(start, icp, coarse)`` -> (pose, points
+    within the basin)), kept only within the basin: (pose, near, moved m, turned deg). Raises
+    :class:`LocalizationError` naming the ``sensor`` when the fix moved or turned beyond it."""
+    pose, near = fit(prior, _coarse_icp(cfg), True)
+    if cfg.polish_iterations > 0:
+        pose, _ = fit(pose, _polish_icp(cfg), False)
+    moved, turned = _correction(prior, pose, up_world)
+    if moved > cfg.max_correction or turned > cfg.max_correction_deg:
+        raise LocalizationError(f"the fix moved the {sensor} {moved:.2f} m and turned it {turned:.1f} deg from the "
+                                f"prior, beyond the basin ({cfg.max_correction} m, {cfg.max_correction_deg} deg): "
+                                "rejected")
+    return pose, near, moved, turned
 
 
 def _fit(points_cam: np.ndarray, surfaces: PermanentMap, frame: Frame, view: np.ndarray, start: np.ndarray,

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from bim2rdt import exact
 from bim2rdt.errors import Bim2RdtError
 
 
@@ -87,14 +88,14 @@ def look_at(eye: np.ndarray | tuple[float, float, float], target: np.ndarray | t
     """
     eye, target, up = (np.asarray(v, dtype=np.float64) for v in (eye, target, up))
     forward = target - eye
-    if np.linalg.norm(forward) < 1e-9:
+    if exact.norm(forward) < 1e-9:
         raise CameraError(f"look_at: eye and target coincide at {eye.tolist()}")
-    forward /= np.linalg.norm(forward)
+    forward /= exact.norm(forward)
     right = np.cross(forward, up)
-    if np.linalg.norm(right) < 1e-9:
+    if exact.norm(right) < 1e-9:
         raise CameraError(f"look_at: the view direction {forward.tolist()} is parallel to up; the image has no "
                           "horizon to align")
-    right /= np.linalg.norm(right)
+    right /= exact.norm(right)
     down = np.cross(forward, right)
     T = np.eye(4)
     T[:3, :3] = np.stack([right, down, forward], axis=1)

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from bim2rdt import exact
 from bim2rdt.frames import UP
 
 SLAB_CLEARANCE = 0.015
@@ -23,5 +24,5 @@ def off_the_slab(points_world: np.ndarray, slab_height: float = 0.0, clearance: 
     them when fewer than ``least`` would remain (a flat object seen edge-on is better registered on its ROI
     than not at all)."""
     points_world = np.asarray(points_world, dtype=float)
-    above = points_world[points_world @ np.asarray(up, dtype=float) > slab_height + clearance]
+    above = points_world[exact.matmul(points_world, np.asarray(up, dtype=float)) > slab_height + clearance]
     return above if len(above) >= least else points_world

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from bim2rdt import exact
 from bim2rdt.registration import matching
 from bim2rdt.registration.config import IcpConfig
 from bim2rdt.registration.so3 import invert_poses
@@ -78,7 +79,8 @@ def _prior_information(pose: np.ndarray, centre: np.ndarray, problem: Problem, m
     if yaw_only:
         information[:3, :3] += HELD * (np.eye(3) - np.outer(problem.up_world, problem.up_world))
     if problem.support_height is not None:
-        lowest = problem.model_pts_body[np.argmin(problem.model_pts_body @ (pose[:3, :3].T @ problem.up_world))]
+        heights = problem.model_pts_body @ (pose[:3, :3].T @ problem.up_world)
+        lowest = problem.model_pts_body[exact.first_smallest(heights)]  # a flat base ties: the first of it
         row = point_to_plane_jacobians((pose[:3, :3] @ lowest + pose[:3, 3])[None], problem.up_world[None],
                                        centre)[0]
         information += cfg.support_weight * float(weights.sum()) * np.outer(row, row)

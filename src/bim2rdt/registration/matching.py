@@ -17,6 +17,8 @@ import numpy as np
 from pykdtree.kdtree import KDTree
 from scipy.spatial import ConvexHull, QhullError, cKDTree
 
+from bim2rdt import exact
+
 
 @dataclass
 class Pairs:
@@ -183,9 +185,10 @@ def nearest_patches(model: ModelIndex, points: np.ndarray, max_distance: float =
                                        distance_upper_bound=max_distance + model.surfel_radius)
     to_patch, candidates = surfel_distances(model, points, index, distance)
     rows = np.arange(len(points))
-    nearest = np.argmin(to_patch, axis=1)
+    nearest = exact.first_smallest(to_patch, axis=1)  # past an edge, both faces' patches tie: the nearer sample
     normals = np.take(model.normals, candidates, axis=0)
-    across = np.einsum("nci,ni->nc", normals, normals[rows, nearest]) < np.cos(np.deg2rad(OTHER_FACE_DEG))
+    # "more than" with a margin: a tube's facets exactly 60 degrees apart are one surface on every machine
+    across = exact.dot_rows(normals, normals[rows, nearest][:, None, :]) < np.cos(np.deg2rad(OTHER_FACE_DEG)) - 1e-9
     return Patches(to_patch[rows, nearest], candidates[rows, nearest],
                    np.where(across, to_patch, np.inf).min(axis=1))
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import trimesh
 
+from bim2rdt import exact
 from bim2rdt.registration.errors import RegistrationError
 from bim2rdt.registration.validation import MIN_SCENE_POINTS
 
@@ -42,4 +43,13 @@ def sample_model(mesh: trimesh.Trimesh, count: int = 2000, seed: int = 0,
         keep &= ~(lowest & (mesh.face_normals[:, 2] < -0.9))
     visible = mesh.submesh([np.flatnonzero(keep)], append=True) if not keep.all() else mesh
     points, face_index = trimesh.sample.sample_surface(visible, count, seed=seed)
-    return np.asarray(points, dtype=np.float64), np.asarray(visible.face_normals[face_index], dtype=np.float64)
+    return np.asarray(points, dtype=np.float64), unit_face_normals(visible)[face_index]
+
+
+def unit_face_normals(mesh: trimesh.Trimesh) -> np.ndarray:
+    """(F, 3) unit normals of the mesh's faces (zero for a degenerate one), bit-identical on any machine:
+    trimesh's ``face_normals`` normalise through a BLAS product, whose last bit follows the CPU."""
+    corners = np.asarray(mesh.vertices, dtype=np.float64)[mesh.faces]
+    crosses = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    lengths = exact.norm(crosses)[:, None]
+    return np.divide(crosses, lengths, out=np.zeros_like(crosses), where=lengths > 0)

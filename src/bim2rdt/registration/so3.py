@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from bim2rdt import exact
 from bim2rdt.frames import UP
 
 
@@ -18,13 +19,13 @@ def skew(v: np.ndarray) -> np.ndarray:
 
 def exp_so3(omega: np.ndarray) -> np.ndarray:
     """Rodrigues: rotation vectors (..., 3) in radians -> rotation matrices (..., 3, 3)."""
-    theta = np.linalg.norm(omega, axis=-1)[..., None, None]
+    theta = exact.norm(omega)[..., None, None]
     K = skew(omega)
     small = theta < 1e-12
     safe = np.where(small, 1.0, theta)
     a = np.where(small, 1.0, np.sin(safe) / safe)
     b = np.where(small, 0.5, (1.0 - np.cos(safe)) / safe**2)
-    return np.eye(3) + a * K + b * (K @ K)
+    return np.eye(3) + a * K + b * exact.matmul(K, K)
 
 
 def axis_angle(axis: np.ndarray, angle: np.ndarray) -> np.ndarray:

@@ -12,7 +12,9 @@ from collections.abc import Callable
 import numpy as np
 import trimesh
 
+from bim2rdt import exact
 from bim2rdt.errors import Bim2RdtError
+from bim2rdt.registration.so3 import axis_angle
 
 _ROUND_SECTIONS = 32
 
@@ -22,7 +24,25 @@ def _box(extents: tuple[float, float, float], centre: tuple[float, float, float]
 
 
 def _tube(start: tuple[float, float, float], end: tuple[float, float, float], radius: float) -> trimesh.Trimesh:
-    return trimesh.creation.cylinder(radius=radius, segment=np.array([start, end], dtype=float), sections=12)
+    """A 12-sided tube from ``start`` to ``end``: an upright one turned and moved there bit-exactly (trimesh's
+    ``segment=`` turns it with a BLAS product, whose last bit follows the CPU)."""
+    start, end = np.asarray(start, dtype=float), np.asarray(end, dtype=float)
+    axis = end - start
+    length = float(exact.norm(axis))
+    upright = trimesh.creation.cylinder(radius=radius, height=length, sections=12)
+    T = np.eye(4)
+    T[:3, :3] = _turn_up_to(axis / length)
+    T[:3, 3] = (start + end) / 2.0
+    return trimesh.Trimesh(exact.transform(T, upright.vertices), upright.faces, process=False)
+
+
+def _turn_up_to(direction: np.ndarray) -> np.ndarray:
+    """The rotation (3, 3) taking +z onto the unit ``direction`` (about their common normal)."""
+    normal = np.cross((0.0, 0.0, 1.0), direction)
+    sine = float(exact.norm(normal))
+    if sine < 1e-12:
+        return np.eye(3) if direction[2] > 0 else np.diag([1.0, -1.0, -1.0])
+    return axis_angle(normal / sine, np.array(np.arctan2(sine, direction[2])))
 
 
 def _join(parts: list[trimesh.Trimesh]) -> trimesh.Trimesh:

@@ -14,13 +14,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from bim2rdt import exact
 from bim2rdt.perception.camera import Intrinsics
 from bim2rdt.perception.frame import Frame
 from bim2rdt.sim.scene import GROUND, MISS, STRUCTURE, WORKER, SiteScene, ground_albedo, texture
 from bim2rdt.sim.surfaces import finish_albedo
 from bim2rdt.sim.tof import TofEffects, amplitude, dropout_chance, mixed_depth, step_pixels, subpixel_rays
 
-_LIGHT = np.array([0.35, 0.25, 0.9]) / np.linalg.norm([0.35, 0.25, 0.9])
+_LIGHT = np.array([0.35, 0.25, 0.9]) / exact.norm(np.array([0.35, 0.25, 0.9]))
 SKY_GREY = 200.0
 """Grey level of an overcast sky (and of pixels the camera gets no return from), 0-255."""
 LUMA = np.array([0.299, 0.587, 0.114])
@@ -103,14 +104,15 @@ def add_sensor_noise(frame: RgbdFrame, rng: np.random.Generator) -> RgbdFrame:
 
 def luminance(rgb: np.ndarray) -> np.ndarray:
     """(H, W) uint8 BT.601 luma of an (H, W, 3) image."""
-    return np.clip(rgb @ LUMA + 0.5, 0, 255).astype(np.uint8)
+    return np.clip(exact.matmul(rgb, LUMA) + 0.5, 0, 255).astype(np.uint8)
 
 
 def cast_frame(scene: SiteScene, intrinsics: Intrinsics, T_world_camera: np.ndarray,
                tof: TofEffects | None = None) -> RgbdFrame:
     """The noise-free frame: one embree ray per pixel, first hit only (so occlusion is real); with ``tof``,
     depth steps get mixed pixels and the frame carries its dropout chances (drawn by :func:`add_sensor_noise`)."""
-    hits = cast_rays(scene, intrinsics.pixel_rays().reshape(-1, 3) @ T_world_camera[:3, :3].T, T_world_camera[:3, 3])
+    rays = exact.rotate(T_world_camera[:3, :3], intrinsics.pixel_rays().reshape(-1, 3))
+    hits = cast_rays(scene, rays, T_world_camera[:3, 3])
     shape = (intrinsics.height, intrinsics.width)
     shade = _lambert(hits.normals, hits.directions)
     if scene.coloured:
@@ -146,7 +148,7 @@ def _with_tof(frame: RgbdFrame, scene: SiteScene, intrinsics: Intrinsics, hits: 
     dropout = None
     if tof.dropouts:
         chance = np.zeros(hits.count)
-        ranges = hits.depth[hits.hit] * np.linalg.norm(hits.directions, axis=1)
+        ranges = hits.depth[hits.hit] * exact.norm(hits.directions)
         chance[hits.hit] = dropout_chance(cos_incidence, amplitude(ir, cos_incidence, ranges), tof)
         dropout = chance.reshape(shape)
     return RgbdFrame(depth, frame.gray, frame.labels, frame.T_world_camera, frame.rgb, frame.part, dropout)
@@ -156,17 +158,17 @@ def _subpixel_depth(scene: SiteScene, intrinsics: Intrinsics, T_world_camera: np
                     vs: np.ndarray) -> np.ndarray:
     """Mixed depth (n,) of pixels (us, vs): 2 x 2 sub-rays, weighted by their return amplitudes."""
     rays = subpixel_rays(intrinsics, us, vs)
-    hits = cast_rays(scene, rays @ T_world_camera[:3, :3].T, T_world_camera[:3, 3])
+    hits = cast_rays(scene, exact.rotate(T_world_camera[:3, :3], rays), T_world_camera[:3, 3])
     weights = np.zeros(hits.count)
     if hits.hit.any():
         ir = _ir(reflectance(scene, hits) if scene.coloured else _grey_albedo(scene, hits.labels[hits.hit], hits.points))
-        ranges = hits.depth[hits.hit] * np.linalg.norm(hits.directions, axis=1)
+        ranges = hits.depth[hits.hit] * exact.norm(hits.directions)
         weights[hits.hit] = amplitude(ir, _cos_incidence(hits.normals, hits.directions), ranges)
     return mixed_depth(hits.depth.reshape(4, -1), weights.reshape(4, -1))
 
 
 def _cos_incidence(normals: np.ndarray, directions: np.ndarray) -> np.ndarray:
-    return np.abs(np.einsum("ni,ni->n", normals, directions)) / np.linalg.norm(directions, axis=1)
+    return np.abs(exact.dot_rows(normals, directions)) / exact.norm(directions)
 
 
 @dataclass(frozen=True)
@@ -193,10 +195,10 @@ def cast_rays(scene: SiteScene, directions: np.ndarray, origin: np.ndarray) -> H
     mesh, owner = scene.mesh()
     face = mesh.ray.intersects_first(np.broadcast_to(origin, directions.shape), directions)
     hit = face >= 0
-    normals = mesh.face_normals[face[hit]]
+    normals = scene.face_normals()[face[hit]]
     v0 = mesh.vertices[mesh.faces[face[hit], 0]]
     depth = np.full(len(face), np.nan)
-    depth[hit] = np.einsum("ni,ni->n", normals, v0 - origin) / np.einsum("ni,ni->n", normals, directions[hit])
+    depth[hit] = exact.dot_rows(normals, v0 - origin) / exact.dot_rows(normals, directions[hit])
     labels = np.full(len(face), MISS)
     labels[hit] = owner[face[hit]]
     part = np.full(len(face), -1)
@@ -228,13 +230,12 @@ def _tint(placed) -> np.ndarray:
 
 
 def _body_texture(placed, points_world: np.ndarray) -> np.ndarray:
-    T_model_world = np.linalg.inv(placed.T_world_model)
-    return texture(points_world @ T_model_world[:3, :3].T + T_model_world[:3, 3])
+    return texture(exact.transform(exact.inverse_pose(placed.T_world_model), points_world))
 
 
 def _lambert(normals: np.ndarray, directions: np.ndarray) -> np.ndarray:
-    facing = np.where(np.einsum("ni,ni->n", normals, directions)[:, None] > 0, -normals, normals)
-    return 0.3 + 0.7 * np.clip(facing @ _LIGHT, 0.0, 1.0)
+    facing = np.where(exact.dot_rows(normals, directions)[:, None] > 0, -normals, normals)
+    return 0.3 + 0.7 * np.clip(exact.matmul(facing, _LIGHT), 0.0, 1.0)
 
 
 def _grey_albedo(scene: SiteScene, labels: np.ndarray, points_world: np.ndarray) -> np.ndarray:

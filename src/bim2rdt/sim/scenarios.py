@@ -28,6 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from bim2rdt import exact
 from bim2rdt.errors import Bim2RdtError
 from bim2rdt.frames import UP
 from bim2rdt.perception.camera import Intrinsics, look_at
@@ -200,9 +201,10 @@ def knock(site: SiteScene, spec: ScenarioSpec, rng: np.random.Generator) -> Site
         if placed.family in spec.knocked:
             heading = rng.uniform(0.0, 2 * np.pi)
             T = T.copy()
-            T[:3, :3] = axis_angle(np.array([np.cos(heading), np.sin(heading), 0.0]),
-                                   np.array(np.deg2rad(rng.uniform(*spec.knocked_tilt_deg)))) @ T[:3, :3]
-            T[2, 3] -= float(np.min(placed.mesh.vertices @ T[2, :3] + T[2, 3]))
+            T[:3, :3] = exact.matmul(axis_angle(np.array([np.cos(heading), np.sin(heading), 0.0]),
+                                                np.array(np.deg2rad(rng.uniform(*spec.knocked_tilt_deg)))),
+                                     T[:3, :3])
+            T[2, 3] -= float(np.min(exact.matmul(placed.mesh.vertices, T[2, :3]) + T[2, 3]))
         objects.append(PlacedObject(placed.family, placed.mesh, T, placed.albedo))
     return SiteScene(objects, site.ground_size)
 
@@ -215,12 +217,12 @@ def perturb(T_true: np.ndarray, centroid_body: np.ndarray, spec: ScenarioSpec, r
                       np.array(np.deg2rad(rng.uniform(0.0, spec.max_tilt_deg))))
     yaw = axis_angle(UP, np.array(np.deg2rad(rng.uniform(-1, 1) * spec.max_yaw_deg)))
     direction = rng.normal(size=3)
-    centre = T_true[:3, :3] @ centroid_body + T_true[:3, 3]
-    turn = tilt @ yaw
+    centre = exact.matmul(T_true[:3, :3], centroid_body) + T_true[:3, 3]
+    turn = exact.matmul(tilt, yaw)
     T = np.eye(4)
-    T[:3, :3] = turn @ T_true[:3, :3]
-    T[:3, 3] = centre + turn @ (T_true[:3, 3] - centre)
-    T[:3, 3] += direction / np.linalg.norm(direction) * rng.uniform(0.0, spec.max_offset)
+    T[:3, :3] = exact.matmul(turn, T_true[:3, :3])
+    T[:3, 3] = centre + exact.matmul(turn, T_true[:3, 3] - centre)
+    T[:3, 3] += direction / exact.norm(direction) * rng.uniform(0.0, spec.max_offset)
     return T
 
 

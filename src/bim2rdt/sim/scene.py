@@ -17,7 +17,9 @@ from dataclasses import dataclass, field
 import numpy as np
 import trimesh
 
+from bim2rdt import exact
 from bim2rdt.frames import UP
+from bim2rdt.registration.sampling import unit_face_normals
 from bim2rdt.registration.so3 import axis_angle
 
 GROUND = -2
@@ -68,6 +70,7 @@ class SiteScene:
     _mesh: trimesh.Trimesh | None = field(default=None, init=False, repr=False)
     _face_owner: np.ndarray | None = field(default=None, init=False, repr=False)
     _face_part: np.ndarray | None = field(default=None, init=False, repr=False)
+    _face_normals: np.ndarray | None = field(default=None, init=False, repr=False)
 
     @property
     def coloured(self) -> bool:
@@ -96,16 +99,30 @@ class SiteScene:
             self._build()
         return self._face_part
 
+    def face_normals(self) -> np.ndarray:
+        """Unit normals (F, 3) of :meth:`mesh`'s faces, bit-identical on any machine (trimesh's go through BLAS);
+        zero for a degenerate face."""
+        if self._face_normals is None:
+            self._face_normals = unit_face_normals(self.mesh()[0])
+        return self._face_normals
+
     def _build(self) -> None:
         parts: list[tuple[trimesh.Trimesh, int, int]] = []
         if self.ground_size > 0:
             parts.append((_ground(self.ground_size), GROUND, -1))
-        parts += [(o.mesh.copy().apply_transform(o.T_world_model), i, i) for i, o in enumerate(self.objects)]
+        parts += [(placed_mesh(o), i, i) for i, o in enumerate(self.objects)]
         parts += [(b.mesh, STRUCTURE, k) for k, b in enumerate(self.building)]
-        parts += [(w.mesh.copy().apply_transform(w.T_world_model), WORKER, k) for k, w in enumerate(self.workers)]
+        parts += [(placed_mesh(w), WORKER, k) for k, w in enumerate(self.workers)]
         self._mesh = trimesh.util.concatenate([p for p, _, _ in parts])
         self._face_owner = np.concatenate([np.full(len(p.faces), owner) for p, owner, _ in parts])
         self._face_part = np.concatenate([np.full(len(p.faces), part) for p, _, part in parts])
+
+
+def placed_mesh(placed: PlacedObject) -> trimesh.Trimesh:
+    """The object's mesh in world coordinates, its vertices moved bit-exactly (trimesh's ``apply_transform``
+    is a BLAS product)."""
+    return trimesh.Trimesh(exact.transform(placed.T_world_model, placed.mesh.vertices), placed.mesh.faces,
+                           process=False)
 
 
 def ground_pose(x: float, y: float, yaw_rad: float) -> np.ndarray:

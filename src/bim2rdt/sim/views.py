@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from bim2rdt import exact
 from bim2rdt.perception.camera import Intrinsics
 from bim2rdt.perception.corners import shi_tomasi
 from bim2rdt.perception.edges import EdgeFilter, depth_at
@@ -45,8 +46,7 @@ def object_scene_points(frame: RgbdFrame, intrinsics: Intrinsics, index: int, rn
     seen = np.isfinite(depth)
     points_cam = intrinsics.backproject(uv[seen], depth[seen])
     points_cam = np.vstack([points_cam, _spurious(roi, depth[seen], intrinsics, rng, clutter_fraction)])
-    T = frame.T_world_camera
-    return points_cam @ T[:3, :3].T + T[:3, 3]
+    return exact.transform(frame.T_world_camera, points_cam)
 
 
 def _spurious(roi, depths: np.ndarray, intrinsics: Intrinsics, rng: np.random.Generator,
