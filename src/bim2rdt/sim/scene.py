@@ -100,8 +100,11 @@ class SiteScene:
         return self._face_part
 
     def face_normals(self) -> np.ndarray:
-        """Unit normals (F, 3) of :meth:`mesh`'s faces, bit-identical on any machine (trimesh's go through BLAS);
-        zero for a degenerate face."""
+        """The unit normals of :meth:`mesh`'s faces, bit-identical on any machine (trimesh's go through BLAS).
+
+        Returns:
+            (F, 3) unit normals in the world frame; zero for a degenerate face.
+        """
         if self._face_normals is None:
             self._face_normals = unit_face_normals(self.mesh()[0])
         return self._face_normals
