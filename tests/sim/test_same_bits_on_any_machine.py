@@ -18,9 +18,9 @@ import numpy as np
 RUN = """
 import hashlib, json
 import numpy as np
-from bim2rdt.bench.registration.calibration import check_covariance
-from bim2rdt.bench.registration.peers import SgIcp
-from bim2rdt.bench.registration.runs import upright_priors
+from bim2rdt.evaluation.calibration import check_covariance
+from bim2rdt.evaluation.peers import SgIcp
+from bim2rdt.evaluation.runs import upright_priors
 from bim2rdt.registration import IcpConfig
 from bim2rdt.sim import scenarios
 from bim2rdt.sim.render import cast_frame
