@@ -63,3 +63,31 @@ def test_the_raw_samples_are_bounded_by_size(make_monitor, clock):
         stored = monitor.store.raw_bytes()
     assert stored <= 0.5e6 + 20 * 30_000  # the bound, plus what arrived since the last check
     assert monitor.store.raw_seqs("dev-1")[-1] == len(items) - 1  # the oldest went first
+
+
+def test_a_fleet_whose_clocks_run_in_step_does_not_sort_out_in_one_commit():
+    """Devices switched on together have the same device times; each sorts out on steps of its own phase, so a
+    commit sorts out a few of them, not all (the NATS bench's latency spikes came from 100 devices at once)."""
+    from bim2rdt.safety.retention import SORT_EVERY_S, RawRetention
+    from bim2rdt.safety.store import ExposureStore
+
+    devices = [f"w{k}" for k in range(50)]
+    store = ExposureStore(None)
+    retention = RawRetention(store, recent_s=60.0, event_margin_s=10.0, retention_s=3600.0,
+                             max_bytes=1e9)
+    sorted_out: list[str] = []
+    retention._sort_out = lambda device, next_seq, cut: (sorted_out.append(device),
+                                                         retention._handled.__setitem__(device, cut))
+    per_commit, last = [], {}
+    for step in range(1, 121):  # a minute of batches of 0.5 s, all devices in every commit
+        newest = 60.0 + 0.5 * step
+        sorted_out.clear()
+        with store.transaction():
+            retention.prune([(d, step, newest) for d in devices], now=float(step), next_seq_of=lambda d: step)
+        per_commit.append(len(sorted_out))
+        for device in sorted_out:
+            assert newest - last.get(device, newest - SORT_EVERY_S) <= SORT_EVERY_S + 0.5
+            last[device] = newest
+    assert per_commit[0] == 50  # the first commit sets where each device stands
+    assert max(per_commit[1:]) <= 12  # 50 devices over 10 commits of a step: ~5 each, never all 50
+    assert all(newest_seen >= 60.0 + 0.5 * 120 - SORT_EVERY_S for newest_seen in last.values())

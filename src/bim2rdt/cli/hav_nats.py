@@ -33,6 +33,7 @@ def listen_partition(settings, url: str, partition: int, partitions: int, durati
     from bim2rdt.cli.common import stop_requested
     from bim2rdt.cli.hav_output import _leave, _password, watch
     from bim2rdt.safety import BusSink, HavMonitor
+    from bim2rdt.safety.heap import settle
     from bim2rdt.safety.persistence import Share
     from bim2rdt.safety.last_delivery import apply_last_delivery
 
@@ -51,6 +52,7 @@ def listen_partition(settings, url: str, partition: int, partitions: int, durati
         bus.accepting = lambda: monitor.failure is None  # nothing more is handled or acknowledged after a failure
         bus.on_fetched = monitor.flush  # each fetch is one group commit: no waiting for a group to fill
         bus.on_last_delivery = lambda topic, payload, n: apply_last_delivery(monitor, topic, payload, n)
+        settle()  # built: out of the collector's full passes (decision 0028)
         bus.connect()
         console.print(f"partition {partition}/{partitions} of site {site!r} on {url} (pid {os.getpid()}); "
                       f"{len(monitor.queries.devices())} device(s) restored")

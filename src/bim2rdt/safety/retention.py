@@ -18,6 +18,8 @@ those.
 
 from __future__ import annotations
 
+import math
+import zlib
 from collections.abc import Callable, Iterable
 
 from bim2rdt.bus.event import Event
@@ -77,13 +79,23 @@ class RawRetention:
         """Apply the recent and event rules to each (device, next seq, newest sample end (device time)) stream
         touched, and now and then the size bound (``next_seq_of(device)``: its first batch not yet processed)."""
         for device, next_seq, newest in streams:
-            if newest is not None and newest - self.recent_s >= self._handled.get(device, -float("inf")) + SORT_EVERY_S:
+            if newest is not None and self._due(device, newest - self.recent_s):
                 self._sort_out(device, next_seq, newest - self.recent_s)
         if now - self._size_checked_at >= SIZE_CHECK_EVERY_S:
             self._size_checked_at = now
             self.store.drop_keep_windows(now)
             self._windows = {d: [w for w in ws if w[2] > now] for d, ws in self._windows.items()}
             self._bound_size(next_seq_of)
+
+    def _due(self, device: str, cut: float) -> bool:
+        """Whether ``cut`` crossed a step of the device's grid since its last sorting out: steps of
+        ``SORT_EVERY_S`` shifted by a phase of its own (:func:`sort_phase`), so devices whose clocks run in step (a
+        fleet switched on together) do not all sort out in the same commit."""
+        handled = self._handled.get(device)
+        if handled is None:
+            return True
+        phase = sort_phase(device)
+        return math.floor((cut - phase) / SORT_EVERY_S) > math.floor((handled - phase) / SORT_EVERY_S)
 
     def _sort_out(self, device: str, next_seq: int, cut: float) -> None:
         """Keep (and compress) or delete the device's processed batches that fell out of the recent window."""
@@ -121,3 +133,8 @@ class RawRetention:
                 excess -= size
                 self._bytes -= size
         self.store.delete_raw(gone)
+
+
+def sort_phase(device: str) -> float:
+    """The device's offset (seconds, in [0, ``SORT_EVERY_S``)) of its sorting-out steps: fixed per device name."""
+    return zlib.crc32(device.encode()) % 1000 / 1000 * SORT_EVERY_S
