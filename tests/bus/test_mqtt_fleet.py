@@ -8,8 +8,8 @@ import pytest
 from bim2rdt.bench.mqtt_fleet import MqttFleet, MqttFleetError, remaining_length
 from bim2rdt.bus.topics import accel_topic
 
-from conftest import NATS_DEVICES, SITE
-from nats_helpers import received
+from tests.bus.conftest import NATS_DEVICES, SITE
+from tests.bus.nats_helpers import received
 
 
 @pytest.mark.parametrize("size, encoded", [(0, "00"), (127, "7f"), (128, "8001"), (16383, "ff7f"),
