@@ -1,6 +1,7 @@
 """docs/benchmarks.md from saved `bim2rdt bench ... --json` runs: no figure in the docs is copied by hand.
 
     python scripts/benchmarks_page.py record planning -- --repeat 3   # runs the bench, saves docs/benchmarks/planning.json
+    python scripts/benchmarks_page.py record --as hav-scale hav -- --scale --devices 100   # saves docs/benchmarks/hav-scale.json
     python scripts/benchmarks_page.py record-demo                     # times plain `make demo`, saves docs/benchmarks/make-demo.json
     python scripts/benchmarks_page.py render                          # writes docs/benchmarks.md from every saved run
 
@@ -40,15 +41,16 @@ def machine() -> dict:
     return {"cpu": cpu, "cores": os.cpu_count(), "python": platform.python_version(), "platform": platform.platform()}
 
 
-def record(name: str, args: list[str]) -> Path:
-    """Run ``bim2rdt bench NAME --json ARGS`` and save its output with the command, machine and date."""
+def record(name: str, args: list[str], saved_as: str | None = None) -> Path:
+    """Run ``bim2rdt bench NAME --json ARGS`` and save its output with the command, machine and date, as
+    ``docs/benchmarks/<saved_as or NAME>.json``."""
     command = [sys.executable, "-m", "bim2rdt", "bench", name, "--json", *args]
     done = subprocess.run(command, capture_output=True, text=True, check=True)
     result = json.loads(done.stdout[done.stdout.index("{"):])
     saved = {"command": shlex.join(["bim2rdt", "bench", name, "--json", *args]), "machine": machine(),
              "date": datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC"), "result": result}
     RUNS.mkdir(parents=True, exist_ok=True)
-    path = RUNS / f"{name}.json"
+    path = RUNS / f"{saved_as or name}.json"
     path.write_text(json.dumps(saved, indent=2) + "\n")
     return path
 
@@ -130,12 +132,13 @@ def main() -> None:
     sub = parser.add_subparsers(dest="what", required=True)
     run = sub.add_parser("record", help="run one benchmark and save its JSON")
     run.add_argument("name")
+    run.add_argument("--as", dest="saved_as", help="save as docs/benchmarks/SAVED_AS.json (default: NAME)")
     run.add_argument("args", nargs=argparse.REMAINDER)
     sub.add_parser("record-demo", help="time plain `make demo` and save it")
     sub.add_parser("render", help="write docs/benchmarks.md")
     options = parser.parse_args()
     if options.what == "record":
-        print(record(options.name, [arg for arg in options.args if arg != "--"]))
+        print(record(options.name, [arg for arg in options.args if arg != "--"], options.saved_as))
     elif options.what == "record-demo":
         print(record_demo())
     else:
