@@ -58,7 +58,8 @@ class StageProgress:
         self.count += 1
         self.last_tick = self.clock()
         if self._bar is not None:
-            self._bar.update(self._task, completed=self.count)
+            # drawn at each step: steps may come faster than the bar's own 10 Hz refresh
+            self._bar.update(self._task, completed=self.count, refresh=True)
         if self.count == self.totals.get(stage):  # all its steps done: say so now, not at the next stage's first
             self._end_stage()
         elif self._bar is None and self.clock() - self.last_line >= HEARTBEAT_S:
