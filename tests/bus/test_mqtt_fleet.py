@@ -29,7 +29,9 @@ def test_the_fleet_publishes_each_devices_messages_into_the_stream(nats_server):
     assert got == sorted((topic, payload) for _, topic, payload in sent)  # 200 B to 14 kB, each once
 
 
-def test_a_wrong_password_is_refused_in_one_line(nats_server):
+def test_a_wrong_password_is_refused_in_one_line_and_the_connected_wearables_are_closed(nats_server):
+    fleet = MqttFleet("127.0.0.1", nats_server.mqtt_port, {"w2": NATS_DEVICES["w2"], "w1": "not-its-password"})
     with pytest.raises(MqttFleetError, match=r"^the broker refused wearable 'w1' \(CONNACK return code [45]\)$"):
-        with MqttFleet("127.0.0.1", nats_server.mqtt_port, {"w1": "not-its-password"}):
+        with fleet:
             pass
+    assert fleet._wearables == {}  # w2 connected first, and was closed

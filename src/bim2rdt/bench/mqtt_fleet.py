@@ -67,8 +67,12 @@ class MqttFleet:
         self._selector = selectors.DefaultSelector()
 
     def __enter__(self) -> MqttFleet:
-        for device, password in self.credentials.items():
-            self._wearables[device] = self._connect(device, password)
+        try:
+            for device, password in self.credentials.items():
+                self._wearables[device] = self._connect(device, password)
+        except BaseException:  # a refused or unreachable wearable: the ones connected before it are closed too
+            self.close()
+            raise
         return self
 
     def __exit__(self, *exc: object) -> None:
