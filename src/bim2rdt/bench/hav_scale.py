@@ -11,10 +11,9 @@ Latency: with 2 monitor processes running, the wearables publish in real time at
 its exposure and events exist), p50/p99 over all batches after the first ``WARMUP_S`` seconds.
 
 The wearables are :class:`~bim2rdt.bench.mqtt_fleet.MqttFleet`: one thread writing QoS 1 PUBLISH packets on a
-connection per device. On a site each wearable is a device of its own; here the publisher shares the 2 cores with
-nats-server and the monitors, and paho (a network thread per client) took 40 % of a core at 1,500 msgs/s, the
-fleet 10 %. Each monitor process settles its heap before its first message, as ``hav listen`` does
-(:mod:`~bim2rdt.safety.heap`).
+connection per device. On a site each wearable is a device of its own; here the publisher shares the cores with
+nats-server and the monitors, so it must cost them as little as it can (decision 0028). Each monitor process
+settles its heap before its first message, as ``hav listen`` does (:mod:`~bim2rdt.safety.heap`).
 """
 
 from __future__ import annotations
@@ -113,7 +112,7 @@ def _summary_payloads(devices: int, seconds: int, fs: float) -> list[tuple[str, 
 
 
 def _server(devices: set[str], partitions: int, folder: Path) -> NatsServer:
-    return NatsServer(SITE, {d: f"{d}-pw" for d in devices}, {MONITOR: "monitor-pw"}, partitions=partitions,
+    return NatsServer(SITE, {d: _password(d) for d in devices}, {MONITOR: "monitor-pw"}, partitions=partitions,
                       folder=folder)
 
 
@@ -131,9 +130,14 @@ def _publish(server: NatsServer, messages: list[tuple[str, str, bytes]]) -> dict
             "mb_per_s": sum(len(p) for _, _, p in messages) / seconds / 1e6, "cpu_s": time.process_time() - cpu}
 
 
+def _password(device: str) -> str:
+    """The MQTT password the bench's server gives ``device``."""
+    return f"{device}-pw"
+
+
 def _passwords(messages: list[tuple[str, str, bytes]]) -> dict[str, str]:
-    """Each publishing device's MQTT password (the bench's server gives device d the password 'd-pw')."""
-    return {device: f"{device}-pw" for device in dict.fromkeys(device for device, _, _ in messages)}
+    """Each publishing device's MQTT password."""
+    return {device: _password(device) for device in dict.fromkeys(device for device, _, _ in messages)}
 
 
 def _wait_stored(server: NatsServer, count: int, timeout_s: float = 120.0) -> None:
