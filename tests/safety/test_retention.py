@@ -67,7 +67,7 @@ def test_the_raw_samples_are_bounded_by_size(make_monitor, clock):
 
 def test_a_fleet_whose_clocks_run_in_step_does_not_sort_out_in_one_commit():
     """Devices switched on together have the same device times; each sorts out on steps of its own phase, so a
-    commit sorts out a few of them, not all (the NATS bench's latency spikes came from 100 devices at once)."""
+    commit sorts out a few of them, not all (decision 0028)."""
     from bim2rdt.safety.retention import SORT_EVERY_S, RawRetention
     from bim2rdt.safety.store import ExposureStore
 

@@ -2,8 +2,7 @@
 
 On a 2-core machine the wearables' publishing takes CPU from the monitors being measured (on a site each wearable
 is a device of its own). paho runs a network thread per client and builds each packet in Python; this writes
-pre-framed QoS 1 PUBLISH packets on one blocking socket per device and counts the PUBACKs, so 100 wearables at
-1,500 msgs/s cost a few percent of a core. It speaks the protocol the wearables speak (CONNECT with the device's
+pre-framed QoS 1 PUBLISH packets on one blocking socket per device and counts the PUBACKs. It speaks the protocol the wearables speak (CONNECT with the device's
 user and password, PUBLISH QoS 1, PUBACK), so the broker's MQTT listener, its permissions and JetStream see what
 they see from paho.
 """

@@ -1,9 +1,9 @@
 """The monitor process's heap, settled once it is built, so the cyclic garbage collector's full passes stay short.
 
-A monitor process holds ~1 M long-lived objects once its imports (numpy, scipy, SQLAlchemy, pydantic, nats-py) and
-its restored state are in: every full collection walked them all, 60-180 ms during which no message is committed
-(the largest share of the NATS path's p99 latency in ``bench hav --scale``; decision 0028). :func:`settle` moves
-them to the collector's permanent generation: later full passes walk only what the process made since.
+A monitor process holds many long-lived objects once its imports (numpy, scipy, SQLAlchemy, pydantic, nats-py)
+and its restored state are in, and every full collection walks them all while no message is committed (decision
+0028). :func:`settle` moves them to the collector's permanent generation: later full passes walk only what the
+process made since.
 """
 
 from __future__ import annotations
