@@ -17,6 +17,27 @@ def samples_dir() -> Path:
     return Path(os.environ.get("BIM2RDT_SAMPLES", _DEFAULT_SAMPLES))
 
 
+SERIAL_MODULES = (
+    "tests/bus/test_nats_live.py",  # 60 wearables, 3 monitor processes, a partition back within 10 s
+    "tests/bus/test_bench_scale.py",  # the scale bench: processes and latency
+    "tests/bus/test_nats_supervisor.py",  # a supervisor, its monitors and a kill -9
+    "tests/server/test_connections.py",  # answers within 2 s under 1,000 connections
+    "tests/server/test_server_clock.py",  # the served day's clock against the wall clock
+    "tests/safety/test_outbox.py",  # a feed within 5 s
+    "tests/cli/test_interrupt.py",  # Ctrl-C at a given moment of a run
+    "tests/cli/test_verify_progress.py",  # the live bar's time-left estimate
+)
+"""Test files `make test` runs alone after the parallel part (marker ``serial``): their deadlines assume the
+machine is not shared with the other worker."""
+
+
+def pytest_collection_modifyitems(config, items) -> None:
+    root = Path(__file__).resolve().parents[1]
+    for item in items:
+        if Path(item.fspath).resolve().relative_to(root).as_posix() in SERIAL_MODULES:
+            item.add_marker(pytest.mark.serial)
+
+
 @pytest.fixture(scope="session")
 def samples() -> Path:
     folder = samples_dir()
