@@ -21,6 +21,8 @@ SERIAL_MODULES = (
     "tests/bus/test_nats_live.py",  # 60 wearables, 3 monitor processes, a partition back within 10 s
     "tests/bus/test_bench_scale.py",  # the scale bench: processes and latency
     "tests/bus/test_nats_supervisor.py",  # a supervisor, its monitors and a kill -9
+    "tests/bus/test_nats_monitor.py",  # redeliveries after an ack wait of 1-2 s
+    "tests/bus/test_nats_last_delivery.py",  # monitor lives of an ack wait of 1 s each
     "tests/server/test_connections.py",  # answers within 2 s under 1,000 connections
     "tests/server/test_server_clock.py",  # the served day's clock against the wall clock
     "tests/safety/test_outbox.py",  # a feed within 5 s
