@@ -29,7 +29,7 @@ def partition_data_dir(settings, partition: int, partitions: int) -> Path:
 def listen_partition(settings, url: str, partition: int, partitions: int, duration: float, max_offline: float,
                      sinks: list) -> None:
     """Run the monitor of one partition until stopped; acknowledges each message after its commit."""
-    from bim2rdt.bus.nats_bus import FETCH_BATCH, NatsBus, StreamLimits
+    from bim2rdt.bus.nats_bus import FETCH_BATCH, NatsBus
     from bim2rdt.cli.common import stop_requested
     from bim2rdt.cli.hav_output import _leave, _password, watch
     from bim2rdt.safety import BusSink, HavMonitor
@@ -41,7 +41,7 @@ def listen_partition(settings, url: str, partition: int, partitions: int, durati
     hav = settings.hav
     bus = NatsBus(url, user, _password(settings, user), settings.mqtt.site, partition=partition,
                   partitions=partitions, ack_wait_s=hav.ack_wait_s, max_deliver=hav.max_deliver,
-                  limits=StreamLimits(hav.stream_max_age_s, hav.stream_max_bytes, hav.stream_replicas))
+                  limits=hav.stream_limits())
     with stop_requested() as stop:
         site = settings.mqtt.site  # a store shared by the partitions (hav.store_url) holds every device's streams
         monitor = HavMonitor(partition_data_dir(settings, partition, partitions), settings.hav.site_secret,
