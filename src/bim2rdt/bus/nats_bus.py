@@ -114,6 +114,34 @@ class Earlier:
         return Earlier(start, delivered_through, 1)
 
 
+def probe(url: str, user: str | None, password: str | None, timeout_s: float = 5.0) -> None:
+    """Log in to nats-server at ``url`` and leave; BusError in one line when it cannot be reached or refuses.
+
+    Args:
+        url: ``nats://HOST:PORT``.
+        user: The user to log in as.
+        password: Its password.
+        timeout_s: How long to wait for the server, seconds.
+
+    Raises:
+        BusError: Nothing answers at ``url``, or it refused the login.
+    """
+    import nats
+
+    async def quiet(error: Exception) -> None:  # nats-py would print each failed attempt's traceback
+        pass
+
+    async def login() -> None:
+        connection = await nats.connect(url, user=user, password=password, connect_timeout=timeout_s,
+                                        allow_reconnect=False, max_reconnect_attempts=0, error_cb=quiet)
+        await connection.close()
+
+    try:
+        asyncio.run(asyncio.wait_for(login(), timeout_s * 2))
+    except Exception as error:
+        raise BusError(f"cannot use NATS at {url}: {type(error).__name__}: {error}".rstrip(": ")) from None
+
+
 def consumer_name(site: str, partition: int, partitions: int) -> str:
     return f"hav-{site}-{partition}-of-{partitions}"
 
