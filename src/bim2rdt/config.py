@@ -68,7 +68,7 @@ class HavSettings(MonitorConfig):
                                  "creates it (3 on a 3-node cluster).")
     stream_max_age_s: float = Field(24 * 3600.0, gt=0, description="NATS path: JetStream keeps wearable messages "
                                     "at most this long, seconds (then the oldest go).")
-    stream_max_bytes: int = Field(2**30, gt=0, description="NATS path: JetStream keeps at most this many bytes of "
+    stream_max_bytes: int = Field(8 * 2**30, gt=0, description="NATS path: JetStream keeps at most this many bytes of "
                                   "wearable messages (then the oldest go).")
     stream_devices: int = Field(32, ge=1, le=100_000, description="NATS path: the devices the stream's bytes are "
                                 "shared by; each keeps at most stream_max_bytes / stream_devices, so one device's "

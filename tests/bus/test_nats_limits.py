@@ -65,7 +65,7 @@ def test_an_existing_stream_is_brought_to_the_settings_limits(tmp_path):
         wanted = StreamLimits(max_age_s=60.0, max_bytes=10**6, max_msg_bytes=16 * 1024, devices=4)
         NatsBus(server.url, "monitor", NATS_MONITORS["monitor"], SITE, limits=wanted).connect().close()
         after = stream_config(server)
-    assert (before.max_bytes, before.max_age) == (2**30, 86400.0)
+    assert (before.max_bytes, before.max_age) == (8 * 2**30, 86400.0)
     assert (after.max_bytes, after.max_age, after.max_msg_size) == (10**6, 60.0, 16 * 1024)
     assert after.max_msgs_per_subject == wanted.max_msgs_per_subject == 10**6 // (4 * 3 * 16 * 1024)
 

@@ -57,7 +57,7 @@ class StreamLimits:
     """
 
     max_age_s: float = 24 * 3600.0
-    max_bytes: int = 2**30
+    max_bytes: int = 8 * 2**30
     replicas: int = 1
     max_msg_bytes: int = 64 * 1024
     devices: int = 32
