@@ -68,8 +68,22 @@ class HavSettings(MonitorConfig):
                                  "creates it (3 on a 3-node cluster).")
     stream_max_age_s: float = Field(24 * 3600.0, gt=0, description="NATS path: JetStream keeps wearable messages "
                                     "at most this long, seconds (then the oldest go).")
-    stream_max_bytes: int = Field(2**30, gt=0, description="NATS path: JetStream keeps at most this many bytes of "
+    stream_max_bytes: int = Field(8 * 2**30, gt=0, description="NATS path: JetStream keeps at most this many bytes of "
                                   "wearable messages (then the oldest go).")
+    stream_devices: int = Field(32, ge=1, le=100_000, description="NATS path: the devices the stream's bytes are "
+                                "shared by; each keeps at most stream_max_bytes / stream_devices, so one device's "
+                                "flood evicts only its own messages (decision 0037).")
+
+    def stream_limits(self):
+        """The HAV stream's limits from these settings (:class:`~bim2rdt.bus.nats_bus.StreamLimits`).
+
+        Returns:
+            The limits a monitor or ``hav broker --nats`` creates or updates the stream with.
+        """
+        from bim2rdt.bus.nats_bus import StreamLimits
+
+        return StreamLimits(self.stream_max_age_s, self.stream_max_bytes, self.stream_replicas,
+                            self.max_message_bytes, self.stream_devices)
 
     def monitor_config(self, **overrides: object) -> MonitorConfig:
         """The monitor's part of these settings, without the secret (the monitor takes it as its own argument).

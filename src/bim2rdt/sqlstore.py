@@ -9,7 +9,8 @@ connect timeout and pre-ping. Errors are the caller's typed error, one line, nev
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 
 import sqlalchemy as sa
@@ -25,6 +26,36 @@ SQLITE_BUSY_TIMEOUT_S = 60.0
 """How long an SQLite writer waits for another one to commit (the caller may pass its own)."""
 WRITE_OPTION = "bim2rdt_write"
 """Execution option of a connection whose SQLite transactions begin IMMEDIATE (take the write lock at BEGIN)."""
+
+
+SCHEMA_LOCK = 0x62696D32
+"""The PostgreSQL advisory lock key held while a store creates or migrates its schema (ASCII 'bim2')."""
+
+
+@contextmanager
+def schema_lock(conn: Connection) -> Iterator[None]:
+    """Hold the schema lock on ``conn`` (PostgreSQL; a no-op for SQLite, whose writers serialise anyway).
+
+    Processes that open a fresh PostgreSQL store together (the NATS path's partitions) would otherwise race to
+    create the same tables and one fails with ``duplicate key ... pg_type_typname_nsp_index``. A session-level
+    advisory lock, released on exit: the schema steps may span several transactions.
+
+    Args:
+        conn: An open connection, outside any transaction.
+
+    Yields:
+        Nothing; the lock is held until the block ends.
+    """
+    if conn.dialect.name != "postgresql":
+        yield
+        return
+    with conn.begin():
+        conn.execute(sa.text("SELECT pg_advisory_lock(:key)"), {"key": SCHEMA_LOCK})
+    try:
+        yield
+    finally:
+        with conn.begin():
+            conn.execute(sa.text("SELECT pg_advisory_unlock(:key)"), {"key": SCHEMA_LOCK})
 
 
 def parse_url(url: str, error: type[Bim2RdtError], what: str, example: str) -> URL:

@@ -5,6 +5,8 @@ from __future__ import annotations
 import logging
 import struct
 
+import pytest
+
 from bim2rdt.bus import LocalBus, accel_topic, encode_accel, status_topic
 from bim2rdt.bus.payloads import MAGIC
 
@@ -72,3 +74,27 @@ def test_an_engine_failure_dead_letters_its_group_and_memory_matches_the_store(m
         bus.publish(accel_topic("demo", "dev-1"), encode_accel(batch))  # it goes on: a gap, then exposure again
     monitor.flush()
     assert monitor.queries.day(subject, DAY).energy > committed and monitor.queries.stream_status("dev-1")["gaps"] == 1
+
+
+def test_a_valid_header_declaring_a_minute_at_100_khz_is_refused_by_its_size_before_decoding(make_monitor, monkeypatch):
+    import numpy as np
+
+    from bim2rdt.bus.payloads import AccelBatch
+    from bim2rdt.safety import subscriber
+
+    monitor, _ = make_monitor()
+    flood = encode_accel(AccelBatch("w7", 0, 1.7e9, 100_000.0, np.zeros((600_000, 3), np.float32)))  # 7 MB
+    monkeypatch.setattr(subscriber, "decode_accel", lambda payload: pytest.fail("decoded an oversized message"))
+    assert monitor.ingest_payload(accel_topic("demo", "w7"), flood) == []
+    refused = monitor.queries.malformed_messages()["w7"]
+    assert refused.count == 1 and f"over the {monitor.config.max_message_bytes}-byte bound" in refused.last_reason
+
+
+def test_the_projects_wearable_batches_are_well_inside_the_message_bound():
+    import numpy as np
+
+    from bim2rdt.bus.payloads import AccelBatch
+    from bim2rdt.safety.config import MAX_MESSAGE_BYTES
+
+    half_second_at_5khz = encode_accel(AccelBatch("w1", 0, 1.7e9, 5000.0, np.zeros((2500, 3), np.float32)))
+    assert 2 * len(half_second_at_5khz) <= MAX_MESSAGE_BYTES

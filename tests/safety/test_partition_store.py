@@ -3,6 +3,8 @@ from the store shows every partition's workers, and their figures only grow betw
 
 from __future__ import annotations
 
+import pytest
+
 import time
 
 from bim2rdt.safety import HavMonitor, MonitorConfig
@@ -107,3 +109,44 @@ def test_a_worker_wearing_two_devices_in_two_partitions_reads_the_sum_of_both_as
         assert abs(monitor.queries.day(ann, day).a8 - want.a8) <= 1e-9
     for monitor in (*monitors.values(), reader, reference):
         monitor.close()
+
+
+def test_partition_identities_reveal_a_worker_from_whichever_partition_remembered_them(tmp_path):
+    from bim2rdt.safety import AccessDenied, IdentityMap, PartitionIdentities
+
+    hav = tmp_path / "hav"
+    for k, (alias, worker) in enumerate([("p-ann", "ann"), ("p-bob", "bob")]):
+        remembered = IdentityMap(hav / f"partition-{k}-of-2" / "private" / "identity.sqlite", role="monitor")
+        remembered.remember(alias, worker)
+        remembered.close()
+    identities = PartitionIdentities(hav, role="safety")
+    assert (identities.real_name("p-ann"), identities.real_name("p-bob"), identities.real_name("p-eve")) == \
+        ("ann", "bob", None)
+    later = IdentityMap(hav / "partition-1-of-2" / "private" / "identity.sqlite", role="monitor")
+    later.remember("p-eve", "eve")  # remembered after the reader started
+    later.close()
+    assert identities.real_name("p-eve") == "eve"
+    identities.close()
+    with pytest.raises(AccessDenied):
+        PartitionIdentities(hav, role="viewer").real_name("p-ann")
+
+
+def test_serve_nats_with_an_unreachable_server_is_one_line_and_creates_no_demo_folder(tmp_path, site_ifc):
+    import os
+    import subprocess
+    import sys
+
+    from bim2rdt.twin import DigitalTwin
+
+    with DigitalTwin.open(f"sqlite:///{tmp_path / 'twin.db'}", site_ifc):
+        pass
+    env = {**os.environ, "BIM2RDT_HAV__STORE_URL": f"sqlite:///{tmp_path / 'hav.sqlite'}",
+           "BIM2RDT_DATA_DIR": str(tmp_path / "var"), "BIM2RDT_MQTT__PASSWORD": "monitor-pw"}
+    result = subprocess.run([sys.executable, "-m", "bim2rdt", "serve", "--nats", "nats://127.0.0.1:1", "--twin",
+                             f"sqlite:///{tmp_path / 'twin.db'}", "--ifc", str(site_ifc), "--port", "0",
+                             "--duration", "1"], capture_output=True, text=True, timeout=120, env=env,
+                            cwd=tmp_path)
+    assert result.returncode == 1 and "dashboard:" not in result.stdout, result.stdout + result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and "cannot use NATS at nats://127.0.0.1:1" in lines[0], result.stderr
+    assert not (tmp_path / "out").exists()

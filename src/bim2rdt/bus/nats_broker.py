@@ -126,7 +126,7 @@ class NatsServer:
 
     def __init__(self, site: str, devices: dict[str, str], monitors: dict[str, str], partitions: int = 1,
                  port: int | None = None, mqtt_port: int | None = None, folder: Path | None = None,
-                 max_file_store: int = 2 * 2**30, limits: StreamLimits | None = None):
+                 max_file_store: int = 10 * 2**30, limits: StreamLimits | None = None):
         if not Path(NATS_SERVER).exists():
             raise BrokerError(f"{NATS_SERVER} not found: install Debian's nats-server package")
         self._own_folder = folder is None

@@ -42,13 +42,43 @@ FETCH_BATCH = 256
 log = logging.getLogger(__name__)
 
 
+SUBJECTS_PER_DEVICE = 3
+"""A device publishes on three subjects: accel, status and summary (:func:`~bim2rdt.bus.partitions.device_subjects`)."""
+
+
 @dataclass(frozen=True)
 class StreamLimits:
-    """How much of the wearable stream JetStream keeps: the oldest messages go first past either bound."""
+    """How much of the wearable stream JetStream keeps: the oldest messages go first past either bound.
+
+    One device must not evict the others' unread messages (decision 0037): no message is longer than
+    ``max_msg_bytes`` (the stream refuses it), and each subject keeps at most :attr:`max_msgs_per_subject`, its own
+    oldest going first. So a device holds at most ``max_bytes / devices`` of the stream, however it floods, and the
+    stream's byte bound is reached only when more than ``devices`` devices send.
+    """
 
     max_age_s: float = 24 * 3600.0
-    max_bytes: int = 2**30
+    max_bytes: int = 8 * 2**30
     replicas: int = 1
+    max_msg_bytes: int = 64 * 1024
+    devices: int = 32
+    """The devices the stream's bytes are shared by (each one's share is ``max_bytes / devices``)."""
+
+    def __post_init__(self) -> None:
+        if self.max_msgs_per_subject < 1:
+            raise ValueError(f"a stream of {self.max_bytes} bytes cannot hold one {self.max_msg_bytes}-byte message "
+                             f"per subject for {self.devices} devices: raise stream_max_bytes")
+
+    @property
+    def max_msgs_per_subject(self) -> int:
+        """Messages each device subject keeps: its share of the stream in messages of the largest size."""
+        return self.max_bytes // (self.devices * SUBJECTS_PER_DEVICE * self.max_msg_bytes)
+
+    def differences(self, config) -> list[str]:
+        """What an existing stream's ``config`` (nats-py StreamConfig) has other than these limits."""
+        wanted = {"max_age": self.max_age_s, "max_bytes": self.max_bytes, "max_msg_size": self.max_msg_bytes,
+                  "max_msgs_per_subject": self.max_msgs_per_subject, "num_replicas": self.replicas}
+        return [f"{name} {getattr(config, name)} (settings: {value:g})" for name, value in wanted.items()
+                if getattr(config, name) is None or abs(float(getattr(config, name)) - float(value)) > 1e-6]
 
 
 @dataclass(frozen=True)
@@ -84,22 +114,63 @@ class Earlier:
         return Earlier(start, delivered_through, 1)
 
 
+def probe(url: str, user: str | None, password: str | None, timeout_s: float = 5.0) -> None:
+    """Log in to nats-server at ``url`` and leave; BusError in one line when it cannot be reached or refuses.
+
+    Args:
+        url: ``nats://HOST:PORT``.
+        user: The user to log in as.
+        password: Its password.
+        timeout_s: How long to wait for the server, seconds.
+
+    Raises:
+        BusError: Nothing answers at ``url``, or it refused the login.
+    """
+    import nats
+
+    async def quiet(error: Exception) -> None:  # nats-py would print each failed attempt's traceback
+        pass
+
+    async def login() -> None:
+        connection = await nats.connect(url, user=user, password=password, connect_timeout=timeout_s,
+                                        allow_reconnect=False, max_reconnect_attempts=0, error_cb=quiet)
+        await connection.close()
+
+    try:
+        asyncio.run(asyncio.wait_for(login(), timeout_s * 2))
+    except Exception as error:
+        raise BusError(f"cannot use NATS at {url}: {type(error).__name__}: {error}".rstrip(": ")) from None
+
+
 def consumer_name(site: str, partition: int, partitions: int) -> str:
     return f"hav-{site}-{partition}-of-{partitions}"
 
 
 async def ensure_stream(js, limits: StreamLimits = StreamLimits()) -> None:
-    """Create the HAV stream (file storage, bounded by age and size; the oldest messages go first) if missing."""
+    """Create the HAV stream (file storage, bounded by age, size, message size and per-subject count; the oldest
+    messages go first) if missing, else bring an existing one to ``limits``. BusError naming the difference when the
+    server refuses the update (a replica count, say, cannot change on a single server)."""
     from nats.js.api import DiscardPolicy, RetentionPolicy, StorageType, StreamConfig
     from nats.js.errors import NotFoundError
 
     config = StreamConfig(name=STREAM, subjects=[f"{PREFIX}.>"], storage=StorageType.FILE,
                           retention=RetentionPolicy.LIMITS, discard=DiscardPolicy.OLD, max_age=limits.max_age_s,
-                          max_bytes=limits.max_bytes, num_replicas=limits.replicas)
+                          max_bytes=limits.max_bytes, max_msg_size=limits.max_msg_bytes,
+                          max_msgs_per_subject=limits.max_msgs_per_subject, num_replicas=limits.replicas)
     try:
-        await js.stream_info(STREAM)
+        info = await js.stream_info(STREAM)
     except NotFoundError:
         await js.add_stream(config)
+        return
+    differences = limits.differences(info.config)
+    if not differences:
+        return
+    try:
+        await js.update_stream(config)
+    except Exception as error:
+        raise BusError(f"the {STREAM} stream has {', '.join(differences)} and the server refused to change it: "
+                       f"{error}") from None
+    log.warning("the %s stream had %s: updated to the settings", STREAM, ", ".join(differences))
 
 
 async def _resume_from(js, durable: str) -> tuple[int | None, Earlier]:

@@ -200,10 +200,12 @@ def _broker(settings, names: list[str], port: int | None, nats: bool, mqtt_port:
     monitor = settings.mqtt.username
     devices = {name: password for name, password in passwords.items() if name not in (monitor, "dashboard")}
     broker = NatsServer(settings.mqtt.site, devices, {monitor: passwords[monitor]}, partitions=partitions,
-                        port=port or 14222, mqtt_port=mqtt_port)
+                        port=port or 14222, mqtt_port=mqtt_port, limits=settings.hav.stream_limits())
+    limits = broker.limits
     return broker, (f"nats-server on {broker.url} (wearables: MQTT 3.1.1 on 127.0.0.1:{broker.mqtt_port}) for site "
                     f"{settings.mqtt.site!r}, {partitions} partition(s); monitor {monitor!r}, devices "
-                    f"{', '.join(devices)}")
+                    f"{', '.join(devices)}; stream HAV keeps {limits.max_bytes} bytes for {limits.max_age_s:g} s, "
+                    f"messages of {limits.max_msg_bytes} bytes at most, {limits.max_msgs_per_subject} per subject")
 
 
 def bench_hav(

@@ -3,11 +3,14 @@ that runs all N of them on this host and restarts any that dies."""
 
 from __future__ import annotations
 
+import ctypes
 import os
+import signal
 import subprocess
 import sys
 import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 from bim2rdt.cli.common import console
@@ -16,6 +19,8 @@ RESTART_DELAY_S = 1.0
 """Seconds before a cold restart of a monitor (no standby ready), so a crash loop does not spin."""
 POLL_S = 0.2
 """Seconds between the supervisor's looks at its monitors."""
+PR_SET_PDEATHSIG = 1
+"""Linux prctl option: the signal a process gets when its parent dies."""
 
 
 def partition_data_dir(settings, partition: int, partitions: int) -> Path:
@@ -29,7 +34,7 @@ def partition_data_dir(settings, partition: int, partitions: int) -> Path:
 def listen_partition(settings, url: str, partition: int, partitions: int, duration: float, max_offline: float,
                      sinks: list) -> None:
     """Run the monitor of one partition until stopped; acknowledges each message after its commit."""
-    from bim2rdt.bus.nats_bus import FETCH_BATCH, NatsBus, StreamLimits
+    from bim2rdt.bus.nats_bus import FETCH_BATCH, NatsBus
     from bim2rdt.cli.common import stop_requested
     from bim2rdt.cli.hav_output import _leave, _password, watch
     from bim2rdt.safety import BusSink, HavMonitor
@@ -41,7 +46,7 @@ def listen_partition(settings, url: str, partition: int, partitions: int, durati
     hav = settings.hav
     bus = NatsBus(url, user, _password(settings, user), settings.mqtt.site, partition=partition,
                   partitions=partitions, ack_wait_s=hav.ack_wait_s, max_deliver=hav.max_deliver,
-                  limits=StreamLimits(hav.stream_max_age_s, hav.stream_max_bytes, hav.stream_replicas))
+                  limits=hav.stream_limits())
     with stop_requested() as stop:
         site = settings.mqtt.site  # a store shared by the partitions (hav.store_url) holds every device's streams
         monitor = HavMonitor(partition_data_dir(settings, partition, partitions), settings.hav.site_secret,
@@ -70,29 +75,45 @@ def supervise(args: list[str], partitions: int, duration: float) -> None:
     from bim2rdt.cli.common import stop_requested
 
     command = [sys.executable, "-m", "bim2rdt", "hav", "listen", *args]
+    start = _child_starter(os.getpid())
     children: dict[int, subprocess.Popen] = {}
     standby: subprocess.Popen | None = None
     deadline = time.monotonic() + duration if duration else float("inf")
     with stop_requested() as stop:
         try:
             for k in range(partitions):
-                children[k] = subprocess.Popen(command + ["--partition", f"{k}/{partitions}"])
+                children[k] = start(command + ["--partition", f"{k}/{partitions}"])
             while not stop.is_set() and time.monotonic() < deadline:
                 if standby is None or standby.poll() is not None:
-                    standby = subprocess.Popen(command + ["--standby"], stdin=subprocess.PIPE, text=True)
+                    standby = start(command + ["--standby"], stdin=subprocess.PIPE, text=True)
                 for k, child in children.items():
                     if child.poll() is None:
                         continue
                     console.print(f"[yellow]partition {k}/{partitions} exited ({child.returncode}); the standby "
                                   f"takes it[/yellow]")
-                    children[k], standby = _hand_over(standby, k, partitions, command), None
+                    children[k], standby = _hand_over(standby, k, partitions, command, start), None
                     break
                 stop.wait(min(POLL_S, max(deadline - time.monotonic(), 0.0)))
         finally:
             _stop_all(list(children.values()) + ([standby] if standby is not None else []))
 
 
-def _hand_over(standby: subprocess.Popen | None, k: int, partitions: int, command: list[str]) -> subprocess.Popen:
+def _child_starter(supervisor: int) -> Callable[..., subprocess.Popen]:
+    """``Popen`` for the supervisor's monitors: on Linux each gets SIGTERM when the supervisor dies (a parent-death
+    signal), so a ``kill -9`` of the supervisor leaves no orphan consuming beside the next supervisor's monitors."""
+    def die_with_supervisor() -> None:  # in the child, between fork and exec
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(PR_SET_PDEATHSIG, signal.SIGTERM)
+        if os.getppid() != supervisor:  # it died before the signal was armed
+            os.kill(os.getpid(), signal.SIGTERM)
+
+    linux = sys.platform.startswith("linux")
+    return lambda command, **options: subprocess.Popen(command, preexec_fn=die_with_supervisor if linux else None,
+                                                       **options)
+
+
+def _hand_over(standby: subprocess.Popen | None, k: int, partitions: int, command: list[str],
+               start: Callable[..., subprocess.Popen]) -> subprocess.Popen:
     """The standby serving partition ``k`` now, else (it died) a cold start."""
     if standby is not None and standby.poll() is None:
         try:
@@ -102,7 +123,7 @@ def _hand_over(standby: subprocess.Popen | None, k: int, partitions: int, comman
         except OSError:
             pass
     time.sleep(RESTART_DELAY_S)
-    return subprocess.Popen(command + ["--partition", f"{k}/{partitions}"])
+    return start(command + ["--partition", f"{k}/{partitions}"])
 
 
 def wait_for_partition() -> str | None:

@@ -12,6 +12,10 @@ from bim2rdt.cli.common import console, print_json, print_table, writable_folder
 from bim2rdt.cli.hav_output import DEV_HELP, dev_banner, require_own_secrets
 
 
+DEMO_OUT = Path("out/demo")
+"""The embedded demo's folder (``make demo`` writes it)."""
+
+
 def register(app: typer.Typer, bench_app: typer.Typer) -> None:
     app.command("serve")(serve_command)
     app.command("token")(token_command)
@@ -31,7 +35,8 @@ def serve_command(
                                     "127.0.0.1: this machine only)."),
     port: int | None = typer.Option(None, "--port", min=0, max=65535, help="Port (default BIM2RDT_SERVER__PORT, "
                                     "8000; 0 = any free port)."),
-    out: Path = typer.Option(Path("out/demo"), "--out", callback=writable_folder, help="The demo's folder."),
+    out: Path | None = typer.Option(None, "--out", help="The embedded demo's folder (default out/demo); not used, "
+                                    "nor created, with --twin."),
     speed: float = typer.Option(20.0, "--speed", min=0.1, max=1000.0, help="Device seconds per wall second of "
                                 "the demo's simulated wearables."),
     all_roles: bool = typer.Option(False, "--all-roles", help="Also generate and print a safety and an admin "
@@ -64,6 +69,7 @@ def serve_command(
 
         raise HavError("serve --nats reads the partitions' shared store: set BIM2RDT_HAV__STORE_URL to the URL "
                        "their monitors use")
+    out = writable_folder(out or DEMO_OUT) if twin_url is None else (out or DEMO_OUT)
     live = LiveServe(settings, config, out, twin_url, ifc, address, speed, all_roles,
                      progress=lambda stage: status.update(stage), nats=nats)
     try:

@@ -247,7 +247,7 @@ class LiveServe:
     def _open_monitor(self):
         if not (self.demo or self.mqtt or self.nats):
             return None, None
-        from bim2rdt.safety import HavError, HavMonitor, IdentityMap
+        from bim2rdt.safety import HavError, HavMonitor, IdentityMap, PartitionIdentities
 
         if self.nats and not self.settings.hav.store_url:
             raise HavError("serve --nats reads the partitions' shared store: set BIM2RDT_HAV__STORE_URL to the URL "
@@ -257,7 +257,8 @@ class LiveServe:
         clock = {"clock": self.clock.now} if self.clock is not None else {}  # its day is the demo's simulated day
         monitor = HavMonitor(folder, self.settings.hav.site_secret, [], self.settings.hav.monitor_config(), **clock)
         self._closers.append(monitor.close)
-        identity = IdentityMap(folder / "private" / "identity.sqlite", role="safety")
+        identity = PartitionIdentities(folder, role="safety") if self.nats else \
+            IdentityMap(folder / "private" / "identity.sqlite", role="safety")
         self._closers.append(identity.close)
         return monitor, identity
 
@@ -267,6 +268,12 @@ class LiveServe:
             return "no HAV monitor (give --mqtt HOST:PORT for wearables)"
         site = self.settings.mqtt.site
         if self.nats:
+            from bim2rdt.bus.credentials import user_password
+            from bim2rdt.bus.nats_bus import probe
+
+            mqtt = self.settings.mqtt
+            probe(self.nats, mqtt.username, user_password(mqtt.username, mqtt.username, mqtt.password,
+                                                          mqtt.device_secret))
             reader = StoreReader(monitor).start()
             self._closers.append(reader.stop)
             return f"every partition's workers from the shared store of {self.nats} (site {site})"

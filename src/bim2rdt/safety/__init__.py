@@ -14,7 +14,7 @@ _HOMES = {
     "EAV": "exposure", "ELV": "exposure", "a_hv": "exposure", "combine_exposures": "exposure",
     "daily_exposure": "exposure", "exposure_points": "exposure", "time_to_limit": "exposure",
     "HavMonitor": "monitor", "MonitorQueries": "queries", "Session": "sessions", "MountingCorrection": "mounting",
-    "IdentityMap": "privacy", "pseudonym": "privacy",
+    "IdentityMap": "privacy", "PartitionIdentities": "privacy", "pseudonym": "privacy",
     "BusSink": "sinks", "CallbackSink": "sinks", "EventSink": "sinks", "ListSink": "sinks",
     "covered_band": "weighting", "weighted_rms": "weighting", "wh_weighting_factor": "weighting",
 }

@@ -38,6 +38,11 @@ class ArtefactLimits:
     physical_limit: float = PHYSICAL_LIMIT
 
 
+MAX_MESSAGE_BYTES = 64 * 1024
+"""Default bound of one wearable message, bytes. The project's wearables send 0.5 s batches at 5 kHz: 30 kB as
+float32, 15 kB as int16 counts; 64 KiB keeps them at under half of it (and 0.5 s at 10 kHz float32 still fits)."""
+
+
 class MonitorConfig(BaseModel):
     """How the monitor detects activities, rejects artefacts, orders batches, commits and keeps raw data."""
 
@@ -81,6 +86,9 @@ class MonitorConfig(BaseModel):
                                 "together at most (one SQLite transaction, one filtering pass per stream).")
     commit_delay_s: float = Field(0.25, ge=0, le=10, description="Group commit: the longest a received batch waits "
                                   "for its commit, seconds (0: every message commits alone).")
+    max_message_bytes: int = Field(MAX_MESSAGE_BYTES, ge=4096, le=2**20, description="Largest wearable message, "
+                                   "bytes: the monitor dead-letters a longer one before decoding it, and the NATS "
+                                   "stream refuses to store it (decision 0037).")
 
     @model_validator(mode="after")
     def _stop_not_above_start(self) -> MonitorConfig:

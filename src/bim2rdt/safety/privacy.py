@@ -97,3 +97,48 @@ class IdentityMap:
     def close(self) -> None:
         """Close the map's database connections."""
         self._engine.dispose()
+
+
+class PartitionIdentities:
+    """The identity maps of the NATS path's monitors, read together (role ``safety``): each partition K of N
+    keeps its own under ``<hav folder>/partition-K-of-N/private/``, and a single monitor under ``<hav
+    folder>/private/``. Maps that appear later (a partition started after the reader) are found at the next look.
+
+    Args:
+        hav_folder: The monitors' HAV data folder (``<data_dir>/hav``).
+        role: The reader's role; only ``safety`` may read real names.
+    """
+
+    def __init__(self, hav_folder: Path, role: str):
+        self.hav_folder, self.role = Path(hav_folder), role
+        self._maps: dict[Path, IdentityMap] = {}
+
+    def paths(self) -> list[Path]:
+        """The identity files there now: the single monitor's first, then each partition's."""
+        single = self.hav_folder / "private" / "identity.sqlite"
+        return [single] * single.is_file() + sorted(self.hav_folder.glob("partition-*-of-*/private/identity.sqlite"))
+
+    def real_name(self, pseudonym_: str) -> str | None:
+        """The worker id behind a pseudonym, from whichever map holds it.
+
+        Args:
+            pseudonym_: The pseudonym.
+
+        Returns:
+            The worker's real id, or None when no map holds the pseudonym.
+
+        Raises:
+            AccessDenied: Opened by a role other than ``safety``.
+        """
+        if self.role != SAFETY_ROLE:
+            raise AccessDenied(f"role {self.role!r} may not read the identity map (only {SAFETY_ROLE!r})")
+        for path in self.paths():
+            identity = self._maps.get(path) or self._maps.setdefault(path, IdentityMap(path, self.role))
+            if (name := identity.real_name(pseudonym_)) is not None:
+                return name
+        return None
+
+    def close(self) -> None:
+        """Close every map opened so far."""
+        for identity in self._maps.values():
+            identity.close()

@@ -160,7 +160,8 @@ class ExposureStore:
         self._cursor = None
         with self._errors("cannot open"):
             self._writer = self.engine.connect()
-            migrate(self._writer)
+            with sqlstore.schema_lock(self._writer):
+                migrate(self._writer)
         self._owner: int | None = None
         self._leases: set[str] = set()
         self._lease_conn: Connection | None = None

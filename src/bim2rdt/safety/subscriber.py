@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import logging
 import threading
+import time
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
@@ -72,10 +73,22 @@ class BusSubscriber:
         if self._flusher is not None and self._flusher is not threading.current_thread():
             self._flusher.join()
 
+    def oversized(self, device: str, payload: bytes, received: float) -> bool:
+        """True (and the message dead-lettered) when ``payload`` is longer than any wearable sends: it is refused
+        before decoding, so a valid header declaring millions of samples costs nothing."""
+        limit = self.monitor.config.max_message_bytes
+        if len(payload) <= limit:
+            return False
+        self.monitor.refuse(device, f"message of {len(payload)} bytes: over the {limit}-byte bound of a wearable "
+                            f"message", received)
+        return True
+
     def accept(self, topic: str, payload: bytes, received: float) -> AccelBatch | None:
         """The message's batch, stamped ``received``; None (dead-lettered) if it is malformed, too slowly sampled
         to weigh, or its device id is not the topic's."""
         device = device_of(topic) or "?"
+        if self.oversized(device, payload, received):
+            return None
         try:
             batch = decode_accel(payload)
             require_weighable_rate(batch.fs)
@@ -91,6 +104,8 @@ class BusSubscriber:
     def accept_summary(self, topic: str, payload: bytes, received: float) -> DeviceSummary | None:
         """The on-device summary, stamped ``received``; None (dead-lettered) if malformed or not the topic's device."""
         device = device_of(topic) or "?"
+        if self.oversized(device, payload, received):
+            return None
         try:
             summary = decode_summary(payload)
         except PayloadError as error:
@@ -125,7 +140,8 @@ class BusSubscriber:
         """A wearable's retained status, after committing what is waiting."""
         with self._lock:
             events = self.flush()
-            events += self.monitor.on_status(topic, payload)
+            if not self.oversized(device_of(topic) or "?", payload, time.time()):
+                events += self.monitor.on_status(topic, payload)
             _call(ack)
             return events
 
