@@ -45,6 +45,7 @@ def verify_command(
     record them in a twin and export it."""
     from bim2rdt.bim import load_ifc
     from bim2rdt.config import get_settings, ifc_cache_dir
+    from bim2rdt.sources import open_recording
     from bim2rdt.verify import VerifyConfig, levelled, prior_pose, record_twin, verify_frames, write_outputs
     from bim2rdt.verify.outputs import verdict_counts
 
@@ -66,15 +67,10 @@ def verify_command(
     if T_prior is not None:
         _inside(model, T_prior[:3, 3])
     correction = _numbers(depth_correction, 3, "--depth-correction") if depth_correction else None
-    if topics is not None and not _is_bag(source):
-        raise _bad("--topics is for ROS bags (.mcap, .db3, .bag, a rosbag2 folder)")
-    options = {"topics": topics, "every": every, "max_frames": max_frames,
-               "sync_tolerance": settings.ros.sync_tolerance} if _is_bag(source) else {}
-    frames = _frames(source, correction, {k: v for k, v in options.items() if v is not None})
-    if not _is_bag(source) and (every or max_frames):
-        frames = _Subsampled(frames, every or 1, max_frames)
+    frames = open_recording(source, depth_correction=correction, topics=topics, every=every, max_frames=max_frames,
+                            sync_tolerance=settings.ros.sync_tolerance)
     config = VerifyConfig(find_new=detector != "none", min_fitness=settings.twin.min_fitness)
-    with _progress(frames, as_json, every, max_frames) as tick:
+    with _progress(frames.expected_frames, as_json) as tick:
         result = verify_frames(frames, model, T_prior, config, progress=lambda frame: tick("frame"))
         with record_twin(result, model, out, settings.twin) as twin:
             files = write_outputs(result, twin, out)
@@ -128,69 +124,21 @@ def _bad(message: str) -> Exception:
     return VerifyError(message)
 
 
-SCAN_SUFFIXES = (".ply", ".las", ".laz", ".e57")
-
-
-BAG_SUFFIXES = (".mcap", ".db3", ".bag")
-
-
-class _Subsampled:
-    """Every N-th frame of a source, at most ``limit``."""
-
-    def __init__(self, frames, every: int, limit: int | None) -> None:
-        self.frames, self.every, self.limit = frames, every, limit
-
-    def __iter__(self):
-        import itertools
-
-        return itertools.islice(iter(self.frames), 0, None if self.limit is None else self.limit * self.every,
-                                self.every)
-
-
-def _is_bag(source: Path) -> bool:
-    return source.suffix.lower() in BAG_SUFFIXES or (source.is_dir() and (source / "metadata.yaml").is_file())
-
-
 FRAME_STAGES = {"frame": "frames verified", "twin": "twin recorded and exported"}
 
 
-def _progress(frames, quiet: bool, every: int | None, max_frames: int | None):
+def _progress(expected_frames: int | None, quiet: bool):
     """``tick(stage)`` (:class:`~bim2rdt.cli.progress.StageProgress`): on a terminal a bar with the frames done
-    (of the source's length when it knows it: a bag), the time spent and left; piped, one plain line per stage
-    (its count and time) and one every half minute in a long one. ``quiet`` (--json): nothing."""
+    (of the recording's length when it knows it: a bag, a scan), the time spent and left; piped, one plain line
+    per stage (its count and time) and one every half minute in a long one. ``quiet`` (--json): nothing."""
     from contextlib import nullcontext
 
     from bim2rdt.cli.progress import StageProgress
 
     if quiet:
         return nullcontext(lambda stage: None)
-    expected = getattr(frames, "expected_frames", None)
-    totals = {"twin": 1}
-    if expected:
-        total = -(-expected // (every or 1))
-        totals["frame"] = min(total, max_frames) if max_frames else total
+    totals = {"twin": 1} | ({"frame": expected_frames} if expected_frames else {})
     return StageProgress(console, FRAME_STAGES, totals)
-
-
-def _frames(source: Path, correction, extra: dict | None = None):
-    """The source's frames (``open_source``), or a scan as one cloud (``read_cloud``: .ply .las .laz .e57, and
-    a .pcd that is not organised), with the depth correction applied."""
-    from bim2rdt.sources import SourceError, correct_points, open_source, read_cloud
-
-    options = {"depth_correction": correction} if correction is not None else {}
-    options.update(extra or {})
-    if source.suffix.lower() not in SCAN_SUFFIXES:
-        try:
-            return open_source(source, **options)
-        except SourceError as error:
-            if "not organised" not in str(error):
-                raise
-    cloud = read_cloud(source)
-    if correction is not None:
-        from dataclasses import replace
-
-        cloud = replace(cloud, points=correct_points(cloud.points, correction))
-    return [cloud]
 
 
 def _numbers(text: str, count: int, option: str) -> list[float]:

@@ -25,6 +25,7 @@ from bim2rdt.perception.frame import Frame
 from bim2rdt.perception.observation import Observation
 from bim2rdt.perception.structure import movable_elements
 from bim2rdt.semantics import KnowledgeBasePriors, UprightPrior
+from bim2rdt.sources import as_recording
 from bim2rdt.twin import ElementStatus, TwinConfig
 from bim2rdt.twin.verdict import fit_trusted
 from bim2rdt.verify.depth_check import DepthCheck, DepthCheckConfig, check_depth
@@ -110,14 +111,14 @@ class VerifyResult:
     frames: list[FrameResult]
     dropped: list[dict] = field(default_factory=list)
     """Frames the source dropped before verify saw them (a bag's: no depth partner, no TF within the tolerance),
-    each ``{"time", "reason"}``."""
+    each ``{"time", "reason", "kind"}``."""
     source_warnings: list[str] = field(default_factory=list)
     """What the source found off about the recording as a whole (a bag whose clocks disagree)."""
 
     @property
     def drop_counts(self) -> dict[str, int]:
         """{kind (or reason): number} of the frames the source dropped."""
-        return dict(Counter(d.get("kind", d["reason"]) for d in self.dropped))
+        return dict(Counter(d["kind"] for d in self.dropped))
 
     @property
     def miscalibrated(self) -> bool:
@@ -147,11 +148,11 @@ def verify_frames(frames: Iterable, model: BimModel, prior: np.ndarray | None = 
       until a fix is accepted: from then on the own poses are odometry anchored at the last fix, as with
       ``prior`` (a ROS bag's camera in ``map``: the fix is what map -> odom should be).
 
-    A source that drops frames (``dropped``: a list of ``{"time", "reason"}``, read after iterating) or warns about
-    the recording (``warnings``) has them carried into the result.
+    What a :class:`~bim2rdt.sources.Recording` dropped (``{"time", "reason", "kind"}``, read after iterating) and
+    its warnings about the recording are carried into the result (a plain iterable drops nothing).
 
     Args:
-        frames: The frames or scans, in the order they were taken (a ``FrameSource`` or any iterable).
+        frames: The frames or scans, in the order they were taken (a ``Recording``, or any iterable).
         model: The BIM, loaded with geometry.
         prior: ``T_world_sensor`` (4x4, metres) of the first frame in the model's frame; None trusts the
             frames' own poses until a fix is accepted.
@@ -173,7 +174,8 @@ def verify_frames(frames: Iterable, model: BimModel, prior: np.ndarray | None = 
     priors = family_priors(model) if priors is None else priors
     results: list[FrameResult] = []
     anchor: tuple[np.ndarray | None, np.ndarray] | None = None if prior is None else (None, np.asarray(prior))
-    for index, frame in enumerate(frames):
+    recording = as_recording(frames)
+    for index, frame in enumerate(recording):
         own = frame.T_world_camera if isinstance(frame, Frame) else None
         result = verify_frame(index, frame, model, scene, _prior_for(own, anchor), config, priors)
         result.recorded = own
@@ -184,15 +186,12 @@ def verify_frames(frames: Iterable, model: BimModel, prior: np.ndarray | None = 
         results.append(result)
         if progress is not None:
             progress(result)
-    dropped = list(getattr(frames, "dropped", []))
+    dropped = list(recording.dropped)
     if not results:
         reasons = "; ".join(f"{n} {k}" for k, n in Counter(d["reason"] for d in dropped).most_common(3))
         raise VerifyError("the source holds no frames" + (f" (all {len(dropped)} dropped: {reasons})" if dropped
                                                           else ""))
-    kinds = getattr(frames, "drop_kind", None)
-    if kinds is not None:
-        dropped = [{**d, "kind": kinds(d["reason"])} for d in dropped]
-    return VerifyResult(results, dropped, list(getattr(frames, "warnings", [])))
+    return VerifyResult(results, dropped, list(recording.warnings))
 
 
 def family_priors(model: BimModel) -> dict[str, UprightPrior]:
