@@ -170,8 +170,7 @@ def _inside(model, position) -> None:
     """A prior farther than 2 m outside the model's permanent elements is refused."""
     import numpy as np
 
-    from bim2rdt.localization.cloud import OccludedMap
-    from bim2rdt.localization.errors import LocalizationError
+    from bim2rdt.localization import LocalizationError, OccludedMap
 
     try:
         low, high = OccludedMap.of(model).permanent.mesh.bounds

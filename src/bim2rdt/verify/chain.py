@@ -18,8 +18,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from bim2rdt.bim import BimModel
-from bim2rdt.localization import LocalizationConfig, LocalizationError, localize_cloud
-from bim2rdt.localization.cloud import OccludedMap, scan_points
+from bim2rdt.localization import (LocalizationConfig, LocalizationError, OccludedMap, depth_points, localize_cloud,
+                                  scan_points)
 from bim2rdt.perception.background import explained, structure_for
 from bim2rdt.perception.frame import Frame
 from bim2rdt.perception.observation import Observation
@@ -217,7 +217,7 @@ def verify_frame(index: int, frame, model: BimModel, scene: OccludedMap, prior: 
     and pitch."""
     start = clock.perf_counter()
     if isinstance(frame, Frame):
-        name, when, points_sensor = frame.source, frame.time, frame_points(frame)
+        name, when, points_sensor = frame.source, frame.time, depth_points(frame)
         if prior is not None and frame.up is not None:
             prior = levelled(prior, frame.up)
     else:
@@ -229,12 +229,12 @@ def verify_frame(index: int, frame, model: BimModel, scene: OccludedMap, prior: 
         result.reason = "no prior pose: give --prior X,Y,Z,YAW_DEG or --prior-file, or a source with poses"
         return _timed(result, start)
     try:
-        scan = scan_points(_Cloud(points_sensor), config.localization)
+        scan = scan_points(points_sensor, config.localization)
     except LocalizationError as error:
         result.reason = str(error)
         return _timed(result, start)
     try:
-        loc = localize_cloud(scan, model, prior, (0.0, 0.0, 1.0), config.localization)
+        loc = localize_cloud(scan, model, prior, (0.0, 0.0, 1.0), config.localization, scene)
     except LocalizationError as error:
         result.reason = str(error)
         result.depth = _depth_at_best_fit(scan, model, scene, prior, config)
@@ -265,23 +265,10 @@ def _depth_at_best_fit(scan, model: BimModel, scene: OccludedMap, prior: np.ndar
         "max_correction_deg": 4 * config.localization.max_correction_deg, "min_inlier_fraction": 0.0,
         "min_inliers": 6, "max_behind_fraction": 1.0})
     try:
-        best = localize_cloud(scan, model, prior, (0.0, 0.0, 1.0), loose)
+        best = localize_cloud(scan, model, prior, (0.0, 0.0, 1.0), loose, scene)
     except LocalizationError:
         return None
     return check_depth(scan, scene, best.pose, config.localization.max_range, config.depth)
-
-
-def frame_points(frame: Frame) -> np.ndarray:
-    """The frame's valid depth pixels as camera-frame points (N, 3), metres."""
-    valid = frame.valid_depth
-    v, u = np.nonzero(valid)
-    depth = frame.depth[valid].astype(np.float64)
-    return frame.intrinsics.backproject(np.stack([u, v], axis=1).astype(np.float64), depth)
-
-
-@dataclass(frozen=True)
-class _Cloud:
-    points: np.ndarray
 
 
 def _observe(index: int, points_sensor: np.ndarray, pose: np.ndarray, model: BimModel, scene: OccludedMap,

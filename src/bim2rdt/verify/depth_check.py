@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial import cKDTree
 
-from bim2rdt.localization.cloud import OccludedMap, ScanPoints
+from bim2rdt.localization import OccludedMap, ScanPoints
 
 
 @dataclass(frozen=True)

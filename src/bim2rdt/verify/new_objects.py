@@ -16,7 +16,7 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from bim2rdt.bim import BimModel
-from bim2rdt.localization.cloud import voxel_means
+from bim2rdt.localization import voxel_means
 from bim2rdt.perception.library import element_body_mesh
 from bim2rdt.perception.observation import UNKNOWN_FAMILY, Observation
 from bim2rdt.registration import sample_model

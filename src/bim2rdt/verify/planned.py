@@ -34,7 +34,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from bim2rdt.bim import BimElement, BimModel
-from bim2rdt.localization.cloud import voxel_means
+from bim2rdt.localization import voxel_means
 from bim2rdt.perception.fitting import FitRules, fit_detection
 from bim2rdt.perception.library import element_body_mesh
 from bim2rdt.perception.observation import Observation
