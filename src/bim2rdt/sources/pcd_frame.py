@@ -112,13 +112,13 @@ def fit_intrinsics(path, xyz: np.ndarray) -> Intrinsics:
     valid = np.all(np.isfinite(xyz), axis=-1) & (xyz[..., 2] > 0)
     if valid.sum() < 100:
         raise SourceError(path, f"only {int(valid.sum())} valid points: too few to fit the camera's intrinsics; "
-                                "give them (intrinsics=...)")
+                                "give them (intrinsics=...; bim2rdt verify --intrinsics FILE.json)")
     z = xyz[..., 2][valid]
     fx, cx, ru = _line_fit(xyz[..., 0][valid] / z, u[valid])
     fy, cy, rv = _line_fit(xyz[..., 1][valid] / z, v[valid])
     if max(ru, rv) > MAX_FIT_RESIDUAL_PX or fx <= 0 or fy <= 0:
         raise SourceError(path, f"the organised cloud is not a pinhole image (fit residual {max(ru, rv):.2f} px); "
-                                "give the intrinsics (intrinsics=...)")
+                                "give the intrinsics (intrinsics=...; bim2rdt verify --intrinsics FILE.json)")
     return Intrinsics(width, height, *(round(float(k), 4) for k in (fx, fy, cx, cy)))
 
 

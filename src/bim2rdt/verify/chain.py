@@ -16,6 +16,7 @@ from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field, replace
 
 import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
 
 from bim2rdt.bim import BimModel
 from bim2rdt.localization import (LocalizationConfig, LocalizationError, OccludedMap, depth_points, localize_cloud,
@@ -36,28 +37,51 @@ from bim2rdt.verify.priors import levelled
 from bim2rdt.verify.rays import RangeLookup
 
 
-def real_sensor_localization() -> LocalizationConfig:
-    """Localization settings for consumer RGB-D cameras and scanners at up to ~5 m: a Kinect's depth noise is
-    ~3 cm at 4.7 m (structured light grows with z^2), so inliers reach 5 cm and the Huber scale 2.5 cm; a real
-    room has its furniture in front of half the walls, so 30 % of the points near the map suffice."""
-    return LocalizationConfig(inlier_distance=0.05, huber_delta=0.025, min_inlier_fraction=0.3)
+REAL_SENSOR = {"inlier_distance": 0.05, "huber_delta": 0.025, "min_inlier_fraction": 0.3}
+"""Localization settings for consumer RGB-D cameras and scanners at up to ~5 m: a Kinect's depth noise is ~3 cm at
+4.7 m (structured light grows with z^2), so inliers reach 5 cm and the Huber scale 2.5 cm; a real room has its
+furniture in front of half the walls, so 30 % of the points near the map suffice."""
 
 
-@dataclass(frozen=True)
-class VerifyConfig:
-    """The knobs of verify. ``depth_noise`` (a, b): the sensor's depth sigma is a + b z^2 metres at depth z
-    (Kinect v1, Khoshelham & Elberink 2012: ~1.4 mm/m^2), used where a point is judged on or off a wall."""
+def real_sensor_localization(base: LocalizationConfig | None = None) -> LocalizationConfig:
+    """``base`` (``Settings.localization``) with the real sensor's values (:data:`REAL_SENSOR`) wherever it does
+    not set them itself: what verify localizes with. The robot's own defaults suit a time-of-flight camera's
+    millimetre noise; a value the user sets (``BIM2RDT_LOCALIZATION__INLIER_DISTANCE``) wins.
 
-    localization: LocalizationConfig = field(default_factory=real_sensor_localization)
-    planned: PlannedConfig = field(default_factory=PlannedConfig)
-    new: NewObjectConfig = field(default_factory=NewObjectConfig)
-    depth: DepthCheckConfig = field(default_factory=DepthCheckConfig)
+    Args:
+        base: Localization settings; None: the defaults.
+
+    Returns:
+        The settings verify uses.
+    """
+    base = base or LocalizationConfig()
+    unset = {name: value for name, value in REAL_SENSOR.items() if name not in base.model_fields_set}
+    return base.model_copy(update=unset)
+
+
+class VerifyConfig(BaseModel):
+    """The knobs of verify (``Settings.verify``, ``BIM2RDT_VERIFY__*``). ``depth_noise`` (a, b): the sensor's depth
+    sigma is a + b z^2 metres at depth z (Kinect v1, Khoshelham & Elberink 2012: ~1.4 mm/m^2), used where a point is
+    judged on or off a wall."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid", use_attribute_docstrings=True)
+
+    localization: LocalizationConfig = Field(default_factory=real_sensor_localization)
+    """Follows ``Settings.localization`` with the real sensor's defaults (:func:`real_sensor_localization`); set
+    ``BIM2RDT_LOCALIZATION__*``, not this."""
+    planned: PlannedConfig = Field(default_factory=PlannedConfig)
+    """The planned-object check."""
+    new: NewObjectConfig = Field(default_factory=NewObjectConfig)
+    """The new-object clusters."""
+    depth: DepthCheckConfig = Field(default_factory=DepthCheckConfig)
+    """The miscalibration test."""
     depth_noise: tuple[float, float] = (0.002, 0.0015)
+    """(a m, b 1/m): the depth sigma a + b z^2 at depth z."""
     surface_tolerance: float = 0.03
     """A point this close to a permanent surface (plus 3 sigma of depth noise) is the building's."""
     min_fitness: float = TwinConfig().min_fitness
-    """A fit with less of its points on the body than this is no evidence the object is there (the twin's
-    ``min_fitness``, ``Settings.twin.min_fitness``: the edge passes it): its place may be judged seen empty instead."""
+    """A fit with less of its points on the body than this is no evidence the object is there: its place may be
+    judged seen empty instead. Follows ``Settings.twin.min_fitness``."""
     find_new: bool = True
     """Cluster what neither the building nor a planned object explains into new objects."""
 
