@@ -102,7 +102,7 @@ def run_site_day(out_dir: Path, seed: int = 0, workers: int = 2, minutes: float 
     def route_for_today() -> DayRoute:
         return plan_day_route(model, targets, ROBOT_START_XY, mission_config, events, _shift_start())
 
-    def perception() -> DemoPerception:
+    def eyes() -> DemoPerception:
         return DemoPerception(detector, model, reality, priors, seed, yoloe, config=perception)
 
     route = route_for_today()
@@ -112,7 +112,7 @@ def run_site_day(out_dir: Path, seed: int = 0, workers: int = 2, minutes: float 
                              tick=lambda: tick("station"))
     recorded: list = []
     with _recorder(record, keep_odometry, recorded) as recording:
-        mission, localization = localized_mission(context, perception, ROBOT_START_XY, seed, route=route.route,
+        mission, localization = localized_mission(context, eyes, ROBOT_START_XY, seed, route=route.route,
                                                   comparison_route=route_for_today().route, record=recording)
     record_mission(twin, mission.observations, mission.stations, times=route.route.arrivals, missing=mission.missing)
     tick("twin")
