@@ -23,12 +23,14 @@ from pydantic_settings.exceptions import SettingsError
 from bim2rdt.errors import Bim2RdtError
 from bim2rdt.localization.config import LocalizationConfig
 from bim2rdt.mission.config import MissionConfig
+from bim2rdt.perception import PerceptionConfig
 from bim2rdt.registration.config import IcpConfig
 from bim2rdt.safety.config import MonitorConfig
 from bim2rdt.semantics.llm import LlmPriorsConfig
 from bim2rdt.server.config import ServerConfig
 from bim2rdt.sources.ros_config import RosConfig
 from bim2rdt.twin.config import TwinConfig
+from bim2rdt.verify import VerifyConfig, real_sensor_localization
 
 
 def default_samples_dir() -> Path:
@@ -131,6 +133,8 @@ class Settings(BaseSettings):
     registration: IcpConfig = IcpConfig()
     localization: LocalizationConfig = LocalizationConfig()
     mission: MissionConfig = MissionConfig()
+    perception: PerceptionConfig = PerceptionConfig()
+    verify: VerifyConfig = VerifyConfig()
     twin: TwinConfig = TwinConfig()
     server: ServerConfig = ServerConfig()
     ros: RosConfig = RosConfig()
@@ -143,6 +147,18 @@ class Settings(BaseSettings):
         elif self.hav.site != self.mqtt.site:
             raise ValueError(f"hav.site {self.hav.site!r} differs from mqtt.site {self.mqtt.site!r}: set "
                              "BIM2RDT_MQTT__SITE only")
+        return self
+
+    @model_validator(mode="after")
+    def _one_localization(self) -> Settings:
+        """verify localizes with ``localization`` (the real sensor's defaults where it sets nothing) and trusts
+        fits as the twin does (``twin.min_fitness``): one place to set each."""
+        if "localization" in self.verify.model_fields_set:
+            raise ValueError("verify.localization follows localization: set BIM2RDT_LOCALIZATION__* only")
+        follow = {"localization": real_sensor_localization(self.localization)}
+        if "min_fitness" not in self.verify.model_fields_set:
+            follow["min_fitness"] = self.twin.min_fitness
+        self.verify = self.verify.model_copy(update=follow)
         return self
 
 

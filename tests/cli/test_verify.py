@@ -177,9 +177,11 @@ def test_a_partly_corrected_depth_is_localized_but_every_verdict_is_unverified(s
     assert states and all(e["status"] == "unverified" for e in states)
 
 
-def test_a_scan_file_goes_the_same_way_as_the_frame(sensors, tmp_path):
-    """office1's corrected points written as a .ply scan (no image): read by read_cloud, localized, the boxes
-    as planned."""
+@pytest.mark.parametrize("suffix", [".ply", ".pcd"])
+def test_a_scan_file_goes_the_same_way_as_the_frame(sensors, tmp_path, suffix):
+    """office1's corrected points written as a scan (no image: a .ply, or an unorganised .pcd, which is read as a
+    scan rather than refused as a frame): localized, the boxes as planned."""
+    import pypcd4
     import trimesh
 
     from bim2rdt.sources import open_source
@@ -189,11 +191,15 @@ def test_a_scan_file_goes_the_same_way_as_the_frame(sensors, tmp_path):
     valid = frame.valid_depth
     v, u = np.nonzero(valid)
     points = frame.intrinsics.backproject(np.stack([u, v], axis=1).astype(float), frame.depth[valid].astype(float))
-    trimesh.PointCloud(points).export(str(tmp_path / "office1.ply"))
-    result = _run(sensors / "pcl" / "office1.ifc", tmp_path / "office1.ply", tmp_path / "out", "--prior", _prior(truth))
+    scan = tmp_path / f"office1{suffix}"
+    if suffix == ".ply":
+        trimesh.PointCloud(points).export(str(scan))
+    else:
+        pypcd4.PointCloud.from_xyz_points(points.astype(np.float32)).save(scan)
+    result = _run(sensors / "pcl" / "office1.ifc", scan, tmp_path / "out", "--prior", _prior(truth))
     assert result.exit_code == 0, result.output
     frame_entry = json.loads((tmp_path / "out" / "localization.json").read_text())["frames"][0]
-    assert frame_entry["accepted"] and frame_entry["source"] == "office1.ply"
+    assert frame_entry["accepted"] and frame_entry["source"] == scan.name
     states = {e["global_id"]: e["status"] for e in json.loads((tmp_path / "out" / "twin.json").read_text())["elements"]}
     assert all(states[b["GlobalId"]] == "as planned" for b in truth["furniture"])
 

@@ -48,13 +48,19 @@ def test_a_tum_folder_whose_lists_pair_nothing_has_no_frames(tmp_path):
 
 
 def test_a_pcd_without_depth_is_refused(tmp_path):
-    import pypcd4
-
-    cloud = pypcd4.PointCloud.from_points([np.zeros(12, np.float32), np.ones(12, np.float32)], ("x", "y"),
-                                          (np.float32, np.float32))
-    cloud.save(tmp_path / "flat.pcd")
+    header = "VERSION .7\nFIELDS x y\nSIZE 4 4\nTYPE F F\nCOUNT 1 1\nWIDTH 4\nHEIGHT 3\nPOINTS 12\nDATA ascii\n"
+    (tmp_path / "flat.pcd").write_text(header + "0 1\n" * 12)
     with pytest.raises(SourceError, match=r"flat.pcd: the PCD has no field 'z'"):
         list(open_source(tmp_path / "flat.pcd"))
+
+
+def test_an_unorganised_pcd_is_refused_as_a_frame_when_opened_not_when_read(tmp_path):
+    import pypcd4
+
+    xyz = np.random.default_rng(0).normal(size=(50, 3)).astype(np.float32)
+    pypcd4.PointCloud.from_xyz_points(xyz).save(tmp_path / "scan.pcd")
+    with pytest.raises(SourceError, match=r"scan.pcd: the PCD is not organised: it is a scan.*open_recording"):
+        open_source(tmp_path / "scan.pcd")
 
 
 @pytest.mark.parametrize("options, match", [

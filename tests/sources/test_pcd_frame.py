@@ -76,5 +76,5 @@ def test_a_millimetre_organised_cloud_is_refused_naming_the_scale(tmp_path):
 
 def test_an_unorganised_cloud_is_not_a_frame(tmp_path):
     _write_pcd(tmp_path / "scan.pcd", np.random.default_rng(0).uniform(1, 2, (100, 3)), 100, 1)
-    with pytest.raises(SourceError, match="not organised .* read it with read_cloud"):
-        list(open_source(tmp_path / "scan.pcd"))
+    with pytest.raises(SourceError, match="not organised: it is a scan.* open_recording .* or read_cloud"):
+        open_source(tmp_path / "scan.pcd")  # at once: a caller can choose the scan reader before iterating

@@ -64,3 +64,35 @@ def test_a_recordings_own_poses_carry_the_last_fix_forward_as_odometry():
     assert np.allclose(prior_1, fix_0 @ shift)  # 1 m along the fixed frame's own x
     assert np.allclose(_prior_for(None, (None, fix_0)), fix_0)
     assert _prior_for(own_1, None) is own_1
+
+
+class _Recording:
+    """A recording as sources declares it (kind, expected_frames, dropped, warnings): two scans, one drop."""
+
+    kind = "scan"
+    expected_frames = 2
+
+    def __init__(self, items) -> None:
+        self.items, self.dropped, self.warnings = items, [], ["clocks disagree: test"]
+
+    def __iter__(self):
+        self.dropped = [{"time": 1.0, "reason": "no depth image within 20 ms", "kind": "no depth partner"}]
+        return iter(self.items)
+
+
+def test_verify_reads_what_a_recording_reports_and_builds_the_map_once(site_model, tmp_path, monkeypatch):
+    from bim2rdt.localization import OccludedMap
+    from bim2rdt.sources import Recording
+
+    T_true = look_at((8.5, 2.0, 1.1), (11.85, 6.5, 1.1))
+    scan = SimpleNamespace(points=_scan(site_model, T_true, step_deg=1.4), path=tmp_path / "a.ply")
+    empty = SimpleNamespace(points=np.zeros((3, 3)), path=tmp_path / "b.ply")
+    recording = _Recording([scan, empty])
+    assert isinstance(recording, Recording)
+    built = []
+    of = OccludedMap.of.__func__
+    monkeypatch.setattr(OccludedMap, "of", classmethod(lambda cls, model: built.append(model) or of(cls, model)))
+    result = verify_frames(recording, site_model, T_true)
+    assert len(built) == 1  # once per run, handed to every fix (and the depth check)
+    assert result.frames[0].accepted and not result.frames[1].accepted
+    assert result.drop_counts == {"no depth partner": 1} and result.source_warnings == ["clocks disagree: test"]

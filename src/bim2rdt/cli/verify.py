@@ -28,8 +28,16 @@ def verify_command(
                                   "prior's roll and pitch (default: the sensor is level)."),
     depth_correction: str | None = typer.Option(None, "--depth-correction", help="GX,GY,GZ (1/m): the depth "
                                                 "calibration p_true = p / (1 - g.p)."),
+    depth_scale: float | None = typer.Option(None, "--depth-scale", help="Raw depth units per metre, overriding "
+                                            "the recording's own (1000: millimetres, 5000: TUM PNGs); for a scan, "
+                                            "its coordinate units per metre (1000: a scan in millimetres)."),
+    intrinsics: Path | None = typer.Option(None, "--intrinsics", help="JSON file of the depth camera's pinhole "
+                                           "{\"fx\", \"fy\", \"cx\", \"cy\"} (pixels; optionally \"width\", "
+                                           "\"height\"), overriding the recording's (a PNG pair without "
+                                           "intrinsics.json)."),
     out: Path = typer.Option(Path("out/verify"), "--out", parser=out_path, callback=writable_folder,
-                             help="Folder for twin.json, twin.ifc, issues.bcf, report.html, localization.json."),
+                             help="Folder for twin.json, twin.ifc, issues.bcf, report.html, localization.json, "
+                             "config.json (the settings that ran)."),
     detector: str = typer.Option("cluster", "--detector", help="New objects: 'cluster' (what neither the building "
                                  "nor a planned object explains) or 'none'."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON document instead of the summary."),
@@ -45,7 +53,8 @@ def verify_command(
     record them in a twin and export it."""
     from bim2rdt.bim import load_ifc
     from bim2rdt.config import get_settings, ifc_cache_dir
-    from bim2rdt.verify import VerifyConfig, levelled, prior_pose, record_twin, verify_frames, write_outputs
+    from bim2rdt.sources import open_recording
+    from bim2rdt.verify import levelled, prior_pose, record_twin, verify_frames, write_outputs
     from bim2rdt.verify.outputs import verdict_counts
 
     if detector not in ("cluster", "none"):
@@ -66,18 +75,21 @@ def verify_command(
     if T_prior is not None:
         _inside(model, T_prior[:3, 3])
     correction = _numbers(depth_correction, 3, "--depth-correction") if depth_correction else None
-    if topics is not None and not _is_bag(source):
-        raise _bad("--topics is for ROS bags (.mcap, .db3, .bag, a rosbag2 folder)")
-    options = {"topics": topics, "every": every, "max_frames": max_frames,
-               "sync_tolerance": settings.ros.sync_tolerance} if _is_bag(source) else {}
-    frames = _frames(source, correction, {k: v for k, v in options.items() if v is not None})
-    if not _is_bag(source) and (every or max_frames):
-        frames = _Subsampled(frames, every or 1, max_frames)
-    config = VerifyConfig(find_new=detector != "none", min_fitness=settings.twin.min_fitness)
-    with _progress(frames, as_json, every, max_frames) as tick:
+    if depth_scale is not None and not (math.isfinite(depth_scale) and depth_scale > 0):
+        raise _bad(f"--depth-scale must be a positive number of raw units per metre (1000: millimetres), got "
+                   f"{depth_scale!r}")
+    frames = open_recording(source, depth_correction=correction, topics=topics, every=every, max_frames=max_frames,
+                            sync_tolerance=settings.ros.sync_tolerance, depth_scale=depth_scale,
+                            intrinsics=_intrinsics(intrinsics) if intrinsics is not None else None)
+    config = settings.verify.model_copy(update={"find_new": detector != "none"})
+    with _progress(frames.expected_frames, as_json) as tick:
         result = verify_frames(frames, model, T_prior, config, progress=lambda frame: tick("frame"))
         with record_twin(result, model, out, settings.twin) as twin:
             files = write_outputs(result, twin, out)
+            _record_run(out, settings, {"ifc": str(ifc_file.resolve()), "source": str(source.resolve()),
+                                        "prior": None if T_prior is None else T_prior.tolist(), "detector": detector,
+                                        "every": every, "max_frames": max_frames, "depth_scale": depth_scale,
+                                        "depth_correction": correction})
             counts = verdict_counts(twin.state())
             if publish is not None:
                 published = _publish(publish, result, twin.state(), model, out)
@@ -107,8 +119,19 @@ def verify_command(
     if result.dropped:
         console.print(f"dropped {len(result.dropped)} frames: "
                       + ", ".join(f"{n} {k}" for k, n in result.drop_counts.items()) + " (localization.json)")
-    console.print(f"wrote {out}/: twin.json, issues.bcf, localization.json, report.html"
+    console.print(f"wrote {out}/: twin.json, issues.bcf, localization.json, report.html, config.json"
                   + (", twin.ifc" if files.ifc else f" (no twin.ifc: {files.ifc_note})"))
+
+
+def _record_run(out: Path, settings, arguments: dict) -> None:
+    """``out/config.json``: the settings that ran (every section, ``verify`` and ``localization`` resolved,
+    secrets masked), the command's arguments and the versions, as every run records them."""
+    from bim2rdt.atomic import write_bytes_atomic
+    from bim2rdt.config import settings_record
+    from bim2rdt.evaluation.runs import versions
+
+    record = {"settings": settings_record(settings), **arguments, "versions": versions()}
+    write_bytes_atomic(out / "config.json", json.dumps(record, indent=2, default=str).encode("utf-8"))
 
 
 def _publish(path: Path, result, states, model, out: Path) -> Path:
@@ -128,69 +151,36 @@ def _bad(message: str) -> Exception:
     return VerifyError(message)
 
 
-SCAN_SUFFIXES = (".ply", ".las", ".laz", ".e57")
-
-
-BAG_SUFFIXES = (".mcap", ".db3", ".bag")
-
-
-class _Subsampled:
-    """Every N-th frame of a source, at most ``limit``."""
-
-    def __init__(self, frames, every: int, limit: int | None) -> None:
-        self.frames, self.every, self.limit = frames, every, limit
-
-    def __iter__(self):
-        import itertools
-
-        return itertools.islice(iter(self.frames), 0, None if self.limit is None else self.limit * self.every,
-                                self.every)
-
-
-def _is_bag(source: Path) -> bool:
-    return source.suffix.lower() in BAG_SUFFIXES or (source.is_dir() and (source / "metadata.yaml").is_file())
-
-
 FRAME_STAGES = {"frame": "frames verified", "twin": "twin recorded and exported"}
 
 
-def _progress(frames, quiet: bool, every: int | None, max_frames: int | None):
+def _progress(expected_frames: int | None, quiet: bool):
     """``tick(stage)`` (:class:`~bim2rdt.cli.progress.StageProgress`): on a terminal a bar with the frames done
-    (of the source's length when it knows it: a bag), the time spent and left; piped, one plain line per stage
-    (its count and time) and one every half minute in a long one. ``quiet`` (--json): nothing."""
+    (of the recording's length when it knows it: a bag, a scan), the time spent and left; piped, one plain line
+    per stage (its count and time) and one every half minute in a long one. ``quiet`` (--json): nothing."""
     from contextlib import nullcontext
 
     from bim2rdt.cli.progress import StageProgress
 
     if quiet:
         return nullcontext(lambda stage: None)
-    expected = getattr(frames, "expected_frames", None)
-    totals = {"twin": 1}
-    if expected:
-        total = -(-expected // (every or 1))
-        totals["frame"] = min(total, max_frames) if max_frames else total
+    totals = {"twin": 1} | ({"frame": expected_frames} if expected_frames else {})
     return StageProgress(console, FRAME_STAGES, totals)
 
 
-def _frames(source: Path, correction, extra: dict | None = None):
-    """The source's frames (``open_source``), or a scan as one cloud (``read_cloud``: .ply .las .laz .e57, and
-    a .pcd that is not organised), with the depth correction applied."""
-    from bim2rdt.sources import SourceError, correct_points, open_source, read_cloud
-
-    options = {"depth_correction": correction} if correction is not None else {}
-    options.update(extra or {})
-    if source.suffix.lower() not in SCAN_SUFFIXES:
-        try:
-            return open_source(source, **options)
-        except SourceError as error:
-            if "not organised" not in str(error):
-                raise
-    cloud = read_cloud(source)
-    if correction is not None:
-        from dataclasses import replace
-
-        cloud = replace(cloud, points=correct_points(cloud.points, correction))
-    return [cloud]
+def _intrinsics(path: Path) -> dict:
+    """``--intrinsics FILE``: a JSON object of fx, fy, cx, cy (and optionally width, height), numbers."""
+    try:
+        values = json.loads(path.read_text())
+    except (OSError, ValueError) as error:
+        raise _bad(f"--intrinsics {path}: {str(error).splitlines()[0]}") from None
+    needed, allowed = {"fx", "fy", "cx", "cy"}, {"fx", "fy", "cx", "cy", "width", "height"}
+    if not isinstance(values, dict) or not needed <= set(values) or set(values) - allowed:
+        raise _bad(f"--intrinsics {path}: expected a JSON object with fx, fy, cx, cy (and optionally width, height)")
+    if not all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v > 0
+               for v in values.values()):
+        raise _bad(f"--intrinsics {path}: fx, fy, cx, cy, width and height must be positive numbers")
+    return values
 
 
 def _numbers(text: str, count: int, option: str) -> list[float]:
@@ -222,8 +212,7 @@ def _inside(model, position) -> None:
     """A prior farther than 2 m outside the model's permanent elements is refused."""
     import numpy as np
 
-    from bim2rdt.localization.cloud import OccludedMap
-    from bim2rdt.localization.errors import LocalizationError
+    from bim2rdt.localization import LocalizationError, OccludedMap
 
     try:
         low, high = OccludedMap.of(model).permanent.mesh.bounds

@@ -24,6 +24,8 @@ from bim2rdt.demo.routes import plan_day_route
 from bim2rdt.sim.reality import objects_of_interest
 from bim2rdt.demo.site_day import SiteDay, _hav_day, _model_cache, _shift_start
 from bim2rdt.demo.site_twin import export_day_twin, ifc_records, open_day_twin, record_mission
+from bim2rdt.localization import LocalizationConfig
+from bim2rdt.perception import PerceptionConfig
 from bim2rdt.mission import MissionConfig, MissionContext, building_surfaces, run_mission
 from bim2rdt.planning import OccupancyGrid, PlanningError
 from bim2rdt.registration import IcpConfig
@@ -42,7 +44,8 @@ def run_ifc_day(ifc_path: Path, out_dir: Path, seed: int = 0, workers: int = 1, 
                 fs: float = 5000.0, mission_config: MissionConfig = MissionConfig(), icp: IcpConfig = IcpConfig(),
                 twin_config: TwinConfig = TwinConfig(), tick: Callable[[str], None] = lambda stage: None,
                 detector: str = "geometric", yoloe: tuple[Path, Path] | None = None,
-                objects: int = len(FAMILIES)) -> SiteDay:
+                objects: int = len(FAMILIES), localization: LocalizationConfig | None = None,
+                perception: PerceptionConfig = PerceptionConfig()) -> SiteDay:
     """Run the day on ``ifc_path`` into ``out_dir``: ``site.ifc`` (the building with its planned site objects),
     the day's twin and its exports (``site_twin.ifc`` only for IFC4), and the monitor's state under ``state/``.
     Up to ``objects`` site objects are placed (fewer: fewer stations, a quicker look at the same loop).
@@ -66,9 +69,9 @@ def run_ifc_day(ifc_path: Path, out_dir: Path, seed: int = 0, workers: int = 1, 
     tick("hav")
     config = mission_config.model_copy(update={"standoff": min(mission_config.standoff, IFC_DAY_STANDOFF)})
     route = plan_day_route(model, targets, layout.dock_xy, config, events, _shift_start(), spots=layout.worker_spots)
-    perceive = DemoPerception(detector, model, reality, priors, seed, yoloe)
+    perceive = DemoPerception(detector, model, reality, priors, seed, yoloe, config=perception)
     context = MissionContext(targets, route.plan.stations, model, priors, mesh_for_family, route.config, icp,
-                             twin_config.tolerance_policy(), twin_config.min_fitness,
+                             twin_config.tolerance_policy(), twin_config.min_fitness, localization=localization,
                              building=building_surfaces(model), tick=lambda: tick("station"))
     mission = run_mission(context, perceive, route.route, perceive.station_frame)
     record_mission(twin, mission.observations, mission.stations, times=route.route.arrivals, missing=mission.missing)
@@ -95,7 +98,8 @@ def run_ifc_demo(ifc_path: Path, out_dir: Path, seed: int = 0, workers: int = 1,
     out_dir, settings = Path(out_dir), demo_settings()
     day = run_ifc_day(Path(ifc_path), out_dir, seed=seed, workers=workers, minutes=minutes,
                       mission_config=settings.mission, icp=settings.registration, twin_config=settings.twin, tick=tick,
-                      detector=detector, yoloe=yoloe, objects=objects)
+                      detector=detector, yoloe=yoloe, objects=objects, localization=settings.localization,
+                      perception=settings.perception)
     report = write_site_report(day, out_dir)
     resolved = {"settings": settings_record(settings), "ifc": str(Path(ifc_path).resolve()),
                 "schema": day.model.schema, "objects": objects, "seed": seed, "workers": workers, "minutes": minutes,

@@ -18,7 +18,8 @@ from pathlib import Path
 import numpy as np
 
 from bim2rdt.bim import BimModel
-from bim2rdt.perception import UNKNOWN_FAMILY, Detection, Frame, Intrinsics, locate_detections
+from bim2rdt.perception import (UNKNOWN_FAMILY, Detection, Frame, Intrinsics, PerceptionConfig,
+                                locate_detections)
 from bim2rdt.perception.detectors import make_detector
 from bim2rdt.semantics import UprightPrior
 from bim2rdt.sim.ideal import IdealDetector
@@ -39,10 +40,12 @@ class DemoPerception:
     the detections left unnamed (workers among them)."""
 
     def __init__(self, detector: str, model: BimModel, reality: Reality, priors: dict[str, UprightPrior],
-                 seed: int = 0, yoloe: tuple[Path, Path] | None = None, intrinsics: Intrinsics = Intrinsics()):
-        self.model, self.reality, self.intrinsics = model, reality, intrinsics
+                 seed: int = 0, yoloe: tuple[Path, Path] | None = None, intrinsics: Intrinsics = Intrinsics(),
+                 config: PerceptionConfig = PerceptionConfig()):
+        self.model, self.reality, self.intrinsics, self.config = model, reality, intrinsics, config
         self.detector = make_detector(detector, model, priors, yoloe,
-                                      ideal=lambda: IdealDetector([t.family for t in reality.truth]))
+                                      ideal=lambda: IdealDetector([t.family for t in reality.truth]),
+                                      geometric=config.geometric)
         self.rng = np.random.default_rng([seed, 5])
         self.frames: list = []
         self.unknown = 0
@@ -76,7 +79,7 @@ class DemoPerception:
 
     def _named(self, station: int, frame: Frame) -> list[Detection]:
         self._latest[station] = frame
-        found = locate_detections(frame, self.model, self.detector, station)
+        found = locate_detections(frame, self.model, self.detector, station, self.config.perceive)
         named = [d for d in found if d.family != UNKNOWN_FAMILY]
         self.unknown += len(found) - len(named)
         return named

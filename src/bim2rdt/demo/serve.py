@@ -58,7 +58,8 @@ def ensure_site_day(out_dir: Path, settings, tick: Callable[[str], None] = lambd
         from bim2rdt.demo.site_day import run_site_day
 
         day = run_site_day(out_dir, mission_config=settings.mission, icp=settings.registration,
-                           twin_config=settings.twin, tick=tick)
+                           twin_config=settings.twin, tick=tick, localization=settings.localization,
+                           perception=settings.perception)
         day.twin.close()
     return site, twin_db
 

@@ -31,6 +31,8 @@ from bim2rdt.bim import BimModel, load_ifc
 from bim2rdt.demo.localized import MissionLocalization, localized_mission
 from bim2rdt.demo.routes import UNPLANNED_DRUM_XY, DayRoute, plan_day_route
 from bim2rdt.demo.site_twin import TwinFiles, export_day_twin, ifc_records, open_day_twin, record_mission
+from bim2rdt.localization import LocalizationConfig
+from bim2rdt.perception import PerceptionConfig
 from bim2rdt.mission import MissionConfig, MissionContext, MissionResult
 from bim2rdt.registration import IcpConfig
 from bim2rdt.semantics import KnowledgeBasePriors, UprightPrior
@@ -72,7 +74,9 @@ def run_site_day(out_dir: Path, seed: int = 0, workers: int = 2, minutes: float 
                  twin_config: TwinConfig = TwinConfig(),
                  tick: Callable[[str], None] = lambda stage: None, detector: str = "geometric",
                  yoloe: tuple[Path, Path] | None = None, record: Path | None = None,
-                 max_targets: int | None = None, keep_odometry: bool = False) -> SiteDay:
+                 max_targets: int | None = None, keep_odometry: bool = False,
+                 localization: LocalizationConfig | None = None,
+                 perception: PerceptionConfig = PerceptionConfig()) -> SiteDay:
     """Run the day into ``out_dir``: ``site.ifc`` (as designed), the day's twin (``twin.db``) and its exports
     (``site_twin.ifc`` as built with safety records, ``site_issues.bcf``, ``twin.json``), and the monitor's state
     under ``state/`` (both started afresh: the demo simulates a new day). The mission runs with
@@ -81,7 +85,8 @@ def run_site_day(out_dir: Path, seed: int = 0, workers: int = 2, minutes: float 
     and reads its frames with ``detector`` (:mod:`bim2rdt.demo.perceivers`). ``record``: also write the robot's run
     as a ROS 2 bag there (:mod:`bim2rdt.demo.record`); ``max_targets``: stations for the first N site objects only (a
     short day; what they see of the others is judged too); ``keep_odometry``: keep the robot's odometry at each
-    capture (``SiteDay.odometry``) without a bag."""
+    capture (``SiteDay.odometry``) without a bag. ``localization`` and ``perception``: the robot's BIM fixes and
+    its perception front end (the demo passes ``Settings.localization`` and ``Settings.perception``)."""
     out_dir.mkdir(parents=True, exist_ok=True)
     model = load_ifc(build_site_ifc(out_dir / "site.ifc"), cache_dir=_model_cache())
     tick("bim")
@@ -97,16 +102,17 @@ def run_site_day(out_dir: Path, seed: int = 0, workers: int = 2, minutes: float 
     def route_for_today() -> DayRoute:
         return plan_day_route(model, targets, ROBOT_START_XY, mission_config, events, _shift_start())
 
-    def perception() -> DemoPerception:
-        return DemoPerception(detector, model, reality, priors, seed, yoloe)
+    def eyes() -> DemoPerception:
+        return DemoPerception(detector, model, reality, priors, seed, yoloe, config=perception)
 
     route = route_for_today()
     # every planned object is a target: one the short day's stations see by chance is that element, not a new one
     context = MissionContext(planned, route.plan.stations, model, priors, mesh_for_family, route.config, icp,
-                             twin_config.tolerance_policy(), twin_config.min_fitness, tick=lambda: tick("station"))
+                             twin_config.tolerance_policy(), twin_config.min_fitness, localization=localization,
+                             tick=lambda: tick("station"))
     recorded: list = []
     with _recorder(record, keep_odometry, recorded) as recording:
-        mission, localization = localized_mission(context, perception, ROBOT_START_XY, seed, route=route.route,
+        mission, localization = localized_mission(context, eyes, ROBOT_START_XY, seed, route=route.route,
                                                   comparison_route=route_for_today().route, record=recording)
     record_mission(twin, mission.observations, mission.stations, times=route.route.arrivals, missing=mission.missing)
     tick("twin")

@@ -26,12 +26,9 @@ from scipy.spatial import cKDTree
 
 from bim2rdt.bim import BimModel
 from bim2rdt.localization.config import LocalizationConfig
-from bim2rdt.localization.errors import LocalizationError
-from bim2rdt.localization.fix import (Localization, _observability, _pairs, _rigid_prior, _unit_up, _within,
-                                      _within_basin)
+from bim2rdt.localization.core import Localization, behind_fraction, checked_up, fix_pose, rigid_prior
+from bim2rdt.localization.errors import LocalizationError, Refusal
 from bim2rdt.localization.surfaces import GRAZING_COS, PermanentMap, SurfaceSamples, permanent_map
-from bim2rdt.registration import IcpConfig, RegistrationError, register
-from bim2rdt.registration.so3 import invert_poses
 
 _CACHE_SIZE = 4
 
@@ -46,53 +43,118 @@ class ScanPoints:
 
     @property
     def directions(self) -> np.ndarray:
+        """Unit rays (N, 3) from the sensor to each point."""
         return self.points / np.linalg.norm(self.points, axis=1, keepdims=True)
 
 
 def localize_cloud(cloud: object, model: BimModel, prior_T_world_sensor: np.ndarray,
                    up: np.ndarray | tuple[float, float, float] = (0.0, 0.0, 1.0),
-                   config: LocalizationConfig | None = None) -> Localization:
-    """Fix the pose of the sensor that took ``cloud`` (anything with ``.points`` (N, 3), metres, sensor frame;
-    NaN rows are no return) on the permanent elements of ``model``, from ``prior_T_world_sensor`` (4, 4), with
-    ``up`` the world up measured by the sensor's IMU (the prior's roll and pitch are kept). Returns the same
-    :class:`Localization` as :func:`~bim2rdt.localization.localize`; raises :class:`LocalizationError` with the
-    reason. A :class:`ScanPoints` (what :func:`scan_points` made of a cloud) is used as it is.
+                   config: LocalizationConfig | None = None, scene: OccludedMap | None = None) -> Localization:
+    """Fix the pose of the sensor that took ``cloud`` on the permanent elements of ``model``, from
+    ``prior_T_world_sensor`` (4, 4), with ``up`` the world up measured by the sensor's IMU (the prior's roll and
+    pitch are kept). Returns the same :class:`Localization` as :func:`~bim2rdt.localization.localize` (the same
+    fix: :func:`~bim2rdt.localization.core.fix_pose`); raises :class:`LocalizationError` with the reason.
 
     Args:
-        cloud: Anything with ``.points`` (N,3) in the sensor frame, metres (NaN rows are no return), or a
-            :class:`ScanPoints`.
+        cloud: A :class:`ScanPoints` (what :func:`scan_points` made of a cloud, used as it is), an (N, 3) array,
+            or anything with ``.points`` (N, 3): the sensor frame, metres, NaN rows are no return.
         model: The BIM, loaded with geometry.
         prior_T_world_sensor: 4x4 sensor-to-world prior, metres.
         up: The world up measured by the sensor's IMU, a unit 3-vector.
         config: Localization's settings; None uses the defaults.
+        scene: The model's :class:`OccludedMap` when the caller holds it (verify builds it once per run); None
+            builds or reuses the cached one.
 
     Returns:
         The fix: ``pose`` (``T_world_sensor``, 4x4), covariance, information, free directions and residual.
 
     Raises:
         LocalizationError: A bad cloud or prior, too few returns in range, no permanent element in view, or a
-            correction beyond the basin; the message gives the reason.
+            correction beyond the basin; the message gives the reason, ``kind`` its kind.
     """
     cfg = config or LocalizationConfig()
-    prior, up_world = _rigid_prior(prior_T_world_sensor), _unit_up(up)
-    scan = cloud if isinstance(cloud, ScanPoints) else scan_points(cloud, cfg)
-    scene = OccludedMap.of(model)
-
-    def fit(start: np.ndarray, icp: IcpConfig, coarse: bool) -> tuple[np.ndarray, int]:
-        return _fit(scan, scene, start, start, up_world, icp, cfg, (2 if coarse else 1) * cfg.cloud_ray_deg)
-
-    pose, near, moved, turned = _within_basin(fit, prior, up_world, cfg, "sensor")
-    visible = scene.visible(pose, scan.directions, cfg.cloud_ray_deg, cfg.cloud_margin_deg, cfg.max_range * 1.2)
-    return _judge(scan, scene, visible, pose, prior, up_world, near, moved, turned, cfg)
+    prior, up_world = rigid_prior(prior_T_world_sensor), checked_up(up)
+    scan = cloud if isinstance(cloud, ScanPoints) else scan_points(_points_of(cloud), cfg)
+    return fix_pose(CloudView(scan, scene or OccludedMap.of(model), cfg), prior, up_world, cfg)
 
 
-def scan_points(cloud, cfg: LocalizationConfig) -> ScanPoints:
-    """The cloud's returns in [min_range, max_range], one per ``cloud_voxel`` cube (their mean), at most
-    ``cloud_points`` of them (an even draw), with PCA normals; :class:`LocalizationError` on bad input."""
+@dataclass(frozen=True)
+class CloudView:
+    """A cloud as the fix sees it (:class:`~bim2rdt.localization.core.SensorView`): its thinned points and PCA
+    normals, and the BIM ray cast over the directions the cloud covers (``cloud_ray_deg`` apart, twice that for
+    the coarse pass), the model's other bodies hiding what lies behind them."""
+
+    scan: ScanPoints
+    scene: OccludedMap
+    cfg: LocalizationConfig
+    sensor: str = "sensor"
+    returns: str = "thinned points"
+    needs_normals: bool = False
+
+    @property
+    def points(self) -> np.ndarray:
+        """(N, 3) thinned points, sensor frame, metres."""
+        return self.scan.points
+
+    @property
+    def normals(self) -> np.ndarray:
+        """(N, 3) their unit normals, NaN where not flat."""
+        return self.scan.normals
+
+    def visible(self, T_world_sensor: np.ndarray, coarse: bool) -> SurfaceSamples:
+        """The permanent surface seen from ``T_world_sensor`` over the cloud's directions.
+
+        Args:
+            T_world_sensor: 4x4 sensor pose.
+            coarse: Rays twice ``cloud_ray_deg`` apart instead of ``cloud_ray_deg``.
+
+        Returns:
+            The samples.
+        """
+        ray_deg = (2 if coarse else 1) * self.cfg.cloud_ray_deg
+        return self.scene.visible(T_world_sensor, self.scan.directions, ray_deg, self.cfg.cloud_margin_deg,
+                                  self.cfg.max_range * 1.2)
+
+    def behind(self, T_world_sensor: np.ndarray, tolerance: float) -> float:
+        """Fraction of the points beyond the first permanent surface on their ray
+        (:func:`~bim2rdt.localization.core.behind_fraction`).
+
+        Args:
+            T_world_sensor: 4x4 sensor pose.
+            tolerance: Metres past the surface allowed.
+
+        Returns:
+            The fraction.
+        """
+        return behind_fraction(self.scan.points, T_world_sensor, self.scene.permanent, tolerance)
+
+
+def _points_of(cloud) -> np.ndarray:
+    """A cloud's points: an array itself, or its ``.points``."""
+    if isinstance(cloud, np.ndarray):
+        return cloud
     points = getattr(cloud, "points", None)
     if points is None:
         raise LocalizationError(f"expected a cloud with .points (N, 3), got {type(cloud).__name__}")
-    points = np.asarray(points, dtype=np.float64)
+    return points
+
+
+def scan_points(points_sensor: np.ndarray, cfg: LocalizationConfig) -> ScanPoints:
+    """The returns in [min_range, max_range], one per ``cloud_voxel`` cube (their mean), at most ``cloud_points``
+    of them (an even draw), with PCA normals.
+
+    Args:
+        points_sensor: (N, 3) points in the sensor frame, metres (NaN rows are no return); a cloud with
+            ``.points`` is taken too.
+        cfg: Localization's settings.
+
+    Returns:
+        The thinned points with their normals.
+
+    Raises:
+        LocalizationError: Not (N, 3), or fewer than ``min_points`` returns in range.
+    """
+    points = np.asarray(_points_of(points_sensor), dtype=np.float64)
     if points.ndim != 2 or points.shape[1] != 3:
         raise LocalizationError(f"cloud.points must be (N, 3) metres, got shape {points.shape}")
     points = points[np.all(np.isfinite(points), axis=1)]
@@ -100,7 +162,7 @@ def scan_points(cloud, cfg: LocalizationConfig) -> ScanPoints:
     points = points[(distance >= cfg.min_range) & (distance <= cfg.max_range)]
     if len(points) < cfg.min_points:
         raise LocalizationError(f"the cloud has {len(points)} returns in {cfg.min_range}-{cfg.max_range} m of the "
-                                f"sensor, need {cfg.min_points}")
+                                f"sensor, need {cfg.min_points}", Refusal.TOO_FEW_RETURNS)
     thinned = voxel_means(points, cfg.cloud_voxel)
     if len(thinned) > cfg.cloud_points:
         thinned = thinned[np.random.default_rng(0).choice(len(thinned), cfg.cloud_points, replace=False)]
@@ -108,8 +170,16 @@ def scan_points(cloud, cfg: LocalizationConfig) -> ScanPoints:
 
 
 def voxel_means(points: np.ndarray, voxel: float) -> np.ndarray:
-    """One point per occupied ``voxel`` cube (the mean of its points), (M, 3): a scan's density falls with range
-    and a frame's is highest near the camera; the fix should weigh surfaces, not the sensor's sampling."""
+    """One point per occupied ``voxel`` cube (the mean of its points): a scan's density falls with range and a
+    frame's is highest near the camera; the fix should weigh surfaces, not the sensor's sampling.
+
+    Args:
+        points: (N, 3) points, metres.
+        voxel: The cube's side, metres.
+
+    Returns:
+        (M, 3) the cubes' mean points.
+    """
     cells = np.floor(points / voxel).astype(np.int64)
     cells -= cells.min(axis=0)
     size = cells.max(axis=0) + 1
@@ -146,7 +216,14 @@ class OccludedMap:
 
     @classmethod
     def of(cls, model: BimModel) -> OccludedMap:
-        """The model's map, built once per model object (the last few are kept)."""
+        """The model's map, built once per model object (the last few are kept).
+
+        Args:
+            model: The BIM, loaded with geometry.
+
+        Returns:
+            Its map.
+        """
         key = (model.digest, id(model))
         if key not in _MAPS:
             _MAPS[key] = cls._build(model)
@@ -178,8 +255,19 @@ class OccludedMap:
     def visible(self, T_world_sensor: np.ndarray, directions_sensor: np.ndarray, ray_deg: float, margin_deg: float,
                 max_range: float) -> SurfaceSamples:
         """The permanent surface seen from ``T_world_sensor``'s position: first hits of rays ``ray_deg`` apart
-        over the directions within ``margin_deg`` of the cloud's (``directions_sensor``, unit, sensor frame),
-        within ``max_range`` m, on a permanent element (not an occluder), grazing hits dropped."""
+        over the directions within ``margin_deg`` of the cloud's, within ``max_range`` m, on a permanent element
+        (not an occluder), grazing hits dropped.
+
+        Args:
+            T_world_sensor: 4x4 sensor pose, metres.
+            directions_sensor: (N, 3) unit directions the cloud covers, sensor frame.
+            ray_deg: Spacing of the cast rays, degrees.
+            margin_deg: How far beyond the cloud's directions rays are cast, degrees.
+            max_range: Farthest hit kept, metres.
+
+        Returns:
+            World samples, their normals (towards the sensor) and elements.
+        """
         origin = T_world_sensor[:3, 3]
         directions = covered(sphere_directions(ray_deg), directions_sensor @ T_world_sensor[:3, :3].T, margin_deg)
         if len(directions) == 0:
@@ -199,9 +287,19 @@ class OccludedMap:
 
     def occluder_hits(self, T_world_sensor: np.ndarray, directions_sensor: np.ndarray, ray_deg: float,
                       max_range: float) -> dict[str, int]:
-        """How many rays ``ray_deg`` apart, over the directions of ``directions_sensor`` (unit, sensor frame), first
-        hit each occluder (GlobalId -> rays) within ``max_range``: which of the model's objects the sensor could
-        see from ``T_world_sensor``, each behind the walls and the other objects."""
+        """How many rays ``ray_deg`` apart, over the directions the sensor covers, first hit each occluder within
+        ``max_range``: which of the model's objects the sensor could see from ``T_world_sensor``, each behind the
+        walls and the other objects.
+
+        Args:
+            T_world_sensor: 4x4 sensor pose, metres.
+            directions_sensor: (N, 3) unit directions the sensor covers, sensor frame.
+            ray_deg: Spacing of the cast rays, degrees.
+            max_range: Farthest hit counted, metres.
+
+        Returns:
+            GlobalId -> rays that first hit it (occluders hit by none are left out).
+        """
         origin = T_world_sensor[:3, 3]
         directions = covered(sphere_directions(ray_deg), directions_sensor @ T_world_sensor[:3, :3].T, ray_deg)
         if len(directions) == 0:
@@ -237,58 +335,3 @@ def covered(directions: np.ndarray, seen: np.ndarray, margin_deg: float) -> np.n
     chord = 2 * np.sin(np.deg2rad(margin_deg) / 2)
     gap, _ = cKDTree(seen).query(directions, distance_upper_bound=chord)
     return directions[np.isfinite(gap)]
-
-
-def _fit(scan: ScanPoints, scene: OccludedMap, view: np.ndarray, start: np.ndarray, up_world: np.ndarray,
-         icp: IcpConfig, cfg: LocalizationConfig, ray_deg: float) -> tuple[np.ndarray, int]:
-    """One yaw-only registration pass of the points placed by ``start`` against the surface visible from
-    ``view`` (as :func:`bim2rdt.localization.fix._fit`): (T_world_sensor, points within the basin)."""
-    visible = scene.visible(view, scan.directions, ray_deg, cfg.cloud_margin_deg, cfg.max_range * 1.2)
-    placed = scan.points @ start[:3, :3].T + start[:3, 3]
-    near = _within(placed, visible, cfg.max_correction)
-    if len(visible.points) < 6 or near.sum() < cfg.min_points:
-        raise LocalizationError(f"the cloud sees no permanent element: {int(near.sum())} of its {len(placed)} "
-                                f"thinned points lie within {cfg.max_correction} m of a wall, column, slab, stair or "
-                                f"door seen from the prior, need {cfg.min_points}")
-    centre = np.eye(4)
-    centre[:3, 3] = start[:3, 3]
-    try:
-        fit = register(visible.points - centre[:3, 3], visible.normals, placed[near], init=centre, up=up_world,
-                       upright_bias=0.0, yaw_only=True, config=icp)
-    except RegistrationError as error:
-        raise LocalizationError(f"registration failed: {error}") from None
-    return centre @ invert_poses(fit.pose) @ start, int(near.sum())
-
-
-def _judge(scan: ScanPoints, scene: OccludedMap, visible: SurfaceSamples, pose: np.ndarray, prior: np.ndarray,
-           up_world: np.ndarray, near: int, moved: float, turned: float, cfg: LocalizationConfig) -> Localization:
-    """Inliers, residual and observability at the final pose (as ``localize`` judges a frame's fix)."""
-    placed = scan.points @ pose[:3, :3].T + pose[:3, 3]
-    inlier, along, model_normals, agree = _pairs(placed, scan.normals @ pose[:3, :3].T, visible, cfg)
-    count = int(inlier.sum())
-    if count < cfg.min_inliers or count < cfg.min_inlier_fraction * near:
-        raise LocalizationError(f"the fix moved the sensor {moved:.2f} m and turned it {turned:.1f} deg from the "
-                                f"prior, but only {count} of the {near} points near the map lie on it (need "
-                                f"{cfg.min_inliers} and {cfg.min_inlier_fraction:.0%}): the prior is probably beyond "
-                                "the basin, or the depth is warped; rejected")
-    behind = behind_fraction(scan.points, pose, scene.permanent, cfg.behind_tolerance)
-    if behind > cfg.max_behind_fraction:
-        raise LocalizationError(f"the fix moved the sensor {moved:.2f} m and turned it {turned:.1f} deg from the "
-                                f"prior, but from there {behind:.0%} of the points would lie behind walls, columns "
-                                f"or slabs (at most {cfg.max_behind_fraction:.0%}): rejected")
-    residual = float(np.sqrt(np.mean(along[inlier] ** 2)))
-    used = inlier & agree
-    if used.sum() < 6:
-        used = inlier
-    seen = _observability(placed[used], model_normals[used], pose[:3, 3], up_world, residual, cfg)
-    return Localization(pose=pose, covariance=seen.covariance, inliers=count, degenerate=seen.degenerate_translations,
-                        residual=residual, degenerate_yaw=bool(seen.degenerate_rotations), information=seen.information,
-                        points=len(placed), near=near, moved=moved, turned_deg=turned, prior=prior)
-
-
-def behind_fraction(points_sensor: np.ndarray, pose: np.ndarray, surfaces: PermanentMap, tolerance: float) -> float:
-    """Fraction of the points farther than ``tolerance`` m beyond the first permanent surface on their ray from
-    ``pose``'s position (a sensor cannot see through walls)."""
-    distance = np.linalg.norm(points_sensor, axis=1)
-    first = surfaces.first_hit(pose[:3, 3], (points_sensor / distance[:, None]) @ pose[:3, :3].T)
-    return float(np.sum(distance > first + tolerance)) / max(len(points_sensor), 1)

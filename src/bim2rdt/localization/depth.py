@@ -11,22 +11,42 @@ import numpy as np
 from bim2rdt.perception.frame import Frame
 
 
-def depth_points(frame: Frame, stride: int, min_range: float, max_range: float) -> np.ndarray:
-    """Camera-frame points (N, 3) of every ``stride``-th pixel with a depth in [min_range, max_range] m."""
-    depth = frame.depth[::stride, ::stride]
-    v, u = np.mgrid[0:frame.depth.shape[0]:stride, 0:frame.depth.shape[1]:stride]
-    keep = np.isfinite(depth) & (depth >= min_range) & (depth <= max_range)
-    uv = np.stack([u[keep], v[keep]], axis=1).astype(np.float64)
-    return frame.intrinsics.backproject(uv, depth[keep].astype(np.float64))
+def depth_grid(frame: Frame, stride: int = 1, min_range: float = 0.0, max_range: float = np.inf) -> np.ndarray:
+    """Camera-frame points on the ``stride``-pixel grid, (H', W', 3) metres, NaN where there is no return (a
+    depth that is not finite or not positive) or it lies outside [min_range, max_range]: the one place depth
+    pixels become points (the pinhole of ``frame.intrinsics``).
 
+    Args:
+        frame: The RGB-D frame (depth in metres).
+        stride: Every ``stride``-th row and column.
+        min_range: Nearest depth kept, metres.
+        max_range: Farthest depth kept, metres.
 
-def depth_grid(frame: Frame, stride: int, min_range: float, max_range: float) -> np.ndarray:
-    """Camera-frame points on the ``stride``-pixel grid, (H', W', 3), NaN where the depth is out of range."""
+    Returns:
+        The organised points.
+    """
     depth = frame.depth[::stride, ::stride].astype(np.float64)
-    depth = np.where(np.isfinite(depth) & (depth >= min_range) & (depth <= max_range), depth, np.nan)
+    keep = np.isfinite(depth) & (depth > 0) & (depth >= min_range) & (depth <= max_range)
+    depth = np.where(keep, depth, np.nan)
     v, u = np.mgrid[0:frame.depth.shape[0]:stride, 0:frame.depth.shape[1]:stride]
     intr = frame.intrinsics
     return np.stack([(u - intr.cx) / intr.fx * depth, (v - intr.cy) / intr.fy * depth, depth], axis=-1)
+
+
+def depth_points(frame: Frame, stride: int = 1, min_range: float = 0.0, max_range: float = np.inf) -> np.ndarray:
+    """The returns of :func:`depth_grid` as a list (N, 3), row by row: with the defaults, every valid pixel.
+
+    Args:
+        frame: The RGB-D frame (depth in metres).
+        stride: Every ``stride``-th row and column.
+        min_range: Nearest depth kept, metres.
+        max_range: Farthest depth kept, metres.
+
+    Returns:
+        Camera-frame points, metres.
+    """
+    grid = depth_grid(frame, stride, min_range, max_range)
+    return grid[np.isfinite(grid[..., 2])]
 
 
 def grid_normals(grid: np.ndarray) -> np.ndarray:

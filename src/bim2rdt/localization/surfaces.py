@@ -18,7 +18,7 @@ import trimesh
 
 from bim2rdt.bim import BimModel
 from bim2rdt.bim.map_classes import NO_MAP, map_elements
-from bim2rdt.localization.errors import LocalizationError
+from bim2rdt.localization.errors import LocalizationError, Refusal
 from bim2rdt.perception.camera import Intrinsics
 
 GRAZING_COS = np.cos(np.deg2rad(80.0))
@@ -50,11 +50,11 @@ class PermanentMap:
         """The map of a model; :class:`LocalizationError` when it has no permanent element with a body."""
         if model.meshes is None:
             raise LocalizationError(f"{model.path.name}: loaded without geometry; localizing needs its meshes "
-                                    "(load_ifc(path, geometry=True))")
+                                    "(load_ifc(path, geometry=True))", Refusal.NO_MAP)
         elements = map_elements(model)
         if not elements:
             raise LocalizationError(f"{model.path.name}: {NO_MAP} (bim2rdt info --readiness --require-map checks a "
-                                    "model before a tour)")
+                                    "model before a tour)", Refusal.NO_MAP)
         parts = [model.mesh(el.global_id) for el in elements]
         vertices = np.concatenate([v for v, _ in parts])
         offsets = np.cumsum([0] + [len(v) for v, _ in parts[:-1]])

@@ -4,6 +4,7 @@
 observations (one per object found); ``perceive_frames`` fuses several views of one place."""
 
 from bim2rdt.perception.camera import CameraError, Intrinsics, look_at
+from bim2rdt.perception.config import PerceptionConfig
 from bim2rdt.perception.detection import Detection
 from bim2rdt.perception.detector import Detector
 from bim2rdt.perception.edges import EdgeFilter
@@ -15,5 +16,6 @@ from bim2rdt.perception.perceive import PerceiveConfig, locate_detections, perce
 from bim2rdt.perception.yoloe import YoloeDetector
 
 __all__ = ["UNKNOWN_FAMILY", "CameraError", "Detection", "Detector", "EdgeFilter", "Frame", "GeometricConfig",
-           "GeometricDetector", "Intrinsics", "Observation", "PerceiveConfig", "PerceptionError", "YoloeDetector",
+           "GeometricDetector", "Intrinsics", "Observation", "PerceiveConfig", "PerceptionConfig", "PerceptionError",
+           "YoloeDetector",
            "locate_detections", "look_at", "perceive_frame", "perceive_frames"]

@@ -14,7 +14,7 @@ from pathlib import Path
 from bim2rdt.bim import BimModel
 from bim2rdt.perception.detector import Detector
 from bim2rdt.perception.errors import PerceptionError
-from bim2rdt.perception.geometric import GeometricDetector
+from bim2rdt.perception.geometric import GeometricConfig, GeometricDetector
 from bim2rdt.semantics import UprightPrior
 
 DEFAULT_DETECTOR = "geometric"
@@ -37,12 +37,14 @@ def check_detector(name: str, yoloe: tuple[Path, Path] | None = None) -> None:
 
 
 def make_detector(name: str, model: BimModel, priors: dict[str, UprightPrior],
-                  yoloe: tuple[Path, Path] | None = None, ideal: Callable[[], Detector] | None = None) -> Detector:
+                  yoloe: tuple[Path, Path] | None = None, ideal: Callable[[], Detector] | None = None,
+                  geometric: GeometricConfig | None = None) -> Detector:
     """The detector called ``name`` for ``model``'s site objects (``priors`` name the families): ``yoloe`` gives
-    its local weights and prompt embeddings, ``ideal`` builds the simulator's (a simulation only has one)."""
+    its local weights and prompt embeddings, ``ideal`` builds the simulator's (a simulation only has one),
+    ``geometric`` the geometric detector's settings (``Settings.perception.geometric``; None: the defaults)."""
     check_detector(name, yoloe)
     if name == "geometric":
-        return GeometricDetector(model, priors)
+        return GeometricDetector(model, priors, geometric or GeometricConfig())
     if name == "yoloe":
         from bim2rdt.perception.yoloe import YoloeDetector
 

@@ -16,15 +16,15 @@ two neighbours while floating centimetres off both surfaces.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
+from pydantic import BaseModel, ConfigDict
 
 
-@dataclass(frozen=True)
-class EdgeFilter:
+class EdgeFilter(BaseModel):
     """Depth noise model (sigma_z = ``noise`` + ``noise_per_metre`` x z, m; a ToF camera's defaults) and the
     number of sigmas a second difference or a neighbour step may reach before it counts."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid", use_attribute_docstrings=True)
 
     noise: float = 0.0015
     noise_per_metre: float = 0.0015

@@ -13,11 +13,11 @@ and which of the BIM's families is it?
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
 from functools import lru_cache
 
 import cv2
 import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
 from scipy.spatial import cKDTree
 
 from bim2rdt.bim import BimModel
@@ -35,9 +35,10 @@ from bim2rdt.perception.visibility import DepthView
 from bim2rdt.semantics import KnowledgeBasePriors, UprightPrior
 
 
-@dataclass(frozen=True)
-class GeometricConfig:
+class GeometricConfig(BaseModel):
     """Knobs of the geometric detector (lengths in metres)."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid", use_attribute_docstrings=True)
 
     stride: int = 2
     """Work on every n-th pixel in each direction (2: a VGA frame is 320 x 240 points)."""
@@ -60,8 +61,8 @@ class GeometricConfig:
     part_of: float = 0.15
     """A leftover piece mostly this close to the named object is its own (rim, noise), not another object; one
     no family explains is its own within twice that."""
-    noise: EdgeFilter = field(default_factory=EdgeFilter)
-    naming: NamingConfig = field(default_factory=NamingConfig)
+    noise: EdgeFilter = Field(default_factory=EdgeFilter)
+    naming: NamingConfig = Field(default_factory=NamingConfig)
 
 
 class GeometricDetector:

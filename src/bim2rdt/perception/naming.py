@@ -12,6 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from pydantic import BaseModel, ConfigDict
 
 from bim2rdt.frames import UP
 from bim2rdt.perception.fitting import along_long_axis, slid
@@ -22,9 +23,10 @@ from bim2rdt.registration import IcpConfig, RegistrationResult, register
 from bim2rdt.semantics import DEFAULT_UPRIGHT_BIAS, UprightPrior
 
 
-@dataclass(frozen=True)
-class NamingConfig:
+class NamingConfig(BaseModel):
     """Gates and effort of naming by registration (lengths in metres)."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid", use_attribute_docstrings=True)
 
     near_radius: float = 1.5
     """BIM elements within this plan distance of a cluster are its first candidates."""

@@ -14,9 +14,10 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 
 import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
 
 from bim2rdt.bim import BimModel
 from bim2rdt.perception.background import BimStructure, structure_for
@@ -39,9 +40,10 @@ from bim2rdt.semantics import UprightPrior
 log = logging.getLogger(__name__)
 
 
-@dataclass(frozen=True)
-class PerceiveConfig:
+class PerceiveConfig(BaseModel):
     """Knobs of the front end after the detector (lengths in metres)."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid", use_attribute_docstrings=True)
 
     association_radius: float = 1.5
     """Farthest an object may be (in plan) from the BIM element it is matched to."""
@@ -65,8 +67,8 @@ class PerceiveConfig:
     (:mod:`bim2rdt.perception.visibility`: no drum seen from behind)."""
     tie_ratio: float = 1.15
     """The BIM pose wins when its fit's score is within this factor of the best (:mod:`~bim2rdt.perception.fitting`)."""
-    icp: IcpConfig = field(default_factory=IcpConfig)
-    edge_filter: EdgeFilter = field(default_factory=EdgeFilter)
+    icp: IcpConfig = Field(default_factory=IcpConfig)
+    edge_filter: EdgeFilter = Field(default_factory=EdgeFilter)
 
     def fit_rules(self) -> FitRules:
         """The fitting path's rules for perception.

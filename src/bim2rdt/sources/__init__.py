@@ -1,5 +1,8 @@
 """Real sensor data in: frame readers behind one seam, and registered scans.
 
+``open_recording(path, **options)`` decides what a path holds (a ROS bag, a scan, camera frames) and returns a
+:class:`Recording`, subsampled, that also reports what its source dropped and warned about: what ``bim2rdt
+verify`` reads.
 ``open_source(path, **options)`` returns a :class:`FrameSource` (an iterable of perception frames) for a TUM
 RGB-D folder, a colour + depth PNG pair, an Azure Kinect ``.mkv``, an organised ``.pcd`` or PCL grabber TIFFs;
 ``read_cloud(path)`` reads a scan (``.pcd`` ``.ply`` ``.las`` ``.laz`` ``.e57``) as a :class:`Cloud`. Both raise
@@ -11,7 +14,8 @@ from bim2rdt.sources.calibration import correct_depth, correct_points
 from bim2rdt.sources.cloud import Cloud, read_cloud
 from bim2rdt.sources.errors import SourceError
 from bim2rdt.sources.options import SourceOptions
+from bim2rdt.sources.recording import Recording, RecordingKind, as_recording, is_rosbag, open_recording
 from bim2rdt.sources.source import FrameSource, open_source
 
-__all__ = ["Cloud", "FrameSource", "SourceError", "SourceOptions", "correct_depth", "correct_points", "open_source",
-           "read_cloud"]
+__all__ = ["Cloud", "FrameSource", "Recording", "RecordingKind", "SourceError", "SourceOptions", "as_recording",
+           "correct_depth", "correct_points", "is_rosbag", "open_recording", "open_source", "read_cloud"]

@@ -112,7 +112,7 @@ def checked_cloud(path: Path, points, colors, intensity, scale: float | None = N
     span = float((np.percentile(points, 99, axis=0) - np.percentile(points, 1, axis=0)).max())
     if span > MAX_SPAN_M:
         raise SourceError(path, f"the scan spans {span:.0f} units: it looks like millimetres (a scan in metres spans "
-                                f"under {MAX_SPAN_M:.0f}); read it with scale=0.001")
+                                f"under {MAX_SPAN_M:.0f}); read it with scale=0.001 (open_recording: depth_scale=1000; verify --depth-scale 1000)")
     colors = None if colors is None else _colours(np.asarray(colors)[keep])
     intensity = None if intensity is None else np.asarray(intensity, dtype=np.float64).reshape(-1)[keep]
     return Cloud(points, colors, intensity, path, int(all_nan.sum()), note)

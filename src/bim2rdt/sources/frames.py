@@ -33,10 +33,10 @@ def intrinsics_for(path, options: SourceOptions, width: int, height: int,
     intrinsics = given if given is not None else found
     if intrinsics is None:
         raise SourceError(path, "no camera intrinsics in the recording; give them (intrinsics=dict(fx=.., fy=.., "
-                                "cx=.., cy=..))")
+                                "cx=.., cy=..); bim2rdt verify --intrinsics FILE.json)")
     if (intrinsics.width, intrinsics.height) != (width, height):
         raise SourceError(path, f"the intrinsics are for {intrinsics.width}x{intrinsics.height} but the depth image "
-                                f"is {width}x{height}")
+                                f"is {width}x{height} (intrinsics, verify --intrinsics: give width and height)")
     return intrinsics
 
 
@@ -55,7 +55,7 @@ def depth_metres(path, raw: np.ndarray, units_per_metre: float) -> np.ndarray:
     median = float(np.median(valid[:: max(1, valid.size // 20_000)]))  # a 20k-pixel sample tells the unit
     if median > MAX_MEDIAN_DEPTH_M:
         raise SourceError(path, f"median depth {median:.0f} m at {units_per_metre:g} units per metre: the depth looks "
-                                "like millimetres; give depth_scale=1000")
+                                "like millimetres; give depth_scale=1000 (bim2rdt verify --depth-scale 1000)")
     return depth
 
 

@@ -51,7 +51,7 @@ class GrabberFolder:
         units_per_metre = self.options.depth_scale or (1.0 / metres_per_unit if metres_per_unit else None)
         if units_per_metre is None:
             raise SourceError(depth_path, "the depth's units are unknown (no .xml z_multiplication_factor): give "
-                                          "depth_scale (1000 for millimetres)")
+                                          "depth_scale (1000 for millimetres; bim2rdt verify --depth-scale 1000)")
         if raw.dtype.kind == "f" and not self.options.depth_scale and float(np.nanmax(raw, initial=0)) < 20:
             units_per_metre = 1.0  # a float depth TIFF already in metres
         depth = depth_metres(depth_path, raw, units_per_metre)

@@ -22,11 +22,18 @@ MAX_FIT_RESIDUAL_PX = 0.5
 """A fitted pinhole's largest pixel residual; above it the cloud is not one camera's image."""
 
 
+NOT_ORGANISED = ("the PCD is not organised: it is a scan, not a camera frame; open_recording (bim2rdt verify) "
+                 "reads it as one, or read_cloud")
+"""Why an unorganised PCD is no frame, and what reads it."""
+
+
 class OrganisedPcd:
     """A :class:`~bim2rdt.sources.FrameSource` of one organised PCD frame."""
 
     def __init__(self, path: Path, options: SourceOptions) -> None:
         self.path, self.options = Path(path), options
+        if not pcd_is_organised(self.path):
+            raise SourceError(self.path, NOT_ORGANISED)
 
     def __iter__(self) -> Iterator[Frame]:
         xyz, rgb = read_organised(self.path)
@@ -35,6 +42,30 @@ class OrganisedPcd:
         found = None if self.options.intrinsics is not None else fit_intrinsics(self.path, xyz)
         intrinsics = intrinsics_for(self.path, self.options, width, height, found)
         yield build_frame(self.path, rgb, depth, intrinsics, self.options, source=self.path.name)
+
+
+def pcd_is_organised(path: Path) -> bool:
+    """True when the PCD's header gives a ``HEIGHT`` above 1 (a camera image's grid); False for a scan (height 1).
+    A header that does not say is taken as organised: the frame reader then names what is wrong.
+
+    Args:
+        path: A ``.pcd`` file.
+
+    Returns:
+        Whether it is an organised (image-grid) cloud.
+    """
+    try:
+        with open(path, "rb") as handle:
+            head = handle.read(4096)
+    except OSError as error:
+        raise SourceError(path, f"cannot read: {error.strerror or error}") from None
+    for line in head.split(b"\n"):
+        words = line.split()
+        if len(words) == 2 and words[0].upper() == b"HEIGHT":
+            return not words[1].isdigit() or int(words[1]) > 1
+        if words and words[0].upper() == b"DATA":
+            break
+    return True
 
 
 def read_pcd(path: Path):
@@ -56,8 +87,7 @@ def read_organised(path: Path) -> tuple[np.ndarray, np.ndarray | None]:
     if missing:
         raise SourceError(path, f"the PCD has no field {missing[0]!r} (fields: {', '.join(data.dtype.names)})")
     if meta.height <= 1:
-        raise SourceError(path, f"the PCD is not organised (height {meta.height}, width {meta.width}): it is a scan, "
-                                "not a camera frame; read it with read_cloud")
+        raise SourceError(path, f"{NOT_ORGANISED} (height {meta.height}, width {meta.width})")
     shape = (meta.height, meta.width)
     xyz = np.stack([data[name].astype(np.float64) for name in ("x", "y", "z")], axis=-1).reshape(*shape, 3)
     xyz[~np.all(np.isfinite(xyz), axis=-1)] = np.nan
@@ -82,13 +112,13 @@ def fit_intrinsics(path, xyz: np.ndarray) -> Intrinsics:
     valid = np.all(np.isfinite(xyz), axis=-1) & (xyz[..., 2] > 0)
     if valid.sum() < 100:
         raise SourceError(path, f"only {int(valid.sum())} valid points: too few to fit the camera's intrinsics; "
-                                "give them (intrinsics=...)")
+                                "give them (intrinsics=...; bim2rdt verify --intrinsics FILE.json)")
     z = xyz[..., 2][valid]
     fx, cx, ru = _line_fit(xyz[..., 0][valid] / z, u[valid])
     fy, cy, rv = _line_fit(xyz[..., 1][valid] / z, v[valid])
     if max(ru, rv) > MAX_FIT_RESIDUAL_PX or fx <= 0 or fy <= 0:
         raise SourceError(path, f"the organised cloud is not a pinhole image (fit residual {max(ru, rv):.2f} px); "
-                                "give the intrinsics (intrinsics=...)")
+                                "give the intrinsics (intrinsics=...; bim2rdt verify --intrinsics FILE.json)")
     return Intrinsics(width, height, *(round(float(k), 4) for k in (fx, fy, cx, cy)))
 
 

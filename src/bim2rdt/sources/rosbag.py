@@ -29,6 +29,7 @@ from bim2rdt.sources.errors import SourceError
 from bim2rdt.sources.frames import build_frame, depth_metres, intrinsics_for
 from bim2rdt.sources.optional import require
 from bim2rdt.sources.options import SourceOptions
+from bim2rdt.sources.recording import RecordingKind
 from bim2rdt.sources.ros_images import ImageError, Undistorter, colour, compressed_colour, depth, is_depth
 from bim2rdt.sources.tf import TfBuffer
 
@@ -44,11 +45,6 @@ CLOCK_TOLERANCE = 1.0
 """Header stamps further than this (s) from the bag's receive times mean two clocks: reported, not guessed."""
 IMAGE, COMPRESSED, INFO = "sensor_msgs/msg/Image", "sensor_msgs/msg/CompressedImage", "sensor_msgs/msg/CameraInfo"
 TF, IMU, ODOMETRY = "tf2_msgs/msg/TFMessage", "sensor_msgs/msg/Imu", "nav_msgs/msg/Odometry"
-
-
-def is_rosbag_folder(path: Path) -> bool:
-    """A rosbag2 folder: metadata.yaml, or .db3/.mcap storage files."""
-    return (path / "metadata.yaml").is_file() or any(path.glob("*.db3")) or any(path.glob("*.mcap"))
 
 
 def stamp(header) -> float:
@@ -70,9 +66,13 @@ class Topics:
 
 
 class RosbagSource:
-    """The frames of a bag (see the module's note). ``dropped`` (after iterating): one dict per dropped frame
-    (``time``, ``reason``); ``drop_counts``: reasons -> counts; ``warnings``: what is off about the bag as a
-    whole (clocks); ``expected_frames``: colour (else depth) messages in the bag, before subsampling."""
+    """The frames of a bag (see the module's note), a :class:`~bim2rdt.sources.Recording` of kind ``bag``.
+    ``dropped`` (after iterating): one dict per dropped frame (``time``, ``reason``, ``kind``: the reason without
+    its numbers); ``drop_counts``: kinds -> counts; ``warnings``: what is off about the bag as a whole (clocks);
+    ``messages``: colour (else depth) messages in the bag; ``expected_frames``: the frames that leaves after
+    ``every`` and ``max_frames`` (fewer when frames are dropped)."""
+
+    kind = RecordingKind.BAG
 
     def __init__(self, path: Path, options: SourceOptions) -> None:
         self.path, self.options = Path(path), options
@@ -92,7 +92,7 @@ class RosbagSource:
             self.topics = self._topics(reader)
             self.camera_frame = self._camera_frame(reader)
             self.tf = self._read_tf(reader)
-            self.expected_frames = self._count(reader, self.topics.colour or self.topics.depth)
+            self.messages = self._count(reader, self.topics.colour or self.topics.depth)
             self._check_tf()
             self.world_frame = self.tf.root(self.camera_frame) if self.tf else None
             """The frame the priors are in: map, else odom, else the camera tree's root (None: no TF)."""
@@ -103,13 +103,15 @@ class RosbagSource:
         self._opened = opened  # the first iteration reads on (opening a rosbag2 folder parses its metadata.yaml)
 
     @property
-    def drop_counts(self) -> dict[str, int]:
-        return dict(Counter(_kind(d["reason"]) for d in self.dropped))
+    def expected_frames(self) -> int:
+        """The frames left of ``messages`` after ``every`` and ``max_frames`` (an upper bound: drops aside)."""
+        kept = -(-self.messages // (self.options.every or 1))
+        return kept if self.options.max_frames is None else min(kept, self.options.max_frames)
 
-    @staticmethod
-    def drop_kind(reason: str) -> str:
-        """A drop reason without its numbers: what summaries count."""
-        return _kind(reason)
+    @property
+    def drop_counts(self) -> dict[str, int]:
+        """{kind: number} of the frames dropped."""
+        return dict(Counter(d["kind"] for d in self.dropped))
 
     # -- opening ---------------------------------------------------------------------------------------------
 
@@ -313,7 +315,8 @@ class RosbagSource:
             nearest = min(range(len(depths)), key=lambda i: abs(depths[i][0] - when), default=None)
             colours.pop(0)
             if nearest is None or abs(depths[nearest][0] - when) > self.tolerance:
-                yield {"time": when, "reason": f"no depth image within {self.tolerance * 1000:.0f} ms"}
+                reason = f"no depth image within {self.tolerance * 1000:.0f} ms"
+                yield _drop(when, reason, reason)
                 continue
             depth_message = depths[nearest][1]
             del depths[: nearest + 1]
@@ -322,17 +325,13 @@ class RosbagSource:
     def _frame(self, reader, colour_message, depth_message, info, imu) -> Frame | dict:
         when = stamp(depth_message.header)
         name = f"{self.topics.depth}@{when:.3f}"
-        try:
-            raw, units = depth(depth_message)
-            rgb = None
-            if colour_message is not None:
-                rgb = (compressed_colour(colour_message) if hasattr(colour_message, "format")
-                       else colour(colour_message))
-        except ImageError as error:
-            raise SourceError(self.path, f"{self.topics.colour if 'colour' in str(error) else self.topics.depth}: "
-                                         f"{error}") from None
+        raw, units = self._image(self.topics.depth, depth, depth_message)
+        rgb = None
+        if colour_message is not None:
+            rgb = self._image(self.topics.colour, compressed_colour if hasattr(colour_message, "format") else colour,
+                              colour_message)
         if info is None and self.options.intrinsics is None:
-            return {"time": when, "reason": f"no CameraInfo on {self.topics.camera_info} before this frame"}
+            return _drop(when, f"no CameraInfo on {self.topics.camera_info} before this frame", "no CameraInfo")
         found = None
         if info is not None:
             undistort = self._undistorter(info)
@@ -348,21 +347,28 @@ class RosbagSource:
         if self.world_frame is not None:
             prior = self.tf.lookup(self.world_frame, self.camera_frame, when)
             if isinstance(prior, str):
-                return {"time": when, "reason": prior}
+                return _drop(when, prior, "no TF within tolerance")
         if self.options.depth_scale is not None:  # the caller overrides REP 118's units: check them as any reader
             try:
                 depth_m = depth_metres(name, raw, self.options.depth_scale)
             except SourceError as error:
-                return {"time": when, "reason": error.problem}
+                return _drop(when, error.problem, "depth out of range")
         else:  # REP 118 fixes the units (16UC1 mm, 32FC1 m); the Frame still refuses a millimetre-looking median
             if units == 1.0:
                 depth_m, any_valid = raw, bool(np.any(raw > 0))
             else:  # integer millimetres: one pass to metres; a zero is no return
                 depth_m, any_valid = np.multiply(raw, np.float32(1.0 / units), dtype=np.float32), bool(raw.any())
             if not any_valid:
-                return {"time": when, "reason": "the depth image has no valid pixel (all 0 or NaN)"}
+                return _drop(when, "the depth image has no valid pixel (all 0 or NaN)", "no valid depth")
         return build_frame(self.path, rgb, depth_m, intrinsics, self.options, time=when, prior=prior,
                            up=self._up(imu, when, prior), source=name)
+
+    def _image(self, topic: str, decode, message):
+        """``decode(message)``, or :class:`SourceError` naming ``topic`` when it is not a readable image."""
+        try:
+            return decode(message)
+        except ImageError as error:
+            raise SourceError(self.path, f"{topic}: {error}") from None
 
     def _undistorter(self, info) -> Undistorter:
         """The CameraInfo's :class:`Undistorter`, built once per distinct calibration (a camera publishes the same
@@ -495,11 +501,9 @@ def _namespace(topic: str) -> str:
     return topic.rsplit("/", 1)[0] + "/" if "/" in topic.strip("/") else ""
 
 
-def _kind(reason: str) -> str:
-    """A drop reason without its numbers: what the summary counts."""
-    if reason.startswith("no TF"):
-        return "no TF within tolerance"
-    return reason.split(" (")[0]
+def _drop(when: float, reason: str, kind: str) -> dict:
+    """A dropped frame: its stamp (s), why, and the kind summaries count (the reason without its numbers)."""
+    return {"time": when, "reason": reason, "kind": kind}
 
 
 def _first_line(error: BaseException) -> str:

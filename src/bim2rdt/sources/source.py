@@ -39,7 +39,7 @@ FILE_READERS: dict[str, str] = {
 """File extension (lower case) -> ``"module:Class"`` of its reader."""
 
 FOLDER_READERS: list[tuple[str, str]] = [
-    ("bim2rdt.sources.rosbag:is_rosbag_folder", "bim2rdt.sources.rosbag:RosbagSource"),
+    ("bim2rdt.sources.recording:is_rosbag_folder", "bim2rdt.sources.rosbag:RosbagSource"),
     ("bim2rdt.sources.tum:is_tum_folder", "bim2rdt.sources.tum:TumFolder"),
     ("bim2rdt.sources.grabber:is_grabber_folder", "bim2rdt.sources.grabber:GrabberFolder"),
     ("bim2rdt.sources.tum:is_pair_folder", "bim2rdt.sources.tum:PairFolder"),

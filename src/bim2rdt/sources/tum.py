@@ -77,7 +77,8 @@ class PairFolder:
             options = options if options.depth_scale else replace(options, depth_scale=TUM_UNITS_PER_METRE)
         if options.depth_scale is None:
             raise SourceError(self.path, "the depth PNGs' units are unknown: give depth_scale (units per metre: "
-                                         "1000 for millimetres, 5000 for TUM)")
+                                         "1000 for millimetres, 5000 for TUM; bim2rdt verify --depth-scale S), or put it in "
+                                         "intrinsics.json")
         self.options = options
 
     def __iter__(self) -> Iterator[Frame]:

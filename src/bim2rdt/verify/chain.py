@@ -16,15 +16,17 @@ from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field, replace
 
 import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
 
 from bim2rdt.bim import BimModel
-from bim2rdt.localization import LocalizationConfig, LocalizationError, localize_cloud
-from bim2rdt.localization.cloud import OccludedMap, scan_points
+from bim2rdt.localization import (LocalizationConfig, LocalizationError, OccludedMap, depth_points, localize_cloud,
+                                  scan_points)
 from bim2rdt.perception.background import explained, structure_for
 from bim2rdt.perception.frame import Frame
 from bim2rdt.perception.observation import Observation
 from bim2rdt.perception.structure import movable_elements
 from bim2rdt.semantics import KnowledgeBasePriors, UprightPrior
+from bim2rdt.sources import as_recording
 from bim2rdt.twin import ElementStatus, TwinConfig
 from bim2rdt.twin.verdict import fit_trusted
 from bim2rdt.verify.depth_check import DepthCheck, DepthCheckConfig, check_depth
@@ -35,28 +37,51 @@ from bim2rdt.verify.priors import levelled
 from bim2rdt.verify.rays import RangeLookup
 
 
-def real_sensor_localization() -> LocalizationConfig:
-    """Localization settings for consumer RGB-D cameras and scanners at up to ~5 m: a Kinect's depth noise is
-    ~3 cm at 4.7 m (structured light grows with z^2), so inliers reach 5 cm and the Huber scale 2.5 cm; a real
-    room has its furniture in front of half the walls, so 30 % of the points near the map suffice."""
-    return LocalizationConfig(inlier_distance=0.05, huber_delta=0.025, min_inlier_fraction=0.3)
+REAL_SENSOR = {"inlier_distance": 0.05, "huber_delta": 0.025, "min_inlier_fraction": 0.3}
+"""Localization settings for consumer RGB-D cameras and scanners at up to ~5 m: a Kinect's depth noise is ~3 cm at
+4.7 m (structured light grows with z^2), so inliers reach 5 cm and the Huber scale 2.5 cm; a real room has its
+furniture in front of half the walls, so 30 % of the points near the map suffice."""
 
 
-@dataclass(frozen=True)
-class VerifyConfig:
-    """The knobs of verify. ``depth_noise`` (a, b): the sensor's depth sigma is a + b z^2 metres at depth z
-    (Kinect v1, Khoshelham & Elberink 2012: ~1.4 mm/m^2), used where a point is judged on or off a wall."""
+def real_sensor_localization(base: LocalizationConfig | None = None) -> LocalizationConfig:
+    """``base`` (``Settings.localization``) with the real sensor's values (:data:`REAL_SENSOR`) wherever it does
+    not set them itself: what verify localizes with. The robot's own defaults suit a time-of-flight camera's
+    millimetre noise; a value the user sets (``BIM2RDT_LOCALIZATION__INLIER_DISTANCE``) wins.
 
-    localization: LocalizationConfig = field(default_factory=real_sensor_localization)
-    planned: PlannedConfig = field(default_factory=PlannedConfig)
-    new: NewObjectConfig = field(default_factory=NewObjectConfig)
-    depth: DepthCheckConfig = field(default_factory=DepthCheckConfig)
+    Args:
+        base: Localization settings; None: the defaults.
+
+    Returns:
+        The settings verify uses.
+    """
+    base = base or LocalizationConfig()
+    unset = {name: value for name, value in REAL_SENSOR.items() if name not in base.model_fields_set}
+    return base.model_copy(update=unset)
+
+
+class VerifyConfig(BaseModel):
+    """The knobs of verify (``Settings.verify``, ``BIM2RDT_VERIFY__*``). ``depth_noise`` (a, b): the sensor's depth
+    sigma is a + b z^2 metres at depth z (Kinect v1, Khoshelham & Elberink 2012: ~1.4 mm/m^2), used where a point is
+    judged on or off a wall."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid", use_attribute_docstrings=True)
+
+    localization: LocalizationConfig = Field(default_factory=real_sensor_localization)
+    """Follows ``Settings.localization`` with the real sensor's defaults (:func:`real_sensor_localization`); set
+    ``BIM2RDT_LOCALIZATION__*``, not this."""
+    planned: PlannedConfig = Field(default_factory=PlannedConfig)
+    """The planned-object check."""
+    new: NewObjectConfig = Field(default_factory=NewObjectConfig)
+    """The new-object clusters."""
+    depth: DepthCheckConfig = Field(default_factory=DepthCheckConfig)
+    """The miscalibration test."""
     depth_noise: tuple[float, float] = (0.002, 0.0015)
+    """(a m, b 1/m): the depth sigma a + b z^2 at depth z."""
     surface_tolerance: float = 0.03
     """A point this close to a permanent surface (plus 3 sigma of depth noise) is the building's."""
     min_fitness: float = TwinConfig().min_fitness
-    """A fit with less of its points on the body than this is no evidence the object is there (the twin's
-    ``min_fitness``, ``Settings.twin.min_fitness``: the edge passes it): its place may be judged seen empty instead."""
+    """A fit with less of its points on the body than this is no evidence the object is there: its place may be
+    judged seen empty instead. Follows ``Settings.twin.min_fitness``."""
     find_new: bool = True
     """Cluster what neither the building nor a planned object explains into new objects."""
 
@@ -110,14 +135,14 @@ class VerifyResult:
     frames: list[FrameResult]
     dropped: list[dict] = field(default_factory=list)
     """Frames the source dropped before verify saw them (a bag's: no depth partner, no TF within the tolerance),
-    each ``{"time", "reason"}``."""
+    each ``{"time", "reason", "kind"}``."""
     source_warnings: list[str] = field(default_factory=list)
     """What the source found off about the recording as a whole (a bag whose clocks disagree)."""
 
     @property
     def drop_counts(self) -> dict[str, int]:
         """{kind (or reason): number} of the frames the source dropped."""
-        return dict(Counter(d.get("kind", d["reason"]) for d in self.dropped))
+        return dict(Counter(d["kind"] for d in self.dropped))
 
     @property
     def miscalibrated(self) -> bool:
@@ -147,11 +172,11 @@ def verify_frames(frames: Iterable, model: BimModel, prior: np.ndarray | None = 
       until a fix is accepted: from then on the own poses are odometry anchored at the last fix, as with
       ``prior`` (a ROS bag's camera in ``map``: the fix is what map -> odom should be).
 
-    A source that drops frames (``dropped``: a list of ``{"time", "reason"}``, read after iterating) or warns about
-    the recording (``warnings``) has them carried into the result.
+    What a :class:`~bim2rdt.sources.Recording` dropped (``{"time", "reason", "kind"}``, read after iterating) and
+    its warnings about the recording are carried into the result (a plain iterable drops nothing).
 
     Args:
-        frames: The frames or scans, in the order they were taken (a ``FrameSource`` or any iterable).
+        frames: The frames or scans, in the order they were taken (a ``Recording``, or any iterable).
         model: The BIM, loaded with geometry.
         prior: ``T_world_sensor`` (4x4, metres) of the first frame in the model's frame; None trusts the
             frames' own poses until a fix is accepted.
@@ -173,7 +198,8 @@ def verify_frames(frames: Iterable, model: BimModel, prior: np.ndarray | None = 
     priors = family_priors(model) if priors is None else priors
     results: list[FrameResult] = []
     anchor: tuple[np.ndarray | None, np.ndarray] | None = None if prior is None else (None, np.asarray(prior))
-    for index, frame in enumerate(frames):
+    recording = as_recording(frames)
+    for index, frame in enumerate(recording):
         own = frame.T_world_camera if isinstance(frame, Frame) else None
         result = verify_frame(index, frame, model, scene, _prior_for(own, anchor), config, priors)
         result.recorded = own
@@ -184,15 +210,12 @@ def verify_frames(frames: Iterable, model: BimModel, prior: np.ndarray | None = 
         results.append(result)
         if progress is not None:
             progress(result)
-    dropped = list(getattr(frames, "dropped", []))
+    dropped = list(recording.dropped)
     if not results:
         reasons = "; ".join(f"{n} {k}" for k, n in Counter(d["reason"] for d in dropped).most_common(3))
         raise VerifyError("the source holds no frames" + (f" (all {len(dropped)} dropped: {reasons})" if dropped
                                                           else ""))
-    kinds = getattr(frames, "drop_kind", None)
-    if kinds is not None:
-        dropped = [{**d, "kind": kinds(d["reason"])} for d in dropped]
-    return VerifyResult(results, dropped, list(getattr(frames, "warnings", [])))
+    return VerifyResult(results, dropped, list(recording.warnings))
 
 
 def family_priors(model: BimModel) -> dict[str, UprightPrior]:
@@ -218,7 +241,7 @@ def verify_frame(index: int, frame, model: BimModel, scene: OccludedMap, prior: 
     and pitch."""
     start = clock.perf_counter()
     if isinstance(frame, Frame):
-        name, when, points_sensor = frame.source, frame.time, frame_points(frame)
+        name, when, points_sensor = frame.source, frame.time, depth_points(frame)
         if prior is not None and frame.up is not None:
             prior = levelled(prior, frame.up)
     else:
@@ -230,12 +253,12 @@ def verify_frame(index: int, frame, model: BimModel, scene: OccludedMap, prior: 
         result.reason = "no prior pose: give --prior X,Y,Z,YAW_DEG or --prior-file, or a source with poses"
         return _timed(result, start)
     try:
-        scan = scan_points(_Cloud(points_sensor), config.localization)
+        scan = scan_points(points_sensor, config.localization)
     except LocalizationError as error:
         result.reason = str(error)
         return _timed(result, start)
     try:
-        loc = localize_cloud(scan, model, prior, (0.0, 0.0, 1.0), config.localization)
+        loc = localize_cloud(scan, model, prior, (0.0, 0.0, 1.0), config.localization, scene)
     except LocalizationError as error:
         result.reason = str(error)
         result.depth = _depth_at_best_fit(scan, model, scene, prior, config)
@@ -266,23 +289,10 @@ def _depth_at_best_fit(scan, model: BimModel, scene: OccludedMap, prior: np.ndar
         "max_correction_deg": 4 * config.localization.max_correction_deg, "min_inlier_fraction": 0.0,
         "min_inliers": 6, "max_behind_fraction": 1.0})
     try:
-        best = localize_cloud(scan, model, prior, (0.0, 0.0, 1.0), loose)
+        best = localize_cloud(scan, model, prior, (0.0, 0.0, 1.0), loose, scene)
     except LocalizationError:
         return None
     return check_depth(scan, scene, best.pose, config.localization.max_range, config.depth)
-
-
-def frame_points(frame: Frame) -> np.ndarray:
-    """The frame's valid depth pixels as camera-frame points (N, 3), metres."""
-    valid = frame.valid_depth
-    v, u = np.nonzero(valid)
-    depth = frame.depth[valid].astype(np.float64)
-    return frame.intrinsics.backproject(np.stack([u, v], axis=1).astype(np.float64), depth)
-
-
-@dataclass(frozen=True)
-class _Cloud:
-    points: np.ndarray
 
 
 def _observe(index: int, points_sensor: np.ndarray, pose: np.ndarray, model: BimModel, scene: OccludedMap,

@@ -19,14 +19,16 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from pydantic import BaseModel, ConfigDict
 from scipy.spatial import cKDTree
 
-from bim2rdt.localization.cloud import OccludedMap, ScanPoints
+from bim2rdt.localization import OccludedMap, ScanPoints
 
 
-@dataclass(frozen=True)
-class DepthCheckConfig:
+class DepthCheckConfig(BaseModel):
     """Thresholds of the miscalibration test (lengths in metres, angles in degrees)."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid", use_attribute_docstrings=True)
 
     max_angle_error_deg: float = 2.5
     """Two wall or slab faces whose measured angle differs from the BIM's by more: the depth is bent. office1

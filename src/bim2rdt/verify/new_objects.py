@@ -8,23 +8,23 @@ the centre of its box on the slab, level.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
+from pydantic import BaseModel, ConfigDict
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from bim2rdt.bim import BimModel
-from bim2rdt.localization.cloud import voxel_means
+from bim2rdt.localization import voxel_means
 from bim2rdt.perception.library import element_body_mesh
 from bim2rdt.perception.observation import UNKNOWN_FAMILY, Observation
 from bim2rdt.registration import sample_model
 
 
-@dataclass(frozen=True)
-class NewObjectConfig:
+class NewObjectConfig(BaseModel):
     """Knobs of the new-object clusters (metres)."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid", use_attribute_docstrings=True)
 
     voxel: float = 0.03
     link: float = 0.07

@@ -28,13 +28,14 @@ the scan near where the BIM says it stands. So, for the located points the perma
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
 from scipy.spatial import cKDTree
 
 from bim2rdt.bim import BimElement, BimModel
-from bim2rdt.localization.cloud import voxel_means
+from bim2rdt.localization import voxel_means
 from bim2rdt.perception.fitting import FitRules, fit_detection
 from bim2rdt.perception.library import element_body_mesh
 from bim2rdt.perception.observation import Observation
@@ -43,9 +44,10 @@ from bim2rdt.registration import IcpConfig, RegistrationError, register, sample_
 from bim2rdt.semantics import UprightPrior
 
 
-@dataclass(frozen=True)
-class PlannedConfig:
+class PlannedConfig(BaseModel):
     """Knobs of the planned-object check (lengths in metres)."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid", use_attribute_docstrings=True)
 
     search: float = 0.5
     """A located point within this of an object's planned surface may be that object's: farther than the largest
@@ -76,7 +78,7 @@ class PlannedConfig:
     """Surface samples of the object's body for registration."""
     slab_contact: float = 0.05
     """An object whose planned lowest point is this close to the slab rests on it during registration."""
-    icp: IcpConfig = field(default_factory=lambda: IcpConfig(max_pair_distance=0.1, huber_delta=0.02,
+    icp: IcpConfig = Field(default_factory=lambda: IcpConfig(max_pair_distance=0.1, huber_delta=0.02,
                                                              score_distance=0.05, restarts=1, yaw_jitter_deg=0.0,
                                                              hop_rounds=0))
     upright: bool = False

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 import time
+from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -20,8 +21,7 @@ import numpy as np
 
 from bim2rdt.bench.localization.run import PoseError, pose_error
 from bim2rdt.bim import load_ifc
-from bim2rdt.localization import LocalizationConfig, LocalizationError, localize, localize_cloud
-from bim2rdt.localization.cloud import scan_points
+from bim2rdt.localization import LocalizationConfig, LocalizationError, localize, localize_cloud, scan_points
 from bim2rdt.sources import open_source, read_cloud
 from bim2rdt.verify.chain import real_sensor_localization
 
@@ -41,6 +41,8 @@ class OfficeFix:
     seconds: float
     pose: np.ndarray | None = None
     """The fix's T_world_camera (4, 4), None when refused."""
+    kind: str | None = None
+    """The refusal's kind (:class:`~bim2rdt.localization.Refusal`'s value), None when accepted."""
 
 
 def office_priors(T_true: np.ndarray, count: int = PRIORS, radius: float = RADIUS_M, yaw_deg: float = YAW_DEG,
@@ -91,7 +93,8 @@ def _fix(frame, model, prior, T_true, config) -> OfficeFix:
     try:
         fix = localize(frame, model, prior, config=config)
     except LocalizationError as error:
-        return OfficeFix(pose_error(prior, T_true), None, str(error), time.process_time() - started)
+        return OfficeFix(pose_error(prior, T_true), None, str(error), time.process_time() - started,
+                         kind=error.kind.value)
     return OfficeFix(pose_error(prior, T_true), pose_error(fix.pose, T_true), None, time.process_time() - started,
                      fix.pose)
 
@@ -102,18 +105,15 @@ def _cloud_fix(cloud, model, prior, T_true, config: LocalizationConfig) -> Offic
     try:
         fix = localize_cloud(scan_points(cloud, config), model, prior, (0.0, 0.0, 1.0), config)
     except LocalizationError as error:
-        return OfficeFix(pose_error(prior, T_true), None, str(error), time.process_time() - started)
+        return OfficeFix(pose_error(prior, T_true), None, str(error), time.process_time() - started,
+                         kind=error.kind.value)
     return OfficeFix(pose_error(prior, T_true), pose_error(fix.pose, T_true), None, time.process_time() - started,
                      fix.pose)
 
 
 def _summary(fixes: list[OfficeFix]) -> dict:
     accepted = [f.fix for f in fixes if f.fix is not None]
-    reasons: dict[str, int] = {}
-    for f in fixes:
-        if f.reason is not None:
-            key = f.reason.split(":")[0] if "rejected" not in f.reason else _why_rejected(f.reason)
-            reasons[key] = reasons.get(key, 0) + 1
+    reasons = dict(Counter(f.kind for f in fixes if f.kind is not None))
 
     def stat(values, how):
         return float(how(values)) if values else None
@@ -125,16 +125,6 @@ def _summary(fixes: list[OfficeFix]) -> dict:
             "worst_yaw_deg": stat([abs(e.yaw_deg) for e in accepted], np.max),
             "median_prior_cm": float(np.median([f.prior.position * 100 for f in fixes])),
             "median_seconds": float(np.median([f.seconds for f in fixes]))}
-
-
-def _why_rejected(reason: str) -> str:
-    if "beyond the basin (" in reason:
-        return "moved beyond the basin"
-    if "lie on it" in reason:
-        return "too few points on the BIM after the fix"
-    if "behind walls" in reason:
-        return "points behind walls after the fix"
-    return reason.split(":")[0][:60]
 
 
 def _record(fix: OfficeFix) -> dict:

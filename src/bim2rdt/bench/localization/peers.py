@@ -12,7 +12,7 @@ import numpy as np
 
 from bim2rdt.evaluation.peers import import_open3d
 from bim2rdt.localization import LocalizationConfig
-from bim2rdt.localization.depth import depth_points
+from bim2rdt.localization import depth_points
 from bim2rdt.localization.surfaces import PermanentMap
 from bim2rdt.perception.frame import Frame
 
