@@ -34,6 +34,7 @@ import numpy as np
 from bim2rdt.atomic import write_bytes_atomic
 from bim2rdt.bim import BimElement, BimModel, load_ifc
 from bim2rdt.bus.event import Event
+from bim2rdt.frames import rigid_problem
 from bim2rdt.perception.observation import Observation
 from bim2rdt.twin.errors import TwinError
 from bim2rdt.twin.projection import STATE_KINDS, Projection
@@ -478,13 +479,10 @@ def _checked_time(time: float) -> float:
 
 
 def _checked_pose(pose, what: str) -> np.ndarray:
-    pose = np.asarray(pose, dtype=float)
-    if pose.shape != (4, 4) or not np.all(np.isfinite(pose)):
-        raise TwinError(f"{what} must be a finite 4x4 matrix, got shape {pose.shape}")
-    rotation = pose[:3, :3]
-    if not np.allclose(rotation @ rotation.T, np.eye(3), atol=1e-6) or np.linalg.det(rotation) < 0:
-        raise TwinError(f"{what} has a rotation block that is not a proper rotation")
-    return pose
+    problem = rigid_problem(pose)
+    if problem is not None:
+        raise TwinError(f"{what} must be a finite 4x4 rigid pose: {problem}")
+    return np.asarray(pose, dtype=float)
 
 
 def _check_symmetry(symmetry: Mapping[str, float]) -> None:

@@ -5,8 +5,8 @@ from bim2rdt.verify.chain import FrameResult, VerifyConfig, VerifyResult, verify
 from bim2rdt.verify.depth_check import DepthCheck, DepthCheckConfig, check_depth
 from bim2rdt.verify.errors import VerifyError
 from bim2rdt.verify.outputs import VerifyFiles, record_twin, write_outputs
-from bim2rdt.verify.priors import heading_deg, levelled, prior_pose
+from bim2rdt.verify.priors import heading_deg, levelled, prior_pose, read_prior_file
 
 __all__ = ["DepthCheck", "DepthCheckConfig", "FrameResult", "VerifyConfig", "VerifyError", "VerifyFiles",
-           "VerifyResult", "check_depth", "heading_deg", "levelled", "prior_pose", "record_twin", "verify_frames",
+           "VerifyResult", "check_depth", "heading_deg", "levelled", "prior_pose", "read_prior_file", "record_twin", "verify_frames",
            "write_outputs"]
