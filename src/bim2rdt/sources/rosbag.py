@@ -333,16 +333,19 @@ class RosbagSource:
                                          f"{error}") from None
         if info is None and self.options.intrinsics is None:
             return {"time": when, "reason": f"no CameraInfo on {self.topics.camera_info} before this frame"}
-        found = None
-        if info is not None:
-            undistort = self._undistorter(info)
-            raw = undistort.depth(raw)
-            rgb = None if rgb is None else undistort.colour(rgb)
-            found = undistort.intrinsics
         if rgb is not None and rgb.shape[:2] != raw.shape:
             raise SourceError(self.path, f"colour {self.topics.colour} is {rgb.shape[1]}x{rgb.shape[0]} but depth "
                                          f"{self.topics.depth} is {raw.shape[1]}x{raw.shape[0]}: record the depth "
                                          "aligned to colour (aligned_depth_to_color), or name only the depth topic")
+        found = None
+        if info is not None:
+            undistort = self._undistorter(info)
+            try:  # the image's size is checked against CameraInfo's before any map is built
+                raw = undistort.depth(raw)
+                rgb = None if rgb is None else undistort.colour(rgb)
+            except ImageError as error:
+                raise SourceError(self.path, f"{self.topics.camera_info}: {error}") from None
+            found = undistort.intrinsics
         intrinsics = intrinsics_for(self.path, self.options, raw.shape[1], raw.shape[0], found)
         prior = None
         if self.world_frame is not None:
