@@ -11,7 +11,7 @@ import pytest
 
 from bim2rdt.sources import SourceError, open_source
 from bim2rdt.sources.bag_writer import BagWriter, bag_folder, storage_file
-from tests.sources.bags import CAMERA, DEPTH, IMU, SMALL, small_frame, write_bag
+from tests.sources.bags import CAMERA, DEPTH, IMU, INFO, SMALL, small_frame, write_bag
 
 
 def test_a_written_bag_reads_back_as_its_frames_from_the_folder_and_from_its_mcap(tmp_path):
@@ -248,3 +248,39 @@ def test_a_camera_info_whose_size_is_not_the_images_is_refused_before_any_map_is
         tracemalloc.stop()
     assert message in str(error.value) and "\n" not in str(error.value)
     assert built == [] and peak < 200e6
+
+
+def test_negative_header_stamps_are_refused_in_one_line(tmp_path):
+    """A sensor whose clock was never set: stamps before 1970 would date the twin's events in 1913 (decision
+    0036: refused, not replaced by receive times)."""
+    with BagWriter(tmp_path / "unset.mcap") as bag:
+        honest = bag.header
+        bag.header = lambda frame_id, time: honest(frame_id, time - 1.8e9)  # receive times stay positive
+        bag.write_tf([("map", CAMERA, np.eye(4))], 0.0, static=True)
+        bag.write_camera_info(INFO, CAMERA, 1.0, SMALL)
+        bag.write_depth(DEPTH, CAMERA, 1.0, small_frame()[1])
+    with pytest.raises(SourceError) as error:
+        list(open_source(tmp_path / "unset"))
+    assert "before 1970" in str(error.value) and "\n" not in str(error.value)
+
+
+def test_a_tf_cycle_above_the_camera_is_refused_in_one_line(tmp_path):
+    with BagWriter(tmp_path / "cycle.mcap") as bag:
+        bag.write_tf([("base_link", CAMERA, np.eye(4)), ("odom", "base_link", np.eye(4)),
+                      ("base_link", "odom", np.eye(4))], 0.0, static=True)
+        bag.write_camera_info(INFO, CAMERA, 1.0, SMALL)
+        bag.write_depth(DEPTH, CAMERA, 1.0, small_frame()[1])
+    with pytest.raises(SourceError) as error:
+        list(open_source(tmp_path / "cycle"))
+    assert "cycle (base_link -> odom -> base_link)" in str(error.value) and "\n" not in str(error.value)
+
+
+def test_the_tf_error_line_lists_a_bounded_number_of_frames(tmp_path):
+    with BagWriter(tmp_path / "many.mcap") as bag:
+        bag.write_tf([("map", f"frame_{i:05d}", np.eye(4)) for i in range(5000)], 0.0, static=True)
+        bag.write_camera_info(INFO, CAMERA, 1.0, SMALL)
+        bag.write_depth(DEPTH, CAMERA, 1.0, small_frame()[1])
+    with pytest.raises(SourceError) as error:
+        list(open_source(tmp_path / "many"))
+    assert "no path to the camera frame" in str(error.value) and "and 4981 more" in str(error.value)
+    assert len(str(error.value)) < 1000
