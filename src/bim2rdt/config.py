@@ -27,6 +27,7 @@ from bim2rdt.registration.config import IcpConfig
 from bim2rdt.safety.config import MonitorConfig
 from bim2rdt.semantics.llm import LlmPriorsConfig
 from bim2rdt.server.config import ServerConfig
+from bim2rdt.sources import SourcesConfig
 from bim2rdt.sources.ros_config import RosConfig
 from bim2rdt.twin.config import TwinConfig
 
@@ -120,6 +121,7 @@ class Settings(BaseSettings):
     twin: TwinConfig = TwinConfig()
     server: ServerConfig = ServerConfig()
     ros: RosConfig = RosConfig()
+    sources: SourcesConfig = SourcesConfig()
 
     @model_validator(mode="after")
     def _one_site(self) -> Settings:

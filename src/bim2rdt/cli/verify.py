@@ -44,6 +44,7 @@ def verify_command(
     record them in a twin and export it."""
     from bim2rdt.bim import load_ifc
     from bim2rdt.config import get_settings, ifc_cache_dir
+    from bim2rdt.sources import limit_memory
     from bim2rdt.verify import (VerifyConfig, levelled, prior_pose, read_prior_file, record_twin, verify_frames,
                                  write_outputs)
     from bim2rdt.verify.outputs import verdict_counts
@@ -62,6 +63,7 @@ def verify_command(
         if up_sensor is not None:
             T_prior = levelled(T_prior, up_sensor)
     settings = get_settings()
+    limit_memory(settings.sources.memory_cap_bytes())  # every reader refuses a recording over the cap
     model = load_ifc(ifc_file, cache_dir=ifc_cache_dir(settings))
     if T_prior is not None:
         _inside(model, T_prior[:3, 3])

@@ -4,14 +4,16 @@
 RGB-D folder, a colour + depth PNG pair, an Azure Kinect ``.mkv``, an organised ``.pcd`` or PCL grabber TIFFs;
 ``read_cloud(path)`` reads a scan (``.pcd`` ``.ply`` ``.las`` ``.laz`` ``.e57``) as a :class:`Cloud`. Both raise
 :class:`SourceError` in one line naming the file. ``correct_depth`` is the depth calibration every frame reader
-applies with ``depth_correction=(gx, gy, gz)``.
+applies with ``depth_correction=(gx, gy, gz)``. Every reader checks what a header declares against the file's
+size and a memory cap (``SourcesConfig``; ``memory_cap``/``limit_memory`` set it) before it allocates.
 """
 
+from bim2rdt.sources.budget import SourcesConfig, limit_memory, memory_cap
 from bim2rdt.sources.calibration import correct_depth, correct_points
 from bim2rdt.sources.cloud import Cloud, read_cloud
 from bim2rdt.sources.errors import SourceError
 from bim2rdt.sources.options import SourceOptions
 from bim2rdt.sources.source import FrameSource, open_source
 
-__all__ = ["Cloud", "FrameSource", "SourceError", "SourceOptions", "correct_depth", "correct_points", "open_source",
-           "read_cloud"]
+__all__ = ["Cloud", "FrameSource", "SourceError", "SourceOptions", "SourcesConfig", "correct_depth", "correct_points",
+           "limit_memory", "memory_cap", "open_source", "read_cloud"]

@@ -7,15 +7,13 @@ import cv2
 import numpy as np
 
 from bim2rdt.perception.camera import Intrinsics
+from bim2rdt.sources.budget import MAX_IMAGE_SIDE as MAX_SIDE
 
 COLOUR_ENCODINGS = {"rgb8": (3, None), "bgr8": (3, cv2.COLOR_BGR2RGB), "rgba8": (4, cv2.COLOR_RGBA2RGB),
                     "bgra8": (4, cv2.COLOR_BGRA2RGB), "mono8": (1, cv2.COLOR_GRAY2RGB)}
 """Colour encoding -> (channels, OpenCV conversion to RGB)."""
 DEPTH_ENCODINGS = {"16UC1": (np.uint16, 1000.0), "mono16": (np.uint16, 1000.0), "32FC1": (np.float32, 1.0)}
 """Depth encoding -> (dtype, units per metre): REP 118, 16-bit millimetres or 32-bit float metres."""
-MAX_SIDE = 32768
-"""The largest image side (pixels) a CameraInfo may declare: 8K is 7680; the Undistorter's maps of a 32768 x
-32768 image would take 8.6 GB."""
 
 
 class ImageError(ValueError):
