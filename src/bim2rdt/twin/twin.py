@@ -82,7 +82,7 @@ class DigitalTwin:
     def open(cls, url: str, model: BimModel | str | Path, *, tolerances: TolerancePolicy | None = None,
              symmetry: Mapping[str, float] | None = None, min_fitness: float = 0.5, robot: str = "robot",
              family_mesh: FamilyMesh | None = None, new_match_radius: float = NEW_MATCH_RADIUS,
-             create: bool = True) -> DigitalTwin:
+             create: bool = True, run: str | None = None, partial: bool = False) -> DigitalTwin:
         """Open the twin at ``url`` over ``model`` (a BimModel or an IFC path); with ``create`` (default) an empty
         store gets its table, without it a URL that holds no twin is a TwinError (for readers).
 
@@ -102,20 +102,41 @@ class DigitalTwin:
             family_mesh: The mesh of a family the BIM lacks, for exports; None uses a 0.5 m box.
             new_match_radius: Horizontal distance (metres) within which a new object is a known new one.
             create: Create the store's table when it is empty; False for readers.
+            run: A run that builds this store whole (its source, e.g. "verify"): marked started now and
+                unfinished until :meth:`finish_run`.
+            partial: For readers (``create`` False): open a store a run did not finish (its state is partial)
+                instead of refusing it.
 
         Returns:
             The twin, its projection caught up with the store.
 
         Raises:
-            TwinError: A bad symmetry or ``min_fitness``, or (without ``create``) a URL that holds no twin.
+            TwinError: A bad symmetry or ``min_fitness``; without ``create``, a URL that holds no twin, or (unless
+                ``partial``) a store a run began and did not finish.
             BimError: The IFC file cannot be read.
         """
         _check_symmetry(symmetry or {})
         if not 0.0 <= min_fitness <= 1.0:
             raise TwinError(f"min_fitness is a fraction in [0, 1], got {min_fitness}")
         model = model if isinstance(model, BimModel) else load_ifc(model)
-        return cls(EventStore.open(url, create), model, tolerances or TwinConfig().tolerance_policy(), symmetry or {},
+        store = EventStore.open(url, create, run)
+        unfinished = [] if create or partial else store.unfinished_runs()
+        if unfinished:
+            store.close()
+            source, started = unfinished[-1]
+            raise TwinError(f"the twin at {store.label} is partial: the {source} run that began building it at "
+                            f"{_utc(started)} did not finish (killed or failed); run it again")
+        return cls(store, model, tolerances or TwinConfig().tolerance_policy(), symmetry or {},
                    min_fitness, robot, family_mesh, new_match_radius)
+
+    def finish_run(self) -> None:
+        """Mark the run :meth:`open` started (``run=``) as finished, after its last record: readers then take the
+        store as whole."""
+        self.store.finish_run()
+
+    def unfinished_runs(self) -> list[tuple[str, float]]:
+        """(source, started: UTC epoch seconds) of the runs that began building this store and did not finish."""
+        return self.store.unfinished_runs()
 
     def close(self) -> None:
         """Close the event store's connections."""
@@ -469,6 +490,12 @@ def _whole(value, what: str) -> int:
     if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
         raise TwinError(f"an observation's {what} must be finite numbers, got {value!r}")
     return int(value)
+
+
+def _utc(time: float) -> str:
+    import datetime
+
+    return datetime.datetime.fromtimestamp(time, datetime.timezone.utc).isoformat(timespec="seconds")
 
 
 def _checked_time(time: float) -> float:
