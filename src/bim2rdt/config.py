@@ -62,8 +62,8 @@ class HavSettings(MonitorConfig):
     """Hand-arm vibration monitoring: the monitor's configuration (defaults in :class:`MonitorConfig`; ``site``
     always follows ``mqtt.site``) and the key of the worker pseudonyms."""
 
-    site_secret: str = Field("change-me", min_length=MIN_SECRET_LENGTH, description="Key for worker pseudonyms (keyed hash); the "
-                             "shipped default is refused outside --dev.")
+    site_secret: str = Field("change-me", min_length=MIN_SECRET_LENGTH, description="Key for worker pseudonyms "
+                             "(keyed hash); the shipped default is refused outside --dev.")
 
     ack_wait_s: float = Field(30.0, gt=0, le=3600, description="NATS path: seconds JetStream waits for a monitor's "
                               "acknowledgement (sent after the commit) before redelivering a message.")
@@ -101,11 +101,11 @@ class MqttSettings(BaseModel):
                           "monitor (its own credential; the ACL's reader of the site).")
     session_expiry_s: int = Field(3600, ge=0, description="How long the broker queues QoS 1 messages for a "
                                   "stopped monitor (MQTT 5 session expiry), seconds.")
-    password: str | None = Field(None, min_length=MIN_SECRET_LENGTH, description="The monitor's own broker password; required "
-                                 "outside --dev (with --dev, derived from device_secret).")
-    device_secret: str = Field("change-me-devices", min_length=MIN_SECRET_LENGTH, description="Dev provisioning: device passwords "
-                               "are keyed hashes of their ids with this secret (hav broker, sim wearables); the "
-                               "shipped default is refused outside --dev.")
+    password: str | None = Field(None, min_length=MIN_SECRET_LENGTH, description="The monitor's own broker "
+                                 "password; required outside --dev (with --dev, derived from device_secret).")
+    device_secret: str = Field("change-me-devices", min_length=MIN_SECRET_LENGTH, description="Dev provisioning: "
+                               "device passwords are keyed hashes of their ids with this secret (hav broker, sim "
+                               "wearables); the shipped default is refused outside --dev.")
 
 
 class Settings(BaseSettings):

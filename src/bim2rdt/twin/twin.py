@@ -135,7 +135,11 @@ class DigitalTwin:
         self.store.finish_run()
 
     def unfinished_runs(self) -> list[tuple[str, float]]:
-        """(source, started: UTC epoch seconds) of the runs that began building this store and did not finish."""
+        """The runs that began building this store and did not finish.
+
+        Returns:
+            (source, started: UTC epoch seconds) of each, oldest first; empty for a whole store.
+        """
         return self.store.unfinished_runs()
 
     def close(self) -> None:

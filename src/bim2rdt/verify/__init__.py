@@ -8,5 +8,5 @@ from bim2rdt.verify.outputs import VerifyFiles, record_twin, write_outputs
 from bim2rdt.verify.priors import heading_deg, levelled, prior_pose, read_prior_file
 
 __all__ = ["DepthCheck", "DepthCheckConfig", "FrameResult", "VerifyConfig", "VerifyError", "VerifyFiles",
-           "VerifyResult", "check_depth", "heading_deg", "levelled", "prior_pose", "read_prior_file", "record_twin", "verify_frames",
-           "write_outputs"]
+           "VerifyResult", "check_depth", "heading_deg", "levelled", "prior_pose", "read_prior_file", "record_twin",
+           "verify_frames", "write_outputs"]

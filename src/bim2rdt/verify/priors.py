@@ -98,41 +98,41 @@ def read_prior_file(path: str | Path) -> np.ndarray:
             :data:`MAX_PRIOR_TRANSLATION_M`, or not rigid.
     """
     path = Path(path)
-
-    def bad(problem: str) -> VerifyError:
-        return VerifyError(f"--prior-file {path}: {problem}")
-
+    where = f"--prior-file {path}"
     try:
         if path.stat().st_size > MAX_PRIOR_FILE_BYTES:
-            raise bad(f"{path.stat().st_size} bytes: too large for one 4x4 matrix")
+            raise VerifyError(f"{where}: {path.stat().st_size} bytes: too large for one 4x4 matrix")
         data = json.loads(path.read_bytes())
     except OSError as error:
-        raise bad(f"cannot read it ({error.strerror or type(error).__name__})") from None
+        raise VerifyError(f"{where}: cannot read it ({error.strerror or type(error).__name__})") from None
     except RecursionError:
-        raise bad("nested too deep: expected a 4x4 matrix (a list of 4 lists of 4 numbers)") from None
+        raise VerifyError(f"{where}: nested too deep: expected a 4x4 matrix (a list of 4 lists of 4 numbers)") \
+            from None
     except ValueError as error:  # JSONDecodeError, UnicodeDecodeError: position only, never the text
-        where = f" at line {error.lineno} column {error.colno}" if isinstance(error, json.JSONDecodeError) else ""
-        raise bad(f"not valid JSON{where}") from None
-    T = _matrix(data, bad)
+        at = f" at line {error.lineno} column {error.colno}" if isinstance(error, json.JSONDecodeError) else ""
+        raise VerifyError(f"{where}: not valid JSON{at}") from None
+    T = _matrix(data, where)
     problem = rigid_problem(T)
     if problem is not None:
-        raise bad(f"not a rigid transform T_world_sensor: {problem}")
+        raise VerifyError(f"{where}: not a rigid transform T_world_sensor: {problem}")
     if np.abs(T[:3, 3]).max() > MAX_PRIOR_TRANSLATION_M:
-        raise bad(f"its translation is over {MAX_PRIOR_TRANSLATION_M:g} m: not a position in a building (metres)")
+        raise VerifyError(f"{where}: its translation is over {MAX_PRIOR_TRANSLATION_M:g} m: not a position in a "
+                          "building (metres)")
     return T
 
 
-def _matrix(data: object, bad) -> np.ndarray:
+def _matrix(data: object, where: str) -> np.ndarray:
     """A 4x4 float array from parsed JSON, checked element by element (no text of the file in the errors)."""
     if not (isinstance(data, list) and len(data) == 4 and all(isinstance(row, list) and len(row) == 4 for row in data)):
-        raise bad(f"expected a 4x4 matrix (a list of 4 lists of 4 numbers), got {_shape(data)}")
+        raise VerifyError(f"{where}: expected a 4x4 matrix (a list of 4 lists of 4 numbers), got {_shape(data)}")
     values = [value for row in data for value in row]
     if any(isinstance(v, bool) or not isinstance(v, numbers.Real) for v in values):
         kinds = sorted({type(v).__name__ for v in values if isinstance(v, bool) or not isinstance(v, numbers.Real)})
-        raise bad(f"expected numbers in the 4x4 matrix, found {', '.join(kinds)}")
+        raise VerifyError(f"{where}: expected numbers in the 4x4 matrix, found {', '.join(kinds)}")
     T = np.array(values, dtype=np.float64).reshape(4, 4)
     if not np.all(np.isfinite(T)):
-        raise bad(f"{int((~np.isfinite(T)).sum())} entries are NaN or infinite: a pose is finite numbers")
+        raise VerifyError(f"{where}: {int((~np.isfinite(T)).sum())} entries are NaN or infinite: a pose is finite "
+                          "numbers")
     return T
 
 
