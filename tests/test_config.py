@@ -105,7 +105,7 @@ def test_the_record_of_a_run_holds_every_section_and_masks_every_secret(monkeypa
     from bim2rdt.config import settings_record
 
     monkeypatch.setenv("BIM2RDT_LLM__API_KEY", "sk-live-123")
-    monkeypatch.setenv("BIM2RDT_MQTT__PASSWORD", "hunter2")
+    monkeypatch.setenv("BIM2RDT_MQTT__PASSWORD", "hunter2-hunter2")
     record = settings_record(get_settings())
     assert {"registration", "mission", "llm", "hav", "mqtt", "bim"} <= set(record)
     text = json.dumps(record)

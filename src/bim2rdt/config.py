@@ -28,6 +28,7 @@ from bim2rdt.registration.config import IcpConfig
 from bim2rdt.safety.config import MonitorConfig
 from bim2rdt.semantics.llm import LlmPriorsConfig
 from bim2rdt.server.config import ServerConfig
+from bim2rdt.sources import SourcesConfig
 from bim2rdt.sources.ros_config import RosConfig
 from bim2rdt.twin.config import TwinConfig
 from bim2rdt.verify import VerifyConfig, real_sensor_localization
@@ -47,6 +48,12 @@ def _default_cache_dir() -> Path:
     return Path.home() / ".cache" / "bim2rdt"
 
 
+MIN_SECRET_LENGTH = 8
+"""The shortest broker password or secret accepted (characters): NIST SP 800-63B's minimum for a memorized
+secret (decision 0036). A site generates longer ones (``openssl rand -hex 32``); the shipped defaults are refused
+outside --dev whatever their length."""
+
+
 class BimSettings(BaseModel):
     """IFC reading and writing."""
 
@@ -57,8 +64,8 @@ class HavSettings(MonitorConfig):
     """Hand-arm vibration monitoring: the monitor's configuration (defaults in :class:`MonitorConfig`; ``site``
     always follows ``mqtt.site``) and the key of the worker pseudonyms."""
 
-    site_secret: str = Field("change-me", min_length=1, description="Key for worker pseudonyms (keyed hash); the "
-                             "shipped default is refused outside --dev.")
+    site_secret: str = Field("change-me", min_length=MIN_SECRET_LENGTH, description="Key for worker pseudonyms "
+                             "(keyed hash); the shipped default is refused outside --dev.")
 
     ack_wait_s: float = Field(30.0, gt=0, le=3600, description="NATS path: seconds JetStream waits for a monitor's "
                               "acknowledgement (sent after the commit) before redelivering a message.")
@@ -110,11 +117,11 @@ class MqttSettings(BaseModel):
                           "monitor (its own credential; the ACL's reader of the site).")
     session_expiry_s: int = Field(3600, ge=0, description="How long the broker queues QoS 1 messages for a "
                                   "stopped monitor (MQTT 5 session expiry), seconds.")
-    password: str | None = Field(None, min_length=1, description="The monitor's own broker password; required "
-                                 "outside --dev (with --dev, derived from device_secret).")
-    device_secret: str = Field("change-me-devices", min_length=1, description="Dev provisioning: device passwords "
-                               "are keyed hashes of their ids with this secret (hav broker, sim wearables); the "
-                               "shipped default is refused outside --dev.")
+    password: str | None = Field(None, min_length=MIN_SECRET_LENGTH, description="The monitor's own broker "
+                                 "password; required outside --dev (with --dev, derived from device_secret).")
+    device_secret: str = Field("change-me-devices", min_length=MIN_SECRET_LENGTH, description="Dev provisioning: "
+                               "device passwords are keyed hashes of their ids with this secret (hav broker, sim "
+                               "wearables); the shipped default is refused outside --dev.")
 
 
 class Settings(BaseSettings):
@@ -138,6 +145,7 @@ class Settings(BaseSettings):
     twin: TwinConfig = TwinConfig()
     server: ServerConfig = ServerConfig()
     ros: RosConfig = RosConfig()
+    sources: SourcesConfig = SourcesConfig()
 
     @model_validator(mode="after")
     def _one_site(self) -> Settings:
@@ -164,6 +172,9 @@ class Settings(BaseSettings):
 
 SECRET_WORDS = ("secret", "password", "api_key", "tokens")
 """Settings whose name holds one of these are masked in a run's record (a config.json is shared with results)."""
+URL_PASSWORD = re.compile(r"(:/+[^:/@\s]*:)[^\s]*@")
+"""The password of a URL (``scheme://user:password@host``): masked in every setting, whatever its name
+(``hav.store_url`` was printed in clear)."""
 
 
 def settings_record(settings: Settings) -> dict:
@@ -174,12 +185,16 @@ def settings_record(settings: Settings) -> dict:
 
     Returns:
         Every section as nested dicts; a setting whose name holds a word of ``SECRET_WORDS`` reads "***" where
-            one is set.
+            one is set, and the password of any URL in any setting reads "***".
     """
     return _masked(settings.model_dump(mode="json"))
 
 
 def _masked(value: object) -> object:
+    if isinstance(value, str):
+        return URL_PASSWORD.sub(r"\1***@", value)
+    if isinstance(value, list):
+        return [_masked(item) for item in value]
     if not isinstance(value, dict):
         return value
     return {key: "***" if any(word in key for word in SECRET_WORDS) and item is not None else _masked(item)

@@ -44,8 +44,8 @@ def test_a_runs_record_holds_the_hav_section_with_its_secret_masked(monkeypatch)
 
 @pytest.mark.parametrize("variable, value, message", [
     ("BIM2RDT_HAV__START_THRESHOLD", "nan", "finite number"), ("BIM2RDT_HAV__MAX_REORDER", "-5", "greater than"),
-    ("BIM2RDT_HAV__SITE_SECRET", "", "at least 1 character"), ("BIM2RDT_HAV__STOP_THRESHOLD", "3", "stop_threshold"),
-    ("BIM2RDT_MQTT__SITE", "a/#", "pattern"), ("BIM2RDT_MQTT__PASSWORD", "", "at least 1 character")])
+    ("BIM2RDT_HAV__SITE_SECRET", "", "at least 8 characters"), ("BIM2RDT_HAV__STOP_THRESHOLD", "3", "stop_threshold"),
+    ("BIM2RDT_MQTT__SITE", "a/#", "pattern"), ("BIM2RDT_MQTT__PASSWORD", "", "at least 8 characters")])
 def test_a_hav_setting_out_of_range_is_a_config_error_naming_it(monkeypatch, variable, value, message):
     monkeypatch.setenv(variable, value)
     with pytest.raises(ConfigError, match=message):

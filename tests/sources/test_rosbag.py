@@ -11,7 +11,7 @@ import pytest
 
 from bim2rdt.sources import SourceError, open_source
 from bim2rdt.sources.bag_writer import BagWriter, bag_folder, storage_file
-from tests.sources.bags import CAMERA, DEPTH, IMU, SMALL, small_frame, write_bag
+from tests.sources.bags import CAMERA, DEPTH, IMU, INFO, SMALL, small_frame, write_bag
 
 
 def test_a_written_bag_reads_back_as_its_frames_from_the_folder_and_from_its_mcap(tmp_path):
@@ -204,3 +204,83 @@ def test_plumb_bob_distortion_is_removed_from_depth_by_nearest_neighbour(tmp_pat
     expected = cv2.remap(raw, *maps, cv2.INTER_NEAREST).astype(np.float32) / 1000
     assert not np.allclose(expected, raw / 1000)  # the distortion moves pixels
     assert np.allclose(frame.depth, expected, atol=1e-6)
+
+
+@pytest.mark.parametrize("width, height, message", [
+    (SMALL.width * 2, SMALL.height * 2, "CameraInfo is for 128x96 images but the image is 64x48"),
+    (20000, 20000, "CameraInfo is for 20000x20000 images but the image is 64x48"),
+    (60000, 60000, "declares a 60000x60000 image"),
+])
+def test_a_camera_info_whose_size_is_not_the_images_is_refused_before_any_map_is_built(tmp_path, width, height,
+                                                                                       message):
+    """A small bag whose CameraInfo declares a huge distorted image: refused in one line, without building the
+    undistortion maps at CameraInfo's size (20000 x 20000 took 6.9 GB before it ended in cv2.error)."""
+    import tracemalloc
+
+    from bim2rdt.sources import ros_images
+
+    rgb, depth = small_frame()
+    with BagWriter(tmp_path / "liar.mcap") as bag:
+        T = bag.types
+        K = np.array([SMALL.fx, 0, SMALL.cx, 0, SMALL.fy, SMALL.cy, 0, 0, 1.0])
+        bag.write("/camera/camera/color/camera_info", T["sensor_msgs/msg/CameraInfo"](
+            header=bag.header(CAMERA, 1.0), height=height, width=width, distortion_model="plumb_bob",
+            d=np.array([0.2, -0.1, 0.0, 0.0, 0.0]), k=K, r=np.eye(3).reshape(-1), p=np.zeros(12), binning_x=0,
+            binning_y=0, roi=T["sensor_msgs/msg/RegionOfInterest"](x_offset=0, y_offset=0, height=0, width=0,
+                                                                     do_rectify=False)), 1.0)
+        bag.write_depth(DEPTH, CAMERA, 1.0, depth)
+    built = []
+    real = ros_images.cv2.initUndistortRectifyMap
+
+    def build(*args):  # records the size asked for; never allocates a huge one (main asked for 20000 x 20000)
+        built.append(args[4])
+        assert args[4][0] * args[4][1] <= SMALL.width * SMALL.height, f"maps built at {args[4]}"
+        return real(*args)
+
+    tracemalloc.start()
+    try:
+        with pytest.MonkeyPatch.context() as patch:
+            patch.setattr(ros_images.cv2, "initUndistortRectifyMap", build)
+            with pytest.raises(SourceError) as error:
+                list(open_source(tmp_path / "liar"))
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert message in str(error.value) and "\n" not in str(error.value)
+    assert built == [] and peak < 200e6
+
+
+def test_negative_header_stamps_are_refused_in_one_line(tmp_path):
+    """A sensor whose clock was never set: stamps before 1970 would date the twin's events in 1913 (decision
+    0036: refused, not replaced by receive times)."""
+    with BagWriter(tmp_path / "unset.mcap") as bag:
+        honest = bag.header
+        bag.header = lambda frame_id, time: honest(frame_id, time - 1.8e9)  # receive times stay positive
+        bag.write_tf([("map", CAMERA, np.eye(4))], 0.0, static=True)
+        bag.write_camera_info(INFO, CAMERA, 1.0, SMALL)
+        bag.write_depth(DEPTH, CAMERA, 1.0, small_frame()[1])
+    with pytest.raises(SourceError) as error:
+        list(open_source(tmp_path / "unset"))
+    assert "before 1970" in str(error.value) and "\n" not in str(error.value)
+
+
+def test_a_tf_cycle_above_the_camera_is_refused_in_one_line(tmp_path):
+    with BagWriter(tmp_path / "cycle.mcap") as bag:
+        bag.write_tf([("base_link", CAMERA, np.eye(4)), ("odom", "base_link", np.eye(4)),
+                      ("base_link", "odom", np.eye(4))], 0.0, static=True)
+        bag.write_camera_info(INFO, CAMERA, 1.0, SMALL)
+        bag.write_depth(DEPTH, CAMERA, 1.0, small_frame()[1])
+    with pytest.raises(SourceError) as error:
+        list(open_source(tmp_path / "cycle"))
+    assert "cycle (base_link -> odom -> base_link)" in str(error.value) and "\n" not in str(error.value)
+
+
+def test_the_tf_error_line_lists_a_bounded_number_of_frames(tmp_path):
+    with BagWriter(tmp_path / "many.mcap") as bag:
+        bag.write_tf([("map", f"frame_{i:05d}", np.eye(4)) for i in range(5000)], 0.0, static=True)
+        bag.write_camera_info(INFO, CAMERA, 1.0, SMALL)
+        bag.write_depth(DEPTH, CAMERA, 1.0, small_frame()[1])
+    with pytest.raises(SourceError) as error:
+        list(open_source(tmp_path / "many"))
+    assert "no path to the camera frame" in str(error.value) and "and 4981 more" in str(error.value)
+    assert len(str(error.value)) < 1000

@@ -35,6 +35,7 @@ import ifcopenshell.util.representation
 import numpy as np
 
 from bim2rdt.bim.atomic import atomic_write_ifc
+from bim2rdt.frames import rigid_problem
 from bim2rdt.bim.spatial import placement_matrix
 from bim2rdt.bim.errors import BimError
 from bim2rdt.bim.ifc_values import add_typed_pset, ifc_datetime
@@ -358,13 +359,10 @@ class TwinWriter:
 
 
 def _checked_pose(pose: np.ndarray) -> np.ndarray:
-    pose = np.asarray(pose, dtype=float)
-    if pose.shape != (4, 4) or not np.all(np.isfinite(pose)):
-        raise BimError(f"a pose must be a finite 4x4 matrix, got shape {pose.shape}")
-    rotation = pose[:3, :3]
-    if not np.allclose(rotation @ rotation.T, np.eye(3), atol=1e-6) or np.linalg.det(rotation) < 0:
-        raise BimError("a pose's rotation block must be a proper rotation (orthonormal, det +1)")
-    return pose
+    problem = rigid_problem(pose)
+    if problem is not None:
+        raise BimError(f"a pose must be a finite 4x4 rigid pose: {problem}")
+    return np.asarray(pose, dtype=float)
 
 
 def _checked_mesh(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

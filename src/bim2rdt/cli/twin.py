@@ -28,10 +28,16 @@ def state_command(
                                   "(2026-05-04T10:30:00+00:00; UTC if no offset) or Unix seconds."),
     everything: bool = typer.Option(False, "--all", help="Include the BIM elements never observed."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON document instead of a table."),
+    partial: bool = typer.Option(False, "--partial", help="Show a twin a run did not finish (refused otherwise: "
+                                 "its state is partial), with a warning."),
 ) -> None:
     """Each observed element's status, deviation against its tolerance preset, fit and evidence."""
-    with _open(ifc_file, url) as twin:
+    with _open(ifc_file, url, partial) as twin:
         states = twin.state(None if at is None else _time(at))
+        unfinished = twin.unfinished_runs()
+    if unfinished:
+        typer.secho(f"warning: PARTIAL twin: the {unfinished[-1][0]} run that built it did not finish; these states "
+                    "are incomplete", err=True, fg=typer.colors.YELLOW)
     shown = [s for s in states.values() if everything or s.status.value != "not observed"]
     if as_json:
         print_json([s.to_dict() for s in shown])
@@ -78,7 +84,7 @@ def export_command(
             console.print(f"no IFC written: {error}")
 
 
-def _open(ifc_file: Path, url: str | None):
+def _open(ifc_file: Path, url: str | None, partial: bool = False):
     from bim2rdt.bim import load_ifc
     from bim2rdt.config import get_settings, ifc_cache_dir
     from bim2rdt.twin import DigitalTwin
@@ -87,7 +93,7 @@ def _open(ifc_file: Path, url: str | None):
     model = load_ifc(ifc_file, cache_dir=ifc_cache_dir(settings))
     return DigitalTwin.open(twin_url(url) if url else settings.twin.resolved_url(settings.data_dir), model,
                             tolerances=settings.twin.tolerance_policy(), min_fitness=settings.twin.min_fitness,
-                            create=False)
+                            create=False, partial=partial)
 
 
 def twin_url(given: str) -> str:

@@ -2,13 +2,12 @@
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 
 import typer
 
-from bim2rdt.cli.common import console, out_path, print_json, print_table, writable_folder
+from bim2rdt.cli.common import console, out_path, print_json, print_table, run_folder
 
 
 def register(app: typer.Typer, bench_app: typer.Typer) -> None:
@@ -35,7 +34,7 @@ def verify_command(
                                            "{\"fx\", \"fy\", \"cx\", \"cy\"} (pixels; optionally \"width\", "
                                            "\"height\"), overriding the recording's (a PNG pair without "
                                            "intrinsics.json)."),
-    out: Path = typer.Option(Path("out/verify"), "--out", parser=out_path, callback=writable_folder,
+    out: Path = typer.Option(Path("out/verify"), "--out", parser=out_path, callback=run_folder,
                              help="Folder for twin.json, twin.ifc, issues.bcf, report.html, localization.json, "
                              "config.json (the settings that ran)."),
     detector: str = typer.Option("cluster", "--detector", help="New objects: 'cluster' (what neither the building "
@@ -53,8 +52,9 @@ def verify_command(
     record them in a twin and export it."""
     from bim2rdt.bim import load_ifc
     from bim2rdt.config import get_settings, ifc_cache_dir
-    from bim2rdt.sources import open_recording
-    from bim2rdt.verify import levelled, prior_pose, record_twin, verify_frames, write_outputs
+    from bim2rdt.sources import limit_memory, open_recording
+    from bim2rdt.verify import (levelled, prior_pose, read_prior_file, record_twin, verify_frames,
+                                 write_outputs)
     from bim2rdt.verify.outputs import verdict_counts
 
     if detector not in ("cluster", "none"):
@@ -62,16 +62,17 @@ def verify_command(
     if prior is not None and prior_file is not None:
         raise _bad("give --prior or --prior-file, not both")
     up_sensor = _numbers(up, 3, "--up") if up else None
-    settings = get_settings()
-    model = load_ifc(ifc_file, cache_dir=ifc_cache_dir(settings))
-    T_prior = None
+    T_prior = None  # read before the model: a bad prior is refused in a second, not after a long load
     if prior is not None:
         x, y, z, yaw = _numbers(prior, 4, "--prior")
         T_prior = prior_pose((x, y, z), yaw, up_sensor)
     elif prior_file is not None:
-        T_prior = _prior_file(prior_file)
+        T_prior = read_prior_file(prior_file)
         if up_sensor is not None:
             T_prior = levelled(T_prior, up_sensor)
+    settings = get_settings()
+    limit_memory(settings.sources.memory_cap_bytes())  # every reader refuses a recording over the cap
+    model = load_ifc(ifc_file, cache_dir=ifc_cache_dir(settings))
     if T_prior is not None:
         _inside(model, T_prior[:3, 3])
     correction = _numbers(depth_correction, 3, "--depth-correction") if depth_correction else None
@@ -191,21 +192,6 @@ def _numbers(text: str, count: int, option: str) -> list[float]:
     if len(values) != count or not all(math.isfinite(v) for v in values):
         raise _bad(f"{option} needs {count} comma-separated numbers, got {text!r}")
     return values
-
-
-def _prior_file(path: Path):
-    import numpy as np
-
-    try:
-        T = np.asarray(json.loads(path.read_text()), dtype=float)
-    except (OSError, ValueError, TypeError) as error:
-        raise _bad(f"--prior-file {path}: {str(error).splitlines()[0]}") from None
-    if T.shape != (4, 4) or not np.all(np.isfinite(T)):
-        raise _bad(f"--prior-file {path}: expected a 4x4 matrix (a list of 4 lists), got shape {T.shape}")
-    R = T[:3, :3]
-    if np.abs(R @ R.T - np.eye(3)).max() > 1e-3 or np.linalg.det(R) < 0:
-        raise _bad(f"--prior-file {path}: not a rigid transform")
-    return T
 
 
 def _inside(model, position) -> None:

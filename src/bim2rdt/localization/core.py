@@ -21,6 +21,7 @@ from typing import Protocol
 import numpy as np
 from scipy.spatial import cKDTree
 
+from bim2rdt.frames import rigid_problem
 from bim2rdt.localization.config import LocalizationConfig
 from bim2rdt.localization.errors import LocalizationError, Refusal
 from bim2rdt.localization.observability import Observability, lever_arm, observability, pair_information
@@ -261,13 +262,10 @@ def rigid_prior(T) -> np.ndarray:
     Returns:
         It, as float64.
     """
-    T = np.asarray(T, dtype=np.float64)
-    if T.shape != (4, 4) or not np.all(np.isfinite(T)):
-        raise LocalizationError(f"prior_T_world_camera must be a finite 4x4 pose, got shape {T.shape}")
-    R = T[:3, :3]
-    if np.abs(R @ R.T - np.eye(3)).max() > 1e-4 or np.linalg.det(R) < 0 or np.abs(T[3] - [0, 0, 0, 1]).max() > 1e-9:
-        raise LocalizationError("prior_T_world_camera is not rigid (rotation not orthonormal, or last row not 0 0 0 1)")
-    return T
+    problem = rigid_problem(T)
+    if problem is not None:
+        raise LocalizationError(f"prior_T_world_camera is not rigid: {problem}", Refusal.BAD_INPUT)
+    return np.asarray(T, dtype=np.float64)
 
 
 def checked_up(up) -> np.ndarray:

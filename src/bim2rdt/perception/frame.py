@@ -20,6 +20,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from bim2rdt.frames import rigid_problem
 from bim2rdt.perception.camera import Intrinsics
 from bim2rdt.perception.errors import PerceptionError
 
@@ -134,17 +135,10 @@ def _numeric_depth(depth, name: str) -> np.ndarray:
 
 
 def _rigid(T, name: str = "frame") -> np.ndarray:
-    try:
-        T = np.asarray(T, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise PerceptionError(f"{name}: T_world_camera must be a finite 4x4 matrix of numbers") from None
-    if T.shape != (4, 4) or not np.all(np.isfinite(T)):
-        raise PerceptionError(f"{name}: T_world_camera must be a finite 4x4 matrix (shape {T.shape})")
-    R = T[:3, :3]
-    if np.abs(R @ R.T - np.eye(3)).max() > 1e-4 or np.linalg.det(R) < 0 or np.abs(T[3] - [0, 0, 0, 1]).max() > 1e-9:
-        raise PerceptionError(f"{name}: T_world_camera is not a rigid transform (rotation not orthonormal, or last "
-                              "row not 0 0 0 1)")
-    return T
+    problem = rigid_problem(T)
+    if problem is not None:
+        raise PerceptionError(f"{name}: T_world_camera must be a finite 4x4 rigid pose: {problem}")
+    return np.asarray(T, dtype=np.float64)
 
 
 def _unit(up, name: str) -> np.ndarray:

@@ -6,6 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from bim2rdt.frames import rigid_problem
 from bim2rdt.registration.errors import RegistrationError
 
 MIN_SCENE_POINTS = 6
@@ -59,17 +60,10 @@ def _points(name: str, values) -> np.ndarray:
 
 
 def _rigid_pose(init) -> np.ndarray:
-    pose = np.asarray(init, dtype=np.float64)
-    if pose.shape != (4, 4):
-        raise RegistrationError(f"init must be a 4x4 pose, got shape {pose.shape}")
-    if not np.all(np.isfinite(pose)):
-        raise RegistrationError("init contains NaN or infinite values")
-    rotation = pose[:3, :3]
-    if not np.allclose(rotation.T @ rotation, np.eye(3), atol=1e-6) or np.linalg.det(rotation) < 0:
-        raise RegistrationError("init is not rigid: its 3x3 block is not a proper rotation (scale, shear or mirror)")
-    if not np.allclose(pose[3], (0.0, 0.0, 0.0, 1.0), atol=1e-9):
-        raise RegistrationError("init is not rigid: its last row must be [0, 0, 0, 1]")
-    return pose
+    problem = rigid_problem(init)
+    if problem is not None:
+        raise RegistrationError(f"init is not rigid: {problem}")
+    return np.asarray(init, dtype=np.float64)
 
 
 def unit_up(up) -> np.ndarray:

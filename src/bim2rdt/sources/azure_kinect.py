@@ -20,7 +20,7 @@ import cv2
 import numpy as np
 
 from bim2rdt.perception.frame import Frame
-from bim2rdt.sources import k4a
+from bim2rdt.sources import budget, k4a
 from bim2rdt.sources.errors import SourceError
 from bim2rdt.sources.frames import build_frame, depth_metres, intrinsics_for
 from bim2rdt.sources.optional import require
@@ -28,6 +28,9 @@ from bim2rdt.sources.options import SourceOptions
 
 IMU_WINDOW_S = 0.5
 """Accelerometer samples this close (s) to a frame are averaged for its ``up``; none that close: no ``up``."""
+BYTES_PER_PIXEL = 96
+"""What one depth frame allocates per depth pixel (bytes): raw and undistorted 16-bit depth, the maps (8), metres
+(4), the registered colour, the frame's own arrays and the localization's per-pixel points."""
 PAIR_TOLERANCE_S = 0.017
 """A colour image belongs to a depth image when their timestamps differ by at most this (half a 30 fps period)."""
 
@@ -48,6 +51,7 @@ class AzureKinectMkv:
             depth = container.streams[self.depth_index]
             self.depth_mode = depth.metadata.get("K4A_DEPTH_MODE")
             self.depth_size = (depth.codec_context.width, depth.codec_context.height)
+            self._check_sizes(container)
             self.calibration = self._calibration(container)
 
     def __iter__(self) -> Iterator[Frame]:
@@ -86,6 +90,17 @@ class AzureKinectMkv:
         if required:
             raise SourceError(self.path, f"no {title} track: not an Azure Kinect recording with depth")
         return None
+
+    def _check_sizes(self, container) -> None:
+        """The tracks' declared image sizes are claims: sides in range, one raw 16-bit depth image within the
+        file, and a frame's arrays within the memory cap (the undistortion maps alone take 8 bytes a pixel)."""
+        width, height = self.depth_size
+        budget.check_image_side(self.path, width, height, "the DEPTH track")
+        if self.color_index is not None:
+            colour = container.streams[self.color_index].codec_context
+            budget.check_image_side(self.path, colour.width, colour.height, "the COLOR track")
+        budget.check_claim(self.path, width * height * 2, f"{width}x{height} 16-bit depth images")
+        budget.check_memory(self.path, width * height * BYTES_PER_PIXEL, f"{width}x{height} depth images")
 
     def _calibration(self, container) -> dict | None:
         if self.options.calibration is not None:

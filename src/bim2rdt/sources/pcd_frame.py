@@ -69,10 +69,12 @@ def pcd_is_organised(path: Path) -> bool:
 
 
 def read_pcd(path: Path):
-    """The file's pypcd4 ``PointCloud``, or :class:`SourceError` in one line."""
+    """The file's pypcd4 ``PointCloud``, or :class:`SourceError` in one line; its header's counts are checked
+    against the file's size and the memory cap first (:func:`check_pcd_header`)."""
     from bim2rdt.sources.optional import require
 
     pypcd4 = require("pypcd4", path, "a .pcd file")
+    check_pcd_header(path)
     try:
         return pypcd4.PointCloud.from_path(path)
     except Exception as error:  # pypcd4 raises bare exceptions of many kinds on a damaged file
@@ -92,6 +94,67 @@ def read_organised(path: Path) -> tuple[np.ndarray, np.ndarray | None]:
     xyz = np.stack([data[name].astype(np.float64) for name in ("x", "y", "z")], axis=-1).reshape(*shape, 3)
     xyz[~np.all(np.isfinite(xyz), axis=-1)] = np.nan
     return xyz, packed_rgb(data, shape)
+
+
+MAX_PCD_HEADER_BYTES = 64 * 1024
+"""A PCD header (about ten short lines) ends within this many bytes, at its DATA line."""
+LZF_MAX_RATIO = 100
+"""LZF (a binary_compressed PCD) turns at most ~88 bytes into 1 (a 264-byte back-reference in 3 bytes): a file
+declaring more than this times its size is damaged."""
+PCD_BYTES_PER_POINT = 160
+"""What reading a PCD allocates per point beyond its record (bytes): pypcd4's record array, float64 x, y, z, the
+organised grid, masks and the colour."""
+
+
+def check_pcd_header(path: Path) -> None:
+    """Check a PCD header's counts (WIDTH x HEIGHT, POINTS, SIZE x COUNT) against the file's size and the memory
+    cap before pypcd4 reads it: binary data must be in the file, ASCII needs 2 bytes a value at least, LZF data
+    at most :data:`LZF_MAX_RATIO` times the file (an ASCII PCD declaring 100000 x 100000 gave a traceback).
+
+    Args:
+        path: The .pcd file.
+
+    Raises:
+        SourceError: One line naming what the header declares and what the file holds.
+    """
+    from bim2rdt.sources import budget
+
+    size = path.stat().st_size
+    with path.open("rb") as file:
+        text = file.read(MAX_PCD_HEADER_BYTES)
+    fields, end, at = {}, None, 0
+    for line in text.split(b"\n"):
+        at += len(line) + 1
+        words = line.decode("ascii", "replace").split()
+        if words and not words[0].startswith("#"):
+            fields[words[0].upper()] = words[1:]
+        if words and words[0].upper() == "DATA":
+            end = at
+            break
+    if end is None:
+        raise SourceError(path, f"not a PCD file (no DATA line in its first {MAX_PCD_HEADER_BYTES // 1024} kB)")
+    try:
+        sizes = [int(v) for v in fields.get("SIZE", [])]
+        counts = [int(v) for v in fields.get("COUNT", ["1"] * len(sizes))]
+        width, height = int(fields["WIDTH"][0]), int(fields.get("HEIGHT", ["1"])[0])
+        points = int(fields.get("POINTS", [width * height])[0])
+    except (KeyError, ValueError, IndexError):
+        raise SourceError(path, "a damaged PCD header (WIDTH, HEIGHT, POINTS, SIZE or COUNT is not a number)") \
+            from None
+    if min([width, height, points, *sizes, *counts], default=0) < 0 or len(counts) != len(sizes):
+        raise SourceError(path, "a damaged PCD header (negative counts, or SIZE and COUNT of different lengths)")
+    count = max(points, width * height)
+    record = sum(s * c for s, c in zip(sizes, counts))
+    kind = (fields["DATA"] or ["?"])[0].lower()
+    what = f"{width} x {height} points ({count:.3g}) of {record} bytes"
+    data = size - end
+    if kind == "binary":
+        budget.check_claim(path, end + count * record, what, size)
+    elif kind == "ascii":
+        budget.check_claim(path, end + count * max(1, sum(counts)) * 2 - 1, f"{what} as text", size)
+    elif kind == "binary_compressed" and count * record > LZF_MAX_RATIO * max(data, 0):
+        budget.check_claim(path, end + count * record / LZF_MAX_RATIO, f"{what}, compressed", size)
+    budget.check_memory(path, count * (record + PCD_BYTES_PER_POINT), what)
 
 
 def packed_rgb(data: np.ndarray, shape: tuple[int, int] | None = None) -> np.ndarray | None:

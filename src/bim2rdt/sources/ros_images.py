@@ -7,6 +7,7 @@ import cv2
 import numpy as np
 
 from bim2rdt.perception.camera import Intrinsics
+from bim2rdt.sources.budget import MAX_IMAGE_SIDE as MAX_SIDE
 
 COLOUR_ENCODINGS = {"rgb8": (3, None), "bgr8": (3, cv2.COLOR_BGR2RGB), "rgba8": (4, cv2.COLOR_RGBA2RGB),
                     "bgra8": (4, cv2.COLOR_BGRA2RGB), "mono8": (1, cv2.COLOR_GRAY2RGB)}
@@ -70,26 +71,45 @@ def _rows(message, dtype, channels: int) -> np.ndarray:
 class Undistorter:
     """A ``sensor_msgs/CameraInfo``'s pinhole intrinsics (``k``), and its plumb_bob distortion (``d``) removed
     from colour (bilinear) and depth (nearest: depth is never blended across edges). Other distortion models
-    are refused unless their coefficients are all zero."""
+    are refused unless their coefficients are all zero.
+
+    CameraInfo's width and height are a claim: the undistortion maps (8 bytes a pixel) are built only at the
+    first image, and only when its size is the one CameraInfo declares (a 9 MB bag declaring 20000 x 20000 asked
+    for 6.9 GB); an image of another size is refused."""
 
     def __init__(self, info) -> None:
         K = np.asarray(info.k if hasattr(info, "k") else info.K, float).reshape(3, 3)  # ROS 1 spells K, D
-        if K[0, 0] <= 0 or K[1, 1] <= 0:
+        if not np.all(np.isfinite(K)) or K[0, 0] <= 0 or K[1, 1] <= 0:
             raise ImageError("CameraInfo has no intrinsics (k is zero): the camera is not calibrated")
+        if not 0 < int(info.width) <= MAX_SIDE or not 0 < int(info.height) <= MAX_SIDE:
+            raise ImageError(f"CameraInfo declares a {int(info.width)}x{int(info.height)} image (each side is 1 to "
+                             f"{MAX_SIDE} pixels)")
         self.intrinsics = Intrinsics(int(info.width), int(info.height), float(K[0, 0]), float(K[1, 1]),
                                      float(K[0, 2]), float(K[1, 2]))
         d = np.asarray(info.d if hasattr(info, "d") else info.D, float)
         model = (info.distortion_model or "plumb_bob").lower()
-        self._maps = None
+        self._K, self._d, self._maps = K, None, None
         if d.size and np.any(d != 0):
             if model != "plumb_bob":
                 raise ImageError(f"CameraInfo distortion model '{info.distortion_model}' is not supported "
                                  "(plumb_bob only; rectify the images first, e.g. image_proc)")
-            self._maps = cv2.initUndistortRectifyMap(K, d, None, K, (self.intrinsics.width, self.intrinsics.height),
-                                                     cv2.CV_32FC1)
+            self._d = d
 
     def colour(self, rgb: np.ndarray) -> np.ndarray:
-        return rgb if self._maps is None else cv2.remap(rgb, *self._maps, cv2.INTER_LINEAR)
+        """The colour image (H, W, 3) undistorted (bilinear); ImageError if its size is not CameraInfo's."""
+        maps = self._maps_for(rgb)
+        return rgb if maps is None else cv2.remap(rgb, *maps, cv2.INTER_LINEAR)
 
     def depth(self, raw: np.ndarray) -> np.ndarray:
-        return raw if self._maps is None else cv2.remap(raw, *self._maps, cv2.INTER_NEAREST)
+        """The raw depth image (H, W) undistorted (nearest); ImageError if its size is not CameraInfo's."""
+        maps = self._maps_for(raw)
+        return raw if maps is None else cv2.remap(raw, *maps, cv2.INTER_NEAREST)
+
+    def _maps_for(self, image: np.ndarray):
+        width, height = self.intrinsics.width, self.intrinsics.height
+        if image.shape[:2] != (height, width):
+            raise ImageError(f"CameraInfo is for {width}x{height} images but the image is "
+                             f"{image.shape[1]}x{image.shape[0]}")
+        if self._d is not None and self._maps is None:
+            self._maps = cv2.initUndistortRectifyMap(self._K, self._d, None, self._K, (width, height), cv2.CV_32FC1)
+        return self._maps

@@ -31,7 +31,7 @@ from bim2rdt.sources.optional import require
 from bim2rdt.sources.options import SourceOptions
 from bim2rdt.sources.recording import RecordingKind
 from bim2rdt.sources.ros_images import ImageError, Undistorter, colour, compressed_colour, depth, is_depth
-from bim2rdt.sources.tf import TfBuffer
+from bim2rdt.sources.tf import TfBuffer, listed
 
 EXTRA = "ros"
 SYNC_TOLERANCE = 0.02
@@ -160,11 +160,21 @@ class RosbagSource:
     def _read_first(self, reader, topic: str):
         for connection, log_time, raw in reader.messages([c for c in reader.connections if c.topic == topic]):
             message = reader.deserialize(raw, connection.msgtype)
-            header_time = stamp(message.header)
+            header_time = self._stamp(topic, message)
             if abs(header_time - log_time * 1e-9) > CLOCK_TOLERANCE:
                 self._clock_warning(topic, header_time - log_time * 1e-9)
             return message
         return None
+
+    def _stamp(self, topic: str, message) -> float:
+        """The message's header stamp (s); a negative one (a clock never set: the events would be dated before
+        1970) is refused, not replaced by a guess (decision 0036)."""
+        when = stamp(message.header)
+        if when < 0:
+            raise SourceError(self.path, f"{topic}: header stamp {when:.3f} s is before 1970: the sensor's clock was "
+                                         "not set; re-stamp the recording (e.g. with its receive times) and verify "
+                                         "that")
+        return when
 
     def _clock_warning(self, topic: str, offset: float) -> None:
         warning = (f"clocks disagree: {topic}'s header stamps are {offset:+.1f} s from the bag's receive times; "
@@ -226,7 +236,11 @@ class RosbagSource:
     def _check_tf(self) -> None:
         if self.tf and self.camera_frame not in self.tf.frames:
             raise SourceError(self.path, f"the TF tree has no path to the camera frame '{self.camera_frame}' "
-                                         f"(frames: {', '.join(sorted(self.tf.frames))})")
+                                         f"(frames: {listed(self.tf.frames)})")
+        loop = self.tf.cycle(self.camera_frame) if self.tf else None
+        if loop is not None:
+            raise SourceError(self.path, f"the TF frames above the camera form a cycle ({' -> '.join(loop)}): TF must "
+                                         "be a tree, each frame with one parent")
 
 
     # -- streaming -------------------------------------------------------------------------------------------
@@ -323,7 +337,7 @@ class RosbagSource:
             yield message, depth_message, state["info"], state["imu"]
 
     def _frame(self, reader, colour_message, depth_message, info, imu) -> Frame | dict:
-        when = stamp(depth_message.header)
+        when = self._stamp(self.topics.depth, depth_message)
         name = f"{self.topics.depth}@{when:.3f}"
         raw, units = self._image(self.topics.depth, depth, depth_message)
         rgb = None
@@ -342,6 +356,15 @@ class RosbagSource:
             raise SourceError(self.path, f"colour {self.topics.colour} is {rgb.shape[1]}x{rgb.shape[0]} but depth "
                                          f"{self.topics.depth} is {raw.shape[1]}x{raw.shape[0]}: record the depth "
                                          "aligned to colour (aligned_depth_to_color), or name only the depth topic")
+        found = None
+        if info is not None:
+            undistort = self._undistorter(info)
+            try:  # the image's size is checked against CameraInfo's before any map is built
+                raw = undistort.depth(raw)
+                rgb = None if rgb is None else undistort.colour(rgb)
+            except ImageError as error:
+                raise SourceError(self.path, f"{self.topics.camera_info}: {error}") from None
+            found = undistort.intrinsics
         intrinsics = intrinsics_for(self.path, self.options, raw.shape[1], raw.shape[0], found)
         prior = None
         if self.world_frame is not None:

@@ -47,7 +47,7 @@ class TwinConfig(BaseModel):
     @field_serializer("url")
     def _url_without_password(self, url: str | None) -> str | None:
         """A dump (a run's config.json) never holds the database password."""
-        return None if url is None else re.sub(r"(://[^:/@]*:)[^@]*@", r"\1***@", url)
+        return None if url is None else re.sub(r"(://[^:/@\s]*:)[^\s]*@", r"\1***@", url)
 
     @model_validator(mode="after")
     def _presets_exist(self) -> TwinConfig:

@@ -46,6 +46,15 @@ events_table = sa.Table(
     sa.Column("recorded", sa.Double(), nullable=False),
     sa.Index("twin_events_time", "time"),
 )
+runs_table = sa.Table(
+    "twin_runs", _metadata,
+    sa.Column("run", sa.BigInteger().with_variant(sa.Integer(), "sqlite"), primary_key=True, autoincrement=True),
+    sa.Column("source", sa.String(128), nullable=False),
+    sa.Column("started", sa.Double(), nullable=False),
+    sa.Column("finished", sa.Double(), nullable=True),
+)
+"""Runs that build a store whole (verify's twin.db): a row written with the tables, ``finished`` set after the
+last event. A store with a row not finished was left by a run that stopped (killed, failed): readers say so."""
 
 
 @dataclass(frozen=True)
@@ -65,11 +74,15 @@ class EventStore:
     def __init__(self, engine: Engine, url: URL):
         self.engine, self.url = engine, url
         self.label = url.render_as_string(hide_password=True)
+        self.run: int | None = None
+        """The run this store was opened to build (:meth:`open`'s ``run``), until :meth:`finish_run`."""
 
     @classmethod
-    def open(cls, url: str, create: bool = True) -> EventStore:
+    def open(cls, url: str, create: bool = True, run: str | None = None) -> EventStore:
         """Connect and create the table if absent (with ``create``; without it a store that has no history yet is
-        a TwinError); TwinError (naming the URL without its password) if the store cannot be reached."""
+        a TwinError); TwinError (naming the URL without its password) if the store cannot be reached. With
+        ``run`` (its source, e.g. "verify"), a run that builds the store whole is marked started in the same
+        transaction as the tables, and is unfinished until :meth:`finish_run`."""
         parsed = _parse(url)
         label = parsed.render_as_string(hide_password=True)
         if not create and parsed.get_backend_name() == "sqlite" and not Path(parsed.database or "").is_file():
@@ -81,10 +94,31 @@ class EventStore:
                 if not create and not sa.inspect(conn).has_table(events_table.name):
                     raise TwinError(f"no twin at {label}: it has no {events_table.name} table")
                 _metadata.create_all(conn)
+                if run is not None:
+                    store.run = conn.execute(runs_table.insert().returning(runs_table.c.run),
+                                             {"source": checked_text(run, "source"), "started": time.time()}
+                                             ).scalar_one()
         except TwinError:
             store.close()
             raise
         return store
+
+    def finish_run(self) -> None:
+        """Mark the run :meth:`open` started as finished: written after its last event, so a store whose run
+        stopped before it is known partial."""
+        if self.run is None:
+            raise TwinError("no run to finish: open the store with run=...")
+        with self.writing() as writer:
+            writer.conn.execute(runs_table.update().where(runs_table.c.run == self.run).values(finished=time.time()))
+        self.run = None
+
+    def unfinished_runs(self) -> list[tuple[str, float]]:
+        """(source, started: UTC epoch seconds) of each run that began building this store and never finished."""
+        query = sa.select(runs_table.c.source, runs_table.c.started).where(runs_table.c.finished.is_(None))
+        with self._errors("cannot read the twin at"), self.engine.connect() as conn:
+            if not sa.inspect(conn).has_table(runs_table.name):
+                return []
+            return [(row.source, float(row.started)) for row in conn.execute(query.order_by(runs_table.c.run))]
 
     def close(self) -> None:
         self.engine.dispose()

@@ -34,6 +34,7 @@ import numpy as np
 from bim2rdt.atomic import write_bytes_atomic
 from bim2rdt.bim import BimElement, BimModel, load_ifc
 from bim2rdt.bus.event import Event
+from bim2rdt.frames import rigid_problem
 from bim2rdt.perception.observation import Observation
 from bim2rdt.twin.errors import TwinError
 from bim2rdt.twin.projection import STATE_KINDS, Projection
@@ -81,7 +82,7 @@ class DigitalTwin:
     def open(cls, url: str, model: BimModel | str | Path, *, tolerances: TolerancePolicy | None = None,
              symmetry: Mapping[str, float] | None = None, min_fitness: float = 0.5, robot: str = "robot",
              family_mesh: FamilyMesh | None = None, new_match_radius: float = NEW_MATCH_RADIUS,
-             create: bool = True) -> DigitalTwin:
+             create: bool = True, run: str | None = None, partial: bool = False) -> DigitalTwin:
         """Open the twin at ``url`` over ``model`` (a BimModel or an IFC path); with ``create`` (default) an empty
         store gets its table, without it a URL that holds no twin is a TwinError (for readers).
 
@@ -101,20 +102,45 @@ class DigitalTwin:
             family_mesh: The mesh of a family the BIM lacks, for exports; None uses a 0.5 m box.
             new_match_radius: Horizontal distance (metres) within which a new object is a known new one.
             create: Create the store's table when it is empty; False for readers.
+            run: A run that builds this store whole (its source, e.g. "verify"): marked started now and
+                unfinished until :meth:`finish_run`.
+            partial: For readers (``create`` False): open a store a run did not finish (its state is partial)
+                instead of refusing it.
 
         Returns:
             The twin, its projection caught up with the store.
 
         Raises:
-            TwinError: A bad symmetry or ``min_fitness``, or (without ``create``) a URL that holds no twin.
+            TwinError: A bad symmetry or ``min_fitness``; without ``create``, a URL that holds no twin, or (unless
+                ``partial``) a store a run began and did not finish.
             BimError: The IFC file cannot be read.
         """
         _check_symmetry(symmetry or {})
         if not 0.0 <= min_fitness <= 1.0:
             raise TwinError(f"min_fitness is a fraction in [0, 1], got {min_fitness}")
         model = model if isinstance(model, BimModel) else load_ifc(model)
-        return cls(EventStore.open(url, create), model, tolerances or TwinConfig().tolerance_policy(), symmetry or {},
+        store = EventStore.open(url, create, run)
+        unfinished = [] if create or partial else store.unfinished_runs()
+        if unfinished:
+            store.close()
+            source, started = unfinished[-1]
+            raise TwinError(f"the twin at {store.label} is partial: the {source} run that began building it at "
+                            f"{_utc(started)} did not finish (killed or failed); run it again")
+        return cls(store, model, tolerances or TwinConfig().tolerance_policy(), symmetry or {},
                    min_fitness, robot, family_mesh, new_match_radius)
+
+    def finish_run(self) -> None:
+        """Mark the run :meth:`open` started (``run=``) as finished, after its last record: readers then take the
+        store as whole."""
+        self.store.finish_run()
+
+    def unfinished_runs(self) -> list[tuple[str, float]]:
+        """The runs that began building this store and did not finish.
+
+        Returns:
+            (source, started: UTC epoch seconds) of each, oldest first; empty for a whole store.
+        """
+        return self.store.unfinished_runs()
 
     def close(self) -> None:
         """Close the event store's connections."""
@@ -470,6 +496,12 @@ def _whole(value, what: str) -> int:
     return int(value)
 
 
+def _utc(time: float) -> str:
+    import datetime
+
+    return datetime.datetime.fromtimestamp(time, datetime.timezone.utc).isoformat(timespec="seconds")
+
+
 def _checked_time(time: float) -> float:
     """UTC epoch seconds as a float: any finite real number (numpy's too, np.float32 included)."""
     if isinstance(time, bool) or not isinstance(time, numbers.Real) or not math.isfinite(time):
@@ -478,13 +510,10 @@ def _checked_time(time: float) -> float:
 
 
 def _checked_pose(pose, what: str) -> np.ndarray:
-    pose = np.asarray(pose, dtype=float)
-    if pose.shape != (4, 4) or not np.all(np.isfinite(pose)):
-        raise TwinError(f"{what} must be a finite 4x4 matrix, got shape {pose.shape}")
-    rotation = pose[:3, :3]
-    if not np.allclose(rotation @ rotation.T, np.eye(3), atol=1e-6) or np.linalg.det(rotation) < 0:
-        raise TwinError(f"{what} has a rotation block that is not a proper rotation")
-    return pose
+    problem = rigid_problem(pose)
+    if problem is not None:
+        raise TwinError(f"{what} must be a finite 4x4 rigid pose: {problem}")
+    return np.asarray(pose, dtype=float)
 
 
 def _check_symmetry(symmetry: Mapping[str, float]) -> None:

@@ -7,8 +7,8 @@ from bim2rdt.verify.errors import VerifyError
 from bim2rdt.verify.new_objects import NewObjectConfig
 from bim2rdt.verify.outputs import VerifyFiles, record_twin, write_outputs
 from bim2rdt.verify.planned import PlannedConfig
-from bim2rdt.verify.priors import heading_deg, levelled, prior_pose
+from bim2rdt.verify.priors import heading_deg, levelled, prior_pose, read_prior_file
 
 __all__ = ["DepthCheck", "DepthCheckConfig", "FrameResult", "NewObjectConfig", "PlannedConfig", "VerifyConfig",
            "VerifyError", "VerifyFiles", "VerifyResult", "check_depth", "heading_deg", "levelled", "prior_pose",
-           "real_sensor_localization", "record_twin", "verify_frames", "write_outputs"]
+           "read_prior_file", "real_sensor_localization", "record_twin", "verify_frames", "write_outputs"]

@@ -37,7 +37,9 @@ def record_twin(result: VerifyResult, model: BimModel, out_dir: Path, config: Tw
     Args:
         result: What verify found in every frame.
         model: The BIM the twin is of.
-        out_dir: The verify folder; a twin.db already there is replaced.
+        out_dir: The verify folder; a twin.db already there is replaced. The rebuild is a run of the store
+            (``DigitalTwin.open(run=...)``), marked finished after its last record: a twin.db a kill cut short is
+            refused as partial by ``twin state``.
         config: The twin's tolerances and ``min_fitness``.
         robot: The records' source.
         symmetry: Each family's rotational order about up (default: its upright prior's,
@@ -51,13 +53,14 @@ def record_twin(result: VerifyResult, model: BimModel, out_dir: Path, config: Tw
     if symmetry is None:
         symmetry = {family: prior.symmetry for family, prior in family_priors(model).items()}
     twin = DigitalTwin.open(f"sqlite:///{out_dir / TWIN_DB}", model, tolerances=config.tolerance_policy(),
-                            symmetry=dict(symmetry), min_fitness=config.min_fitness, robot=robot)
+                            symmetry=dict(symmetry), min_fitness=config.min_fitness, robot=robot, run=robot)
     for frame in result.frames:
         when = frame.time if frame.time is not None else float(frame.index)
         for observation in frame.observations:
             twin.record(observation, when, camera=frame.pose)
         for global_id in frame.missing:
             twin.mark_missing(global_id, when, frames=(frame.index,), camera=frame.pose)
+    twin.finish_run()  # last: a store a kill cut short says it is partial when read
     return twin
 
 
