@@ -41,6 +41,7 @@ from bim2rdt.perception.observation import Observation
 from bim2rdt.perception.structure import movable_elements
 from bim2rdt.registration import IcpConfig, RegistrationError, register, sample_model
 from bim2rdt.semantics import UprightPrior
+from bim2rdt.twin import JudgeConfig, PlaceEvidence, place_seen_empty
 
 
 @dataclass(frozen=True)
@@ -114,7 +115,8 @@ def check_planned(points_world: np.ndarray, elements: list[BimElement], model: B
     owner = _nearest_planned(points_world, elements, bodies, config.search)
     fits = []
     for k, element in enumerate(elements):
-        points = voxel_means(points_world[owner == k], config.voxel)
+        mine = points_world[owner == k]
+        points = voxel_means(mine, config.voxel) if len(mine) else mine
         if len(points) < config.min_points:
             continue
         body = bodies[element.global_id]
@@ -156,24 +158,32 @@ def fitted(body, points: np.ndarray, kept: np.ndarray, prior: UprightPrior | Non
 
 def seen_empty(elements: list[BimElement], model: BimModel, sensor_world: np.ndarray, behind_walls, compare,
                config: PlannedConfig = PlannedConfig()) -> list[BimElement]:
-    """Of ``elements`` (in view, not judged: too few points of their own, or a fit with little on the body),
-    those whose planned place the sensor saw empty: of their sensor-facing surface samples (in front of the
-    walls) with a return on their ray that is not nearer (hidden by clutter), at least ``min_points`` and
-    ``missing_through`` of them have the return farther than ``support`` beyond (``compare(points, margin)``:
-    1 past, 0 on, -1 nearer, NaN none). A place mostly hidden is not seen, not missing."""
-    empty = []
-    for element in elements:
-        samples, normals = sample_model(element_body_mesh(model, element.global_id), config.samples,
-                                        seed=config.icp.seed, drop_resting_face=False)
-        T = element.placement
-        points = samples @ T[:3, :3].T + T[:3, 3]
-        facing = np.einsum("ni,ni->n", normals @ T[:3, :3].T, sensor_world - points) > 0
-        facing[facing] = ~behind_walls(points[facing])
-        seen = compare(points[facing], config.support)
-        in_sight = seen[np.isfinite(seen) & (seen >= 0)]  # on it or past it: the place itself was in sight
-        if len(in_sight) >= config.min_points and (in_sight > 0).mean() >= config.missing_through:
-            empty.append(element)
-    return empty
+    """Of ``elements``, those whose planned place the sensor saw empty (:func:`place_evidence` at the planned
+    pose, judged by :func:`bim2rdt.twin.place_seen_empty` with ``missing_through`` and ``min_points``). A place
+    mostly hidden is not seen, not missing."""
+    rules = JudgeConfig(missing_fraction=config.missing_through, min_place_points=config.min_points)
+    return [el for el in elements
+            if place_seen_empty(place_evidence(_body(model, el, config), el.placement, sensor_world, behind_walls,
+                                           compare, config.support), rules)]
+
+
+def place_evidence(body, T_world_model: np.ndarray, sensor_world: np.ndarray, behind_walls, compare,
+                   margin: float) -> PlaceEvidence:
+    """How the sensor at ``sensor_world`` saw the body (``body``: samples and normals in its own frame) posed by
+    ``T_world_model``: its sensor-facing samples in front of the walls, those with a return on or past them (in
+    sight), past them by more than ``margin`` m (seen through), nearer (hidden). ``compare(points, margin)``:
+    1 past, 0 on, -1 nearer, NaN no return (:meth:`~bim2rdt.verify.rays.RangeLookup.compare`)."""
+    samples, normals = body
+    points = samples @ T_world_model[:3, :3].T + T_world_model[:3, 3]
+    facing = np.einsum("ni,ni->n", normals @ T_world_model[:3, :3].T, sensor_world - points) > 0
+    facing[facing] = ~behind_walls(points[facing])
+    seen = compare(points[facing], margin)
+    return PlaceEvidence(int(facing.sum()), int(np.sum(seen >= 0)), int(np.sum(seen > 0)), int(np.sum(seen < 0)))
+
+
+def _body(model: BimModel, element: BimElement, config: PlannedConfig):
+    return sample_model(element_body_mesh(model, element.global_id), config.samples, seed=config.icp.seed,
+                        drop_resting_face=False)
 
 
 def search_shift(body, placement: np.ndarray, sensor_world: np.ndarray, located: cKDTree,
@@ -260,6 +270,14 @@ def coverage(body, T_world_model: np.ndarray, sensor_world: np.ndarray, behind_w
     gap, _ = located.query(seen, distance_upper_bound=support)
     through = seen_through(seen, support).mean() if seen_through is not None else 0.0
     return float(np.isfinite(gap).mean()), float(through)
+
+
+def owned_points(points_world: np.ndarray, elements: list[BimElement], model: BimModel,
+                 config: PlannedConfig = PlannedConfig()) -> np.ndarray:
+    """(N,) index into ``elements`` of the planned surface nearest each of ``points_world`` within ``search`` m,
+    -1 for none: the points :func:`check_planned` gives each object."""
+    bodies = {el.global_id: _body(model, el, config) for el in elements}
+    return _nearest_planned(points_world, elements, bodies, config.search)
 
 
 def _nearest_planned(points_world: np.ndarray, elements: list[BimElement], bodies, search: float) -> np.ndarray:
