@@ -34,6 +34,10 @@ class JudgeConfig(BaseModel):
                                     "past at least this share of its surface in sight (the mission's rule).")
     min_place_points: int = Field(30, ge=1, description="Fewer samples (or image cells) of a place in sight than "
                                   "this and the view was not enough to call it empty.")
+    min_in_view: float = Field(0.5, gt=0.0, le=1.0, description="... nor when less than this share of its facing "
+                               "surface was in the image (a return on its ray, nearer or not).")
+    max_hidden: float = Field(0.5, ge=0.0, le=1.0, description="... nor when more than this share of its place in "
+                              "the image was hidden behind something nearer (a worker, a neighbour).")
     min_fit_on: float = Field(0.1, ge=0.0, le=1.0, description="A fit counts as one of that object only when the "
                               "sensor measured on its posed surface at this share of the surface in the image "
                               "(in sight or hidden): office1's desk, a table seen as a box, 15 %; a cabinet added "
@@ -50,6 +54,13 @@ class PlaceEvidence:
     in_sight: int
     through: int
     hidden: int = 0
+    in_frame: int | None = None
+    """Facing samples inside the image (a camera's frustum); None: those with a return (in sight or hidden)."""
+
+    @property
+    def in_image(self) -> int:
+        """Facing samples inside the image."""
+        return self.in_sight + self.hidden if self.in_frame is None else self.in_frame
 
     @property
     def on_share(self) -> float:
@@ -65,7 +76,8 @@ class PlaceEvidence:
     def combined(self, other: PlaceEvidence) -> PlaceEvidence:
         """This view's evidence and ``other``'s, summed (several frames of one place)."""
         return PlaceEvidence(self.facing + other.facing, self.in_sight + other.in_sight,
-                             self.through + other.through, self.hidden + other.hidden)
+                             self.through + other.through, self.hidden + other.hidden,
+                             self.in_image + other.in_image)
 
 
 @dataclass(frozen=True)
@@ -113,8 +125,13 @@ def judge_evidence(place: PlaceEvidence | None, fit: FitEvidence | None, min_fit
 
 
 def place_seen_empty(place: PlaceEvidence, config: JudgeConfig = JudgeConfig()) -> bool:
-    """Whether the view shows the place empty: enough of it in sight, and seen through at ``missing_fraction``."""
-    return place.in_sight >= config.min_place_points and place.through >= config.missing_fraction * place.in_sight
+    """Whether the view shows the place empty: enough of it in view (``min_in_view`` of its facing surface in the
+    image, at most ``max_hidden`` of that hidden, ``min_place_points`` in sight), and seen through at
+    ``missing_fraction`` of what was in sight."""
+    in_view = place.facing > 0 and place.in_image >= config.min_in_view * place.facing
+    shown = place.in_sight + place.hidden
+    return (in_view and place.in_sight >= config.min_place_points and place.hidden <= config.max_hidden * shown
+            and place.through >= config.missing_fraction * place.in_sight)
 
 
 def _not_enough(place: PlaceEvidence, config: JudgeConfig) -> str:

@@ -183,24 +183,36 @@ def _axis(direction: np.ndarray) -> str:
 
 
 def merge_new(clusters: list[NewCluster], config: FusionConfig = FusionConfig()) -> list[NewCluster]:
-    """Clusters of different frames whose centres lie within ``new_match`` in plan, linked transitively, as one
-    cluster each: the pose of the one with the most points, every frame, transient if any of them is."""
-    if not clusters:
-        return []
-    centres = np.array([c.observation.pose[:2, 3] for c in clusters])
-    label = np.arange(len(clusters))
-    for i in range(len(clusters)):
-        for j in range(i + 1, len(clusters)):
-            if np.linalg.norm(centres[i] - centres[j]) <= config.new_match:
-                label[label == label[j]] = label[i]
-    merged = []
-    for group in np.unique(label):
-        members = [c for c, g in zip(clusters, label) if g == group]
-        largest = max(members, key=lambda c: c.observation.points)
-        frames = tuple(sorted({f for c in members for f in c.frames}))
-        why = next((c.transient for c in members if c.transient), "")
-        merged.append(replace(largest, observation=replace(largest.observation, frames=frames), frames=frames,
-                              transient=why, sample=np.concatenate([c.sample for c in members]),
-                              low=np.min([c.low for c in members], axis=0),
-                              high=np.max([c.high for c in members], axis=0)))
-    return sorted(merged, key=lambda c: -c.observation.points)
+    """The clusters of all frames as objects: frame by frame, each cluster joins the object whose centre lies
+    nearest in plan within ``new_match`` and that no other cluster of its frame joined (two clusters of one
+    frame are two objects), else starts one. An object keeps the pose of its cluster with the most points, every
+    frame, and is transient if any of its clusters is."""
+    objects: list[list[NewCluster]] = []
+    for frame in sorted({c.frames[0] for c in clusters}):
+        taken: set[int] = set()
+        for cluster in sorted((c for c in clusters if c.frames[0] == frame), key=lambda c: -c.observation.points):
+            at = cluster.observation.pose[:2, 3]
+            distances = [np.linalg.norm(_centre(members) - at) if k not in taken else np.inf
+                         for k, members in enumerate(objects)]
+            k = int(np.argmin(distances)) if distances else -1
+            if k >= 0 and distances[k] <= config.new_match:
+                objects[k].append(cluster)
+            else:
+                k = len(objects)
+                objects.append([cluster])
+            taken.add(k)
+    return sorted((_merged(members) for members in objects), key=lambda c: -c.observation.points)
+
+
+def _centre(members: list[NewCluster]) -> np.ndarray:
+    """An object's plan centre: its largest cluster's."""
+    return max(members, key=lambda c: c.observation.points).observation.pose[:2, 3]
+
+
+def _merged(members: list[NewCluster]) -> NewCluster:
+    largest = max(members, key=lambda c: c.observation.points)
+    frames = tuple(sorted({f for c in members for f in c.frames}))
+    why = next((c.transient for c in members if c.transient), "")
+    return replace(largest, observation=replace(largest.observation, frames=frames), frames=frames, transient=why,
+                   sample=np.concatenate([c.sample for c in members]),
+                   low=np.min([c.low for c in members], axis=0), high=np.max([c.high for c in members], axis=0))
