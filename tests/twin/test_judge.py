@@ -35,7 +35,8 @@ def test_an_untrusted_fit_at_a_place_not_seen_empty_is_unverified_with_its_reaso
 
 @pytest.mark.parametrize("place, words", [
     (PlaceEvidence(facing=1000, in_sight=10, through=10), "not enough"),  # too little in sight
-    (PlaceEvidence(facing=1000, in_sight=300, through=290, hidden=700), "seen through"),  # mostly hidden
+    (PlaceEvidence(facing=1000, in_sight=300, through=290, hidden=700), "hidden behind"),  # mostly hidden
+    (PlaceEvidence(facing=1000, in_sight=300, through=290, in_frame=300), "in the image"),  # mostly outside
     (THERE, "too few points of its own"),
     (None, "not looked at"),
 ])

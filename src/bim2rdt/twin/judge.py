@@ -135,9 +135,15 @@ def place_seen_empty(place: PlaceEvidence, config: JudgeConfig = JudgeConfig()) 
 
 
 def _not_enough(place: PlaceEvidence, config: JudgeConfig) -> str:
-    if place.in_sight < config.min_place_points:
-        hidden = f", {place.hidden} hidden behind something nearer" if place.hidden else ""
-        return (f"(the view was not enough: {place.in_sight} of its {place.facing} facing samples in sight{hidden}, "
-                f"under {config.min_place_points}, and too few points of its own to fit)")
-    return (f"(in sight, but too few points of its own to fit, and seen through at only "
-            f"{place.through_share:.0%} of its place, under {config.missing_fraction:.0%})")
+    """Why a place without a fit was not judged empty: which of :func:`place_seen_empty`'s conditions failed."""
+    shown = place.in_sight + place.hidden
+    if place.facing == 0 or place.in_image < config.min_in_view * place.facing:
+        why = f"{place.in_image} of its {place.facing} facing samples in the image"
+    elif place.hidden > config.max_hidden * shown:
+        why = f"{place.hidden} of its {shown} samples in the image hidden behind something nearer"
+    elif place.in_sight < config.min_place_points:
+        why = f"{place.in_sight} samples of its place in sight, under {config.min_place_points}"
+    else:
+        return (f"(in sight, but too few points of its own to fit, and seen through at only "
+                f"{place.through_share:.0%} of its place, under {config.missing_fraction:.0%})")
+    return f"(the view was not enough: {why}; too few points of its own to fit)"

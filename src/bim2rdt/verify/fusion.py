@@ -140,19 +140,19 @@ def fuse_element(looks: list[ElementLook], fixes: dict[int, tuple[np.ndarray, np
 
 def _fused_pose(global_id: str, trusted: list[ElementLook], frames: tuple[int, ...],
                 fixes: dict[int, tuple[np.ndarray, np.ndarray | None]], config: FusionConfig) -> FusedElement:
-    """The trusted fits' positions combined by information (one outlier pass), the yaw of the most certain one;
+    """The trusted fits' positions combined by information (those that agree with the medoid), the yaw of the most
+    certain one;
     unverified when a horizontal direction stays looser than ``max_sigma``."""
     positions = np.array([look.observation.pose[:3, 3] for look in trusted])
     covariances = [object_covariance(fixes[look.frame][1], fixes[look.frame][0], p, config.fit_sigma)
                    for look, p in zip(trusted, positions)]
     keep = np.ones(len(trusted), dtype=bool)
+    if len(trusted) > 2:  # the medoid (least summed Mahalanobis distance to the others) decides who agrees
+        apart = np.array([[_mahalanobis(p, q, a + b) for q, b in zip(positions, covariances)]
+                          for p, a in zip(positions, covariances)])
+        medoid = int(np.argmin(apart.sum(axis=1)))
+        keep = apart[medoid] <= 3 * config.outlier_sigma**2
     mean, covariance = _combine(positions, covariances, keep)
-    if len(trusted) > 2:
-        distance = np.array([float((p - mean) @ np.linalg.solve(c + covariance, p - mean))
-                             for p, c in zip(positions, covariances)])
-        keep = distance <= config.outlier_sigma**2 * 3
-        if keep.any() and not keep.all():
-            mean, covariance = _combine(positions, covariances, keep)
     used = [look for look, k in zip(trusted, keep) if k]
     best = min(used, key=lambda look: np.trace(covariances[trusted.index(look)]))
     pose = best.observation.pose.copy()
@@ -167,6 +167,10 @@ def _fused_pose(global_id: str, trusted: list[ElementLook], frames: tuple[int, .
         return FusedElement(global_id, ElementStatus.UNVERIFIED, reason,
                             replace(observation, status=ElementStatus.UNVERIFIED, reason=reason), frames, sigma)
     return FusedElement(global_id, None, "", observation, frames, sigma)
+
+
+def _mahalanobis(p: np.ndarray, q: np.ndarray, covariance: np.ndarray) -> float:
+    return float((p - q) @ np.linalg.solve(covariance, p - q))
 
 
 def _combine(positions: np.ndarray, covariances: list[np.ndarray], keep: np.ndarray):
