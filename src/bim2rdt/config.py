@@ -29,6 +29,10 @@ from bim2rdt.semantics.llm import LlmPriorsConfig
 from bim2rdt.server.config import ServerConfig
 from bim2rdt.sources.ros_config import RosConfig
 from bim2rdt.twin.config import TwinConfig
+from bim2rdt.twin.judge import JudgeConfig
+from bim2rdt.verify.faces import PlanarFacesConfig
+from bim2rdt.verify.fusion import FusionConfig
+from bim2rdt.verify.transient import TransientConfig
 
 
 def default_samples_dir() -> Path:
@@ -118,6 +122,10 @@ class Settings(BaseSettings):
     localization: LocalizationConfig = LocalizationConfig()
     mission: MissionConfig = MissionConfig()
     twin: TwinConfig = TwinConfig()
+    judge: JudgeConfig = JudgeConfig()
+    fusion: FusionConfig = FusionConfig()
+    transient: TransientConfig = TransientConfig()
+    planar_faces: PlanarFacesConfig = PlanarFacesConfig()
     server: ServerConfig = ServerConfig()
     ros: RosConfig = RosConfig()
 

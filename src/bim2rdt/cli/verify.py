@@ -73,7 +73,8 @@ def verify_command(
     frames = _frames(source, correction, {k: v for k, v in options.items() if v is not None})
     if not _is_bag(source) and (every or max_frames):
         frames = _Subsampled(frames, every or 1, max_frames)
-    config = VerifyConfig(find_new=detector != "none", min_fitness=settings.twin.min_fitness)
+    config = VerifyConfig(find_new=detector != "none", min_fitness=settings.twin.min_fitness, judge=settings.judge,
+                          fusion=settings.fusion, transient=settings.transient, faces=settings.planar_faces)
     with _progress(frames, as_json, every, max_frames) as tick:
         result = verify_frames(frames, model, T_prior, config, progress=lambda frame: tick("frame"))
         with record_twin(result, model, out, settings.twin) as twin:

@@ -21,8 +21,9 @@ the scan near where the BIM says it stands. So, for the located points the perma
    fitting path): SG-ICP refines it under the family's upright prior, resting on the slab, so a lean the data
    demands is kept (docs/decisions/0012: the demo's knocked cone, tilted 12 degrees) and a tilt fitted to noise
    is not;
-6. the fitted pose is an observation of that element: the twin judges it against its tolerance preset (the
-   mission's judge), so verify and the demo's mission agree on every verdict.
+6. the fitted pose is an observation of that element, and its place as the sensor saw it (:func:`place_evidence`)
+   the rest of the evidence: the one judge (:func:`bim2rdt.twin.judge_evidence`, the mission's too) and then the
+   twin's tolerance preset decide, so verify and the demo's mission agree on every verdict.
 """
 
 from __future__ import annotations
@@ -41,7 +42,7 @@ from bim2rdt.perception.observation import Observation
 from bim2rdt.perception.structure import movable_elements
 from bim2rdt.registration import IcpConfig, RegistrationError, register, sample_model
 from bim2rdt.semantics import UprightPrior
-from bim2rdt.twin import JudgeConfig, PlaceEvidence, place_seen_empty
+from bim2rdt.twin import PlaceEvidence
 
 
 @dataclass(frozen=True)
@@ -59,9 +60,6 @@ class PlannedConfig:
     """The points are thinned to one per cube of this size (their mean) before registration."""
     support: float = 0.04
     """A surface sample with a located point this close is covered (the depth noise at 4-5 m, and then some)."""
-    missing_through: float = 0.8
-    """An object in view that is not judged is missing when the sensor saw past this share of the part of its
-    planned sensor-facing surface in sight (the mission's rule for a place seen empty)."""
     coverage_samples: int = 300
     """Coverage is counted on at most this many of the object's sensor-facing samples (evenly thinned)."""
     min_gain_z: float = 2.5
@@ -154,17 +152,6 @@ def fitted(body, points: np.ndarray, kept: np.ndarray, prior: UprightPrior | Non
         return fit_detection(samples, normals, points, kept, [kept], prior, slab, rules).pose
     except RegistrationError:
         return kept
-
-
-def seen_empty(elements: list[BimElement], model: BimModel, sensor_world: np.ndarray, behind_walls, compare,
-               config: PlannedConfig = PlannedConfig()) -> list[BimElement]:
-    """Of ``elements``, those whose planned place the sensor saw empty (:func:`place_evidence` at the planned
-    pose, judged by :func:`bim2rdt.twin.place_seen_empty` with ``missing_through`` and ``min_points``). A place
-    mostly hidden is not seen, not missing."""
-    rules = JudgeConfig(missing_fraction=config.missing_through, min_place_points=config.min_points)
-    return [el for el in elements
-            if place_seen_empty(place_evidence(_body(model, el, config), el.placement, sensor_world, behind_walls,
-                                           compare, config.support), rules)]
 
 
 def place_evidence(body, T_world_model: np.ndarray, sensor_world: np.ndarray, behind_walls, compare,
