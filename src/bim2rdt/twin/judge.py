@@ -74,7 +74,14 @@ class PlaceEvidence:
         return self.through / self.in_sight if self.in_sight else 0.0
 
     def combined(self, other: PlaceEvidence) -> PlaceEvidence:
-        """This view's evidence and ``other``'s, summed (several frames of one place)."""
+        """This view's evidence and another's, summed (several frames of one place).
+
+        Args:
+            other: The other view's evidence of the same place.
+
+        Returns:
+            The counts of both views added.
+        """
         return PlaceEvidence(self.facing + other.facing, self.in_sight + other.in_sight,
                              self.through + other.through, self.hidden + other.hidden,
                              self.in_image + other.in_image)
@@ -125,9 +132,17 @@ def judge_evidence(place: PlaceEvidence | None, fit: FitEvidence | None, min_fit
 
 
 def place_seen_empty(place: PlaceEvidence, config: JudgeConfig = JudgeConfig()) -> bool:
-    """Whether the view shows the place empty: enough of it in view (``min_in_view`` of its facing surface in the
-    image, at most ``max_hidden`` of that hidden, ``min_place_points`` in sight), and seen through at
-    ``missing_fraction`` of what was in sight."""
+    """Whether the view shows the place empty.
+
+    Args:
+        place: The place as the view saw it.
+        config: The judge's thresholds.
+
+    Returns:
+        True when enough of it was in view (``min_in_view`` of its facing surface in the image, at most
+            ``max_hidden`` of that hidden, ``min_place_points`` in sight) and it was seen through at
+            ``missing_fraction`` of what was in sight.
+    """
     in_view = place.facing > 0 and place.in_image >= config.min_in_view * place.facing
     shown = place.in_sight + place.hidden
     return (in_view and place.in_sight >= config.min_place_points and place.hidden <= config.max_hidden * shown

@@ -14,9 +14,11 @@ offset), and a group is a face only when
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+import trimesh
 from pydantic import BaseModel, ConfigDict, Field
 
 NON_PLANAR = ("IfcStair", "IfcStairFlight", "IfcRamp", "IfcRampFlight", "IfcRailing", "IfcDoor", "IfcWindow")
@@ -52,10 +54,19 @@ class PlanarFaces:
     area: np.ndarray
 
     @classmethod
-    def of(cls, mesh, face_owner: np.ndarray, element_classes, config: PlanarFacesConfig = PlanarFacesConfig()
-           ) -> PlanarFaces:
-        """The faces of ``mesh`` (a trimesh; ``face_owner``: each triangle's element index, ``element_classes``:
-        each element's IFC class), grouped and filtered (see the module's note)."""
+    def of(cls, mesh: trimesh.Trimesh, face_owner: np.ndarray, element_classes: Sequence[str],
+           config: PlanarFacesConfig = PlanarFacesConfig()) -> PlanarFaces:
+        """The planar faces of a mesh, grouped and filtered (see the module's note).
+
+        Args:
+            mesh: The permanent elements' triangles, world metres.
+            face_owner: (F,) each triangle's element index.
+            element_classes: Each element's IFC class.
+            config: The area and class rules.
+
+        Returns:
+            The faces: owner, unit normal, offset (m) and area (m^2) each.
+        """
         normals, areas = np.asarray(mesh.face_normals), np.asarray(mesh.area_faces)
         offsets = np.einsum("ni,ni->n", normals, np.asarray(mesh.triangles_center))
         step = np.deg2rad(config.angle_step_deg)
@@ -77,9 +88,18 @@ class PlanarFaces:
         return len(self.owner)
 
     def label(self, points: np.ndarray, normals: np.ndarray, owner: np.ndarray, on_face: float) -> np.ndarray:
-        """(N,) the face each surface sample lies on (its element's face whose plane lies within ``on_face`` m and
-        whose normal agrees within 25 degrees, either sign), -1 for none: a sample on a stair, a curved wall or a
-        small face."""
+        """The face each surface sample lies on: its element's face whose plane lies within ``on_face`` and whose
+        normal agrees within 25 degrees (either sign).
+
+        Args:
+            points: (N, 3) samples, world metres.
+            normals: (N, 3) their unit normals.
+            owner: (N,) each sample's element index.
+            on_face: How far from a face's plane a sample may lie, m.
+
+        Returns:
+            (N,) face index per sample, -1 for none (a stair, a curved wall, a small face).
+        """
         out = np.full(len(points), -1)
         for face in range(len(self)):
             mine = owner == self.owner[face]
