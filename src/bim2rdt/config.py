@@ -31,6 +31,7 @@ from bim2rdt.server.config import ServerConfig
 from bim2rdt.sources import SourcesConfig
 from bim2rdt.sources.ros_config import RosConfig
 from bim2rdt.twin.config import TwinConfig
+from bim2rdt.twin.judge import JudgeConfig
 from bim2rdt.verify import VerifyConfig, real_sensor_localization
 
 
@@ -143,6 +144,7 @@ class Settings(BaseSettings):
     perception: PerceptionConfig = PerceptionConfig()
     verify: VerifyConfig = VerifyConfig()
     twin: TwinConfig = TwinConfig()
+    judge: JudgeConfig = JudgeConfig()
     server: ServerConfig = ServerConfig()
     ros: RosConfig = RosConfig()
     sources: SourcesConfig = SourcesConfig()

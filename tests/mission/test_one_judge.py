@@ -83,14 +83,18 @@ def test_the_mission_and_the_twin_trust_a_fit_by_the_same_fitness_setting(site_m
         assert mission is state.status is expected
 
 
-def test_verify_trusts_a_fit_by_the_twins_rule_and_setting():
-    """verify decides which fits count as seen (the rest may be judged seen empty) by the twin's rule,
-    ``fit_trusted``, with the twin's setting: its default is the twin's, and its chain has no comparison of its own."""
+def test_verify_and_the_mission_judge_through_the_one_judge_with_the_twins_setting():
+    """verify and the mission both judge by :func:`bim2rdt.twin.judge_evidence` (trust, missing, unverified, not
+    observed in one place) with the twin's ``min_fitness``; neither keeps a comparison of its own."""
     import inspect
 
-    from bim2rdt.verify import chain
+    from bim2rdt.mission import absence, run, verdict
+    from bim2rdt.verify import chain, fusion
 
     assert chain.VerifyConfig().min_fitness == TwinConfig().min_fitness
-    source = inspect.getsource(chain)
-    assert "fit_trusted(f.observation.fitness, config.min_fitness)" in source
-    assert ">= config.min_fitness" not in source
+    verify_source = inspect.getsource(chain) + inspect.getsource(fusion)
+    mission_source = inspect.getsource(verdict) + inspect.getsource(run)
+    assert "judge_evidence(" in verify_source and "judge_evidence(" in mission_source
+    assert "place_seen_empty(" in inspect.getsource(absence)
+    for source in (verify_source, mission_source):
+        assert ">= config.min_fitness" not in source and "fit_trusted(" not in source

@@ -82,7 +82,7 @@ def verify_command(
     frames = open_recording(source, depth_correction=correction, topics=topics, every=every, max_frames=max_frames,
                             sync_tolerance=settings.ros.sync_tolerance, depth_scale=depth_scale,
                             intrinsics=_intrinsics(intrinsics) if intrinsics is not None else None)
-    config = settings.verify.model_copy(update={"find_new": detector != "none"})
+    config = settings.verify.model_copy(update={"find_new": detector != "none", "judge": settings.judge})
     with _progress(frames.expected_frames, as_json) as tick:
         result = verify_frames(frames, model, T_prior, config, progress=lambda frame: tick("frame"))
         with record_twin(result, model, out, settings.twin) as twin:

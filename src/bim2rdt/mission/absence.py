@@ -16,6 +16,7 @@ from bim2rdt.mission.records import MissingElement, Target
 from bim2rdt.perception.frame import Frame
 from bim2rdt.perception.visibility import DepthView, PlaceLook, look_at_place
 from bim2rdt.registration import IcpConfig, sample_model
+from bim2rdt.twin import JudgeConfig, PlaceEvidence, place_seen_empty
 
 
 def depth_view(frame: Frame) -> DepthView:
@@ -42,10 +43,20 @@ def seen_empty(target: Target, views: Mapping[int, DepthView], config: MissionCo
 
 
 def shows_empty(look: PlaceLook, config: MissionConfig) -> bool:
-    """In view (at least ``missing_in_view`` of its facing surface in the image, and of the cells with a depth
-    return at least ``min_points`` and half not occluded: nothing nearer in front) and seen through at
+    """The one judge's rule (:func:`bim2rdt.twin.place_seen_empty`, shared with ``verify``) on a station's look:
+    in view (at least ``missing_in_view`` of its facing surface in the image, of the cells with a depth return at
+    least ``min_points`` and half not occluded: nothing nearer in front) and seen through at
     ``missing_fraction`` of the cells not occluded."""
-    in_view = look.facing > 0 and look.in_frame >= config.missing_in_view * look.facing
-    open_cells = look.seen - look.blocked
-    return (in_view and open_cells >= config.min_points and open_cells >= 0.5 * look.seen
-            and look.through >= config.missing_fraction * open_cells)
+    return place_seen_empty(place_of(look), judge_rules(config))
+
+
+def place_of(look: PlaceLook) -> PlaceEvidence:
+    """A station's look at a place as the one judge's evidence: its open cells (a return, nothing nearer) in sight,
+    its blocked ones hidden."""
+    return PlaceEvidence(look.facing, look.seen - look.blocked, look.through, look.blocked, look.in_frame)
+
+
+def judge_rules(config: MissionConfig) -> JudgeConfig:
+    """The mission's settings of the place rules, as the one judge's."""
+    return JudgeConfig(missing_fraction=config.missing_fraction, min_place_points=config.min_points,
+                       min_in_view=config.missing_in_view, max_hidden=0.5)

@@ -42,7 +42,7 @@ from bim2rdt.perception.detection import Detection
 from bim2rdt.perception.frame import Frame
 from bim2rdt.perception.visibility import DepthView, see_through_fraction
 from bim2rdt.registration import IcpConfig, RegistrationResult, sample_model
-from bim2rdt.twin.status import ElementStatus
+from bim2rdt.twin import FitEvidence, judge_evidence
 
 log = logging.getLogger(__name__)
 
@@ -173,8 +173,9 @@ def _observe(detection: Detection, target: Target | None, mesh: trimesh.Trimesh,
     owner = _explained_by(object_pts, mesh, fit, known, config, icp)
     if owner is not None:  # the points are another element's: the fit shows that element, not this object
         reason = owner.reason()
-    if reason:
-        judged = dataclasses.replace(judged, status=ElementStatus.UNVERIFIED)
+    if reason:  # the one judge (shared with verify): a fit its observer distrusts is unverified, with why
+        trust = judge_evidence(None, FitEvidence(fit.fitness, reason), context.min_fitness)
+        judged = dataclasses.replace(judged, status=trust.status)
         log.info("%s at station %s: unverified %s", detection.family, detection.station, reason)
     observation = Observation(family=detection.family, global_id=target.global_id if target else None,
                               pose=fit.pose, rmse=fit.rmse, fitness=fit.fitness, points=len(object_pts),

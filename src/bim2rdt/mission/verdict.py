@@ -18,7 +18,8 @@ from bim2rdt.twin.config import TwinConfig
 from bim2rdt.twin.deviation import Deviation, pose_deviation
 from bim2rdt.twin.status import ElementStatus
 from bim2rdt.twin.tolerance import Tolerance, TolerancePolicy
-from bim2rdt.twin.verdict import against_tolerance, fit_trusted
+from bim2rdt.twin import FitEvidence, judge_evidence
+from bim2rdt.twin.verdict import against_tolerance
 
 DEFAULT_MIN_FITNESS = TwinConfig().min_fitness
 """The twin's default ``min_fitness``, for a mission run without the twin's settings."""
@@ -72,16 +73,16 @@ def judge(target: Target | None, fit: RegistrationResult, symmetry: float, confi
 def verdict(target: Target | None, fit: RegistrationResult, deviation: Deviation, config: MissionConfig,
             tolerance: Tolerance | None = None, symmetry: float = 1.0,
             min_fitness: float = DEFAULT_MIN_FITNESS) -> tuple[ElementStatus, str]:
-    """(status, reason). UNVERIFIED when the fit explains too few points to trust (the twin's rule,
-    :func:`bim2rdt.twin.verdict.fit_trusted`, under ``min_fitness``); NEW for an object the BIM
+    """(status, reason). UNVERIFIED when the fit explains too few points to trust (the one judge,
+    :func:`bim2rdt.twin.judge_evidence`, under ``min_fitness``, as verify judges); NEW for an object the BIM
     lacks; else the twin's judgement (:func:`bim2rdt.twin.verdict.against_tolerance`, the element's tolerance
     preset) of the part of ``deviation`` the view pins down: DEVIATING when that is beyond the preset,
     UNVERIFIED when the view leaves a horizontal direction (or the yaw of a body without symmetry) unconstrained
     that could hide a deviation (the registration's unobservable directions: a box seen on one face may have
     slid along it, and an estimate along that face is the start, not evidence), else AS_PLANNED."""
-    if not fit_trusted(fit.fitness, min_fitness):
-        return ElementStatus.UNVERIFIED, (f"(the fit explains {fit.fitness:.0%} of its points, under "
-                                          f"{min_fitness:.0%})")
+    trust = judge_evidence(None, FitEvidence(fit.fitness), min_fitness)  # the one judge, shared with verify
+    if trust.status is not None:
+        return trust.status, trust.reason
     if target is None:
         return ElementStatus.NEW, ""
     free, free_yaw = unconstrained_motion(fit, symmetry)

@@ -11,6 +11,7 @@ twin.export_ifc(path); twin.export_bcf(path)
 
 from bim2rdt.twin.deviation import Deviation, pose_deviation
 from bim2rdt.twin.errors import TwinError
+from bim2rdt.twin.judge import FitEvidence, JudgeConfig, Judgement, PlaceEvidence, judge_evidence, place_seen_empty
 from bim2rdt.twin.records import (EVENT_KINDS, MISSING, OBSERVATION, SAFETY, STATUS, ElementState, Evidence, Fit,
                                   TwinEvent)
 from bim2rdt.twin.sink import TwinSink
@@ -18,7 +19,8 @@ from bim2rdt.twin.status import STATUS_COLOURS, ElementStatus
 from bim2rdt.twin.config import TolerancePreset, TwinConfig
 from bim2rdt.twin.tolerance import Tolerance, TolerancePolicy
 
-__all__ = ["DigitalTwin", "Deviation", "ElementState", "ElementStatus", "EVENT_KINDS", "Evidence", "Fit", "MISSING",
+__all__ = ["DigitalTwin", "Deviation", "ElementState", "ElementStatus", "EVENT_KINDS", "Evidence", "Fit", "FitEvidence",
+           "JudgeConfig", "Judgement", "MISSING", "PlaceEvidence", "judge_evidence", "place_seen_empty",
            "OBSERVATION", "SAFETY", "STATUS", "STATUS_COLOURS", "Tolerance", "TolerancePolicy", "TolerancePreset",
            "TwinConfig", "TwinError", "TwinEvent", "TwinSink", "pose_deviation"]
 

@@ -3,15 +3,17 @@
 For each frame: its points (sensor frame) -> :func:`~bim2rdt.localization.localize_cloud` on the permanent
 elements from the prior -> the depth check (:mod:`.depth_check`) -> the points the permanent structure does not
 explain -> each planned object in view checked by its own body (:mod:`.planned`) -> what is left, clustered,
-as new objects (:mod:`.new_objects`). The observations are recorded into a twin by the caller
-(:mod:`.outputs`). A frame whose fix is refused carries the reason; a frame whose depth looks miscalibrated
-has its observations unverified, with the reason.
+as new objects (:mod:`.new_objects`). Each planned object in view is judged by the one judge shared with the
+mission (:func:`bim2rdt.twin.judge_evidence`), and then on all the frames that saw it (:mod:`.fusion`); new
+clusters that are people or moved are transient (:mod:`.transient`). The observations are recorded into a twin
+by the caller (:mod:`.outputs`). A frame whose fix is refused carries the reason; a frame whose depth looks
+miscalibrated has its observations unverified, with the reason.
 """
 
 from __future__ import annotations
 
 import time as clock
-from collections import Counter
+from collections import Counter, deque
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field, replace
 
@@ -23,16 +25,21 @@ from bim2rdt.localization import (LocalizationConfig, LocalizationError, Occlude
                                   scan_points)
 from bim2rdt.perception.background import explained, structure_for
 from bim2rdt.perception.frame import Frame
+from bim2rdt.perception.library import element_body_mesh
 from bim2rdt.perception.observation import Observation
 from bim2rdt.perception.structure import movable_elements
+from bim2rdt.registration import sample_model
 from bim2rdt.semantics import KnowledgeBasePriors, UprightPrior
 from bim2rdt.sources import as_recording
-from bim2rdt.twin import ElementStatus, TwinConfig
-from bim2rdt.twin.verdict import fit_trusted
+from bim2rdt.twin import ElementStatus, FitEvidence, JudgeConfig, TwinConfig, judge_evidence
 from bim2rdt.verify.depth_check import DepthCheck, DepthCheckConfig, check_depth
 from bim2rdt.verify.errors import VerifyError
-from bim2rdt.verify.new_objects import NewObjectConfig, new_objects
-from bim2rdt.verify.planned import PlannedConfig, check_planned, planned_in_view, seen_empty
+from bim2rdt.verify.faces import PlanarFacesConfig
+from bim2rdt.verify.fusion import (ElementLook, FusedElement, FusionConfig, fuse_element, horizontal_sigma,
+                                   located_covariance, merge_new)
+from bim2rdt.verify.new_objects import NewCluster, NewObjectConfig, new_clusters
+from bim2rdt.verify.planned import PlannedConfig, check_planned, owned_points, place_evidence, planned_in_view
+from bim2rdt.verify.transient import TransientConfig, transient_reason
 from bim2rdt.verify.priors import levelled
 from bim2rdt.verify.rays import RangeLookup
 
@@ -84,6 +91,14 @@ class VerifyConfig(BaseModel):
     judged seen empty instead. Follows ``Settings.twin.min_fitness``."""
     find_new: bool = True
     """Cluster what neither the building nor a planned object explains into new objects."""
+    judge: JudgeConfig = JudgeConfig()
+    """The one judge's rules (:func:`bim2rdt.twin.judge_evidence`)."""
+    fusion: FusionConfig = FusionConfig()
+    """How an element's frames are combined (:mod:`.fusion`)."""
+    transient: TransientConfig = TransientConfig()
+    """What makes a cluster a person or a thing that moved (:mod:`.transient`)."""
+    faces: PlanarFacesConfig = PlanarFacesConfig()
+    """The BIM's planar faces the depth check compares (:mod:`.faces`)."""
 
 
 @dataclass
@@ -108,6 +123,15 @@ class FrameResult:
     seconds: float = 0.0
     recorded: np.ndarray | None = None
     """The frame's own pose as the recording gave it (a bag's camera in its world frame), or None."""
+    looks: list[ElementLook] = field(default_factory=list)
+    """Each planned object in view as this frame saw it, with the judge's verdict on this frame alone."""
+    clusters: list[NewCluster] = field(default_factory=list)
+    """The new-object clusters of this frame (transient ones marked)."""
+    located_covariance: np.ndarray | None = None
+    """The fix's covariance (6, 6) with the odometry's information added: the recording's own motion from the
+    last fix, which pins what the view leaves free (:func:`~bim2rdt.verify.fusion.located_covariance`)."""
+    lookup: RangeLookup | None = field(default=None, repr=False)
+    """The frame's returns by direction while the motion test needs them (a fix with no free direction only)."""
 
     def to_dict(self) -> dict:
         """The frame's entry in localization.json.
@@ -122,6 +146,11 @@ class FrameResult:
                  "inliers": self.inliers, "accepted": self.accepted,
                  "prior": None if self.prior is None else self.prior.tolist(),
                  "depth_check": self.depth.to_dict() if self.depth else None, "missing": self.missing,
+                 "judged": {look.global_id: {"status": _status(look.judgement.status), "reason": look.judgement.reason,
+                                             "in_sight": look.place.in_sight, "through": look.place.through}
+                            for look in self.looks},
+                 "transient": [{"centre": [round(float(v), 3) for v in c.observation.pose[:3, 3]],
+                                "reason": c.transient} for c in self.clusters if c.transient],
                  "seconds": round(self.seconds, 3)}
         if not self.accepted:
             entry["reason"] = self.reason
@@ -138,6 +167,12 @@ class VerifyResult:
     each ``{"time", "reason", "kind"}``."""
     source_warnings: list[str] = field(default_factory=list)
     """What the source found off about the recording as a whole (a bag whose clocks disagree)."""
+    elements: list[FusedElement] = field(default_factory=list)
+    """Each planned object in view of any accepted frame, judged on all of them (:mod:`.fusion`)."""
+    new: list[NewCluster] = field(default_factory=list)
+    """The new objects: clusters of all frames merged, transient ones left out."""
+    transient: list[NewCluster] = field(default_factory=list)
+    """Clusters that are people or moved between frames: recorded here, never as new objects."""
 
     @property
     def drop_counts(self) -> dict[str, int]:
@@ -198,11 +233,20 @@ def verify_frames(frames: Iterable, model: BimModel, prior: np.ndarray | None = 
     priors = family_priors(model) if priors is None else priors
     results: list[FrameResult] = []
     anchor: tuple[np.ndarray | None, np.ndarray] | None = None if prior is None else (None, np.asarray(prior))
+    anchor_covariance = None  # the located covariance of the fix the anchor is (None: the user's prior)
+    recent: deque = deque(maxlen=RECENT_FRAMES)
     recording = as_recording(frames)
     for index, frame in enumerate(recording):
         own = frame.T_world_camera if isinstance(frame, Frame) else None
         result = verify_frame(index, frame, model, scene, _prior_for(own, anchor), config, priors)
         result.recorded = own
+        if result.accepted:
+            result.located_covariance = located_covariance(result.covariance, anchor, anchor_covariance, own,
+                                                           config.fusion)
+            anchor_covariance = result.located_covariance
+        _mark_transient(result, recent, config)
+        if not result.accepted:
+            result.lookup = None
         if result.accepted and (anchor is not None or own is not None):
             anchor = (own, result.pose)
         elif anchor is not None and anchor[0] is None and own is not None:
@@ -215,7 +259,50 @@ def verify_frames(frames: Iterable, model: BimModel, prior: np.ndarray | None = 
         reasons = "; ".join(f"{n} {k}" for k, n in Counter(d["reason"] for d in dropped).most_common(3))
         raise VerifyError("the source holds no frames" + (f" (all {len(dropped)} dropped: {reasons})" if dropped
                                                           else ""))
-    return VerifyResult(results, dropped, list(recording.warnings))
+    verified = VerifyResult(results, dropped, list(recording.warnings))
+    verified.elements, verified.new, verified.transient = fused(results, config)
+    return verified
+
+
+RECENT_FRAMES = 8
+"""A cluster is tested for motion against this many frames before and after it (their range lookups are kept)."""
+
+
+def _mark_transient(result: FrameResult, recent: deque, config: VerifyConfig) -> None:
+    """Mark ``result``'s clusters that are people, or that the ``recent`` frames saw through (and mark the
+    recent frames' clusters this frame saw through); then keep this frame's lookup among the recent ones."""
+    lookups = [earlier.lookup for earlier in recent]
+    result.clusters = [replace(c, transient=transient_reason(c, lookups, config.transient)) for c in result.clusters]
+    if result.lookup is None:
+        return
+    for earlier in recent:
+        earlier.clusters = [c if c.transient else replace(c, transient=transient_reason(c, [result.lookup],
+                                                                                        config.transient))
+                            for c in earlier.clusters]
+    if len(recent) == recent.maxlen:
+        recent[0].lookup = None  # out of the window: its returns are no longer needed
+    recent.append(result)
+
+
+def fused(results: list[FrameResult], config: VerifyConfig) -> tuple[list[FusedElement], list[NewCluster],
+                                                                     list[NewCluster]]:
+    """Every planned object judged on all the frames that saw it, and the new objects of all frames merged
+    (transient ones apart): see :mod:`.fusion`."""
+    fixes = {r.index: (r.pose, r.located_covariance) for r in results if r.accepted}
+    looks: dict[str, list[ElementLook]] = {}
+    for result in results:
+        for look in result.looks:
+            looks.setdefault(look.global_id, []).append(look)
+    elements = [fuse_element(seen, fixes, config.min_fitness, config.fusion, config.judge)
+                for seen in looks.values()]
+    located = [c for r in results if r.accepted and horizontal_sigma(r.located_covariance) <= config.fusion.max_sigma
+               for c in r.clusters]
+    merged = merge_new(located, config.fusion)
+    return elements, [c for c in merged if not c.transient], [c for c in merged if c.transient]
+
+
+def _status(status: ElementStatus | None) -> str:
+    return "by pose" if status is None else status.value
 
 
 def family_priors(model: BimModel) -> dict[str, UprightPrior]:
@@ -267,14 +354,23 @@ def verify_frame(index: int, frame, model: BimModel, scene: OccludedMap, prior: 
         return _timed(result, start)
     result.pose, result.covariance, result.degenerate = loc.pose, loc.covariance, list(loc.degenerate)
     result.residual, result.inliers, result.accepted = loc.residual, loc.inliers, True
-    result.depth = check_depth(scan, scene, loc.pose, config.localization.max_range, config.depth)
-    result.observations, result.missing = _observe(index, points_sensor, loc.pose, model, scene, config,
-                                                    priors)
+    result.depth = check_depth(scan, scene, loc.pose, config.localization.max_range, config.depth, config.faces)
+    _observe(result, points_sensor, loc.pose, model, scene, config, priors)
     if result.depth.miscalibrated:
-        reason = f"(sensor looks miscalibrated: {result.depth.reason})"
-        result.observations = [replace(o, status=ElementStatus.UNVERIFIED, reason=reason) for o in result.observations]
-        result.missing = []  # a bent depth sees past a place it merely misplaces
+        _distrust(result, f"(sensor looks miscalibrated: {result.depth.reason})")
     return _timed(result, start)
+
+
+def _distrust(result: FrameResult, reason: str) -> None:
+    """Every verdict of ``result`` unverified with ``reason``: a bent depth sees past a place it merely
+    misplaces, and carries the bend into every fit; its clusters are no new objects."""
+    result.observations = [replace(o, status=ElementStatus.UNVERIFIED, reason=reason) for o in result.observations]
+    result.missing = []
+    result.looks = [replace(look, judgement=replace(look.judgement, status=ElementStatus.UNVERIFIED, reason=reason),
+                            observation=None if look.observation is None else
+                            replace(look.observation, status=ElementStatus.UNVERIFIED, reason=reason))
+                    for look in result.looks]
+    result.clusters = []
 
 
 def _depth_at_best_fit(scan, model: BimModel, scene: OccludedMap, prior: np.ndarray,
@@ -292,14 +388,13 @@ def _depth_at_best_fit(scan, model: BimModel, scene: OccludedMap, prior: np.ndar
         best = localize_cloud(scan, model, prior, (0.0, 0.0, 1.0), loose, scene)
     except LocalizationError:
         return None
-    return check_depth(scan, scene, best.pose, config.localization.max_range, config.depth)
+    return check_depth(scan, scene, best.pose, config.localization.max_range, config.depth, config.faces)
 
 
-def _observe(index: int, points_sensor: np.ndarray, pose: np.ndarray, model: BimModel, scene: OccludedMap,
-             config: VerifyConfig, priors: Mapping[str, UprightPrior] | None = None
-             ) -> tuple[list[Observation], list[str]]:
-    """The planned objects in view checked, and the new ones, from the fixed ``pose``; and the GlobalIds of the
-    planned objects whose place the sensor saw empty."""
+def _observe(result: FrameResult, points_sensor: np.ndarray, pose: np.ndarray, model: BimModel,
+             scene: OccludedMap, config: VerifyConfig, priors: Mapping[str, UprightPrior] | None = None) -> None:
+    """The planned objects in view checked and judged (:func:`bim2rdt.twin.judge_evidence` on this frame), and
+    the new clusters, from the fixed ``pose``: into ``result`` (its looks, observations, missing, clusters)."""
     points_sensor = points_sensor[:: max(1, len(points_sensor) // 90_000)]
     points_sensor = points_sensor[np.linalg.norm(points_sensor, axis=1) > 1e-6]
     located = points_sensor @ pose[:3, :3].T + pose[:3, 3]
@@ -315,25 +410,57 @@ def _observe(index: int, points_sensor: np.ndarray, pose: np.ndarray, model: Bim
                                config.localization.max_range)
     elements = planned_in_view(model, hits, config.planned)
     lookup = RangeLookup.of(points_sensor, pose)
+    result.lookup = lookup if horizontal_sigma(result.covariance) <= config.fusion.max_sigma else None
 
     def behind_walls(points_world: np.ndarray) -> np.ndarray:
         offset = points_world - pose[:3, 3]
         distance = np.linalg.norm(offset, axis=1)
         return scene.permanent.first_hit(pose[:3, 3], offset / distance[:, None]) < distance - 0.03
 
-    fits = check_planned(left, elements, model, slab, index, pose[:3, 3], behind_walls, lookup.seen_through,
-                         config.planned, priors)
-    # judged: a fit the twin will take (enough of its points on the body); the rest may have been seen empty
-    judged = {f.element.global_id for f in fits if fit_trusted(f.observation.fitness, config.min_fitness)}
-    empty = seen_empty([el for el in elements if el.global_id not in judged], model, pose[:3, 3], behind_walls,
-                       lookup.compare, config.planned)
-    gone = {el.global_id for el in empty}
-    fits = [f for f in fits if f.element.global_id not in gone]
-    observations = [f.observation for f in fits]
+    fits = {f.element.global_id: f for f in check_planned(left, elements, model, slab, result.index, pose[:3, 3],
+                                                           behind_walls, lookup.seen_through, config.planned,
+                                                           priors)}
+    kept = []
+    for element in elements:
+        look = _look(element, fits.get(element.global_id), model, pose, behind_walls, lookup, result.index, config)
+        result.looks.append(look)
+        if look.judgement.status is ElementStatus.MISSING:
+            result.missing.append(element.global_id)
+        elif look.observation is not None:
+            result.observations.append(look.observation)
+            kept.append((element.global_id, look.observation.pose))
     if config.find_new:
-        observations += new_objects(left, [(f.element.global_id, f.observation.pose) for f in fits], model, slab,
-                                    index, config.new)
-    return observations, [el.global_id for el in empty]
+        unsure = [el for el, look in zip(elements, result.looks) if look.judgement.status is ElementStatus.UNVERIFIED]
+        if unsure and len(left):  # what the plan gives an object it could not judge is that object's, not new
+            left = left[owned_points(left, unsure, model, config.planned) < 0]
+        result.clusters = new_clusters(left, kept, model, slab, result.index, config.new)
+        result.observations += [c.observation for c in result.clusters]
+
+
+def _look(element, fit, model: BimModel, pose: np.ndarray, behind_walls, lookup: RangeLookup, index: int,
+          config: VerifyConfig) -> ElementLook:
+    """One planned element as this frame saw it: its place at the planned pose, its fit (distrusted when the
+    sensor saw through the fitted body: the fit landed on something else), and the judge's verdict."""
+    body = sample_model(element_body_mesh(model, element.global_id), config.planned.samples,
+                        seed=config.planned.icp.seed, drop_resting_face=False)
+    margin = config.planned.support
+    place = place_evidence(body, element.placement, pose[:3, 3], behind_walls, lookup.compare, margin)
+    evidence, observation = None, None
+    if fit is not None:
+        observation = fit.observation
+        at_fit = place_evidence(body, observation.pose, pose[:3, 3], behind_walls, lookup.compare, margin)
+        problem = ""
+        if at_fit.in_sight + at_fit.hidden and at_fit.on_share < config.judge.min_fit_on:
+            problem = (f"(the sensor measured on only {at_fit.on_share:.0%} of the fitted body's surface in the "
+                       f"image, under {config.judge.min_fit_on:.0%}: the fit landed on something else)")
+        evidence = FitEvidence(observation.fitness, problem)
+    judgement = judge_evidence(place, evidence, config.min_fitness, config.judge)
+    if observation is not None:
+        if judgement.status is ElementStatus.MISSING:
+            observation = None
+        elif judgement.status is not None:
+            observation = replace(observation, status=judgement.status, reason=judgement.reason)
+    return ElementLook(element.global_id, index, place, evidence, observation, judgement)
 
 
 def _timed(result: FrameResult, start: float) -> FrameResult:

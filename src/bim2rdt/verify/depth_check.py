@@ -1,10 +1,12 @@
 """Does the sensor's depth agree with the BIM's geometry? A miscalibrated depth camera bends space; no rigid pose
 can undo that, and every object fitted in such a frame carries the bend.
 
-Two tests on the permanent surfaces at the fix (walls and slabs: doors are left out, a leaf may stand ajar):
+Two tests on the permanent surfaces at the fix:
 
-- **angles**: the points on each wall or slab face in view get a least-squares plane in the sensor frame, and
-  the angle between every two such planes is compared with the angle between their BIM faces. A rigid sensor
+- **angles**: the points near each planar BIM face in view (:mod:`.faces`: coplanar triangles of walls, slabs,
+  columns with enough area; never a stair, a ramp, a railing, a curved wall or a door) get a least-squares plane
+  in the sensor frame, and the angle between every two such planes is compared with the angle between their BIM
+  faces. A rigid sensor
   keeps angles whatever its pose; office1's raw Kinect depth puts its floor and left wall at 86.5 degrees at its
   best rigid fit (the truth file's raw plane fits: 72-75 degrees between walls), the corrected depth within 0.9
   degrees of the BIM;
@@ -23,6 +25,7 @@ from pydantic import BaseModel, ConfigDict
 from scipy.spatial import cKDTree
 
 from bim2rdt.localization import OccludedMap, ScanPoints
+from bim2rdt.verify.faces import PlanarFaces, PlanarFacesConfig
 
 
 class DepthCheckConfig(BaseModel):
@@ -51,12 +54,17 @@ class DepthCheckConfig(BaseModel):
 
 @dataclass(frozen=True)
 class PlanePair:
-    """Two matched planes: the BIM elements' GlobalIds, the measured and the BIM's angle between them (deg)."""
+    """Two matched planes: the BIM elements' GlobalIds, the measured and the BIM's angle between them (deg), and
+    each face's BIM normal (world, unit) and number of measured points."""
 
     first: str
     second: str
     measured_deg: float
     bim_deg: float
+    first_normal: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    second_normal: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    first_points: int = 0
+    second_points: int = 0
 
     @property
     def error_deg(self) -> float:
@@ -87,11 +95,16 @@ class DepthCheck:
         return {"miscalibrated": self.miscalibrated, "reason": self.reason, "median_residual": self.median_residual,
                 "worst_angle_error_deg": self.worst_angle_deg,
                 "plane_pairs": [{"first": p.first, "second": p.second, "measured_deg": round(p.measured_deg, 2),
-                                 "bim_deg": round(p.bim_deg, 2)} for p in self.pairs]}
+                                 "bim_deg": round(p.bim_deg, 2),
+                                 "first_face": {"normal": [round(c, 3) for c in p.first_normal],
+                                                "points": p.first_points},
+                                 "second_face": {"normal": [round(c, 3) for c in p.second_normal],
+                                                 "points": p.second_points}} for p in self.pairs]}
 
 
 def check_depth(scan: ScanPoints, scene: OccludedMap, pose: np.ndarray, max_range: float,
-                config: DepthCheckConfig = DepthCheckConfig()) -> DepthCheck:
+                config: DepthCheckConfig = DepthCheckConfig(),
+                faces: PlanarFacesConfig = PlanarFacesConfig()) -> DepthCheck:
     """The miscalibration test of ``scan`` (sensor frame) against the permanent surfaces visible from ``pose``
     (the sensor's best rigid fit on them).
 
@@ -101,6 +114,7 @@ def check_depth(scan: ScanPoints, scene: OccludedMap, pose: np.ndarray, max_rang
         pose: ``T_world_sensor`` (4x4, metres), the sensor's best rigid fit.
         max_range: Surfaces farther from the sensor than this are not compared, metres.
         config: The angle and residual limits.
+        faces: Which BIM faces count as planes (:mod:`.faces`).
 
     Returns:
         The verdict: miscalibrated or not, the one-line reason, the plane pairs and the median residual.
@@ -110,7 +124,7 @@ def check_depth(scan: ScanPoints, scene: OccludedMap, pose: np.ndarray, max_rang
         return DepthCheck(False, "")
     placed = scan.points @ pose[:3, :3].T + pose[:3, 3]
     tree = cKDTree(visible.points)
-    pairs = _plane_pairs(scan, placed, tree, visible, scene, pose, config.reach, config)
+    pairs = _plane_pairs(scan, placed, tree, visible, scene, pose, config, faces)
     residual = _median_residual(placed, tree, visible, config.near)
     reasons = []
     worst = max(pairs, key=lambda p: abs(p.error_deg), default=None)
@@ -134,37 +148,53 @@ def _median_residual(placed: np.ndarray, tree: cKDTree, visible, near: float) ->
 
 
 def _plane_pairs(scan: ScanPoints, placed: np.ndarray, tree: cKDTree, visible, scene: OccludedMap,
-                 pose: np.ndarray, reach: float, config: DepthCheckConfig) -> list[PlanePair]:
-    """The cloud segmented by the BIM at the fix: each point goes to the visible wall or slab face (element and
-    orientation; doors are left out, a leaf may stand ajar) whose sample is nearest within ``reach``, when its
-    own normal (where flat) agrees; a plane is fitted to each face's points in the SENSOR frame (least squares,
-    trimmed), and the angles between the fitted planes are compared with the angles between their BIM faces.
-    Least squares over a whole face averages a far wall's depth steps (7 cm at 5 m on a Kinect); RANSAC planes
-    ran through them (8 degrees off a wall the corrected depth has square)."""
-    gap, index = tree.query(placed, distance_upper_bound=reach)
+                 pose: np.ndarray, config: DepthCheckConfig, rules: PlanarFacesConfig) -> list[PlanePair]:
+    """The cloud segmented by the BIM's planar faces at the fix: each point goes to the visible face sample
+    nearest it within ``reach``, when that sample lies on a planar face (:class:`~.faces.PlanarFaces`), the point
+    itself lies within ``reach`` of that face's plane, and its own normal (where flat) agrees; a plane is fitted
+    to each face's points in the SENSOR frame (least squares, trimmed), and the angles between the fitted planes
+    are compared with the angles between their BIM faces. Least squares over a whole face averages a far wall's
+    depth steps (7 cm at 5 m on a Kinect); RANSAC planes ran through them (8 degrees off a wall the corrected
+    depth has square)."""
+    faces = _faces(scene, rules)
+    sample_face = faces.label(visible.points, visible.normals, visible.owner, rules.on_face)
+    gap, index = tree.query(placed, distance_upper_bound=config.reach)
     found = np.flatnonzero(np.isfinite(gap))
-    solid = np.array([not c.startswith("IfcDoor") for c in scene.permanent.element_classes])
-    found = found[solid[visible.owner[index[found]]]]
-    normals = visible.normals[index[found]]
+    face = sample_face[index[found]]
+    found, face = found[face >= 0], face[face >= 0]
+    near = np.abs(np.einsum("ni,ni->n", placed[found], faces.normal[face]) - faces.offset[face]) <= config.reach
+    found, face = found[near], face[near]
     own = scan.normals[found] @ pose[:3, :3].T
     flat = np.all(np.isfinite(own), axis=1)
-    agree = ~flat | (np.abs(np.einsum("ni,ni->n", np.nan_to_num(own), normals)) >= np.cos(np.deg2rad(30.0)))
-    found, normals = found[agree], normals[agree]
-    owners = visible.owner[index[found]]
-    orientation = np.round(normals * np.where(normals[:, [2]] < 0, -1.0, 1.0) * 20).astype(int)
-    groups, inverse = np.unique(np.concatenate([owners[:, None], orientation], axis=1), axis=0, return_inverse=True)
-    inverse = inverse.reshape(-1)
-    faces = []
-    for g, key in enumerate(groups):
-        members = found[inverse == g]
-        if len(members) < config.min_plane_points:
-            continue
-        bim = normals[inverse == g].mean(axis=0)
-        faces.append((scene.permanent.element_ids[int(key[0])], _plane_normal(scan.points[members],
-                                                                              config.plane_distance),
-                      bim / np.linalg.norm(bim)))
-    return [PlanePair(a[0], b[0], _angle(a[1], b[1]), _angle(a[2], b[2]))
-            for i, a in enumerate(faces) for b in faces[i + 1:]]
+    agree = ~flat | (np.abs(np.einsum("ni,ni->n", np.nan_to_num(own), faces.normal[face]))
+                     >= np.cos(np.deg2rad(30.0)))
+    found, face = found[agree], face[agree]
+    measured = []
+    for k in np.unique(face):
+        members = found[face == k]
+        if len(members) >= config.min_plane_points:
+            measured.append((scene.permanent.element_ids[int(faces.owner[k])],
+                             _plane_normal(scan.points[members], config.plane_distance), faces.normal[k],
+                             len(members)))
+    return [PlanePair(a[0], b[0], _angle(a[1], b[1]), _angle(a[2], b[2]), tuple(map(float, a[2])),
+                      tuple(map(float, b[2])), a[3], b[3])
+            for i, a in enumerate(measured) for b in measured[i + 1:]]
+
+
+_FACES: dict[int, tuple[object, PlanarFacesConfig, PlanarFaces]] = {}
+
+
+def _faces(scene: OccludedMap, rules: PlanarFacesConfig) -> PlanarFaces:
+    """The planar faces of ``scene``'s permanent map, computed once per map and rules (the last few kept)."""
+    permanent = scene.permanent
+    cached = _FACES.get(id(permanent))
+    if cached is None or cached[0] is not permanent or cached[1] != rules:
+        cached = (permanent, rules, PlanarFaces.of(permanent.mesh, np.asarray(permanent.face_owner),
+                                                   permanent.element_classes, rules))
+        _FACES[id(permanent)] = cached
+        while len(_FACES) > 4:
+            _FACES.pop(next(iter(_FACES)))
+    return cached[2]
 
 
 def _plane_normal(points: np.ndarray, distance: float) -> np.ndarray:

@@ -8,6 +8,8 @@ the centre of its box on the slab, level.
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
+
 import numpy as np
 from pydantic import BaseModel, ConfigDict
 from scipy.sparse import coo_matrix
@@ -37,10 +39,41 @@ class NewObjectConfig(BaseModel):
     """Points this close to a checked planned object's surface are that object's."""
 
 
+@dataclass(frozen=True)
+class NewCluster:
+    """One cluster of one frame: its observation (family "unknown", pose on the slab), a thinned sample of its
+    points (K, 3, world metres, for the motion test) and its box: ``low`` and ``high`` corners (3,) in metres."""
+
+    observation: Observation
+    sample: np.ndarray
+    low: np.ndarray
+    high: np.ndarray
+    slab: float
+    transient: str = ""
+    """Why the cluster is not an object ("" when it may be one): a person, or a thing that moved."""
+    frames: tuple[int, ...] = field(default=())
+
+    @property
+    def height(self) -> float:
+        """How high its top stands above the slab, m."""
+        return float(self.high[2] - self.slab)
+
+    @property
+    def width(self) -> float:
+        """Its largest horizontal extent, m."""
+        return float(max(self.high[0] - self.low[0], self.high[1] - self.low[1]))
+
+
 def new_objects(points_world: np.ndarray, kept: list[tuple[str, np.ndarray]], model: BimModel, slab: float,
                 frame_index: int, config: NewObjectConfig = NewObjectConfig()) -> list[Observation]:
     """Observations of the objects the BIM lacks among ``points_world`` (located, structure removed); ``kept``:
     (GlobalId, pose kept for it) of the planned objects checked in this frame."""
+    return [c.observation for c in new_clusters(points_world, kept, model, slab, frame_index, config)]
+
+
+def new_clusters(points_world: np.ndarray, kept: list[tuple[str, np.ndarray]], model: BimModel, slab: float,
+                 frame_index: int, config: NewObjectConfig = NewObjectConfig()) -> list[NewCluster]:
+    """The clusters of :func:`new_objects`, with their points and boxes, largest first."""
     points = voxel_means(points_world, config.voxel) if len(points_world) else points_world
     for global_id, pose in kept:
         if len(points) == 0:
@@ -61,6 +94,8 @@ def new_objects(points_world: np.ndarray, kept: list[tuple[str, np.ndarray]], mo
         low, high = members.min(axis=0), members.max(axis=0)
         pose = np.eye(4)
         pose[:3, 3] = [(low[0] + high[0]) / 2, (low[1] + high[1]) / 2, slab]
-        out.append(Observation(UNKNOWN_FAMILY, None, pose, 0.0, 1.0, len(members), score=1.0, detector="cluster",
-                               frames=(frame_index,), bbox=None))
-    return sorted(out, key=lambda o: -o.points)
+        observation = Observation(UNKNOWN_FAMILY, None, pose, 0.0, 1.0, len(members), score=1.0,
+                                  detector="cluster", frames=(frame_index,), bbox=None)
+        out.append(NewCluster(observation, members[:: max(1, len(members) // 300)], low, high, slab,
+                              frames=(frame_index,)))
+    return sorted(out, key=lambda c: -c.observation.points)

@@ -31,8 +31,10 @@ class VerifyFiles:
 
 def record_twin(result: VerifyResult, model: BimModel, out_dir: Path, config: TwinConfig = TwinConfig(),
                 robot: str = "verify", symmetry: Mapping[str, float] | None = None) -> DigitalTwin:
-    """A fresh twin at ``out_dir/twin.db`` with every frame's observations and the places it saw empty (time: the
-    frame's, else its index; camera: the fixed pose).
+    """A fresh twin at ``out_dir/twin.db``: each frame's observation of every element judged at all (the history),
+    then each element's verdict from all its frames (:mod:`.fusion`: its fused observation, or its place seen
+    empty), then the new objects merged over the frames (transient clusters are not recorded). Time: the
+    frame's, else its index; camera: the fixed pose.
 
     Args:
         result: What verify found in every frame.
@@ -54,14 +56,28 @@ def record_twin(result: VerifyResult, model: BimModel, out_dir: Path, config: Tw
         symmetry = {family: prior.symmetry for family, prior in family_priors(model).items()}
     twin = DigitalTwin.open(f"sqlite:///{out_dir / TWIN_DB}", model, tolerances=config.tolerance_policy(),
                             symmetry=dict(symmetry), min_fitness=config.min_fitness, robot=robot, run=robot)
-    for frame in result.frames:
-        when = frame.time if frame.time is not None else float(frame.index)
+    frames = {frame.index: frame for frame in result.frames}
+    judged = {e.global_id for e in result.elements if e.status is not ElementStatus.NOT_OBSERVED}
+    for frame in result.frames:  # the history: each frame's own observation of each element judged at all
         for observation in frame.observations:
-            twin.record(observation, when, camera=frame.pose)
-        for global_id in frame.missing:
-            twin.mark_missing(global_id, when, frames=(frame.index,), camera=frame.pose)
+            if observation.global_id in judged:
+                twin.record(observation, _when(frame), camera=frame.pose)
+    for element in result.elements:  # the verdict: from all the frames that saw it
+        last = frames[element.frames[-1]]
+        if element.status is ElementStatus.MISSING:
+            twin.mark_missing(element.global_id, _when(last), frames=element.frames, camera=last.pose)
+        elif element.observation is not None:
+            twin.record(element.observation, _when(last), camera=last.pose)
+    for cluster in result.new:
+        last = frames[cluster.frames[-1]]
+        twin.record(cluster.observation, _when(last), camera=last.pose)
     twin.finish_run()  # last: a store a kill cut short says it is partial when read
     return twin
+
+
+def _when(frame) -> float:
+    """A frame's time for the twin: its own, else its index (s)."""
+    return frame.time if frame.time is not None else float(frame.index)
 
 
 def write_outputs(result: VerifyResult, twin: DigitalTwin, out_dir: Path) -> VerifyFiles:
@@ -79,7 +95,11 @@ def write_outputs(result: VerifyResult, twin: DigitalTwin, out_dir: Path) -> Ver
     localization = write_bytes_atomic(out_dir / "localization.json", json.dumps(
         {"frames": [f.to_dict() for f in result.frames], "miscalibrated": result.miscalibrated,
          "warnings": result.warnings + result.source_warnings, "dropped": result.dropped,
-         "dropped_counts": result.drop_counts}, indent=1).encode())
+         "dropped_counts": result.drop_counts,
+         "elements": [{"global_id": e.global_id, "status": "by pose" if e.status is None else e.status.value,
+                       "reason": e.reason, "frames": list(e.frames), "sigma": e.sigma} for e in result.elements],
+         "transient": [{"centre": [round(float(v), 3) for v in c.observation.pose[:3, 3]], "frames": list(c.frames),
+                        "reason": c.transient} for c in result.transient]}, indent=1).encode())
     files = VerifyFiles(twin.export_json(out_dir / "twin.json"), twin.export_bcf(out_dir / "issues.bcf"), localization,
                         out_dir / "report.html", None)
     try:

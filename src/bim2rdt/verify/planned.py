@@ -21,8 +21,9 @@ the scan near where the BIM says it stands. So, for the located points the perma
    fitting path): SG-ICP refines it under the family's upright prior, resting on the slab, so a lean the data
    demands is kept (docs/decisions/0012: the demo's knocked cone, tilted 12 degrees) and a tilt fitted to noise
    is not;
-6. the fitted pose is an observation of that element: the twin judges it against its tolerance preset (the
-   mission's judge), so verify and the demo's mission agree on every verdict.
+6. the fitted pose is an observation of that element, and its place as the sensor saw it (:func:`place_evidence`)
+   the rest of the evidence: the one judge (:func:`bim2rdt.twin.judge_evidence`, the mission's too) and then the
+   twin's tolerance preset decide, so verify and the demo's mission agree on every verdict.
 """
 
 from __future__ import annotations
@@ -42,6 +43,7 @@ from bim2rdt.perception.observation import Observation
 from bim2rdt.perception.structure import movable_elements
 from bim2rdt.registration import IcpConfig, RegistrationError, register, sample_model
 from bim2rdt.semantics import UprightPrior
+from bim2rdt.twin import PlaceEvidence
 
 
 class PlannedConfig(BaseModel):
@@ -60,9 +62,6 @@ class PlannedConfig(BaseModel):
     """The points are thinned to one per cube of this size (their mean) before registration."""
     support: float = 0.04
     """A surface sample with a located point this close is covered (the depth noise at 4-5 m, and then some)."""
-    missing_through: float = 0.8
-    """An object in view that is not judged is missing when the sensor saw past this share of the part of its
-    planned sensor-facing surface in sight (the mission's rule for a place seen empty)."""
     coverage_samples: int = 300
     """Coverage is counted on at most this many of the object's sensor-facing samples (evenly thinned)."""
     min_gain_z: float = 2.5
@@ -116,7 +115,8 @@ def check_planned(points_world: np.ndarray, elements: list[BimElement], model: B
     owner = _nearest_planned(points_world, elements, bodies, config.search)
     fits = []
     for k, element in enumerate(elements):
-        points = voxel_means(points_world[owner == k], config.voxel)
+        mine = points_world[owner == k]
+        points = voxel_means(mine, config.voxel) if len(mine) else mine
         if len(points) < config.min_points:
             continue
         body = bodies[element.global_id]
@@ -156,26 +156,23 @@ def fitted(body, points: np.ndarray, kept: np.ndarray, prior: UprightPrior | Non
         return kept
 
 
-def seen_empty(elements: list[BimElement], model: BimModel, sensor_world: np.ndarray, behind_walls, compare,
-               config: PlannedConfig = PlannedConfig()) -> list[BimElement]:
-    """Of ``elements`` (in view, not judged: too few points of their own, or a fit with little on the body),
-    those whose planned place the sensor saw empty: of their sensor-facing surface samples (in front of the
-    walls) with a return on their ray that is not nearer (hidden by clutter), at least ``min_points`` and
-    ``missing_through`` of them have the return farther than ``support`` beyond (``compare(points, margin)``:
-    1 past, 0 on, -1 nearer, NaN none). A place mostly hidden is not seen, not missing."""
-    empty = []
-    for element in elements:
-        samples, normals = sample_model(element_body_mesh(model, element.global_id), config.samples,
-                                        seed=config.icp.seed, drop_resting_face=False)
-        T = element.placement
-        points = samples @ T[:3, :3].T + T[:3, 3]
-        facing = np.einsum("ni,ni->n", normals @ T[:3, :3].T, sensor_world - points) > 0
-        facing[facing] = ~behind_walls(points[facing])
-        seen = compare(points[facing], config.support)
-        in_sight = seen[np.isfinite(seen) & (seen >= 0)]  # on it or past it: the place itself was in sight
-        if len(in_sight) >= config.min_points and (in_sight > 0).mean() >= config.missing_through:
-            empty.append(element)
-    return empty
+def place_evidence(body, T_world_model: np.ndarray, sensor_world: np.ndarray, behind_walls, compare,
+                   margin: float) -> PlaceEvidence:
+    """How the sensor at ``sensor_world`` saw the body (``body``: samples and normals in its own frame) posed by
+    ``T_world_model``: its sensor-facing samples in front of the walls, those with a return on or past them (in
+    sight), past them by more than ``margin`` m (seen through), nearer (hidden). ``compare(points, margin)``:
+    1 past, 0 on, -1 nearer, NaN no return (:meth:`~bim2rdt.verify.rays.RangeLookup.compare`)."""
+    samples, normals = body
+    points = samples @ T_world_model[:3, :3].T + T_world_model[:3, 3]
+    facing = np.einsum("ni,ni->n", normals @ T_world_model[:3, :3].T, sensor_world - points) > 0
+    facing[facing] = ~behind_walls(points[facing])
+    seen = compare(points[facing], margin)
+    return PlaceEvidence(int(facing.sum()), int(np.sum(seen >= 0)), int(np.sum(seen > 0)), int(np.sum(seen < 0)))
+
+
+def _body(model: BimModel, element: BimElement, config: PlannedConfig):
+    return sample_model(element_body_mesh(model, element.global_id), config.samples, seed=config.icp.seed,
+                        drop_resting_face=False)
 
 
 def search_shift(body, placement: np.ndarray, sensor_world: np.ndarray, located: cKDTree,
@@ -262,6 +259,14 @@ def coverage(body, T_world_model: np.ndarray, sensor_world: np.ndarray, behind_w
     gap, _ = located.query(seen, distance_upper_bound=support)
     through = seen_through(seen, support).mean() if seen_through is not None else 0.0
     return float(np.isfinite(gap).mean()), float(through)
+
+
+def owned_points(points_world: np.ndarray, elements: list[BimElement], model: BimModel,
+                 config: PlannedConfig = PlannedConfig()) -> np.ndarray:
+    """(N,) index into ``elements`` of the planned surface nearest each of ``points_world`` within ``search`` m,
+    -1 for none: the points :func:`check_planned` gives each object."""
+    bodies = {el.global_id: _body(model, el, config) for el in elements}
+    return _nearest_planned(points_world, elements, bodies, config.search)
 
 
 def _nearest_planned(points_world: np.ndarray, elements: list[BimElement], bodies, search: float) -> np.ndarray:
