@@ -114,7 +114,11 @@ class PartitionIdentities:
         self._maps: dict[Path, IdentityMap] = {}
 
     def paths(self) -> list[Path]:
-        """The identity files there now: the single monitor's first, then each partition's."""
+        """The identity files there now: the single monitor's first, then each partition's.
+
+        Returns:
+            Their paths, in the order :meth:`real_name` asks them.
+        """
         single = self.hav_folder / "private" / "identity.sqlite"
         return [single] * single.is_file() + sorted(self.hav_folder.glob("partition-*-of-*/private/identity.sqlite"))
 
