@@ -36,7 +36,7 @@ def write_report(result, states: Mapping[str, ElementState], model: BimModel, fo
     """
     from bim2rdt.planning import OccupancyGrid, PlanningError
     from bim2rdt.verify.report.page import ReportData, read_run_files, report_page
-    from bim2rdt.verify.report.pictures import frame_pictures
+    from bim2rdt.verify.report.pictures import frame_pictures, frame_residuals
     from bim2rdt.verify.report.plan import plan_png
     from bim2rdt.verify.report.rows import element_rows
 
@@ -45,8 +45,8 @@ def write_report(result, states: Mapping[str, ElementState], model: BimModel, fo
         plan = plan_png(model, states, result.frames, OccupancyGrid.from_bim(model))
     except PlanningError:  # a model without a storey to slice: the page goes without a plan
         plan = None
+    residuals = frame_residuals(result.frames, model, views)
     data = ReportData(title, result.frames, element_rows(dict(states), result.frames, model), states, plan,
-                      frame_pictures(result.frames, states, model, views, heat), topics,
-                      result.warnings + result.source_warnings, structure, progress,
-                      {} if not heat else {k: v for k, v in heat.items()})
+                      frame_pictures(result.frames, states, model, views, residuals, heat), topics,
+                      result.warnings + result.source_warnings, structure, progress, heat)
     return write_bytes_atomic(folder / "report.html", report_page(data).encode("utf-8"))

@@ -136,5 +136,5 @@ def _hull(pixels: np.ndarray) -> np.ndarray | None:
 
 def _png(image: Image.Image) -> bytes:
     buffer = io.BytesIO()
-    image.save(buffer, format="PNG", optimize=True)
+    image.save(buffer, format="PNG")
     return buffer.getvalue()

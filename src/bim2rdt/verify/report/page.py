@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from bim2rdt.perception import UNKNOWN_FAMILY
 from bim2rdt.twin import STATUS_COLOURS, ElementState, ElementStatus
 from bim2rdt.twin.bcf_export import TopicView, title
 from bim2rdt.verify.report.rows import ElementRow
@@ -152,7 +153,8 @@ _ISSUES = (ElementStatus.DEVIATING, ElementStatus.MISSING, ElementStatus.NEW)
 
 
 def _element_row(row: ElementRow, topic: bool) -> str:
-    s, d = row.state, row.state.deviation
+    s = row.state
+    d = None if s.status is ElementStatus.UNVERIFIED else s.deviation  # a fit too poor to judge says nothing
     shift = ["-"] * 3 if row.shift is None else [f"{100 * v:+.1f}" for v in row.shift]
     link = f"<a href='#topic-{s.global_id}'>topic</a>" if topic else ""
     cells = [f"<td class='l'>{_e(row.name or '-')}<br><span class='small'>{s.global_id}</span></td>",
@@ -174,14 +176,14 @@ def _new_objects(data: ReportData) -> str:
     rows = []
     for s in new:
         x, y, z = s.pose[:3, 3]
-        size = "-"
-        if s.mesh is not None and len(s.mesh[0]):
-            extent = np.ptp(np.asarray(s.mesh[0], float), axis=0)
-            size = " x ".join(f"{v:.2f}" for v in extent)
+        size = "not recorded" if s.family == UNKNOWN_FAMILY or s.mesh is None else \
+            " x ".join(f"{v:.2f}" for v in np.ptp(np.asarray(s.mesh[0], float), axis=0))
         rows.append(f"<tr><td class='l'><a href='#el-{s.global_id}'>{s.global_id}</a></td>"
                     f"<td class='l'>{_e(s.family or '-')}</td><td>{x:.2f}, {y:.2f}, {z:.2f}</td><td>{size}</td></tr>")
-    return ("<h2>New objects</h2><table><tr><th class='l'>id</th><th class='l'>family</th><th>position x, y, z m</th>"
-            f"<th>size x, y, z m</th></tr>{''.join(rows)}</table>")
+    return ("<h2>New objects</h2><table id='new'><tr><th class='l'>id</th><th class='l'>family</th>"
+            "<th>position x, y, z m</th><th>size x, y, z m</th></tr>"
+            f"{''.join(rows)}</table><p class='small'>Position: the centre of what was found, on the slab. Size: its "
+            "family's body; a cluster no detector named keeps no size in the twin yet.</p>")
 
 
 def _topics(data: ReportData) -> str:

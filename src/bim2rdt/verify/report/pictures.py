@@ -5,45 +5,67 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 
+import numpy as np
+
 from bim2rdt.bim import BimModel
 from bim2rdt.twin import ElementState
 from bim2rdt.verify.report.capture import FrameView
 from bim2rdt.verify.report.overlay import RESIDUAL_SCALE_M, heat_png, outlined_png, residual_m
-from bim2rdt.verify.report.page import FramePictures, frame_heat
+from bim2rdt.verify.report.page import MAX_FRAME_CARDS, FramePictures, frame_heat
 from bim2rdt.verify.report.topics import outline_of
 
 
+def frame_residuals(frames: Sequence, model: BimModel, views: Mapping[int, FrameView],
+                    limit: int = MAX_FRAME_CARDS) -> dict[int, np.ndarray]:
+    """Each localized frame's depth residual against the BIM (:func:`~.overlay.residual_m`), for the first
+    ``limit`` frames with a copy.
+
+    Args:
+        frames: verify's frame results.
+        model: The BIM.
+        views: The frames' small copies by index.
+        limit: Frames at most.
+
+    Returns:
+        Frame index -> (h, w) residuals, metres.
+    """
+    from bim2rdt.localization.cloud import OccludedMap
+
+    chosen = [f for f in frames if f.index in views and f.accepted and f.pose is not None][:limit]
+    if not chosen:
+        return {}
+    bim = OccludedMap.of(model).mesh
+    return {f.index: residual_m(views[f.index].depth, views[f.index].intrinsics, f.pose, bim) for f in chosen}
+
+
 def frame_pictures(frames: Sequence, states: Mapping[str, ElementState], model: BimModel,
-                   views: Mapping[int, FrameView], heat: Mapping[str, bytes]) -> dict[int, FramePictures]:
-    """The pictures of every frame that has a copy and a fix.
+                   views: Mapping[int, FrameView], residuals: Mapping[int, np.ndarray],
+                   heat: Mapping[str, bytes]) -> dict[int, FramePictures]:
+    """The pictures of every frame that has a copy and a residual.
 
     Args:
         frames: verify's frame results.
         states: The twin's states by GlobalId.
         model: The BIM.
         views: The frames' small copies by index.
-        heat: Heat maps another stage wrote (PNG by file name).
+        residuals: :func:`frame_residuals`.
+        heat: Heat maps another stage wrote (PNG by file name): a frame's own replaces its residual map.
 
     Returns:
         Frame index -> its pictures.
     """
-    bim = None
     out = {}
     for frame in frames:
-        view = views.get(frame.index)
-        if view is None or not frame.accepted or frame.pose is None:
+        if frame.index not in residuals:
             continue
+        view = views[frame.index]
         outlines = [o for o in (outline_of(states[g], model) for g in in_view(frame, states) if g in states) if o]
         pictures = FramePictures(outlined_png(view.rgb, view.intrinsics, frame.pose, outlines))
         pictures.heat = frame_heat(heat, frame.index)
         if pictures.heat is not None:
             pictures.heat_note = "deviation heat map (deviation/)"
         else:
-            if bim is None:
-                from bim2rdt.localization.cloud import OccludedMap
-
-                bim = OccludedMap.of(model).mesh
-            pictures.heat = heat_png(residual_m(view.depth, view.intrinsics, frame.pose, bim))
+            pictures.heat = heat_png(residuals[frame.index])
             pictures.heat_note = (f"depth minus the BIM's on each ray: blue in front, red behind (±"
                                   f"{100 * RESIDUAL_SCALE_M:.0f} cm), grey no data")
         out[frame.index] = pictures

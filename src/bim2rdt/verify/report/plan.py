@@ -23,6 +23,8 @@ from bim2rdt.planning import OccupancyGrid  # noqa: E402
 from bim2rdt.planning.grid import STRUCTURE_KINDS  # noqa: E402
 from bim2rdt.twin import STATUS_COLOURS, ElementState, ElementStatus  # noqa: E402
 
+PLAN_WIDTH_IN = 7.0
+"""The plan's width in inches at 110 dpi (the legend gets 3 more); its height follows the storey's aspect."""
 SIGMAS = 2.0
 """The ellipse is the 2-sigma contour of the fix's x-y covariance (~86 % of the probability in 2D)."""
 MIN_ELLIPSE_M = 0.15
@@ -45,14 +47,15 @@ def plan_png(model: BimModel, states: Mapping[str, ElementState], frames: Sequen
     Returns:
         The PNG image.
     """
-    fig, ax = plt.subplots(figsize=(9, 7), dpi=110)
+    x0, x1, y0, y1 = grid.frame.extent
+    fig, ax = plt.subplots(figsize=(PLAN_WIDTH_IN + 3.0, float(np.clip(PLAN_WIDTH_IN * (y1 - y0) / (x1 - x0) + 0.8,
+                                                                      3.0, 10.0))), dpi=110)
     structure = grid.layer(STRUCTURE_KINDS)
     image = np.ones((*structure.shape, 3))
     image[structure] = 0.3
     ax.imshow(image, origin="lower", extent=grid.frame.extent, interpolation="nearest", zorder=0)
     _elements(ax, model, states)
     factor = _sensors(ax, frames)
-    x0, x1, y0, y1 = grid.frame.extent
     ax.set(xlabel="x (m)", ylabel="y (m)", aspect="equal", xlim=(x0, x1), ylim=(y0, y1))
     ax.legend(handles=_legend(states, factor), loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)
     fig.tight_layout()

@@ -15,8 +15,8 @@ from bim2rdt.twin import ElementState, ElementStatus
 
 @dataclass(frozen=True)
 class ElementRow:
-    """One element's line: ``name`` (the BIM's, '' for a new object), ``shift`` (3,) metres or None, ``frames``
-    (indices) and ``reason``."""
+    """One element's line: ``name`` (the BIM's, '' for a new object), ``shift`` (3,) metres or None (not measured,
+    or measured by a fit too poor to judge), ``frames`` (indices) and ``reason``."""
 
     state: ElementState
     name: str
@@ -53,7 +53,7 @@ def element_rows(states: dict[str, ElementState], frames: Sequence, model: BimMo
                         key=lambda s: (order.index(s.status), s.family or "", s.global_id)):
         element = model.element(state.global_id) if state.in_bim else None
         shift = None
-        if element is not None and state.pose is not None:
+        if element is not None and state.pose is not None and state.status is not ElementStatus.UNVERIFIED:
             shift = np.asarray(state.pose)[:3, 3] - np.asarray(element.placement)[:3, 3]
         evidence = set(state.evidence.frames) if state.evidence else set()
         rows.append(ElementRow(state, (element.name or "") if element else "", shift,
