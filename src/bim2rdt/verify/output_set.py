@@ -24,7 +24,8 @@ from pathlib import Path
 from bim2rdt.verify.errors import VerifyError
 
 OUTPUT_NAMES = ("twin.db", "twin.json", "twin.ifc", "issues.bcf", "localization.json", "report.html",
-                "structure.json", "progress.json", "deviation", "maps")
+                "structure.json", "deviation.ply", "deviation", "progress.json", "progress_curve.json",
+                "progress_structure.png", "maps")
 """Every file or folder a verify run may write into ``--out``; what the run did not write is removed at commit."""
 STAGING_PREFIX = ".verify-run-"
 _SIDE_FILES = ("twin.db-wal", "twin.db-shm", "twin.db-journal")

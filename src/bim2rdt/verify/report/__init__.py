@@ -48,5 +48,13 @@ def write_report(result, states: Mapping[str, ElementState], model: BimModel, fo
     residuals = frame_residuals(result.frames, model, views)
     data = ReportData(title, result.frames, element_rows(dict(states), result.frames, model), states, plan,
                       frame_pictures(result.frames, states, model, views, residuals, heat), topics,
-                      result.warnings + result.source_warnings, structure, progress, heat)
+                      result.warnings + result.source_warnings, structure, progress,
+                      _read(folder / "progress_structure.png"), heat)
     return write_bytes_atomic(folder / "report.html", report_page(data).encode("utf-8"))
+
+
+def _read(path: Path) -> bytes | None:
+    try:
+        return path.read_bytes()
+    except OSError:
+        return None

@@ -61,6 +61,8 @@ class ReportData:
     warnings: Sequence[str] = ()
     structure: list | None = None
     progress: dict | None = None
+    progress_png: bytes | None = None
+    """The structure on plan, built / not built (``progress_structure.png``), when the run has it."""
     extra_heat: Mapping[str, bytes] = field(default_factory=dict)
 
 
@@ -74,7 +76,7 @@ def report_page(data: ReportData) -> str:
         The HTML text.
     """
     sections = [_summary(data), _plan(data), _elements(data), _new_objects(data), _topics(data), _frames(data),
-                _structure(data.structure), _schedule(data.progress), _extra_heat(data.extra_heat)]
+                _structure(data.structure), _schedule(data.progress, data.progress_png), _extra_heat(data.extra_heat)]
     return (f"<!doctype html><html><head><meta charset='utf-8'><title>{_e(data.title)}</title>"
             f"<style>{STYLE}</style></head><body><h1>{_e(data.title)}</h1>{''.join(sections)}</body></html>")
 
@@ -255,7 +257,7 @@ PROGRESS_COLOURS = {"complete": "#2ca02c", "on schedule": "#2ca02c", "ahead": "#
                     "not started": "#999999"}
 
 
-def _schedule(progress: dict | None) -> str:
+def _schedule(progress: dict | None, png: bytes | None = None) -> str:
     if not isinstance(progress, dict) or not progress.get("tasks"):
         return ""
     rows = []
@@ -276,7 +278,8 @@ def _schedule(progress: dict | None) -> str:
     return (f"<h2>Schedule: {_e(str(schedule.get('name') or ''))} on {_e(str(progress.get('date') or ''))}</h2>"
             "<table id='schedule'><tr><th class='l'>id</th><th class='l'>task</th><th class='l'>planned</th>"
             "<th>planned</th><th>observed</th><th class='l'>observed (bar) against planned (line)</th>"
-            f"<th class='l'>status</th><th class='l'>products</th></tr>{''.join(rows)}</table>")
+            f"<th class='l'>status</th><th class='l'>products</th></tr>{''.join(rows)}</table>"
+            + (f"<img class='plan' alt='structure built or not' src='{_uri(png)}'>" if png else ""))
 
 
 def _extra_heat(heat: Mapping[str, bytes]) -> str:
