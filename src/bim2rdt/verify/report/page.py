@@ -32,10 +32,10 @@ STYLE = ("body{font-family:system-ui,sans-serif;margin:1.5em;color:#222;max-widt
          "text-align:right;vertical-align:top}td.l,th.l{text-align:left}.warn{color:#b00}"
          ".badge{display:inline-block;padding:1px 6px;border-radius:3px;color:#fff}"
          ".card{display:inline-block;vertical-align:top;margin:0 1em 1.2em 0;max-width:680px}"
-         ".card img,.topic img{max-width:100%;display:block}.pics{display:flex;gap:8px}.pics figure{margin:0}"
+         ".card img,.topic img{max-width:100%;display:block}.pics{display:flex;gap:8px}.pics figure{margin:0;flex:0 0 320px}"
          ".pics img{width:320px}"
          ".topic{display:inline-block;vertical-align:top;width:330px;margin:0 1em 1em 0;font-size:13px}"
-         "img.plan{max-width:100%}.small{font-size:12px;color:#555}")
+         "img.plan{max-width:100%}.small{font-size:12px;color:#555;overflow-wrap:anywhere}")
 
 
 @dataclass
@@ -216,7 +216,8 @@ def _frames(data: ReportData) -> str:
 def _frame_row(f) -> str:
     sigma = "-"
     if f.covariance is not None:
-        sigma = f"{100 * np.sqrt(max(np.linalg.eigvalsh(np.asarray(f.covariance)[:2, :2]).max(), 0.0)):.1f}"
+        worst = float(np.sqrt(max(np.linalg.eigvalsh(np.asarray(f.covariance)[:2, :2]).max(), 0.0)))
+        sigma = f"{100 * worst:.1f}" if worst < 1.0 else "free"  # a free direction's sigma is a placeholder
     free = ", ".join("(" + ", ".join(f"{v:.2f}" for v in np.asarray(d)) + ")" for d in f.degenerate) or "none"
     depth = "-" if f.depth is None else (_e(f.depth.reason) or "fine" + (
         f" (median {100 * f.depth.median_residual:.1f} cm)" if f.depth.median_residual is not None else ""))

@@ -19,8 +19,8 @@ from matplotlib.patches import Ellipse, Patch  # noqa: E402
 from scipy.spatial import ConvexHull, QhullError  # noqa: E402
 
 from bim2rdt.bim import BimModel  # noqa: E402
+from bim2rdt.perception.structure import movable_elements  # noqa: E402
 from bim2rdt.planning import OccupancyGrid  # noqa: E402
-from bim2rdt.planning.grid import STRUCTURE_KINDS  # noqa: E402
 from bim2rdt.twin import STATUS_COLOURS, ElementState, ElementStatus  # noqa: E402
 
 PLAN_WIDTH_IN = 7.0
@@ -48,19 +48,19 @@ def plan_png(model: BimModel, states: Mapping[str, ElementState], frames: Sequen
         The PNG image.
     """
     x0, x1, y0, y1 = grid.frame.extent
-    fig, ax = plt.subplots(figsize=(PLAN_WIDTH_IN + 3.0, float(np.clip(PLAN_WIDTH_IN * (y1 - y0) / (x1 - x0) + 0.8,
-                                                                      3.0, 10.0))), dpi=110)
-    structure = grid.layer(STRUCTURE_KINDS)
-    image = np.ones((*structure.shape, 3))
-    image[structure] = 0.3
+    width = PLAN_WIDTH_IN * float(np.clip((x1 - x0) / (y1 - y0), 0.6, 1.0))  # a tall storey gets narrower
+    fig, ax = plt.subplots(figsize=(width + 3.0, float(np.clip(width * (y1 - y0) / (x1 - x0) + 0.8, 3.0, 8.0))),
+                           dpi=110)
+    image = np.ones((*grid.frame.shape, 3))
+    image[grid.layer(["floor edge"])] = 0.9
+    image[grid.layer(["element", "door"])] = 0.3
     ax.imshow(image, origin="lower", extent=grid.frame.extent, interpolation="nearest", zorder=0)
     _elements(ax, model, states)
     factor = _sensors(ax, frames)
     ax.set(xlabel="x (m)", ylabel="y (m)", aspect="equal", xlim=(x0, x1), ylim=(y0, y1))
     ax.legend(handles=_legend(states, factor), loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)
-    fig.tight_layout()
     buffer = io.BytesIO()
-    fig.savefig(buffer, format="png")
+    fig.savefig(buffer, format="png", bbox_inches="tight")  # the legend outside the axes kept whole
     plt.close(fig)
     return buffer.getvalue()
 
@@ -107,9 +107,10 @@ def measured_vertices(state: ElementState, model: BimModel) -> np.ndarray | None
 
 
 def _elements(ax, model: BimModel, states: Mapping[str, ElementState]) -> None:
+    objects = {el.global_id for el in movable_elements(model)}  # walls and slabs are the section's
     for state in states.values():
         colour = STATUS_COLOURS[state.status]
-        if state.in_bim and state.family and model.has_mesh(state.global_id):
+        if state.global_id in objects:
             hull = footprint(model.mesh(state.global_id)[0])
             if hull is not None:
                 ax.fill(*hull.T, color=colour, alpha=0.8, ec="black", lw=0.5, zorder=2)
@@ -153,7 +154,8 @@ def _legend(states: Mapping[str, ElementState], factor: float) -> list:
     present = {s.status for s in states.values()}
     handles = [Patch(color=STATUS_COLOURS[s], label=s.value) for s in ElementStatus if s in present]
     handles += [Patch(fc="white", ec=STATUS_COLOURS[ElementStatus.DEVIATING], ls="--", label="where measured"),
-                Patch(color="0.3", label="walls, slabs, doors (section)"),
+                Patch(color="0.3", label="walls, columns, doors (section)"),
+                Patch(color="0.9", label="no floor"),
                 Line2D([], [], color="tab:blue", marker="o", label="sensor and heading"),
                 Patch(color="tab:blue", alpha=0.25, label=f"2-sigma position{f' (x{factor:.0f})' if factor > 1 else ''}"),
                 Patch(fc="white", ec="tab:blue", ls="--", label=f"a free direction (cut at {MAX_AXIS_M} m)")]
