@@ -76,11 +76,12 @@ class OutputSet:
             The names moved in, sorted.
         """
         written = sorted(name for name in self.names if (self.folder / name).exists())
+        side = [name for name in _SIDE_FILES if (self.folder / name).exists()]  # a database not checkpointed
         with _signals_held():
             for name in (*self.names, *_SIDE_FILES):
-                if name not in written:
+                if name not in written and name not in side:
                     _remove(self.out_dir / name)
-            for name in written:
+            for name in (*written, *side):
                 target = self.out_dir / name
                 if target.is_dir() and not target.is_symlink():
                     shutil.rmtree(target)
