@@ -4,6 +4,7 @@ names each frame's fix and each issue; BCF files get the mode every output gets.
 
 from __future__ import annotations
 
+import json
 import os
 import signal
 import stat
@@ -115,3 +116,22 @@ def _wait_for_a_new_twin_db(out: Path, first, process, seconds: float = 120.0) -
         assert process.poll() is None, process.communicate()
         time.sleep(0.005)
     raise AssertionError("the run never wrote its twin.db")
+
+
+def test_the_summary_gives_each_fix_each_issue_and_where_publish_wrote(sensors, tmp_path):
+    truth = json.loads((sensors / "pcl" / "office1_truth.json").read_text())
+    g = ",".join(str(v) for v in truth["depth_correction"]["g"])
+    out, bag = tmp_path / "verify", tmp_path / "results.mcap"
+    result = runner.invoke(app, ["verify", str(sensors / "pcl" / "office1.ifc"), str(sensors / "pcl" / "office1.pcd"),
+                                 "--prior", "1.30,-4.55,1.38,82", "--depth-correction", g, "--out", str(out),
+                                 "--publish", str(bag)])
+    assert result.exit_code == 0, result.output
+    text = " ".join(result.output.split())
+    frame = json.loads((out / "localization.json").read_text())["frames"][0]
+    x, y, z = (row[3] for row in frame["pose"][:3])
+    assert f"{x:.2f}, {y:.2f}, {z:.2f}" in text and "free directions" in text
+    twin = json.loads((out / "twin.json").read_text())["elements"]
+    issues = [e for e in twin if e["status"] in ("deviating", "missing", "new")]
+    assert issues and all(f"{e['status']}: " in text and e["global_id"] in text for e in issues)
+    assert text.count(" new: ") + text.count(" deviating: ") + text.count(" missing: ") == len(issues)
+    assert f"published the results bag: {tmp_path / 'results'}/" in text and (out / "maps").is_dir()
