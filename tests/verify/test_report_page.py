@@ -52,3 +52,28 @@ def test_a_frames_heat_map_is_the_deviation_png_whose_name_ends_in_its_index(tmp
     (tmp_path / "deviation" / "frame_0012.png").write_bytes(b"twelve")
     _, _, heat = read_run_files(tmp_path)
     assert frame_heat(heat, 2) == b"two" and frame_heat(heat, 12) == b"twelve" and frame_heat(heat, 1) is None
+
+
+def test_a_new_objects_size_is_the_cluster_a_frame_sees_at_its_position():
+    """A 0.6 x 0.4 x 0.9 m box standing on the floor 3 m in front of a camera looking along +x; the BIM (a wall
+    behind it) is 5 m away, so the box's pixels stand 2 m in front of it."""
+    import numpy as np
+
+    from bim2rdt.perception import Intrinsics, look_at
+    from bim2rdt.verify.report.capture import FrameView
+    from bim2rdt.verify.report.sizes import measure
+
+    k = Intrinsics(320, 240, 260.0, 260.0, 159.5, 119.5)
+    T = look_at((0.0, 0.0, 1.0), (1.0, 0.0, 1.0))
+    rays = k.pixel_rays().reshape(-1, 3) @ T[:3, :3].T  # world directions with camera z = 1
+    depth = np.full(len(rays), 5.0)  # the wall at x = 5
+    t = 3.0 / rays[:, 0]  # where each ray meets the box's front face, x = 3
+    y, z = t * rays[:, 1], 1.0 + t * rays[:, 2]
+    on_box = (np.abs(y) < 0.3) & (z > 0.0) & (z < 0.9)
+    depth[on_box] = t[on_box]
+    depth = depth.reshape(k.height, k.width)
+    residual = np.where(depth < 5.0, depth - 5.0, 0.0)
+    view = FrameView(np.zeros((k.height, k.width, 3), np.uint8), depth.astype(np.float16), k)
+    size = measure(view, T, residual, np.array([3.2, 0.0, 0.0]))
+    assert size is not None and abs(size[1] - 0.6) < 0.04 and abs(size[2] - 0.9) < 0.04, size
+    assert measure(view, T, residual, np.array([3.2, 2.0, 0.0])) is None  # nothing stands there

@@ -39,6 +39,7 @@ def write_report(result, states: Mapping[str, ElementState], model: BimModel, fo
     from bim2rdt.verify.report.pictures import frame_pictures, frame_residuals
     from bim2rdt.verify.report.plan import plan_png
     from bim2rdt.verify.report.rows import element_rows
+    from bim2rdt.verify.report.sizes import new_object_sizes
 
     structure, progress, heat = read_run_files(folder)
     try:
@@ -49,7 +50,8 @@ def write_report(result, states: Mapping[str, ElementState], model: BimModel, fo
     data = ReportData(title, result.frames, element_rows(dict(states), result.frames, model), states, plan,
                       frame_pictures(result.frames, states, model, views, residuals, heat), topics,
                       result.warnings + result.source_warnings, structure, progress,
-                      _read(folder / "progress_structure.png"), heat)
+                      _read(folder / "progress_structure.png"), heat,
+                      new_object_sizes(states, result.frames, views, residuals))
     return write_bytes_atomic(folder / "report.html", report_page(data).encode("utf-8"))
 
 

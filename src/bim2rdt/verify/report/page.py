@@ -64,6 +64,8 @@ class ReportData:
     progress_png: bytes | None = None
     """The structure on plan, built / not built (``progress_structure.png``), when the run has it."""
     extra_heat: Mapping[str, bytes] = field(default_factory=dict)
+    sizes: Mapping[str, tuple[int, np.ndarray]] = field(default_factory=dict)
+    """New objects' (frame index, size x, y, z in metres) as a frame measured them (:mod:`.sizes`)."""
 
 
 def report_page(data: ReportData) -> str:
@@ -178,14 +180,23 @@ def _new_objects(data: ReportData) -> str:
     rows = []
     for s in new:
         x, y, z = s.pose[:3, 3]
-        size = "not recorded" if s.family == UNKNOWN_FAMILY or s.mesh is None else \
-            " x ".join(f"{v:.2f}" for v in np.ptp(np.asarray(s.mesh[0], float), axis=0))
+        size = _size(s, data.sizes.get(s.global_id))
         rows.append(f"<tr><td class='l'><a href='#el-{s.global_id}'>{s.global_id}</a></td>"
                     f"<td class='l'>{_e(s.family or '-')}</td><td>{x:.2f}, {y:.2f}, {z:.2f}</td><td>{size}</td></tr>")
     return ("<h2>New objects</h2><table id='new'><tr><th class='l'>id</th><th class='l'>family</th>"
             "<th>position x, y, z m</th><th>size x, y, z m</th></tr>"
             f"{''.join(rows)}</table><p class='small'>Position: the centre of what was found, on the slab. Size: its "
-            "family's body; a cluster no detector named keeps no size in the twin yet.</p>")
+            "extent in x and y and its height above the slab as the named frame saw it (its hidden side is not in "
+            "it), else its family's body.</p>")
+
+
+def _size(state: ElementState, measured: tuple[int, np.ndarray] | None) -> str:
+    if measured is not None:
+        index, size = measured
+        return " x ".join(f"{v:.2f}" for v in size) + f" (<a href='#frame-{index}'>frame {index}</a>)"
+    if state.family == UNKNOWN_FAMILY or state.mesh is None:
+        return "not measured"
+    return " x ".join(f"{v:.2f}" for v in np.ptp(np.asarray(state.mesh[0], float), axis=0)) + " (its family)"
 
 
 def _topics(data: ReportData) -> str:
