@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import base64
 import html
+import io
 import json
 import re
 from collections.abc import Mapping, Sequence
@@ -25,6 +26,8 @@ from bim2rdt.twin.bcf_export import TopicView, title
 from bim2rdt.verify.report.rows import ElementRow
 from bim2rdt.verify.report.topics import frame_words
 
+PHOTO_QUALITY = 85
+"""JPEG quality of the frames' pictures in the page (the BCF keeps PNG snapshots)."""
 MAX_FRAME_CARDS = 60
 """Frames drawn with pictures (the first ones, and every frame with a finding); the rest are in the table only."""
 STYLE = ("body{font-family:system-ui,sans-serif;margin:1.5em;color:#222;max-width:1400px}h2{margin-top:1.6em}"
@@ -206,7 +209,8 @@ def _topics(data: ReportData) -> str:
     cards = []
     for s in sorted(issues, key=lambda s: (s.status.value, s.global_id)):
         view = data.topics.get(s.global_id)
-        picture = f"<img alt='snapshot {s.global_id}' src='{_uri(view.snapshot)}'>" if view and view.snapshot else ""
+        picture = f"<img alt='snapshot {s.global_id}' src='{_photo_uri(view.snapshot)}'>" if view and view.snapshot \
+            else ""
         seen = f"seen in {_e(view.seen)}" if view else "rendered view (no frame image)"
         cards.append(f"<div class='topic' id='topic-{s.global_id}'><b>{_e(title(s))}</b>{picture}"
                      f"<span class='small'>{seen}; <a href='#el-{s.global_id}'>element row</a></span></div>")
@@ -240,7 +244,7 @@ def _frame_row(f) -> str:
 
 
 def _frame_card(f, pictures: FramePictures) -> str:
-    images = "".join(f"<figure><img alt='{alt} {f.index}' src='{_uri(png)}'><figcaption class='small'>{cap}"
+    images = "".join(f"<figure><img alt='{alt} {f.index}' src='{_photo_uri(png)}'><figcaption class='small'>{cap}"
                      "</figcaption></figure>"
                      for png, alt, cap in ((pictures.image, "frame", "image, the elements it saw outlined"),
                                            (pictures.heat, "heat map", pictures.heat_note)) if png)
@@ -317,6 +321,16 @@ def _badge(status: ElementStatus) -> str:
 
 def _uri(png: bytes) -> str:
     return "data:image/png;base64," + base64.b64encode(png).decode("ascii")
+
+
+def _photo_uri(png: bytes) -> str:
+    """A camera picture as a JPEG data URI: a tenth of its PNG's size (a 640 x 480 frame: ~40 kB, not ~400 kB), so
+    a long recording's page stays a size one can mail."""
+    from PIL import Image
+
+    buffer = io.BytesIO()
+    Image.open(io.BytesIO(png)).convert("RGB").save(buffer, format="JPEG", quality=PHOTO_QUALITY)
+    return "data:image/jpeg;base64," + base64.b64encode(buffer.getvalue()).decode("ascii")
 
 
 def _e(text: str) -> str:
