@@ -246,7 +246,8 @@ def _frame_row(f) -> str:
 def _frame_card(f, pictures: FramePictures) -> str:
     images = "".join(f"<figure><img alt='{alt} {f.index}' src='{_photo_uri(png)}'><figcaption class='small'>{cap}"
                      "</figcaption></figure>"
-                     for png, alt, cap in ((pictures.image, "frame", "image, the elements it saw outlined"),
+                     for png, alt, cap in ((pictures.image, "frame", "image, the elements it saw outlined"
+                                            if f.accepted else "image as recorded"),
                                            (pictures.heat, "heat map", pictures.heat_note)) if png)
     where = "" if f.pose is None else "at " + ", ".join(f"{v:.2f}" for v in f.pose[:3, 3]) + " m"
     return (f"<div class='card' id='frame-{f.index}'><b>{_e(frame_words(f))}</b> "

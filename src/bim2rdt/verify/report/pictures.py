@@ -41,7 +41,7 @@ def frame_residuals(frames: Sequence, model: BimModel, views: Mapping[int, Frame
 def frame_pictures(frames: Sequence, states: Mapping[str, ElementState], model: BimModel,
                    views: Mapping[int, FrameView], residuals: Mapping[int, np.ndarray],
                    heat: Mapping[str, bytes]) -> dict[int, FramePictures]:
-    """The pictures of every frame that has a copy and a residual.
+    """The pictures of every frame that has a copy and a residual, and the image alone of a frame not localized.
 
     Args:
         frames: verify's frame results.
@@ -56,9 +56,11 @@ def frame_pictures(frames: Sequence, states: Mapping[str, ElementState], model: 
     """
     out = {}
     for frame in frames:
+        view = views.get(frame.index)
+        if view is not None and not frame.accepted and len(out) < MAX_FRAME_CARDS:
+            out[frame.index] = FramePictures(outlined_png(view.rgb, view.intrinsics, np.eye(4), []))  # as recorded
         if frame.index not in residuals:
             continue
-        view = views[frame.index]
         outlines = [o for o in (outline_of(states[g], model) for g in in_view(frame, states) if g in states) if o]
         pictures = FramePictures(outlined_png(view.rgb, view.intrinsics, frame.pose, outlines))
         pictures.heat = frame_heat(heat, frame.index)
