@@ -130,7 +130,17 @@ def run_folder(path: Path) -> Path:
     created = not path.exists()
     writable_folder(path)
     (path / INCOMPLETE_MARKER).unlink(missing_ok=True)
-    _run_folders.append((path, created))
+    _run_folders.append((path, created, True))
+    return path
+
+
+def set_folder(path: Path) -> Path:
+    """Callback of ``--out`` options whose run moves its files in as one set at its end (``verify``: an
+    interrupted run leaves the earlier set whole): checked as :func:`writable_folder`, and a folder this run made is
+    removed if it is still empty after a failure; never marked incomplete (the set it holds is complete)."""
+    created = not path.exists()
+    writable_folder(path)
+    _run_folders.append((path, created, False))
     return path
 
 
@@ -140,12 +150,12 @@ def close_run_folders(reason: str) -> list[Path]:
     import datetime
 
     partial = []
-    for path, created in _run_folders:
+    for path, created, marks in _run_folders:
         try:
             if created and path.is_dir() and not any(path.iterdir()):
                 path.rmdir()
                 continue
-            if path.is_dir():
+            if path.is_dir() and marks:
                 stamp = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
                 (path / INCOMPLETE_MARKER).write_text(f"incomplete: the run {reason} at {stamp}; the files here "
                                                       "are partial\n", encoding="utf-8")

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import typer
 
-from bim2rdt.cli.common import console, out_path, print_json, print_table, run_folder
+from bim2rdt.cli.common import console, out_path, print_json, print_table, set_folder
 
 
 def register(app: typer.Typer, bench_app: typer.Typer) -> None:
@@ -35,9 +35,10 @@ def verify_command(
                                            "{\"fx\", \"fy\", \"cx\", \"cy\"} (pixels; optionally \"width\", "
                                            "\"height\"), overriding the recording's (a PNG pair without "
                                            "intrinsics.json)."),
-    out: Path = typer.Option(Path("out/verify"), "--out", parser=out_path, callback=run_folder,
+    out: Path = typer.Option(Path("out/verify"), "--out", parser=out_path, callback=set_folder,
                              help="Folder for twin.json, twin.ifc, issues.bcf, report.html, localization.json, "
-                             "config.json (the settings that ran)."),
+                             "config.json (the settings that ran), twin.db: written as one set when the run ends "
+                             "(an interrupted run leaves the earlier set as it was)."),
     detector: str = typer.Option("cluster", "--detector", help="New objects: 'cluster' (what neither the building "
                                  "nor a planned object explains) or 'none'."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON document instead of the summary."),
@@ -56,7 +57,10 @@ def verify_command(
     from bim2rdt.sources import limit_memory, open_recording
     from bim2rdt.verify import (levelled, prior_pose, read_prior_file, record_twin, verify_frames,
                                  write_outputs)
+    from bim2rdt.verify.output_set import OutputSet
     from bim2rdt.verify.outputs import verdict_counts
+    from bim2rdt.verify.report import FrameCapture
+    from bim2rdt.verify.report.rows import element_rows
 
     if detector not in ("cluster", "none"):
         raise _bad(f"--detector must be 'cluster' or 'none', not {detector!r}")
@@ -80,40 +84,55 @@ def verify_command(
     if depth_scale is not None and not (math.isfinite(depth_scale) and depth_scale > 0):
         raise _bad(f"--depth-scale must be a positive number of raw units per metre (1000: millimetres), got "
                    f"{depth_scale!r}")
-    frames = open_recording(source, depth_correction=correction, topics=topics, every=every, max_frames=max_frames,
-                            sync_tolerance=settings.ros.sync_tolerance, depth_scale=depth_scale,
-                            intrinsics=_intrinsics(intrinsics) if intrinsics is not None else None)
+    recording = open_recording(source, depth_correction=correction, topics=topics, every=every,
+                               max_frames=max_frames, sync_tolerance=settings.ros.sync_tolerance,
+                               depth_scale=depth_scale,
+                               intrinsics=_intrinsics(intrinsics) if intrinsics is not None else None)
     config = settings.verify.model_copy(update={"find_new": detector != "none", "judge": settings.judge})
-    with _progress(frames.expected_frames, as_json) as tick:
-        result = verify_frames(frames, model, T_prior, config, progress=lambda frame: tick("frame"))
-        with record_twin(result, model, out, settings.twin) as twin:
-            files = write_outputs(result, twin, out)
-            _record_run(out, settings, {"ifc": str(ifc_file.resolve()), "source": str(source.resolve()),
-                                        "prior": None if T_prior is None else T_prior.tolist(), "detector": detector,
-                                        "every": every, "max_frames": max_frames, "depth_scale": depth_scale,
-                                        "depth_correction": correction})
-            counts = verdict_counts(twin.state())
-            if publish is not None:
-                published = _publish(publish, result, twin.state(), model, out)
-            tick("twin")
+    frames, output = FrameCapture(recording), OutputSet(out)
+    try:
+        with output, _progress(recording.expected_frames, as_json) as tick:
+            result = verify_frames(frames, model, T_prior, config, progress=lambda frame: tick("frame"))
+            with record_twin(result, model, output.folder, settings.twin) as twin:
+                files = write_outputs(result, twin, output.folder, frames.views,
+                                      f"verify {ifc_file.name} with {source.name}")
+                _record_run(output.folder, settings, {
+                    "ifc": str(ifc_file.resolve()), "source": str(source.resolve()),
+                    "prior": None if T_prior is None else T_prior.tolist(), "detector": detector, "every": every,
+                    "max_frames": max_frames, "depth_scale": depth_scale, "depth_correction": correction})
+                states = twin.state()
+                if publish is not None:
+                    published = _publish(publish, result, states, model, output.folder)
+                tick("twin")
+            output.commit()
+    except BaseException:
+        _say_kept(output)
+        raise
+    counts = verdict_counts(states)
     summary = {"frames": len(result.frames), "localized": sum(f.accepted for f in result.frames),
                "verdicts": {k: v for k, v in counts.items() if k != "not observed"},
                "miscalibrated": result.miscalibrated, "warnings": result.warnings,
                "seconds_per_frame": round(sum(f.seconds for f in result.frames) / len(result.frames), 2),
                "dropped": result.drop_counts, "source_warnings": result.source_warnings,
-               "out": str(out), "ifc_note": files.ifc_note}
+               "out": str(out), "files": output.committed, "ifc_note": files.ifc_note}
     if publish is not None:
         summary["published"] = str(published)
     if as_json:
         print_json(summary)
         return
-    print_table(f"verify {ifc_file.name} with {source.name}", ("frame", "source", "localized", "residual cm",
+    print_table(f"verify {ifc_file.name} with {source.name}", ("frame", "source", "localized", "fixed at x, y, z m",
+                                                              "heading °", "free directions", "residual cm",
                                                               "inliers", "s", "note"),
-                [(f.index, f.source, "yes" if f.accepted else "no",
+                [(f.index, f.source, "yes" if f.accepted else "no", *_fix(f),
                   "-" if f.residual is None else f"{100 * f.residual:.1f}", f.inliers, f"{f.seconds:.1f}",
                   f.reason or (f.depth.reason if f.depth else "")) for f in result.frames[:20]])
     console.print("verdicts: " + (", ".join(f"{v} {k}" for k, v in summary["verdicts"].items() if v)
                                   or "none (no frame localized, or nothing in view)"))
+    for row in element_rows(states, result.frames, model):
+        if row.state.status.value in ("deviating", "missing", "new"):
+            console.print(f"  {row.state.status.value}: {row.name or row.state.family or '-'} "
+                          f"({row.state.family or row.state.ifc_class or 'object'}) {row.state.global_id}: "
+                          f"{row.reason}; frames {', '.join(map(str, row.frames)) or '-'}", highlight=False)
     for warning in result.warnings[:5]:
         console.print(f"[bold red]warning:[/] {warning}; its verdicts are unverified")
     for warning in result.source_warnings:
@@ -121,8 +140,32 @@ def verify_command(
     if result.dropped:
         console.print(f"dropped {len(result.dropped)} frames: "
                       + ", ".join(f"{n} {k}" for k, n in result.drop_counts.items()) + " (localization.json)")
-    console.print(f"wrote {out}/: twin.json, issues.bcf, localization.json, report.html, config.json"
-                  + (", twin.ifc" if files.ifc else f" (no twin.ifc: {files.ifc_note})"))
+    console.print(f"wrote {out}/: {', '.join(output.committed)}"
+                  + ("" if files.ifc else f" (no twin.ifc: {files.ifc_note})"), highlight=False)
+    if publish is not None:
+        console.print(f"published the results bag: {published}/ (and its Nav2 maps: {out}/maps/)", highlight=False)
+
+
+def _fix(frame) -> tuple[str, str, str]:
+    """A frame's fixed position, heading and the directions its view left free (world unit vectors)."""
+    from bim2rdt.verify import heading_deg
+
+    if not frame.accepted or frame.pose is None:
+        return "-", "-", "-"
+    free = "; ".join(",".join(f"{v:.2f}" for v in d) for d in frame.degenerate) or "none"
+    return ", ".join(f"{v:.2f}" for v in frame.pose[:3, 3]), f"{heading_deg(frame.pose):.1f}", free
+
+
+def _say_kept(output) -> None:
+    """After a failed or interrupted run: what ``--out`` holds (its outputs were not moved in, or were)."""
+    if output.committed:
+        kept = f"this run's outputs are complete in {output.out_dir}: {', '.join(output.committed)}"
+    elif output.previous():
+        kept = (f"kept {output.out_dir} as the earlier run left it ({', '.join(output.previous())}); nothing of "
+                "this run was kept")
+    else:
+        kept = f"nothing was kept: {output.out_dir} holds no verify outputs"
+    typer.secho(f"verify stopped: {kept}", err=True, fg=typer.colors.YELLOW)
 
 
 def _record_run(out: Path, settings, arguments: dict) -> None:

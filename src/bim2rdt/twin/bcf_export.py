@@ -3,16 +3,17 @@
 Each topic selects the element (its GlobalId; a new object keeps the twin's GlobalId in the exported IFC), sets
 the perspective camera it was seen from (the robot's camera when the recorder gave it, else a view from 4 m
 off), and carries a snapshot rendered from that camera: the BIM around it in grey, the BIM pose in translucent
-blue, and where the robot found it in the status colour. BCF 2.1 is what BIM coordination tools (Revit's BCF
+blue, and where the robot found it in the status colour. A caller that kept the frames (``verify``) passes a
+:class:`TopicView` per element instead: the sensor's own pose and field of view, and that frame's image. BCF 2.1 is what BIM coordination tools (Revit's BCF
 Manager, Solibri, BIMcollab, BlenderBIM) all open.
 """
 
 from __future__ import annotations
 
-import os
 import tempfile
 import uuid
 from collections.abc import Callable, Mapping
+from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
 
@@ -21,6 +22,7 @@ from bcf.v2 import model as bcf_model
 from bcf.v2.bcfxml import BcfXml
 from bcf.v2.visinfo import VisualizationInfoHandler
 
+from bim2rdt.atomic import write_bytes_atomic
 from bim2rdt.bim import BimModel
 from bim2rdt.perception.camera import Intrinsics, look_at
 from bim2rdt.twin.records import ElementState
@@ -38,22 +40,52 @@ HIDDEN_CLASSES = ("IfcSpace", "IfcOpeningElement")
 ObjectMesh = Callable[[ElementState], tuple[np.ndarray, np.ndarray]]
 
 
+@dataclass(frozen=True)
+class TopicView:
+    """The view a topic opens on, from a frame that saw the element: the sensor's ``T_world_camera`` (4x4,
+    OpenCV axes), its vertical field of view (degrees), the ``snapshot`` (PNG: that frame's image; None: rendered
+    from the camera, as for a scan) and ``seen``, where and when in words ("frame 3 (office1.pcd), time
+    unknown")."""
+
+    T_world_camera: np.ndarray
+    fov_deg: float
+    snapshot: bytes | None
+    seen: str
+
+
 def write_bcf(model: BimModel, states: Mapping[str, ElementState], path: Path, object_mesh: ObjectMesh,
-              intrinsics: Intrinsics = Intrinsics()) -> Path:
-    """Write the BCF file atomically; returns ``path``."""
+              intrinsics: Intrinsics = Intrinsics(), views: Mapping[str, TopicView] | None = None) -> Path:
+    """Write the BCF file atomically (mode as any new file: ``0o666`` less the umask).
+
+    Args:
+        model: The BIM the topics refer to.
+        states: The twin's states by GlobalId; one topic per deviating, missing or new one.
+        path: The .bcf file.
+        object_mesh: The body mesh of an element (for the rendered snapshot).
+        intrinsics: The camera of a rendered snapshot.
+        views: GlobalId -> the frame's own view and image; an element without one gets a rendered snapshot.
+
+    Returns:
+        ``path``.
+    """
     bcf = BcfXml.create_new(project_name=model.path.stem)
     context = _Context(model)
+    views = views or {}
     issues = sorted((s for s in states.values() if s.status in ISSUES), key=lambda s: (s.status.value, s.global_id))
     for state in issues:
-        topic = bcf.add_topic(title(state), description(state), author=f"bim2rdt/{state.robot or 'robot'}",
-                              topic_type="Issue", topic_status="Open")
+        view = views.get(state.global_id)
+        topic = bcf.add_topic(title(state), description(state, None if view is None else view.seen),
+                              author=f"bim2rdt/{state.robot or 'robot'}", topic_type="Issue", topic_status="Open")
         topic.topic.labels = [state.status.value] + ([state.family] if state.family else [])
         topic.markup.header = bcf_model.Header(file=[bcf_model.HeaderFile(filename=model.path.name,
                                                                           is_external=True)])
-        camera = view_camera(state, model)
-        png = render_snapshot(camera, context.layers(state, object_mesh), intrinsics, title(state))
+        camera = view_camera(state, model) if view is None else view.T_world_camera
+        fov = vertical_fov_deg(intrinsics) if view is None else view.fov_deg
+        png = view.snapshot if view is not None else None
+        if png is None:
+            png = render_snapshot(camera, context.layers(state, object_mesh), intrinsics, title(state))
         visinfo = bcf_model.VisualizationInfo(guid=str(uuid.uuid4()), components=_components(state.global_id),
-                                              perspective_camera=_bcf_camera(camera, vertical_fov_deg(intrinsics)))
+                                              perspective_camera=_bcf_camera(camera, fov))
         topic.add_visinfo_handler(VisualizationInfoHandler(visinfo, snapshot=png), snapshot_filename=SNAPSHOT)
     return _save_atomic(bcf, Path(path))
 
@@ -68,8 +100,9 @@ def title(state: ElementState) -> str:
     return f"New: {what} not in the BIM"
 
 
-def description(state: ElementState) -> str:
-    """What the robot found, against which tolerance, with which fit, seen from where and when."""
+def description(state: ElementState, seen: str | None = None) -> str:
+    """What the robot found, against which tolerance, with which fit, seen from where and when (``seen``: the
+    frame in words, when the caller knows it better than the evidence's time and station)."""
     lines = [f"Element {state.global_id} ({state.ifc_class or 'not in the BIM'}), status: {state.status.value}."]
     if state.deviation is not None and state.tolerance is not None:
         d, t = state.deviation, state.tolerance
@@ -83,7 +116,9 @@ def description(state: ElementState) -> str:
         rmse = "none (no inlier)" if f.rmse is None else f"{100 * f.rmse:.1f} cm"
         lines.append(f"Fit: rmse {rmse}, fitness {f.fitness:.2f}, {f.points} points, "
                      f"detector {f.detector or '-'} score {f.score:.2f}.")
-    if state.evidence is not None:
+    if seen is not None:
+        lines.append(f"Seen by {state.robot} in {seen}.")
+    elif state.evidence is not None:
         e = state.evidence
         when = datetime.fromtimestamp(e.time, timezone.utc).isoformat(timespec="seconds")
         lines.append(f"Seen by {state.robot} at {when} from station {e.station}, frames "
@@ -157,14 +192,10 @@ class _Context:
 
 
 def _save_atomic(bcf: BcfXml, path: Path) -> Path:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    os.close(handle)
-    try:
-        bcf.save(Path(temporary))
-        os.replace(temporary, path)
-    except BaseException:
-        Path(temporary).unlink(missing_ok=True)
-        raise
-    return path
+    """bcf-client saves only to a named file: it writes one in a private folder, whose bytes then go through
+    :func:`~bim2rdt.atomic.write_bytes_atomic` (the mode and the atomic rename every output gets)."""
+    with tempfile.TemporaryDirectory(prefix="bim2rdt-bcf-") as folder:
+        staged = Path(folder) / path.name
+        bcf.save(staged)
+        return write_bytes_atomic(path, staged.read_bytes())
 

@@ -382,7 +382,7 @@ class DigitalTwin:
             The written path.
 
         Raises:
-            OSError: The file cannot be written (the previous one, if any, is unchanged).
+            WriteError: The file cannot be written (the previous one, if any, is unchanged).
         """
         from bim2rdt.twin.bcf_export import write_bcf
 

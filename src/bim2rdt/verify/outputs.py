@@ -1,9 +1,9 @@
 """What ``verify`` writes into its folder: the twin (``twin.db``, exported as ``twin.json``, ``twin.ifc`` and
-``issues.bcf`` by the twin's own exporters), ``localization.json`` and ``report.html``."""
+``issues.bcf``: each issue seen from the frame that saw it), ``localization.json`` and ``report.html``
+(:mod:`bim2rdt.verify.report`)."""
 
 from __future__ import annotations
 
-import html
 import json
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -12,7 +12,9 @@ from pathlib import Path
 from bim2rdt.atomic import write_bytes_atomic
 from bim2rdt.bim import BimModel
 from bim2rdt.twin import DigitalTwin, ElementState, ElementStatus, TwinConfig, TwinError
+from bim2rdt.twin.bcf_export import write_bcf
 from bim2rdt.verify.chain import VerifyResult, family_priors
+from bim2rdt.verify.report import FrameView, topic_views, write_report
 
 TWIN_DB = "twin.db"
 
@@ -80,18 +82,24 @@ def _when(frame) -> float:
     return frame.time if frame.time is not None else float(frame.index)
 
 
-def write_outputs(result: VerifyResult, twin: DigitalTwin, out_dir: Path) -> VerifyFiles:
-    """Write every file of the verify folder.
+def write_outputs(result: VerifyResult, twin: DigitalTwin, out_dir: Path,
+                  views: Mapping[int, FrameView] | None = None, title: str = "bim2rdt verify") -> VerifyFiles:
+    """Write every file of the verify folder (a run's staging folder: :class:`~bim2rdt.verify.output_set.OutputSet`
+    moves them into ``--out``).
 
     Args:
         result: What verify found in every frame.
         twin: The twin :func:`record_twin` made of it.
-        out_dir: The verify folder.
+        out_dir: The folder to write into.
+        views: The frames' small copies by index (:class:`~bim2rdt.verify.report.FrameCapture`): the BCF
+            snapshots and the report's pictures; None: rendered snapshots and no frame pictures.
+        title: The report's heading.
 
     Returns:
         The paths of twin.json, issues.bcf, localization.json, report.html and twin.ifc (None, with a note,
             when the model cannot be written back).
     """
+    views = views or {}
     localization = write_bytes_atomic(out_dir / "localization.json", json.dumps(
         {"frames": [f.to_dict() for f in result.frames], "miscalibrated": result.miscalibrated,
          "warnings": result.warnings + result.source_warnings, "dropped": result.dropped,
@@ -100,38 +108,28 @@ def write_outputs(result: VerifyResult, twin: DigitalTwin, out_dir: Path) -> Ver
                        "reason": e.reason, "frames": list(e.frames), "sigma": e.sigma} for e in result.elements],
          "transient": [{"centre": [round(float(v), 3) for v in c.observation.pose[:3, 3]], "frames": list(c.frames),
                         "reason": c.transient} for c in result.transient]}, indent=1).encode())
-    files = VerifyFiles(twin.export_json(out_dir / "twin.json"), twin.export_bcf(out_dir / "issues.bcf"), localization,
-                        out_dir / "report.html", None)
+    states = twin.state()
+    topics = topic_views(states, result.frames, views, twin.model)
+    bcf = write_bcf(twin.model, states, out_dir / "issues.bcf", twin.object_mesh, views=topics)
+    files = VerifyFiles(twin.export_json(out_dir / "twin.json"), bcf, localization, out_dir / "report.html", None)
     try:
         files.ifc = twin.export_ifc(out_dir / "twin.ifc")
     except TwinError as error:
         files.ifc_note = str(error)
-    write_bytes_atomic(files.report, report_html(result, twin.state()).encode())
+    write_report(result, states, twin.model, out_dir, views, topics, title)
     return files
 
 
 def verdict_counts(states: dict[str, ElementState]) -> dict[str, int]:
+    """{status: number of elements} over every status (zero included).
+
+    Args:
+        states: The twin's states by GlobalId.
+
+    Returns:
+        The counts by status value.
+    """
     counts = {s.value: 0 for s in ElementStatus}
     for state in states.values():
         counts[state.status.value] += 1
     return counts
-
-
-def report_html(result: VerifyResult, states: dict[str, ElementState]) -> str:
-    """A one-page report: warnings, each frame's fix and each observed element's verdict."""
-    rows = "".join(
-        f"<tr><td>{f.index}</td><td>{html.escape(f.source)}</td><td>{'yes' if f.accepted else 'no'}</td>"
-        f"<td>{'' if f.residual is None else f'{100 * f.residual:.1f}'}</td><td>{f.inliers}</td>"
-        f"<td>{f.seconds:.1f}</td><td>{html.escape(f.reason or (f.depth.reason if f.depth else ''))}</td></tr>"
-        for f in result.frames)
-    seen = [s for s in states.values() if s.status is not ElementStatus.NOT_OBSERVED]
-    verdicts = "".join(
-        f"<tr><td>{html.escape(s.family or '-')}</td><td>{s.global_id}</td><td>{s.status.value}</td>"
-        f"<td>{'' if s.deviation is None else f'{100 * s.deviation.translation:.1f}'}</td></tr>" for s in seen)
-    warnings = "".join(f"<p class='warn'>{html.escape(w)}</p>" for w in result.warnings)
-    return ("<!doctype html><html><head><meta charset='utf-8'><title>bim2rdt verify</title><style>body{font-family:"
-            "sans-serif;margin:2em}td,th{padding:2px 8px;border-bottom:1px solid #ddd}.warn{color:#b00}</style>"
-            f"</head><body><h1>bim2rdt verify</h1>{warnings}<h2>Frames</h2><table><tr><th>#</th><th>source</th>"
-            "<th>accepted</th><th>residual cm</th><th>inliers</th><th>s</th><th>note</th></tr>"
-            f"{rows}</table><h2>Elements</h2><table><tr><th>family</th><th>GlobalId</th><th>status</th>"
-            f"<th>shift cm</th></tr>{verdicts}</table></body></html>")
