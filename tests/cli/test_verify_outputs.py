@@ -23,7 +23,7 @@ from tests.sources.bags import write_bag
 from tests.verify.ifc2x3_room import write_room_ifc2x3
 
 runner = CliRunner()
-OUTPUTS = ("twin.db", "twin.json", "twin.ifc", "issues.bcf", "localization.json", "report.html")
+OUTPUTS = ("twin.db", "twin.json", "twin.ifc", "issues.bcf", "localization.json", "report.html", "config.json")
 
 
 @pytest.fixture(scope="module")

@@ -54,11 +54,15 @@ def test_a_finished_run_and_a_store_without_runs_read_as_whole(tmp_path, site_mo
 
 def _result(model, frames: int):
     """A VerifyResult-shaped record: ``frames`` frames, each seeing every cone as planned."""
+    from bim2rdt.twin import ElementStatus
+
     cones = _cones(model)
-    return SimpleNamespace(frames=[SimpleNamespace(
-        index=i, time=T0 + i, pose=np.eye(4), missing=[],
-        observations=[Observation(c.family, c.global_id, c.placement, 0.004, 0.9, 200) for c in cones])
-        for i in range(frames)])
+    seen = [Observation(c.family, c.global_id, c.placement, 0.004, 0.9, 200) for c in cones]
+    return SimpleNamespace(frames=[SimpleNamespace(index=i, time=T0 + i, pose=np.eye(4), missing=[], observations=seen)
+                                   for i in range(frames)],
+                           elements=[SimpleNamespace(global_id=o.global_id, status=ElementStatus.AS_PLANNED,
+                                                     frames=list(range(frames)), observation=o) for o in seen],
+                           new=[])
 
 
 def test_a_verify_rebuild_cut_short_leaves_a_twin_that_twin_state_refuses(tmp_path, site_ifc, site_model,
