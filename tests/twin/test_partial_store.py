@@ -27,8 +27,8 @@ def _cones(model):
     return [el for el in model.elements if el.family == "Traffic_Cone_Orange_70cm"]
 
 
-def test_a_store_whose_run_did_not_finish_is_refused_by_readers_and_marked_when_asked(tmp_path, site_model):
-    url = f"sqlite:///{tmp_path / 'twin.db'}"
+def test_a_store_whose_run_did_not_finish_is_refused_by_readers_and_marked_when_asked(twin_url, site_model):
+    url = twin_url  # SQLite and PostgreSQL
     cone = _cones(site_model)[0]
     twin = DigitalTwin.open(url, site_model, run="verify")
     twin.record(Observation(cone.family, cone.global_id, cone.placement, 0.004, 0.9, 200), T0)
