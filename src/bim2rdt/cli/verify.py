@@ -50,7 +50,11 @@ def verify_command(
                                         "/bim2rdt/objects, /map, /keepout_filter_mask."),
 ) -> None:
     """Localize each frame on the BIM's walls and slabs, check every planned object in view and find new ones,
-    record them in a twin and export it."""
+    record them in a twin and export it.
+
+    Exit status: 0 when at least one frame was localized (a partial fix, with a direction the view leaves free,
+    counts); 1 for bad input (one line); 3 when no frame was localized: the outputs are written and the summary
+    says why (no prior, a prior off or at the wrong height, the wrong model)."""
     from bim2rdt.bim import load_ifc
     from bim2rdt.config import get_settings, ifc_cache_dir
     from bim2rdt.sources import open_recording
@@ -94,7 +98,8 @@ def verify_command(
             if publish is not None:
                 published = _publish(publish, result, twin.state(), model, out)
             tick("twin")
-    summary = {"frames": len(result.frames), "localized": sum(f.accepted for f in result.frames),
+    summary = {"frames": len(result.frames), "localized": result.localized,
+               "partial": sum(f.fix == "partial" for f in result.frames),
                "verdicts": {k: v for k, v in counts.items() if k != "not observed"},
                "miscalibrated": result.miscalibrated, "warnings": result.warnings,
                "seconds_per_frame": round(sum(f.seconds for f in result.frames) / len(result.frames), 2),
@@ -102,12 +107,15 @@ def verify_command(
                "out": str(out), "ifc_note": files.ifc_note}
     if publish is not None:
         summary["published"] = str(published)
+    if not result.localized:
+        summary["why"] = result.why_none_localized
     if as_json:
         print_json(summary)
+        _exit_status(result)
         return
     print_table(f"verify {ifc_file.name} with {source.name}", ("frame", "source", "localized", "residual cm",
                                                               "inliers", "s", "note"),
-                [(f.index, f.source, "yes" if f.accepted else "no",
+                [(f.index, f.source, _fix_label(f),
                   "-" if f.residual is None else f"{100 * f.residual:.1f}", f.inliers, f"{f.seconds:.1f}",
                   f.reason or (f.depth.reason if f.depth else "")) for f in result.frames[:20]])
     console.print("verdicts: " + (", ".join(f"{v} {k}" for k, v in summary["verdicts"].items() if v)
@@ -121,6 +129,29 @@ def verify_command(
                       + ", ".join(f"{n} {k}" for k, n in result.drop_counts.items()) + " (localization.json)")
     console.print(f"wrote {out}/: twin.json, issues.bcf, localization.json, report.html, config.json"
                   + (", twin.ifc" if files.ifc else f" (no twin.ifc: {files.ifc_note})"))
+    if summary["partial"]:
+        console.print(f"{summary['partial']} partial fixes: the view leaves a direction free (a wall seen alone "
+                      "pins only the distance to it); their objects are judged only along what the view fixes")
+    if not result.localized:
+        console.print(f"[bold red]{summary['why']}[/]")
+    _exit_status(result)
+
+
+NO_FIX_EXIT = 3
+"""verify's exit status when no frame was localized (its outputs are written; the summary says why)."""
+
+
+def _exit_status(result) -> None:
+    """Exit with :data:`NO_FIX_EXIT` when no frame was localized."""
+    if not result.localized:
+        raise typer.Exit(NO_FIX_EXIT)
+
+
+def _fix_label(frame) -> str:
+    """"yes", "partial (x free)" or "no" for the frames table."""
+    if frame.fix == "partial":
+        return f"partial ({', '.join(frame.free)})"
+    return "yes" if frame.accepted else "no"
 
 
 def _record_run(out: Path, settings, arguments: dict) -> None:
