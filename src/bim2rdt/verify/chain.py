@@ -21,14 +21,10 @@ from pydantic import BaseModel, ConfigDict, Field
 from bim2rdt.bim import BimModel
 from bim2rdt.localization import (LocalizationConfig, LocalizationError, OccludedMap, Refusal, depth_points,
                                   localize_cloud, scan_points)
-from bim2rdt.perception.background import explained, structure_for
-from bim2rdt.perception.frame import Frame
-from bim2rdt.perception.observation import Observation
-from bim2rdt.perception.structure import movable_elements
+from bim2rdt.perception import Frame, Observation, explained, movable_elements, structure_for
 from bim2rdt.semantics import KnowledgeBasePriors, UprightPrior
 from bim2rdt.sources import as_recording
-from bim2rdt.twin import ElementStatus, TwinConfig
-from bim2rdt.twin.verdict import fit_trusted
+from bim2rdt.twin import ElementStatus, TwinConfig, fit_trusted
 from bim2rdt.verify.depth_check import DepthCheck, DepthCheckConfig, check_depth
 from bim2rdt.verify.errors import VerifyError
 from bim2rdt.verify.new_objects import NewObjectConfig, new_objects
