@@ -2,12 +2,13 @@
 and world-metre meshes; ``TwinWriter`` writes the twin (moves, observed objects, events, tasks) back."""
 
 from bim2rdt.bim.errors import BimError
+from bim2rdt.bim.map_classes import NO_MAP, map_elements
 from bim2rdt.bim.model import BimModel, load_ifc
 from bim2rdt.bim.records import BimElement, BimProcess, BimStorey, BimWarning, BimZone, GeometryFailure
 from bim2rdt.bim.site_frame import SiteFrame
 
-__all__ = ["BimError", "BimModel", "BimElement", "BimProcess", "BimStorey", "BimWarning", "BimZone", "GeometryFailure",
-           "SiteFrame", "TwinWriter", "load_ifc"]
+__all__ = ["NO_MAP", "BimError", "BimModel", "BimElement", "BimProcess", "BimStorey", "BimWarning", "BimZone",
+           "GeometryFailure", "SiteFrame", "TwinWriter", "load_ifc", "map_elements"]
 
 
 def __getattr__(name: str):

@@ -35,5 +35,12 @@ def in_map(element: BimElement) -> bool:
 
 
 def map_elements(model: BimModel) -> list[BimElement]:
-    """The model's map elements that have a tessellated body (no body, nothing to see)."""
+    """The model's map elements that have a tessellated body (no body, nothing to see).
+
+    Args:
+        model: The BIM, loaded with geometry.
+
+    Returns:
+        Its permanent elements a sensor can localize on.
+    """
     return [el for el in model.elements if in_map(el) and model.has_mesh(el.global_id)]

@@ -51,7 +51,11 @@ def verify_command(
                                         "/bim2rdt/objects, /map, /keepout_filter_mask."),
 ) -> None:
     """Localize each frame on the BIM's walls and slabs, check every planned object in view and find new ones,
-    record them in a twin and export it."""
+    record them in a twin and export it.
+
+    Exit status: 0 when at least one frame was localized (a partial fix, with a direction the view leaves free,
+    counts); 1 for bad input (one line); 3 when no frame was localized: the outputs are written and the summary
+    says why (no prior, a prior off or at the wrong height, the wrong model)."""
     from bim2rdt.bim import load_ifc
     from bim2rdt.config import get_settings, ifc_cache_dir
     from bim2rdt.sources import limit_memory, open_recording
@@ -109,7 +113,8 @@ def verify_command(
         _say_kept(output)
         raise
     counts = verdict_counts(states)
-    summary = {"frames": len(result.frames), "localized": sum(f.accepted for f in result.frames),
+    summary = {"frames": len(result.frames), "localized": result.localized,
+               "partial": sum(f.fix == "partial" for f in result.frames),
                "verdicts": {k: v for k, v in counts.items() if k != "not observed"},
                "miscalibrated": result.miscalibrated, "warnings": result.warnings,
                "seconds_per_frame": round(sum(f.seconds for f in result.frames) / len(result.frames), 2),
@@ -117,13 +122,16 @@ def verify_command(
                "out": str(out), "files": output.committed, "ifc_note": files.ifc_note}
     if publish is not None:
         summary["published"] = str(published)
+    if not result.localized:
+        summary["why"] = result.why_none_localized
     if as_json:
         print_json(summary)
+        _exit_status(result)
         return
     print_table(f"verify {ifc_file.name} with {source.name}", ("frame", "source", "localized", "fixed at x, y, z m",
                                                               "heading °", "free directions", "residual cm",
                                                               "inliers", "s", "note"),
-                [(f.index, f.source, "yes" if f.accepted else "no", *_fix(f),
+                [(f.index, f.source, _fix_label(f), *_fix(f),
                   "-" if f.residual is None else f"{100 * f.residual:.1f}", f.inliers, f"{f.seconds:.1f}",
                   f.reason or (f.depth.reason if f.depth else "")) for f in result.frames[:20]])
     console.print("verdicts: " + (", ".join(f"{v} {k}" for k, v in summary["verdicts"].items() if v)
@@ -145,14 +153,21 @@ def verify_command(
     if publish is not None:
         console.print(f"published the results bag: {published}/ (and its Nav2 maps: {out}/maps/)", highlight=False)
 
+    if summary["partial"]:
+        console.print(f"{summary['partial']} partial fixes: the view leaves a direction free (a wall seen alone "
+                      "pins only the distance to it); their objects are judged only along what the view fixes")
+    if not result.localized:
+        console.print(f"[bold red]{summary['why']}[/]")
+    _exit_status(result)
+
 
 def _fix(frame) -> tuple[str, str, str]:
-    """A frame's fixed position, heading and the directions its view left free (world unit vectors)."""
+    """A frame's fixed position, heading and the directions its view left free."""
     from bim2rdt.verify import heading_deg
 
     if not frame.accepted or frame.pose is None:
         return "-", "-", "-"
-    free = "; ".join(",".join(f"{v:.2f}" for v in d) for d in frame.degenerate) or "none"
+    free = ", ".join(frame.free) or "none"  # in words: "x free", "free along 35 deg", "yaw free"
     return ", ".join(f"{v:.2f}" for v in frame.pose[:3, 3]), f"{heading_deg(frame.pose):.1f}", free
 
 
@@ -166,6 +181,23 @@ def _say_kept(output) -> None:
     else:
         kept = f"nothing was kept: {output.out_dir} holds no verify outputs"
     typer.secho(f"verify stopped: {kept}", err=True, fg=typer.colors.YELLOW)
+
+
+NO_FIX_EXIT = 3
+"""verify's exit status when no frame was localized (its outputs are written; the summary says why)."""
+
+
+def _exit_status(result) -> None:
+    """Exit with :data:`NO_FIX_EXIT` when no frame was localized."""
+    if not result.localized:
+        raise typer.Exit(NO_FIX_EXIT)
+
+
+def _fix_label(frame) -> str:
+    """"yes", "partial (x free)" or "no" for the frames table."""
+    if frame.fix == "partial":
+        return f"partial ({', '.join(frame.free)})"
+    return "yes" if frame.accepted else "no"
 
 
 def _record_run(out: Path, settings, arguments: dict) -> None:

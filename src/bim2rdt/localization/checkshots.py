@@ -17,11 +17,10 @@ from dataclasses import dataclass, field
 import numpy as np
 import trimesh
 
-from bim2rdt.bim import BimModel
-from bim2rdt.bim.map_classes import map_elements
+from bim2rdt.bim import BimModel, map_elements
 from bim2rdt.localization.depth import depth_grid, grid_normals
 from bim2rdt.localization.surfaces import PermanentMap, permanent_map
-from bim2rdt.perception.frame import Frame
+from bim2rdt.perception import Frame
 
 KINDS = {"IfcColumn": "column corner", "IfcColumnStandardCase": "column corner", "IfcDoor": "door edge"}
 """What an engineer calls an element's vertical edge; walls' edges are 'wall edge' (ends and openings)."""

@@ -26,9 +26,7 @@ from bim2rdt.localization.config import LocalizationConfig
 from bim2rdt.localization.errors import LocalizationError, Refusal
 from bim2rdt.localization.observability import Observability, lever_arm, observability, pair_information
 from bim2rdt.localization.surfaces import PermanentMap, SurfaceSamples
-from bim2rdt.registration import IcpConfig, RegistrationError, register
-from bim2rdt.registration.so3 import invert_poses
-from bim2rdt.registration.validation import unit_up
+from bim2rdt.registration import IcpConfig, RegistrationError, invert_poses, register, unit_up
 
 
 @dataclass(frozen=True)

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from bim2rdt.perception.frame import Frame
+from bim2rdt.perception import Frame
 
 
 def depth_grid(frame: Frame, stride: int = 1, min_range: float = 0.0, max_range: float = np.inf) -> np.ndarray:

@@ -27,7 +27,7 @@ from bim2rdt.localization.config import LocalizationConfig
 from bim2rdt.localization.errors import LocalizationError
 from bim2rdt.localization.fix import Localization, localize
 from bim2rdt.localization.planar import compose, from_planar, to_planar, wrap
-from bim2rdt.perception.frame import Frame
+from bim2rdt.perception import Frame
 
 FIX_AXES = [0, 1, 2, 5]
 """Rows of a fix's (dx, dy, dz, dtheta_x, dtheta_y, dtheta_z) information that are the filter's (x, y, z, yaw)."""

@@ -27,8 +27,7 @@ from bim2rdt.localization.core import Localization, behind_fraction, checked_up,
 from bim2rdt.localization.depth import depth_grid, grid_normals
 from bim2rdt.localization.errors import LocalizationError, Refusal
 from bim2rdt.localization.surfaces import PermanentMap, SurfaceSamples, permanent_map
-from bim2rdt.perception.camera import Intrinsics
-from bim2rdt.perception.frame import Frame
+from bim2rdt.perception import Frame, Intrinsics
 
 def localize(frame: Frame, model: BimModel, prior_T_world_camera: np.ndarray,
              up: np.ndarray | tuple[float, float, float] = (0.0, 0.0, 1.0),

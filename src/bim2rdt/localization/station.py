@@ -16,7 +16,7 @@ import numpy as np
 from bim2rdt.bim import BimModel
 from bim2rdt.localization.config import LocalizationConfig
 from bim2rdt.localization.filter import PoseFilter, StationFix, fuse_frame
-from bim2rdt.perception.frame import Frame
+from bim2rdt.perception import Frame
 
 
 @dataclass(frozen=True)

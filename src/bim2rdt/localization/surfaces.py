@@ -16,10 +16,9 @@ from dataclasses import dataclass
 import numpy as np
 import trimesh
 
-from bim2rdt.bim import BimModel
-from bim2rdt.bim.map_classes import NO_MAP, map_elements
+from bim2rdt.bim import BimModel, NO_MAP, map_elements
 from bim2rdt.localization.errors import LocalizationError, Refusal
-from bim2rdt.perception.camera import Intrinsics
+from bim2rdt.perception import Intrinsics
 
 GRAZING_COS = np.cos(np.deg2rad(80.0))
 """Surfaces seen at more than 80 degrees from their normal are left out: their depth returns are mixed pixels."""

@@ -13,7 +13,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from bim2rdt.mission.config import MissionConfig
 from bim2rdt.mission.records import MissingElement, Target
-from bim2rdt.perception.frame import Frame
+from bim2rdt.perception import Frame
 from bim2rdt.perception.visibility import DepthView, PlaceLook, look_at_place
 from bim2rdt.registration import IcpConfig, sample_model
 from bim2rdt.twin import JudgeConfig, PlaceEvidence, place_seen_empty

@@ -17,7 +17,7 @@ from scipy.optimize import linear_sum_assignment
 from bim2rdt.mission.config import MissionConfig
 from bim2rdt.mission.ground import object_centroid
 from bim2rdt.mission.records import Target
-from bim2rdt.perception.detection import Detection
+from bim2rdt.perception import Detection
 
 OUT_OF_REACH = 1e6
 """The assignment's cost of a pair farther apart than ``association_radius`` (dropped afterwards)."""

@@ -18,7 +18,7 @@ from bim2rdt.mission.records import Target
 from bim2rdt.mission.verdict import DEFAULT_MIN_FITNESS
 from bim2rdt.registration import IcpConfig
 from bim2rdt.semantics import UprightPrior
-from bim2rdt.twin.tolerance import TolerancePolicy
+from bim2rdt.twin import TolerancePolicy
 
 
 @dataclass(frozen=True)

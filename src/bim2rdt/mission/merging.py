@@ -18,7 +18,7 @@ from scipy.spatial import cKDTree
 from bim2rdt.mission.config import MissionConfig
 from bim2rdt.mission.ground import object_points
 from bim2rdt.mission.records import Observation
-from bim2rdt.perception.detection import Detection
+from bim2rdt.perception import Detection
 
 
 @dataclass(frozen=True)

@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import trimesh
 
-from bim2rdt.perception.observation import Observation
+from bim2rdt.perception import Observation
 
 __all__ = ["MissingElement", "MissionResult", "Observation", "Target"]
 

@@ -31,9 +31,7 @@ from bim2rdt.mission.context import MissionContext
 from bim2rdt.mission.records import MissionResult
 from bim2rdt.mission.route import DirectRoute, Route
 from bim2rdt.mission.run import run_mission
-from bim2rdt.perception.camera import look_at
-from bim2rdt.perception.detection import Detection
-from bim2rdt.perception.frame import Frame
+from bim2rdt.perception import Detection, Frame, look_at
 
 DOCK_SIGMA = (0.01, np.deg2rad(0.1))
 """The robot leaves a surveyed dock: 1 cm and 0.1 degree (1 sigma)."""

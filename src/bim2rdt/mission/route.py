@@ -30,8 +30,7 @@ from scipy import ndimage
 from bim2rdt.mission.config import MissionConfig
 from bim2rdt.mission.records import Observation, Target
 from bim2rdt.mission.stations import nearly, station_pose, view_directions
-from bim2rdt.perception.camera import look_at
-from bim2rdt.perception.detection import Detection
+from bim2rdt.perception import Detection, look_at
 from bim2rdt.planning import Navigator, OccupancyGrid, PlanningError, Replan, pick_viewpoint, plan_tour, reachable
 
 AROUND = 12

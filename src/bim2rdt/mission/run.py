@@ -38,11 +38,10 @@ from bim2rdt.mission.merging import RegisteredObject, repeated_view
 from bim2rdt.mission.records import MissionResult, Observation, Target
 from bim2rdt.mission.route import DirectRoute, Locate, Route
 from bim2rdt.mission.verdict import judge, tolerance_of
-from bim2rdt.perception.detection import Detection
-from bim2rdt.perception.frame import Frame
+from bim2rdt.perception import Detection, Frame
 from bim2rdt.perception.visibility import DepthView, see_through_fraction
 from bim2rdt.registration import IcpConfig, RegistrationResult, sample_model
-from bim2rdt.twin import FitEvidence, judge_evidence
+from bim2rdt.twin import ElementStatus, FitEvidence, judge_evidence
 
 log = logging.getLogger(__name__)
 

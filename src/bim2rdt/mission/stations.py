@@ -8,7 +8,7 @@ import numpy as np
 
 from bim2rdt.mission.config import MissionConfig
 from bim2rdt.mission.records import Target
-from bim2rdt.perception.camera import look_at
+from bim2rdt.perception import look_at
 
 SAME_EXTENT = 1e-6
 """Plan extents closer than this (m) are equal: a round object's x and y extents differ only in the last bits,

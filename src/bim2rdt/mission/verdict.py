@@ -14,11 +14,8 @@ import numpy as np
 from bim2rdt.mission.config import MissionConfig
 from bim2rdt.mission.records import Target
 from bim2rdt.registration import RegistrationResult
-from bim2rdt.twin.config import TwinConfig
-from bim2rdt.twin.deviation import Deviation, pose_deviation
-from bim2rdt.twin.status import ElementStatus
-from bim2rdt.twin.tolerance import Tolerance, TolerancePolicy
-from bim2rdt.twin import FitEvidence, judge_evidence
+from bim2rdt.twin import (Deviation, ElementStatus, FitEvidence, Tolerance, TolerancePolicy, TwinConfig,
+                          judge_evidence, pose_deviation)
 from bim2rdt.twin.verdict import against_tolerance
 
 DEFAULT_MIN_FITNESS = TwinConfig().min_fitness

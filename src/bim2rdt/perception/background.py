@@ -59,7 +59,14 @@ _STRUCTURES: dict[tuple[int, str], BimStructure] = {}
 
 
 def structure_for(model: BimModel) -> BimStructure:
-    """The :class:`BimStructure` of ``model``, built once (its mesh and the ray caster's scene are kept)."""
+    """The :class:`BimStructure` of ``model``, built once (its mesh and the ray caster's scene are kept).
+
+    Args:
+        model: The BIM, loaded with geometry.
+
+    Returns:
+        Its building's structure (walls, slabs: what explains a depth point).
+    """
     key = (id(model), model.digest)
     if key not in _STRUCTURES:
         if len(_STRUCTURES) >= 4:
@@ -74,7 +81,21 @@ def explained(structure: BimStructure, origin: np.ndarray, directions: np.ndarra
     explains: on a permanent surface (within ``tolerance`` m plus 3 x the depth noise ``sigma`` (N,) seen
     along the surface normal, so a floor at grazing incidence is not given the tolerance of a wall ahead),
     behind one, or on the slab (below ``slab_height`` + ``slab_clearance``). The surface on the point's own ray
-    is tested first; the points it leaves are tested against every surface in 3-D (:func:`on_any_surface`)."""
+    is tested first; the points it leaves are tested against every surface in 3-D (:func:`on_any_surface`).
+
+    Args:
+        structure: The building (:func:`structure_for`).
+        origin: (3,) the sensor's position, world metres.
+        directions: (N, 3) world rays.
+        measured: (N,) the ray parameter of each measured point.
+        tolerance: Metres off a surface a point may lie.
+        sigma: (N,) each point's depth noise, metres.
+        slab_height: World z of the floor under the sensor, metres.
+        slab_clearance: Metres above it that are still the slab.
+
+    Returns:
+        (N,) bool, True where the building explains the point.
+    """
     t, normals = structure.cast(origin, directions)
     points = origin + directions * measured[:, None]
     along_normal = np.abs(np.einsum("ni,ni->n", directions, normals))

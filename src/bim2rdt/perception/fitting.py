@@ -54,7 +54,22 @@ def fit_detection(model_pts: np.ndarray, model_normals: np.ndarray, points_world
     """The kept registration of a model (``model_pts``/``model_normals`` (N, 3), body frame) to one object's
     ``points_world`` (M, 3), from the matched element's ``bim_pose`` (T_world_model, None for an object the BIM
     lacks) and the detector's own ``detector_poses``, under the family's upright ``prior``, on the slab at
-    ``slab_height`` (m, world z). See the module docs for the rules."""
+    ``slab_height`` (m, world z). See the module docs for the rules.
+
+    Args:
+        model_pts: (N, 3) model surface samples, body frame, metres.
+        model_normals: (N, 3) their unit normals.
+        points_world: (M, 3) the object's points, world metres.
+        bim_pose: 4x4 T_world_model of the matched element, or None.
+        detector_poses: The detector's own 4x4 poses of the object.
+        prior: The family's upright prior, or None.
+        slab_height: World z of the slab under the object, metres.
+        rules: The fitting rules (ICP, tie ratio, slab contact).
+        plausible: Whether a fit may be kept (free space, ...).
+
+    Returns:
+        The kept registration.
+    """
     reference = bim_pose if bim_pose is not None else (detector_poses[0] if len(detector_poses) else None)
     resting = rests_on_slab(reference, model_pts, slab_height, rules.slab_contact)
     bias = prior.upright_bias if prior else DEFAULT_UPRIGHT_BIAS

@@ -21,7 +21,15 @@ from bim2rdt.registration import sample_model
 
 
 def element_body_mesh(model: BimModel, global_id: str) -> trimesh.Trimesh:
-    """An element's tessellated body in its own frame (world mesh mapped through the inverse placement)."""
+    """An element's tessellated body in its own frame (world mesh mapped through the inverse placement).
+
+    Args:
+        model: The BIM, loaded with geometry.
+        global_id: The element's GlobalId.
+
+    Returns:
+        Its mesh, body frame, metres.
+    """
     vertices_world, faces = model.mesh(global_id)
     T_model_world = np.linalg.inv(model.element(global_id).placement)
     vertices_body = vertices_world @ T_model_world[:3, :3].T + T_model_world[:3, 3]

@@ -31,7 +31,14 @@ def permanent_elements(model: BimModel) -> list[BimElement]:
 
 def movable_elements(model: BimModel) -> list[BimElement]:
     """The model's site objects: elements with a body and a family that are neither permanent nor spaces
-    (temporary works, materials, equipment, furniture): what a detector looks for."""
+    (temporary works, materials, equipment, furniture): what a detector looks for.
+
+    Args:
+        model: The BIM, loaded with geometry.
+
+    Returns:
+        Its site objects.
+    """
     return [el for el in model.elements
             if el.ifc_class not in PERMANENT_CLASSES and el.ifc_class not in NOT_OBJECTS and el.family
             and model.has_mesh(el.global_id)]

@@ -6,7 +6,9 @@ from bim2rdt.registration.errors import RegistrationError
 from bim2rdt.registration.icp import RegistrationResult, register
 from bim2rdt.registration.metrics import HausdorffStats, hausdorff
 from bim2rdt.registration.sampling import sample_model
+from bim2rdt.registration.so3 import invert_poses
 from bim2rdt.registration.uncertainty import POSE_PARAMETERS, PoseUncertainty
+from bim2rdt.registration.validation import MIN_SCENE_POINTS, unit_up
 
-__all__ = ["POSE_PARAMETERS", "HausdorffStats", "IcpConfig", "PoseUncertainty", "RegistrationError",
-           "RegistrationResult", "hausdorff", "register", "sample_model"]
+__all__ = ["MIN_SCENE_POINTS", "POSE_PARAMETERS", "HausdorffStats", "IcpConfig", "PoseUncertainty", "RegistrationError",
+           "RegistrationResult", "hausdorff", "invert_poses", "register", "sample_model", "unit_up"]

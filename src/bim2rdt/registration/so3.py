@@ -46,7 +46,14 @@ def tilt_angle(R: np.ndarray, up: np.ndarray = UP) -> np.ndarray:
 
 
 def invert_poses(T: np.ndarray) -> np.ndarray:
-    """Inverse of rigid poses (..., 4, 4)."""
+    """Inverse of rigid poses.
+
+    Args:
+        T: (..., 4, 4) rigid poses.
+
+    Returns:
+        (..., 4, 4) their inverses.
+    """
     R_t = np.swapaxes(T[..., :3, :3], -1, -2)
     out = np.zeros_like(T)
     out[..., :3, :3] = R_t

@@ -66,8 +66,18 @@ def _rigid_pose(init) -> np.ndarray:
     return np.asarray(init, dtype=np.float64)
 
 
-def unit_up(up) -> np.ndarray:
-    """``up`` as a unit 3-vector; RegistrationError (one line) if it is not a finite non-zero 3-vector."""
+def unit_up(up: np.ndarray | tuple[float, float, float]) -> np.ndarray:
+    """``up`` as a unit 3-vector.
+
+    Args:
+        up: The world up as measured (an IMU's), any length.
+
+    Returns:
+        It, normalised.
+
+    Raises:
+        RegistrationError: It is not a finite non-zero 3-vector (one line).
+    """
     vector = np.asarray(up, dtype=np.float64).reshape(-1)
     if vector.shape != (3,) or not np.all(np.isfinite(vector)) or np.linalg.norm(vector) < 1e-9:
         raise RegistrationError(f"up must be a finite non-zero 3-vector, got {np.asarray(up).tolist()}")

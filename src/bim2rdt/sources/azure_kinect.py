@@ -19,7 +19,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from bim2rdt.perception.frame import Frame
+from bim2rdt.perception import Frame
 from bim2rdt.sources import budget, k4a
 from bim2rdt.sources.errors import SourceError
 from bim2rdt.sources.frames import build_frame, depth_metres, intrinsics_for

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bim2rdt.perception.camera import Intrinsics
+from bim2rdt.perception import Intrinsics
 from bim2rdt.sources.optional import require
 from bim2rdt.sources.tf import translation_quaternion
 

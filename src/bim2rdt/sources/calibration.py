@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from bim2rdt.perception.camera import Intrinsics
+from bim2rdt.perception import Intrinsics
 
 
 def correction_vector(g) -> np.ndarray:

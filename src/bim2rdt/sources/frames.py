@@ -9,9 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from bim2rdt.perception.camera import Intrinsics
-from bim2rdt.perception.errors import PerceptionError
-from bim2rdt.perception.frame import Frame
+from bim2rdt.perception import Frame, Intrinsics, PerceptionError
 from bim2rdt.sources.calibration import correct_depth
 from bim2rdt.sources.errors import SourceError
 from bim2rdt.sources.options import SourceOptions

@@ -15,8 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bim2rdt.perception.camera import Intrinsics
-from bim2rdt.perception.frame import Frame
+from bim2rdt.perception import Frame, Intrinsics
 from bim2rdt.sources.errors import SourceError
 from bim2rdt.sources.frames import build_frame, depth_metres, intrinsics_for
 from bim2rdt.sources.optional import require

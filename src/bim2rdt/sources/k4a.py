@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from bim2rdt.perception.camera import Intrinsics
+from bim2rdt.perception import Intrinsics
 
 DEPTH_MODES = {  # mode -> (binned resolution, crop offset, output resolution)
     "NFOV_2X2BINNED": ((512, 512), (96, 90), (320, 288)),

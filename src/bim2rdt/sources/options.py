@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bim2rdt.perception.camera import Intrinsics
+from bim2rdt.perception import Intrinsics
 from bim2rdt.sources.calibration import correction_vector
 from bim2rdt.sources.errors import SourceError
 

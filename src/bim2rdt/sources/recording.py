@@ -22,7 +22,7 @@ from enum import Enum
 from pathlib import Path
 from typing import Protocol, runtime_checkable
 
-from bim2rdt.perception.frame import Frame
+from bim2rdt.perception import Frame
 from bim2rdt.sources.cloud import Cloud, read_cloud
 from bim2rdt.sources.errors import SourceError
 from bim2rdt.sources.options import SourceOptions, parse_options

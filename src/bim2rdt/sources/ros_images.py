@@ -6,7 +6,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from bim2rdt.perception.camera import Intrinsics
+from bim2rdt.perception import Intrinsics
 from bim2rdt.sources.budget import MAX_IMAGE_SIDE as MAX_SIDE
 
 COLOUR_ENCODINGS = {"rgb8": (3, None), "bgr8": (3, cv2.COLOR_BGR2RGB), "rgba8": (4, cv2.COLOR_RGBA2RGB),

@@ -15,7 +15,7 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Protocol, runtime_checkable
 
-from bim2rdt.perception.frame import Frame
+from bim2rdt.perception import Frame
 from bim2rdt.sources.errors import SourceError
 from bim2rdt.sources.options import parse_options
 

@@ -18,11 +18,12 @@ from bim2rdt.twin.sink import TwinSink
 from bim2rdt.twin.status import STATUS_COLOURS, ElementStatus
 from bim2rdt.twin.config import TolerancePreset, TwinConfig
 from bim2rdt.twin.tolerance import Tolerance, TolerancePolicy
+from bim2rdt.twin.verdict import fit_trusted
 
 __all__ = ["DigitalTwin", "Deviation", "ElementState", "ElementStatus", "EVENT_KINDS", "Evidence", "Fit", "FitEvidence",
            "JudgeConfig", "Judgement", "MISSING", "PlaceEvidence", "judge_evidence", "place_seen_empty",
            "OBSERVATION", "SAFETY", "STATUS", "STATUS_COLOURS", "Tolerance", "TolerancePolicy", "TolerancePreset",
-           "TwinConfig", "TwinError", "TwinEvent", "TwinSink", "pose_deviation"]
+           "TwinConfig", "TwinError", "TwinEvent", "TwinSink", "fit_trusted", "pose_deviation"]
 
 
 def __getattr__(name: str):

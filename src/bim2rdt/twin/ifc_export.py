@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from bim2rdt.bim import BimError, BimModel, TwinWriter
-from bim2rdt.bus.event import Event
+from bim2rdt.bus import Event
 from bim2rdt.safety.ifc_sink import IfcSink
 from bim2rdt.twin.errors import TwinError
 from bim2rdt.twin.records import ElementState

@@ -8,7 +8,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
-from bim2rdt.bus.event import Event
+from bim2rdt.bus import Event
 from bim2rdt.twin.records import SAFETY
 
 if TYPE_CHECKING:

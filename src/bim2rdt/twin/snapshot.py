@@ -17,7 +17,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.collections import PolyCollection  # noqa: E402
 
-from bim2rdt.perception.camera import Intrinsics  # noqa: E402
+from bim2rdt.perception import Intrinsics
 
 NEAR_M = 0.1
 """Triangles with a vertex closer than this to the camera plane are left out (no clipping)."""

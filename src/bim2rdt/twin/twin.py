@@ -33,9 +33,9 @@ import numpy as np
 
 from bim2rdt.atomic import write_bytes_atomic
 from bim2rdt.bim import BimElement, BimModel, load_ifc
-from bim2rdt.bus.event import Event
+from bim2rdt.bus import Event
 from bim2rdt.frames import rigid_problem
-from bim2rdt.perception.observation import Observation
+from bim2rdt.perception import Observation
 from bim2rdt.twin.errors import TwinError
 from bim2rdt.twin.projection import STATE_KINDS, Projection
 from bim2rdt.twin.records import MISSING, OBSERVATION, SAFETY, STATUS, ElementState, TwinEvent

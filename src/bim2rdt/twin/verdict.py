@@ -29,7 +29,15 @@ def judge_observation(pose: np.ndarray, fitness: float, element: BimElement | No
 def fit_trusted(fitness: float, min_fitness: float) -> bool:
     """Whether a fit explains enough of its points (``fitness``, a fraction) to be judged at all: the one rule
     the twin and the mission share, with the one setting ``Settings.twin.min_fitness``. Under it the object is
-    unverified, however close it lands."""
+    unverified, however close it lands.
+
+    Args:
+        fitness: The fraction of the fit's points on the body.
+        min_fitness: The least fraction trusted.
+
+    Returns:
+        True when the fit may be judged.
+    """
     return fitness >= min_fitness
 
 

@@ -21,13 +21,9 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from bim2rdt.bim import BimModel
-from bim2rdt.localization import (LocalizationConfig, LocalizationError, OccludedMap, depth_points, localize_cloud,
-                                  scan_points)
-from bim2rdt.perception.background import explained, structure_for
-from bim2rdt.perception.frame import Frame
-from bim2rdt.perception.library import element_body_mesh
-from bim2rdt.perception.observation import Observation
-from bim2rdt.perception.structure import movable_elements
+from bim2rdt.localization import (LocalizationConfig, LocalizationError, OccludedMap, Refusal, depth_points,
+                                  localize_cloud, scan_points)
+from bim2rdt.perception import Frame, Observation, element_body_mesh, explained, movable_elements, structure_for
 from bim2rdt.registration import sample_model
 from bim2rdt.semantics import KnowledgeBasePriors, UprightPrior
 from bim2rdt.sources import as_recording
@@ -39,8 +35,8 @@ from bim2rdt.verify.fusion import (ElementLook, FusedElement, FusionConfig, fuse
                                    located_covariance, merge_new)
 from bim2rdt.verify.new_objects import NewCluster, NewObjectConfig, new_clusters
 from bim2rdt.verify.planned import PlannedConfig, check_planned, owned_points, place_evidence, planned_in_view
+from bim2rdt.verify.priors import heading_deg, levelled
 from bim2rdt.verify.transient import TransientConfig, transient_reason
-from bim2rdt.verify.priors import levelled
 from bim2rdt.verify.rays import RangeLookup
 
 
@@ -116,10 +112,14 @@ class FrameResult:
     inliers: int = 0
     accepted: bool = False
     reason: str = ""
+    refusal: str = ""
+    """What kind of refusal ``reason`` is (a :class:`~bim2rdt.localization.Refusal` value, or "no prior pose")."""
     depth: DepthCheck | None = None
     observations: list[Observation] = field(default_factory=list)
     missing: list[str] = field(default_factory=list)
     """GlobalIds of planned objects in view whose place the sensor saw empty."""
+    degenerate_yaw: bool = False
+    """The view cannot fix the heading either."""
     seconds: float = 0.0
     recorded: np.ndarray | None = None
     """The frame's own pose as the recording gave it (a bag's camera in its world frame), or None."""
@@ -133,13 +133,27 @@ class FrameResult:
     lookup: RangeLookup | None = field(default=None, repr=False)
     """The frame's returns by direction while the motion test needs them (a fix with no free direction only)."""
 
+    @property
+    def fix(self) -> str:
+        """"full", "partial" (the view leaves a direction free: :attr:`free`) or "refused"."""
+        if not self.accepted:
+            return "refused"
+        return "partial" if self.free else "full"
+
+    @property
+    def free(self) -> list[str]:
+        """What the fix leaves free, in words: "x free", "y free", "z free", "free along 35 deg" (a horizontal
+        direction off the axes: along the one wall the view pins), "yaw free"."""
+        return free_directions(self.degenerate, self.degenerate_yaw)
+
     def to_dict(self) -> dict:
         """The frame's entry in localization.json.
 
         Returns:
-            JSON-ready fields: poses and covariances as nested lists (metres, radians), ``reason`` when refused.
+            JSON-ready fields: poses and covariances as nested lists (metres, radians), ``fix`` (full, partial,
+                refused) and ``free`` (the directions a partial fix leaves free, in words), ``reason`` when refused.
         """
-        entry = {"source": self.source, "time": self.time,
+        entry = {"source": self.source, "time": self.time, "fix": self.fix, "free": self.free,
                  "pose": None if self.pose is None else self.pose.tolist(),
                  "covariance": None if self.covariance is None else self.covariance.tolist(),
                  "degenerate": [np.asarray(d).tolist() for d in self.degenerate], "residual": self.residual,
@@ -153,8 +167,33 @@ class FrameResult:
                                 "reason": c.transient} for c in self.clusters if c.transient],
                  "seconds": round(self.seconds, 3)}
         if not self.accepted:
-            entry["reason"] = self.reason
+            entry["reason"], entry["refusal"] = self.reason, self.refusal
         return entry
+
+
+def free_directions(degenerate: list, yaw: bool = False) -> list[str]:
+    """The free directions of a fix in words: a unit world direction within 15 deg of an axis is "x free", "y
+    free" or "z free"; another horizontal one "free along H deg" (its heading from +x: along the wall the view
+    pins, in 0-180); any other "free along (dx, dy, dz)"; a free heading adds "yaw free".
+
+    Args:
+        degenerate: Unit world directions (3,) the view cannot fix.
+        yaw: The heading is free too.
+
+    Returns:
+        One phrase per free direction.
+    """
+    words = []
+    for direction in degenerate:
+        d = np.asarray(direction, dtype=float)
+        axis = int(np.argmax(np.abs(d)))
+        if abs(d[axis]) >= np.cos(np.deg2rad(15.0)):
+            words.append(f"{'xyz'[axis]} free")
+        elif abs(d[2]) < np.sin(np.deg2rad(15.0)):
+            words.append(f"free along {np.rad2deg(np.arctan2(d[1], d[0])) % 180:.0f} deg")
+        else:
+            words.append(f"free along ({d[0]:.2f}, {d[1]:.2f}, {d[2]:.2f})")
+    return words + (["yaw free"] if yaw else [])
 
 
 @dataclass
@@ -178,6 +217,20 @@ class VerifyResult:
     def drop_counts(self) -> dict[str, int]:
         """{kind (or reason): number} of the frames the source dropped."""
         return dict(Counter(d["kind"] for d in self.dropped))
+
+    @property
+    def localized(self) -> int:
+        """Frames whose fix was accepted (full or partial)."""
+        return sum(f.accepted for f in self.frames)
+
+    @property
+    def why_none_localized(self) -> str:
+        """When no frame was localized, why, in one line: the commonest refusals with their counts; else ""."""
+        if self.localized:
+            return ""
+        kinds = Counter(f.refusal for f in self.frames)
+        top = ", ".join(f"{n} {kind}" for kind, n in kinds.most_common(3))
+        return f"no frame localized ({top}); frame {self.frames[0].index}: {self.frames[0].reason}"
 
     @property
     def miscalibrated(self) -> bool:
@@ -338,27 +391,55 @@ def verify_frame(index: int, frame, model: BimModel, scene: OccludedMap, prior: 
     result = FrameResult(index, name or f"frame {index}", when, prior)
     if prior is None:
         result.reason = "no prior pose: give --prior X,Y,Z,YAW_DEG or --prior-file, or a source with poses"
+        result.refusal = "no prior pose"
         return _timed(result, start)
     try:
         scan = scan_points(points_sensor, config.localization)
     except LocalizationError as error:
-        result.reason = str(error)
+        result.reason, result.refusal = str(error), error.kind.value
         return _timed(result, start)
     try:
         loc = localize_cloud(scan, model, prior, (0.0, 0.0, 1.0), config.localization, scene)
     except LocalizationError as error:
-        result.reason = str(error)
+        result.reason = str(error) + prior_hint(model, prior, always=error.kind is Refusal.NO_PERMANENT_IN_VIEW)
+        result.refusal = error.kind.value
         result.depth = _depth_at_best_fit(scan, model, scene, prior, config)
         if result.depth is not None and result.depth.miscalibrated:
             result.reason += f"; at its best rigid fit {result.depth.reason} (or the prior is far off)"
         return _timed(result, start)
     result.pose, result.covariance, result.degenerate = loc.pose, loc.covariance, list(loc.degenerate)
+    result.degenerate_yaw = loc.degenerate_yaw
     result.residual, result.inliers, result.accepted = loc.residual, loc.inliers, True
     result.depth = check_depth(scan, scene, loc.pose, config.localization.max_range, config.depth, config.faces)
     _observe(result, points_sensor, loc.pose, model, scene, config, priors)
     if result.depth.miscalibrated:
         _distrust(result, f"(sensor looks miscalibrated: {result.depth.reason})")
     return _timed(result, start)
+
+
+LOW_PRIOR_M = 0.2
+"""A prior this close to the slab under it is at floor height: a sensor is carried higher (hinted on any refusal)."""
+
+
+def prior_hint(model: BimModel, prior: np.ndarray, always: bool = True) -> str:
+    """What to check of a prior the fix failed from: its height above the slab under it and its heading in
+    degrees (a prior at floor height, or a yaw given in radians, sees nothing of the map).
+
+    Args:
+        model: The BIM.
+        prior: 4x4 T_world_sensor prior.
+        always: Hint even when the prior's height looks plausible (the sensor saw no permanent element).
+
+    Returns:
+        "; check the prior: ..." to append to the refusal, or "" when not ``always`` and the height is plausible.
+    """
+    position = prior[:3, 3]
+    slab = structure_for(model).slab_height(position)
+    if not (always or position[2] - slab < LOW_PRIOR_M):
+        return ""
+    return (f"; check the prior: it puts the sensor {position[2] - slab:.2f} m above the floor under it and heads "
+            f"it {heading_deg(prior):.0f} deg from +x "
+            "(--prior takes X,Y,Z in the model's metres and the yaw in degrees, not radians)")
 
 
 def _distrust(result: FrameResult, reason: str) -> None:

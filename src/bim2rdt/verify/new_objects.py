@@ -18,8 +18,7 @@ from scipy.spatial import cKDTree
 
 from bim2rdt.bim import BimModel
 from bim2rdt.localization import voxel_means
-from bim2rdt.perception.library import element_body_mesh
-from bim2rdt.perception.observation import UNKNOWN_FAMILY, Observation
+from bim2rdt.perception import Observation, UNKNOWN_FAMILY, element_body_mesh
 from bim2rdt.registration import sample_model
 
 

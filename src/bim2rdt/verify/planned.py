@@ -37,10 +37,7 @@ from scipy.spatial import cKDTree
 
 from bim2rdt.bim import BimElement, BimModel
 from bim2rdt.localization import voxel_means
-from bim2rdt.perception.fitting import FitRules, fit_detection
-from bim2rdt.perception.library import element_body_mesh
-from bim2rdt.perception.observation import Observation
-from bim2rdt.perception.structure import movable_elements
+from bim2rdt.perception import FitRules, Observation, element_body_mesh, fit_detection, movable_elements
 from bim2rdt.registration import IcpConfig, RegistrationError, register, sample_model
 from bim2rdt.semantics import UprightPrior
 from bim2rdt.twin import PlaceEvidence
