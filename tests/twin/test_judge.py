@@ -36,7 +36,7 @@ def test_an_untrusted_fit_at_a_place_not_seen_empty_is_unverified_with_its_reaso
 @pytest.mark.parametrize("place, words", [
     (PlaceEvidence(facing=1000, in_sight=10, through=10), "not enough"),  # too little in sight
     (PlaceEvidence(facing=1000, in_sight=300, through=290, hidden=700), "hidden behind"),  # mostly hidden
-    (PlaceEvidence(facing=1000, in_sight=300, through=290, in_frame=300), "in the image"),  # mostly outside
+    (PlaceEvidence(facing=1000, in_sight=150, through=140, in_frame=200), "in the image"),  # mostly outside
     (THERE, "too few points of its own"),
     (None, "not looked at"),
 ])
@@ -48,7 +48,7 @@ def test_without_a_fit_a_place_not_shown_empty_is_not_observed_with_why(place, w
 def test_a_place_is_empty_only_in_view_in_sight_and_not_hidden():
     config = JudgeConfig()
     assert place_seen_empty(EMPTY, config)
-    assert not place_seen_empty(PlaceEvidence(1000, 800, 760, 0, in_frame=300), config)  # mostly out of the image
+    assert not place_seen_empty(PlaceEvidence(1000, 180, 170, 0, in_frame=200), config)  # mostly out of the image
     assert not place_seen_empty(PlaceEvidence(1000, 400, 390, 500), config)  # more hidden than in sight
     assert not place_seen_empty(PlaceEvidence(1000, 20, 20, 0), config)  # under min_place_points
     assert not place_seen_empty(THERE, config)

@@ -34,8 +34,10 @@ class JudgeConfig(BaseModel):
                                     "past at least this share of its surface in sight (the mission's rule).")
     min_place_points: int = Field(30, ge=1, description="Fewer samples (or image cells) of a place in sight than "
                                   "this and the view was not enough to call it empty.")
-    min_in_view: float = Field(0.5, gt=0.0, le=1.0, description="... nor when less than this share of its facing "
-                               "surface was in the image (a return on its ray, nearer or not).")
+    min_in_view: float = Field(0.25, gt=0.0, le=1.0, description="... nor when less than this share of its facing "
+                               "surface was in the image (a return on its ray, nearer or not). office1's desk moved "
+                               "1.5 m towards the camera in the IFC: 38 % in the image, all of it seen through. The "
+                               "mission passes its own ``missing_in_view`` (0.5: a station faces its target).")
     max_hidden: float = Field(0.5, ge=0.0, le=1.0, description="... nor when more than this share of its place in "
                               "the image was hidden behind something nearer (a worker, a neighbour).")
     min_fit_on: float = Field(0.1, ge=0.0, le=1.0, description="A fit counts as one of that object only when the "

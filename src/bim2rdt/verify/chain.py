@@ -23,20 +23,19 @@ from pydantic import BaseModel, ConfigDict, Field
 from bim2rdt.bim import BimModel
 from bim2rdt.localization import (LocalizationConfig, LocalizationError, OccludedMap, Refusal, depth_points,
                                   localize_cloud, scan_points)
-from bim2rdt.perception import Frame, Observation, element_body_mesh, explained, movable_elements, structure_for
-from bim2rdt.registration import sample_model
+from bim2rdt.perception import Frame, Observation, explained, movable_elements, structure_for
 from bim2rdt.semantics import KnowledgeBasePriors, UprightPrior
 from bim2rdt.sources import as_recording
-from bim2rdt.twin import ElementStatus, FitEvidence, JudgeConfig, TwinConfig, judge_evidence
+from bim2rdt.twin import ElementStatus, JudgeConfig, TwinConfig
 from bim2rdt.verify.depth_check import DepthCheck, DepthCheckConfig, check_depth
 from bim2rdt.verify.errors import VerifyError
 from bim2rdt.verify.faces import PlanarFacesConfig
-from bim2rdt.verify.fusion import (ElementLook, FusedElement, FusionConfig, fuse_element, horizontal_sigma,
-                                   located_covariance, merge_new)
+from bim2rdt.verify.fusion import (ElementLook, FusedElement, FusionConfig, fuse_frames, horizontal_sigma,
+                                   located_covariance)
 from bim2rdt.verify.new_objects import NewCluster, NewObjectConfig, new_clusters
-from bim2rdt.verify.planned import PlannedConfig, check_planned, owned_points, place_evidence, planned_in_view
+from bim2rdt.verify.planned import PlannedConfig, check_planned, look_at, owned_points, planned_in_view
 from bim2rdt.verify.priors import heading_deg, levelled
-from bim2rdt.verify.transient import TransientConfig, transient_reason
+from bim2rdt.verify.transient import RECENT_FRAMES, TransientConfig, mark_transient
 from bim2rdt.verify.rays import RangeLookup
 
 
@@ -287,7 +286,7 @@ def verify_frames(frames: Iterable, model: BimModel, prior: np.ndarray | None = 
     results: list[FrameResult] = []
     anchor: tuple[np.ndarray | None, np.ndarray] | None = None if prior is None else (None, np.asarray(prior))
     anchor_covariance = None  # the located covariance of the fix the anchor is (None: the user's prior)
-    recent: deque = deque(maxlen=RECENT_FRAMES)
+    recent: deque = deque(maxlen=RECENT_FRAMES)  # the frames a cluster is tested for motion against
     recording = as_recording(frames)
     for index, frame in enumerate(recording):
         own = frame.T_world_camera if isinstance(frame, Frame) else None
@@ -297,7 +296,7 @@ def verify_frames(frames: Iterable, model: BimModel, prior: np.ndarray | None = 
             result.located_covariance = located_covariance(result.covariance, anchor, anchor_covariance, own,
                                                            config.fusion)
             anchor_covariance = result.located_covariance
-        _mark_transient(result, recent, config)
+        mark_transient(result, recent, config.transient)
         if not result.accepted:
             result.lookup = None
         if result.accepted and (anchor is not None or own is not None):
@@ -313,45 +312,9 @@ def verify_frames(frames: Iterable, model: BimModel, prior: np.ndarray | None = 
         raise VerifyError("the source holds no frames" + (f" (all {len(dropped)} dropped: {reasons})" if dropped
                                                           else ""))
     verified = VerifyResult(results, dropped, list(recording.warnings))
-    verified.elements, verified.new, verified.transient = fused(results, config)
+    verified.elements, verified.new, verified.transient = fuse_frames(results, config.min_fitness, config.fusion,
+                                                                      config.judge)
     return verified
-
-
-RECENT_FRAMES = 8
-"""A cluster is tested for motion against this many frames before and after it (their range lookups are kept)."""
-
-
-def _mark_transient(result: FrameResult, recent: deque, config: VerifyConfig) -> None:
-    """Mark ``result``'s clusters that are people, or that the ``recent`` frames saw through (and mark the
-    recent frames' clusters this frame saw through); then keep this frame's lookup among the recent ones."""
-    lookups = [earlier.lookup for earlier in recent]
-    result.clusters = [replace(c, transient=transient_reason(c, lookups, config.transient)) for c in result.clusters]
-    if result.lookup is None:
-        return
-    for earlier in recent:
-        earlier.clusters = [c if c.transient else replace(c, transient=transient_reason(c, [result.lookup],
-                                                                                        config.transient))
-                            for c in earlier.clusters]
-    if len(recent) == recent.maxlen:
-        recent[0].lookup = None  # out of the window: its returns are no longer needed
-    recent.append(result)
-
-
-def fused(results: list[FrameResult], config: VerifyConfig) -> tuple[list[FusedElement], list[NewCluster],
-                                                                     list[NewCluster]]:
-    """Every planned object judged on all the frames that saw it, and the new objects of all frames merged
-    (transient ones apart): see :mod:`.fusion`."""
-    fixes = {r.index: (r.pose, r.located_covariance) for r in results if r.accepted}
-    looks: dict[str, list[ElementLook]] = {}
-    for result in results:
-        for look in result.looks:
-            looks.setdefault(look.global_id, []).append(look)
-    elements = [fuse_element(seen, fixes, config.min_fitness, config.fusion, config.judge)
-                for seen in looks.values()]
-    located = [c for r in results if r.accepted and horizontal_sigma(r.located_covariance) <= config.fusion.max_sigma
-               for c in r.clusters]
-    merged = merge_new(located, config.fusion)
-    return elements, [c for c in merged if not c.transient], [c for c in merged if c.transient]
 
 
 def _status(status: ElementStatus | None) -> str:
@@ -503,7 +466,8 @@ def _observe(result: FrameResult, points_sensor: np.ndarray, pose: np.ndarray, m
                                                            priors)}
     kept = []
     for element in elements:
-        look = _look(element, fits.get(element.global_id), model, pose, behind_walls, lookup, result.index, config)
+        look = look_at(element, fits.get(element.global_id), model, pose[:3, 3], behind_walls, lookup.compare,
+                       result.index, config.planned, config.judge, config.min_fitness)
         result.looks.append(look)
         if look.judgement.status is ElementStatus.MISSING:
             result.missing.append(element.global_id)
@@ -516,32 +480,6 @@ def _observe(result: FrameResult, points_sensor: np.ndarray, pose: np.ndarray, m
             left = left[owned_points(left, unsure, model, config.planned) < 0]
         result.clusters = new_clusters(left, kept, model, slab, result.index, config.new)
         result.observations += [c.observation for c in result.clusters]
-
-
-def _look(element, fit, model: BimModel, pose: np.ndarray, behind_walls, lookup: RangeLookup, index: int,
-          config: VerifyConfig) -> ElementLook:
-    """One planned element as this frame saw it: its place at the planned pose, its fit (distrusted when the
-    sensor saw through the fitted body: the fit landed on something else), and the judge's verdict."""
-    body = sample_model(element_body_mesh(model, element.global_id), config.planned.samples,
-                        seed=config.planned.icp.seed, drop_resting_face=False)
-    margin = config.planned.support
-    place = place_evidence(body, element.placement, pose[:3, 3], behind_walls, lookup.compare, margin)
-    evidence, observation = None, None
-    if fit is not None:
-        observation = fit.observation
-        at_fit = place_evidence(body, observation.pose, pose[:3, 3], behind_walls, lookup.compare, margin)
-        problem = ""
-        if at_fit.in_sight + at_fit.hidden and at_fit.on_share < config.judge.min_fit_on:
-            problem = (f"(the sensor measured on only {at_fit.on_share:.0%} of the fitted body's surface in the "
-                       f"image, under {config.judge.min_fit_on:.0%}: the fit landed on something else)")
-        evidence = FitEvidence(observation.fitness, problem)
-    judgement = judge_evidence(place, evidence, config.min_fitness, config.judge)
-    if observation is not None:
-        if judgement.status is ElementStatus.MISSING:
-            observation = None
-        elif judgement.status is not None:
-            observation = replace(observation, status=judgement.status, reason=judgement.reason)
-    return ElementLook(element.global_id, index, place, evidence, observation, judgement)
 
 
 def _timed(result: FrameResult, start: float) -> FrameResult:

@@ -220,3 +220,20 @@ def _merged(members: list[NewCluster]) -> NewCluster:
     return replace(largest, observation=replace(largest.observation, frames=frames), frames=frames, transient=why,
                    sample=np.concatenate([c.sample for c in members]),
                    low=np.min([c.low for c in members], axis=0), high=np.max([c.high for c in members], axis=0))
+
+
+def fuse_frames(results, min_fitness: float, config: FusionConfig = FusionConfig(),
+                judge: JudgeConfig = JudgeConfig()) -> tuple[list[FusedElement], list[NewCluster], list[NewCluster]]:
+    """Every planned object judged on all the frames that saw it, and the new objects of all located frames
+    merged, transient ones apart. ``results``: the frames' results (``index``, ``accepted``, ``pose``,
+    ``located_covariance``, ``looks``, ``clusters``)."""
+    fixes = {r.index: (r.pose, r.located_covariance) for r in results if r.accepted}
+    looks: dict[str, list[ElementLook]] = {}
+    for result in results:
+        for look in result.looks:
+            looks.setdefault(look.global_id, []).append(look)
+    elements = [fuse_element(seen, fixes, min_fitness, config, judge) for seen in looks.values()]
+    located = [c for r in results if r.accepted and horizontal_sigma(r.located_covariance) <= config.max_sigma
+               for c in r.clusters]
+    merged = merge_new(located, config)
+    return elements, [c for c in merged if not c.transient], [c for c in merged if c.transient]

@@ -29,7 +29,7 @@ the scan near where the BIM says it stands. So, for the located points the perma
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
@@ -40,7 +40,8 @@ from bim2rdt.localization import voxel_means
 from bim2rdt.perception import FitRules, Observation, element_body_mesh, fit_detection, movable_elements
 from bim2rdt.registration import IcpConfig, RegistrationError, register, sample_model
 from bim2rdt.semantics import UprightPrior
-from bim2rdt.twin import PlaceEvidence
+from bim2rdt.twin import ElementStatus, FitEvidence, JudgeConfig, PlaceEvidence, judge_evidence
+from bim2rdt.verify.fusion import ElementLook
 
 
 class PlannedConfig(BaseModel):
@@ -151,6 +152,31 @@ def fitted(body, points: np.ndarray, kept: np.ndarray, prior: UprightPrior | Non
         return fit_detection(samples, normals, points, kept, [kept], prior, slab, rules).pose
     except RegistrationError:
         return kept
+
+
+def look_at(element: BimElement, fit: PlannedFit | None, model: BimModel, sensor_world: np.ndarray, behind_walls,
+            compare, frame_index: int, config: PlannedConfig, judge: JudgeConfig, min_fitness: float) -> ElementLook:
+    """One planned element as one frame saw it: its place at the
+    planned pose, its ``fit`` (distrusted when the sensor measured on under ``judge.min_fit_on`` of the fitted
+    body's surface in the image: the fit landed on something else), and the one judge's verdict on this frame."""
+    body = _body(model, element, config)
+    place = place_evidence(body, element.placement, sensor_world, behind_walls, compare, config.support)
+    evidence, observation = None, None
+    if fit is not None:
+        observation = fit.observation
+        at_fit = place_evidence(body, observation.pose, sensor_world, behind_walls, compare, config.support)
+        problem = ""
+        if at_fit.in_sight + at_fit.hidden and at_fit.on_share < judge.min_fit_on:
+            problem = (f"(the sensor measured on only {at_fit.on_share:.0%} of the fitted body's surface in the "
+                       f"image, under {judge.min_fit_on:.0%}: the fit landed on something else)")
+        evidence = FitEvidence(observation.fitness, problem)
+    judgement = judge_evidence(place, evidence, min_fitness, judge)
+    if observation is not None:
+        if judgement.status is ElementStatus.MISSING:
+            observation = None
+        elif judgement.status is not None:
+            observation = replace(observation, status=judgement.status, reason=judgement.reason)
+    return ElementLook(element.global_id, frame_index, place, evidence, observation, judgement)
 
 
 def place_evidence(body, T_world_model: np.ndarray, sensor_world: np.ndarray, behind_walls, compare,

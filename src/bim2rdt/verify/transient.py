@@ -13,7 +13,9 @@ object the BIM lacks and must not become a "new" object with a BCF topic. Two te
 
 from __future__ import annotations
 
+from collections import deque
 from collections.abc import Iterable
+from dataclasses import replace
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
@@ -66,3 +68,23 @@ def transient_reason(cluster: NewCluster, lookups: Iterable[RangeLookup],
     if moved(cluster, lookups, config):
         return "moved: another frame saw through where it stood"
     return ""
+
+
+RECENT_FRAMES = 8
+"""A cluster is tested for motion against this many frames before and after it (their range lookups are kept)."""
+
+
+def mark_transient(result, recent: deque, config: TransientConfig = TransientConfig()) -> None:
+    """Mark the clusters of ``result`` (a frame's result: ``clusters``, ``lookup``) that are people, or that the
+    ``recent`` frames saw through, and the recent frames' clusters this frame saw through; then keep this frame
+    among the recent ones (the oldest gives up its lookup: its returns are no longer needed)."""
+    lookups = [earlier.lookup for earlier in recent]
+    result.clusters = [replace(c, transient=transient_reason(c, lookups, config)) for c in result.clusters]
+    if result.lookup is None:
+        return
+    for earlier in recent:
+        earlier.clusters = [c if c.transient else replace(c, transient=transient_reason(c, [result.lookup], config))
+                            for c in earlier.clusters]
+    if len(recent) == recent.maxlen:
+        recent[0].lookup = None
+    recent.append(result)
