@@ -23,12 +23,17 @@ from bim2rdt.twin.verdict import fit_trusted
 __all__ = ["DigitalTwin", "Deviation", "ElementState", "ElementStatus", "EVENT_KINDS", "Evidence", "Fit", "FitEvidence",
            "JudgeConfig", "Judgement", "MISSING", "PlaceEvidence", "judge_evidence", "place_seen_empty",
            "OBSERVATION", "SAFETY", "STATUS", "STATUS_COLOURS", "Tolerance", "TolerancePolicy", "TolerancePreset",
-           "TwinConfig", "TwinError", "TwinEvent", "TwinSink", "fit_trusted", "pose_deviation"]
+           "TwinConfig", "TwinError", "TwinEvent", "TwinSink", "fit_trusted", "pose_deviation",
+           "ISSUES", "TopicView", "topic_title", "vertical_fov_deg", "write_bcf"]
+
+_HOMES = {"DigitalTwin": "twin", "ISSUES": "bcf_export", "TopicView": "bcf_export", "topic_title": "bcf_export",
+          "write_bcf": "bcf_export", "vertical_fov_deg": "snapshot"}
+"""Names imported on first use: the store (SQLAlchemy), the BIM reader, BCF and rendering are heavy."""
 
 
 def __getattr__(name: str):
-    if name == "DigitalTwin":  # imported on first use: the store (SQLAlchemy) and the BIM reader are heavy
-        from bim2rdt.twin.twin import DigitalTwin
+    if name in _HOMES:
+        import importlib
 
-        return DigitalTwin
+        return getattr(importlib.import_module(f"bim2rdt.twin.{_HOMES[name]}"), name)
     raise AttributeError(name)

@@ -24,12 +24,13 @@ from bcf.v2.visinfo import VisualizationInfoHandler
 
 from bim2rdt.atomic import write_bytes_atomic
 from bim2rdt.bim import BimModel
-from bim2rdt.perception.camera import Intrinsics, look_at
+from bim2rdt.perception import Intrinsics, look_at
 from bim2rdt.twin.records import ElementState
 from bim2rdt.twin.snapshot import Layer, render_snapshot, vertical_fov_deg
 from bim2rdt.twin.status import STATUS_COLOURS, ElementStatus
 
 ISSUES = (ElementStatus.DEVIATING, ElementStatus.MISSING, ElementStatus.NEW)
+"""The statuses a BCF topic is written for."""
 SNAPSHOT = "snapshot.png"
 CONTEXT_RADIUS_M = 8.0
 """BIM elements within this distance of the issue are drawn around it."""
@@ -74,7 +75,7 @@ def write_bcf(model: BimModel, states: Mapping[str, ElementState], path: Path, o
     issues = sorted((s for s in states.values() if s.status in ISSUES), key=lambda s: (s.status.value, s.global_id))
     for state in issues:
         view = views.get(state.global_id)
-        topic = bcf.add_topic(title(state), description(state, None if view is None else view.seen),
+        topic = bcf.add_topic(topic_title(state), description(state, None if view is None else view.seen),
                               author=f"bim2rdt/{state.robot or 'robot'}", topic_type="Issue", topic_status="Open")
         topic.topic.labels = [state.status.value] + ([state.family] if state.family else [])
         topic.markup.header = bcf_model.Header(file=[bcf_model.HeaderFile(filename=model.path.name,
@@ -83,14 +84,22 @@ def write_bcf(model: BimModel, states: Mapping[str, ElementState], path: Path, o
         fov = vertical_fov_deg(intrinsics) if view is None else view.fov_deg
         png = view.snapshot if view is not None else None
         if png is None:
-            png = render_snapshot(camera, context.layers(state, object_mesh), intrinsics, title(state))
+            png = render_snapshot(camera, context.layers(state, object_mesh), intrinsics, topic_title(state))
         visinfo = bcf_model.VisualizationInfo(guid=str(uuid.uuid4()), components=_components(state.global_id),
                                               perspective_camera=_bcf_camera(camera, fov))
         topic.add_visinfo_handler(VisualizationInfoHandler(visinfo, snapshot=png), snapshot_filename=SNAPSHOT)
     return _save_atomic(bcf, Path(path))
 
 
-def title(state: ElementState) -> str:
+def topic_title(state: ElementState) -> str:
+    """A BCF topic's title: what the issue is, in a few words ("Deviating: cone moved 30 cm").
+
+    Args:
+        state: The element's state.
+
+    Returns:
+        The title.
+    """
     what = state.family or state.ifc_class or "object"
     if state.status is ElementStatus.DEVIATING:
         d = state.deviation

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from bim2rdt.perception.observation import ElementStatus
+from bim2rdt.twin.status import ElementStatus
 from bim2rdt.twin.verdict import fit_trusted
 
 

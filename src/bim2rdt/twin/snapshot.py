@@ -37,6 +37,14 @@ class Layer:
 
 
 def vertical_fov_deg(intrinsics: Intrinsics) -> float:
+    """A camera's vertical field of view, degrees (what a BCF viewpoint's ``FieldOfView`` holds).
+
+    Args:
+        intrinsics: The pinhole camera.
+
+    Returns:
+        The angle between the image's top and bottom edges, seen from the camera.
+    """
     return float(np.degrees(2 * np.arctan2(intrinsics.height / 2, intrinsics.fy)))
 
 

@@ -24,7 +24,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
-from bim2rdt.perception.observation import ElementStatus, Observation
+from bim2rdt.perception import Observation
+from bim2rdt.twin import ElementStatus
 from bim2rdt.twin import FitEvidence, JudgeConfig, Judgement, PlaceEvidence, judge_evidence
 from bim2rdt.verify.new_objects import NewCluster
 

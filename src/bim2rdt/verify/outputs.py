@@ -12,7 +12,7 @@ from pathlib import Path
 from bim2rdt.atomic import write_bytes_atomic
 from bim2rdt.bim import BimModel
 from bim2rdt.twin import DigitalTwin, ElementState, ElementStatus, TwinConfig, TwinError
-from bim2rdt.twin.bcf_export import write_bcf
+from bim2rdt.twin import write_bcf
 from bim2rdt.verify.chain import VerifyResult, family_priors
 from bim2rdt.verify.report import FrameView, topic_views, write_report
 

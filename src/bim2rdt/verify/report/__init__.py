@@ -10,7 +10,7 @@ from pathlib import Path
 from bim2rdt.atomic import write_bytes_atomic
 from bim2rdt.bim import BimModel
 from bim2rdt.twin import ElementState
-from bim2rdt.twin.bcf_export import TopicView
+from bim2rdt.twin import TopicView
 from bim2rdt.verify.report.capture import FrameCapture, FrameView
 from bim2rdt.verify.report.topics import frame_words, topic_views
 

@@ -9,8 +9,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from bim2rdt.perception.camera import Intrinsics
-from bim2rdt.perception.frame import Frame
+from bim2rdt.perception import Frame, Intrinsics
 
 THUMB_WIDTH = 320
 """Width (pixels) of a frame's copy; its height keeps the aspect."""

@@ -15,7 +15,7 @@ import trimesh
 from PIL import Image, ImageDraw
 from scipy.spatial import ConvexHull, QhullError
 
-from bim2rdt.perception.camera import Intrinsics
+from bim2rdt.perception import Intrinsics
 
 NEAR_M = 0.05
 """Vertices closer than this to the camera plane are left out of an outline."""

@@ -22,7 +22,7 @@ import numpy as np
 
 from bim2rdt.perception import UNKNOWN_FAMILY
 from bim2rdt.twin import STATUS_COLOURS, ElementState, ElementStatus
-from bim2rdt.twin.bcf_export import TopicView, title
+from bim2rdt.twin import TopicView, topic_title
 from bim2rdt.verify.report.rows import ElementRow
 from bim2rdt.verify.report.topics import frame_words
 
@@ -212,7 +212,7 @@ def _topics(data: ReportData) -> str:
         picture = f"<img alt='snapshot {s.global_id}' src='{_photo_uri(view.snapshot)}'>" if view and view.snapshot \
             else ""
         seen = f"seen in {_e(view.seen)}" if view else "rendered view (no frame image)"
-        cards.append(f"<div class='topic' id='topic-{s.global_id}'><b>{_e(title(s))}</b>{picture}"
+        cards.append(f"<div class='topic' id='topic-{s.global_id}'><b>{_e(topic_title(s))}</b>{picture}"
                      f"<span class='small'>{seen}; <a href='#el-{s.global_id}'>element row</a></span></div>")
     return ("<h2>Issues (BCF topics)</h2><p class='small'>Each topic of <a href='issues.bcf'>issues.bcf</a> opens "
             f"from the sensor that saw it (its pose and field of view) in a BCF viewer.</p>{''.join(cards)}")

@@ -29,7 +29,7 @@ def frame_residuals(frames: Sequence, model: BimModel, views: Mapping[int, Frame
     Returns:
         Frame index -> (h, w) residuals, metres.
     """
-    from bim2rdt.localization.cloud import OccludedMap
+    from bim2rdt.localization import OccludedMap
 
     chosen = [f for f in frames if f.index in views and f.accepted and f.pose is not None][:limit]
     if not chosen:

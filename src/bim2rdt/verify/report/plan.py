@@ -19,7 +19,7 @@ from matplotlib.patches import Ellipse, Patch  # noqa: E402
 from scipy.spatial import ConvexHull, QhullError  # noqa: E402
 
 from bim2rdt.bim import BimModel  # noqa: E402
-from bim2rdt.perception.structure import movable_elements  # noqa: E402
+from bim2rdt.perception import movable_elements  # noqa: E402
 from bim2rdt.planning import OccupancyGrid  # noqa: E402
 from bim2rdt.twin import STATUS_COLOURS, ElementState, ElementStatus  # noqa: E402
 

@@ -10,10 +10,9 @@ from datetime import datetime, timezone
 import numpy as np
 
 from bim2rdt.bim import BimModel
-from bim2rdt.perception.camera import CameraError, look_at
+from bim2rdt.perception import CameraError, look_at
 from bim2rdt.twin import STATUS_COLOURS, ElementState
-from bim2rdt.twin.bcf_export import ISSUES, TopicView
-from bim2rdt.twin.snapshot import vertical_fov_deg
+from bim2rdt.twin import ISSUES, TopicView, vertical_fov_deg
 from bim2rdt.verify.report.capture import FrameView
 from bim2rdt.verify.report.overlay import Outline, outlined_png
 from bim2rdt.verify.report.plan import measured_vertices
