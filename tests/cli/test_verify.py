@@ -111,8 +111,9 @@ def test_without_the_depth_correction_nothing_is_deviating_and_the_sensor_looks_
     truth = _truth(sensors)
     result = _run(sensors / "pcl" / "office1.ifc", sensors / "pcl" / "office1.pcd", tmp_path, "--prior",
                   _prior(truth))
-    assert result.exit_code == 0, result.output
+    assert result.exit_code == 3, result.output  # refused by the basin: no frame localized
     summary = json.loads(result.output)
+    assert summary["localized"] == 0 and "looks miscalibrated" in summary["why"]
     assert summary["miscalibrated"] and "miscalibrated" in summary["warnings"][0]
     assert summary["verdicts"]["deviating"] == 0
     states = json.loads((tmp_path / "twin.json").read_text())["elements"]

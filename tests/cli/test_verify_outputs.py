@@ -36,7 +36,7 @@ def inputs(tmp_path_factory):
 
 def _verify(ifc, bag, out):
     result = runner.invoke(app, ["verify", str(ifc), str(bag), "--out", str(out), "--detector", "none"])
-    assert result.exit_code == 0, result.output
+    assert result.exit_code == 3, result.output  # no frame of the random-depth bag localizes: its set is written
     return result.output
 
 

@@ -57,10 +57,10 @@ def _render(model, T_world_camera: np.ndarray, moved: dict[str, np.ndarray]) -> 
 def run(site_model, tmp_path_factory):
     """verify of the frame from a prior 8 cm off, its twin and every output."""
     out = tmp_path_factory.mktemp("report")
-    T_true = look_at((4.2, 5.6, 1.3), (4.2, 2.0, 0.3))
-    frame = _render(site_model, T_true, {CONE: np.array([0.3, 0.0, 0.0])})
+    T_true = look_at((6.7, 4.5, 1.3), (4.2, 1.5, 0.3))  # across a corner: the fix is full (a view of one wall
+    frame = _render(site_model, T_true, {CONE: np.array([0.3, 0.0, 0.0])})  # leaves its objects unverified)
     prior = T_true.copy()
-    prior[:3, 3] += (0.0, 0.08, 0.0)  # along the view: x is free in a view of one wall, so the prior keeps it
+    prior[:3, 3] += (0.0, 0.08, 0.0)
     capture = FrameCapture([frame])
     result = verify_frames(capture, site_model, prior)
     assert result.frames[0].accepted, result.frames[0].reason
