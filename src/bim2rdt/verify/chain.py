@@ -33,6 +33,7 @@ from bim2rdt.verify.new_objects import NewObjectConfig, new_objects
 from bim2rdt.verify.planned import PlannedConfig, check_planned, planned_in_view, seen_empty
 from bim2rdt.verify.priors import levelled
 from bim2rdt.verify.rays import RangeLookup
+from bim2rdt.verify.timing import stage
 
 
 def real_sensor_localization() -> LocalizationConfig:
@@ -167,7 +168,8 @@ def verify_frames(frames: Iterable, model: BimModel, prior: np.ndarray | None = 
         VerifyError: The source holds no frames, or the model has nothing to localize on.
     """
     try:
-        scene = OccludedMap.of(model)
+        with stage("setup"):
+            scene = OccludedMap.of(model)
     except LocalizationError as error:
         raise VerifyError(str(error)) from None
     priors = family_priors(model) if priors is None else priors
@@ -230,23 +232,28 @@ def verify_frame(index: int, frame, model: BimModel, scene: OccludedMap, prior: 
         result.reason = "no prior pose: give --prior X,Y,Z,YAW_DEG or --prior-file, or a source with poses"
         return _timed(result, start)
     try:
-        scan = scan_points(_Cloud(points_sensor), config.localization)
+        with stage("localize"):
+            scan = scan_points(_Cloud(points_sensor), config.localization)
     except LocalizationError as error:
         result.reason = str(error)
         return _timed(result, start)
     try:
-        loc = localize_cloud(scan, model, prior, (0.0, 0.0, 1.0), config.localization)
+        with stage("localize"):
+            loc = localize_cloud(scan, model, prior, (0.0, 0.0, 1.0), config.localization)
     except LocalizationError as error:
         result.reason = str(error)
-        result.depth = _depth_at_best_fit(scan, model, scene, prior, config)
+        with stage("depth check"):
+            result.depth = _depth_at_best_fit(scan, model, scene, prior, config)
         if result.depth is not None and result.depth.miscalibrated:
             result.reason += f"; at its best rigid fit {result.depth.reason} (or the prior is far off)"
         return _timed(result, start)
     result.pose, result.covariance, result.degenerate = loc.pose, loc.covariance, list(loc.degenerate)
     result.residual, result.inliers, result.accepted = loc.residual, loc.inliers, True
-    result.depth = check_depth(scan, scene, loc.pose, config.localization.max_range, config.depth)
-    result.observations, result.missing = _observe(index, points_sensor, loc.pose, model, scene, config,
-                                                    priors)
+    with stage("depth check"):
+        result.depth = check_depth(scan, scene, loc.pose, config.localization.max_range, config.depth)
+    with stage("objects"):
+        result.observations, result.missing = _observe(index, points_sensor, loc.pose, model, scene, config,
+                                                        priors)
     if result.depth.miscalibrated:
         reason = f"(sensor looks miscalibrated: {result.depth.reason})"
         result.observations = [replace(o, status=ElementStatus.UNVERIFIED, reason=reason) for o in result.observations]
