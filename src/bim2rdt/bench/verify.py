@@ -9,8 +9,10 @@ pinning):
 - ``grabber``: PCL's three ImageGrabber Kinect frames, and ``tum``: the TUM RGB-D frame. Neither has a BIM of
   its own: both are verified against office1.ifc from office1's prior, so their fix is refused and the stages a
   refused frame runs are timed (localize, and the depth check at the best rigid fit);
-- ``bag-N``: the demo's robot's run as a ROS 2 bag (``demo --record``) with stations for N site objects,
-  verified against the demo's site.ifc; two sizes show whether memory stays flat as the run grows.
+- ``bag``: the demo's robot's run as a ROS 2 bag (``demo --record``: stations for every one of the site's 10
+  objects of interest), verified against the demo's site.ifc, and ``bag-xN``: the same bag played N times in a
+  row as one source (the site has no more objects to station the robot at; a run N times as long is what shows
+  whether memory stays flat as the run grows).
 
 Stages per frame: ``read`` (the source's next frame), ``localize``, ``depth check``, ``objects`` (planned and
 new, :mod:`bim2rdt.verify.timing` hooks); per run: ``setup`` (the occlusion map), ``twin`` (recording the twin)
@@ -57,6 +59,8 @@ class Case:
     note: str = ""
     nominal_hz: float | None = None
     """The sensor's frame rate when the recording holds a single frame (Kinect v1: 30 Hz)."""
+    repeat: int = 1
+    """Play the source this many times in a row as one run."""
 
 
 @dataclass
@@ -106,17 +110,32 @@ def _office_prior(T_truth: np.ndarray) -> np.ndarray:
     return prior_pose((T_truth[0, 3] + 0.14, T_truth[1, 3] + 0.14, T_truth[2, 3]), yaw)
 
 
-def demo_bag(folder: Path, targets: int) -> Case:
-    """The demo's robot run with stations for the first ``targets`` site objects, recorded as a ROS 2 bag in
-    ``folder`` (made once: an existing bag there is reused)."""
+def demo_bags(folder: Path, repeat: int) -> list[Case]:
+    """The demo's robot run recorded as a ROS 2 bag in ``folder`` (made once: a bag there is reused), as it is and
+    played ``repeat`` times in a row."""
     bag = folder / "run"
     if not (bag / "run.mcap").exists():
         from bim2rdt.demo.site_day import run_site_day
 
-        day = run_site_day(folder, workers=1, minutes=2.0, record=folder / "run.mcap", max_targets=targets)
+        day = run_site_day(folder, workers=1, minutes=2.0, record=folder / "run.mcap")
         day.twin.close()
-    return Case(f"bag-{targets}", folder / "site.ifc", bag, None, None,
-                f"the demo's bag, stations for {targets} site objects, on the demo's site.ifc")
+    once = Case("bag", folder / "site.ifc", bag, note="the demo's bag (a station per site object) on its site.ifc")
+    return [once, Case(f"bag-x{repeat}", once.ifc, bag, repeat=repeat,
+                       note=f"the demo's bag played {repeat} times in a row as one run")]
+
+
+class _Repeated:
+    """A source played ``times`` times in a row (what it dropped and warned about: the last play's)."""
+
+    def __init__(self, frames, times: int) -> None:
+        self._frames, self._times = frames, times
+
+    def __iter__(self) -> Iterator:
+        for _ in range(self._times):
+            yield from self._frames
+
+    def __getattr__(self, name: str):
+        return getattr(self._frames, name)
 
 
 class _TimedFrames:
@@ -162,7 +181,8 @@ def run_case(case: Case, out: Path) -> CaseRun:
     run = CaseRun(case.name, case.note)
     model = load_ifc(case.ifc, cache_dir=ifc_cache_dir(settings))
     options = {"depth_correction": tuple(case.correction)} if case.correction is not None else {}
-    frames = _TimedFrames(open_source(case.source, **options))
+    source = open_source(case.source, **options)
+    frames = _TimedFrames(_Repeated(source, case.repeat) if case.repeat > 1 else source)
     wall, cpu = defaultdict(list), defaultdict(list)
     current_wall, current_cpu = defaultdict(float), defaultdict(float)
     run_wall, run_cpu = defaultdict(float), defaultdict(float)
@@ -250,9 +270,9 @@ def summarise(run: CaseRun) -> dict:
 
 
 def memory_flat(rows: list[dict]) -> dict | None:
-    """Peak memory of the smallest and largest bag cases, and whether it stayed flat
+    """Peak memory of the shortest and longest bag cases, and whether it stayed flat
     (:data:`MEMORY_GROWTH_LIMIT`); None with fewer than two bag cases."""
-    bags = sorted((r for r in rows if r["case"].startswith("bag-") and "error" not in r), key=lambda r: r["frames"])
+    bags = sorted((r for r in rows if r["case"].startswith("bag") and "error" not in r), key=lambda r: r["frames"])
     if len(bags) < 2:
         return None
     small, large = bags[0], bags[-1]
@@ -262,17 +282,18 @@ def memory_flat(rows: list[dict]) -> dict | None:
             "ratio": round(ratio, 3), "passed": ratio <= MEMORY_GROWTH_LIMIT}
 
 
-def run_bench(sensors: Path, bag_sizes: tuple[int, ...] = (3, 12), bag_dir: Path | None = None,
+def run_bench(sensors: Path, repeat: int = 4, bag_dir: Path | None = None,
               cases: tuple[str, ...] | None = None) -> dict:
-    """Every case (see the module's note), each in its own process; ``bag_sizes``: the demo bags' station counts
-    (made in ``bag_dir``, kept there for the next run; a temporary folder when None); ``cases``: only these."""
+    """Every case (see the module's note), each in its own process; ``repeat``: how many times the long bag case
+    plays the demo's bag (made in ``bag_dir`` and kept there for the next run; a temporary folder when None);
+    ``cases``: only these."""
     import os
 
     with tempfile.TemporaryDirectory() as scratch:
         bags_root = Path(bag_dir) if bag_dir is not None else Path(scratch) / "bags"
         todo = office_cases(sensors)
-        todo += [demo_bag(bags_root / f"stations-{n}", n) for n in bag_sizes
-                 if cases is None or f"bag-{n}" in cases]
+        if cases is None or any(name.startswith("bag") for name in cases):
+            todo += demo_bags(bags_root, repeat)
         todo = [c for c in todo if cases is None or c.name in cases]
         rows = [summarise(run_isolated(case, Path(scratch) / "out" / case.name)) for case in todo]
     load = os.getloadavg()

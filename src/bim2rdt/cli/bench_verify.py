@@ -16,27 +16,17 @@ def register(app: typer.Typer, bench_app: typer.Typer) -> None:
     bench_app.command("verify")(bench_verify)
 
 
-def _stations(text: str) -> tuple[int, ...]:
-    try:
-        sizes = tuple(int(part) for part in text.split(",") if part.strip())
-    except ValueError:
-        sizes = ()
-    if not sizes or min(sizes) < 1:
-        raise typer.BadParameter(f"{text!r}: give station counts as N,M (each at least 1), e.g. 3,12")
-    return sizes
-
-
 def bench_verify(
     sensors: Path = typer.Option(Path(os.environ.get("BIM2RDT_SENSORS", "../shared/data/sensors")), "--sensors",
                                  help="The real sensor data folder (pcl/office1.*, pcl/grabber, tum); default "
                                       "$BIM2RDT_SENSORS or ../shared/data/sensors."),
-    bags: str = typer.Option("3,12", "--bags", help="The demo bags' sizes, as the stations (site objects) each "
-                             "visits, comma-separated; the smallest and the largest show whether memory stays flat."),
+    repeat: int = typer.Option(4, "--repeat", min=2, help="The long bag case plays the demo's bag this many times "
+                               "in a row: its peak memory against the bag's once shows whether memory stays flat."),
     bag_dir: Path | None = typer.Option(None, "--bag-dir", parser=out_path,
-                                        help="Keep the demo bags here and reuse them on the next run (default: "
-                                             "made afresh in a temporary folder)."),
+                                        help="Keep the demo's bag here and reuse it on the next run (default: "
+                                             "made afresh in a temporary folder; making it runs the demo's day)."),
     cases: str | None = typer.Option(None, "--cases", help="Only these cases, comma-separated (office1, grabber, "
-                                     "tum, bag-N)."),
+                                     "tum, bag, bag-xN)."),
     one_core: bool = typer.Option(True, "--one-core/--all-cores",
                                   help="Pin the process to one CPU: the per-frame targets are for one core."),
     out: Path = typer.Option(Path("out/bench/verify"), "--out", parser=out_path, callback=run_folder,
@@ -51,7 +41,7 @@ def bench_verify(
     if one_core and hasattr(os, "sched_setaffinity"):
         os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
     wanted = tuple(c.strip() for c in cases.split(",") if c.strip()) if cases else None
-    record = run_bench(sensors, _stations(bags), bag_dir, wanted)
+    record = run_bench(sensors, repeat, bag_dir, wanted)
     write_bytes_atomic(out / "results.json", json.dumps(record, indent=2).encode("utf-8"))
     if as_json:
         print_json(record)
