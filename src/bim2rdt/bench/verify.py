@@ -30,7 +30,7 @@ import resource
 import tempfile
 import time
 from collections import defaultdict
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
@@ -110,15 +110,15 @@ def _office_prior(T_truth: np.ndarray) -> np.ndarray:
     return prior_pose((T_truth[0, 3] + 0.14, T_truth[1, 3] + 0.14, T_truth[2, 3]), yaw)
 
 
-def demo_bags(folder: Path, repeat: int) -> list[Case]:
-    """The demo's robot run recorded as a ROS 2 bag in ``folder`` (made once: a bag there is reused), as it is and
-    played ``repeat`` times in a row."""
+def demo_bags(folder: Path, repeat: int, make_bag: Callable[[Path], None] | None = None) -> list[Case]:
+    """The demo's robot run recorded as a ROS 2 bag in ``folder`` (``folder``/run/run.mcap with the demo's
+    site.ifc beside it), as it is and played ``repeat`` times in a row; ``make_bag(folder)`` records it when it is
+    not there yet (the CLI passes the demo's day: ``bench`` does not import ``demo``)."""
     bag = folder / "run"
     if not (bag / "run.mcap").exists():
-        from bim2rdt.demo.site_day import run_site_day
-
-        day = run_site_day(folder, workers=1, minutes=2.0, record=folder / "run.mcap")
-        day.twin.close()
+        if make_bag is None:
+            raise FileNotFoundError(f"no demo bag in {folder} (run/run.mcap and site.ifc)")
+        make_bag(folder)
     once = Case("bag", folder / "site.ifc", bag, note="the demo's bag (a station per site object) on its site.ifc")
     return [once, Case(f"bag-x{repeat}", once.ifc, bag, repeat=repeat,
                        note=f"the demo's bag played {repeat} times in a row as one run")]
@@ -283,17 +283,17 @@ def memory_flat(rows: list[dict]) -> dict | None:
 
 
 def run_bench(sensors: Path, repeat: int = 4, bag_dir: Path | None = None,
-              cases: tuple[str, ...] | None = None) -> dict:
+              cases: tuple[str, ...] | None = None, make_bag: Callable[[Path], None] | None = None) -> dict:
     """Every case (see the module's note), each in its own process; ``repeat``: how many times the long bag case
-    plays the demo's bag (made in ``bag_dir`` and kept there for the next run; a temporary folder when None);
-    ``cases``: only these."""
+    plays the demo's bag (in ``bag_dir``, made there by ``make_bag`` when absent and kept for the next run; a
+    temporary folder when None); ``cases``: only these."""
     import os
 
     with tempfile.TemporaryDirectory() as scratch:
         bags_root = Path(bag_dir) if bag_dir is not None else Path(scratch) / "bags"
         todo = office_cases(sensors)
         if cases is None or any(name.startswith("bag") for name in cases):
-            todo += demo_bags(bags_root, repeat)
+            todo += demo_bags(bags_root, repeat, make_bag)
         todo = [c for c in todo if cases is None or c.name in cases]
         rows = [summarise(run_isolated(case, Path(scratch) / "out" / case.name)) for case in todo]
     load = os.getloadavg()

@@ -41,13 +41,21 @@ def bench_verify(
     if one_core and hasattr(os, "sched_setaffinity"):
         os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
     wanted = tuple(c.strip() for c in cases.split(",") if c.strip()) if cases else None
-    record = run_bench(sensors, repeat, bag_dir, wanted)
+    record = run_bench(sensors, repeat, bag_dir, wanted, make_bag=_demo_bag)
     write_bytes_atomic(out / "results.json", json.dumps(record, indent=2).encode("utf-8"))
     if as_json:
         print_json(record)
         return
     show(record)
     console.print(f"results.json in {out}")
+
+
+def _demo_bag(folder: Path) -> None:
+    """Record the demo's day (a station per site object, a 2-minute safety shift) as a bag in ``folder``."""
+    from bim2rdt.demo.site_day import run_site_day
+
+    day = run_site_day(folder, workers=1, minutes=2.0, record=folder / "run.mcap")
+    day.twin.close()
 
 
 def show(record: dict) -> None:
