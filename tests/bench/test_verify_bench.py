@@ -66,3 +66,12 @@ def test_office1_runs_with_every_stage_timed(sensors, tmp_path):
     assert run.per_run_cpu["twin"] > 0.0 and run.per_run_cpu["outputs"] > 0.0
     assert run.peak_mb > 0 and (tmp_path / "twin.json").exists()
     assert np.isclose(summarise(run)["cpu_s_per_frame_total"], sum(run.per_frame_cpu.values()), atol=1e-3)
+
+
+def test_no_points_make_no_voxel_means():
+    """A planned object in a bag's view that owns none of the frame's points (the demo's bag, found by bench
+    verify) gets no cubes instead of a crash."""
+    from bim2rdt.localization.cloud import voxel_means
+
+    assert voxel_means(np.zeros((0, 3)), 0.05).shape == (0, 3)
+    assert voxel_means(np.array([[0.01, 0.0, 0.0], [0.02, 0.0, 0.0], [1.0, 0.0, 0.0]]), 0.05).shape == (2, 3)

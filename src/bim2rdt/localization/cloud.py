@@ -109,7 +109,10 @@ def scan_points(cloud, cfg: LocalizationConfig) -> ScanPoints:
 
 def voxel_means(points: np.ndarray, voxel: float) -> np.ndarray:
     """One point per occupied ``voxel`` cube (the mean of its points), (M, 3): a scan's density falls with range
-    and a frame's is highest near the camera; the fix should weigh surfaces, not the sensor's sampling."""
+    and a frame's is highest near the camera; the fix should weigh surfaces, not the sensor's sampling. No
+    points, no cubes (a planned object in view that owns none of a frame's points)."""
+    if len(points) == 0:
+        return np.zeros((0, 3))
     cells = np.floor(points / voxel).astype(np.int64)
     cells -= cells.min(axis=0)
     size = cells.max(axis=0) + 1
