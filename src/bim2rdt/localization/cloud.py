@@ -178,8 +178,11 @@ def voxel_means(points: np.ndarray, voxel: float) -> np.ndarray:
         voxel: The cube's side, metres.
 
     Returns:
-        (M, 3) the cubes' mean points.
+        (M, 3) the cubes' mean points; none for no points (a planned object in view that owns none of a
+        frame's points).
     """
+    if len(points) == 0:
+        return np.zeros((0, 3))
     cells = np.floor(points / voxel).astype(np.int64)
     cells -= cells.min(axis=0)
     size = cells.max(axis=0) + 1

@@ -272,7 +272,30 @@ def _search(starts: np.ndarray, problem: Problem, model: matching.ModelIndex, no
         keep = prune_keep(iteration, cfg, hopping)
         if keep is not None:
             restarts.prune(cfg.prune_ratio, keep)
+        stop_if_agreed(restarts, model.centroid, cfg, iteration)
     return restarts
+
+
+def stop_if_agreed(restarts: _Restarts, centroid_body: np.ndarray, cfg: IcpConfig, iteration: int,
+                   group: slice = slice(None)) -> None:
+    """Drop the restarts of ``group`` still running once ``stop_when_agreed`` of its converged restarts ended
+    where its lowest-scoring restart did and every running one scores worse than that by more than
+    ``stop_margin`` (never while the Huber scale anneals, nor before ``prune_after``)."""
+    if cfg.stop_when_agreed <= 0 or iteration + 1 < max(cfg.prune_after, cfg.huber_anneal_iterations):
+        return
+    part = restarts.part(group)
+    running = ~part.done & ~part.pruned
+    if not running.any():
+        return
+    alive = np.flatnonzero(~part.pruned)
+    best = alive[np.argmin(part.scores[alive])]
+    if not part.done[best]:
+        return
+    settled = np.flatnonzero(part.done & ~part.pruned)
+    if np.count_nonzero(near(part.poses[settled], part.poses[best], centroid_body)) < cfg.stop_when_agreed:
+        return
+    if np.all(part.scores[running] > cfg.stop_margin * part.scores[best]):
+        part.pruned[running] = True
 
 
 def prune_keep(iteration: int, cfg: IcpConfig, hopping: bool) -> int | None:
@@ -309,6 +332,8 @@ def _search_together(problems: list[Problem], model: matching.ModelIndex, normal
         if keep is not None:
             for group in running:
                 restarts.prune(cfg.prune_ratio, keep, group)
+        for group in running:
+            stop_if_agreed(restarts, model.centroid, cfg, iteration, group)
     return [restarts.part(group) for group in groups]
 
 

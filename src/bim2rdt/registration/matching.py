@@ -183,6 +183,21 @@ def nearest_patches(model: ModelIndex, points: np.ndarray, max_distance: float =
     no sample lies within ``max_distance`` plus a patch radius (the surface is surely farther)."""
     distance, index = model.tree.query(points, k=SURFEL_CANDIDATES,
                                        distance_upper_bound=max_distance + model.surfel_radius)
+    near = np.isfinite(distance[:, 0])  # the nearest candidate is first: none within reach, no patch either
+    if not near.all():  # far points (clutter around an object) skip the patches' (N, c, c) work
+        patches = Patches(np.full(len(points), np.inf), np.full(len(points), model.tree.n - 1),
+                          np.full(len(points), np.inf))
+        if near.any():
+            inside = nearest_patches_of(model, points[near], distance[near], index[near])
+            patches.distance[near], patches.sample[near] = inside.distance, inside.sample
+            patches.other_face[near] = inside.other_face
+        return patches
+    return nearest_patches_of(model, points, distance, index)
+
+
+def nearest_patches_of(model: ModelIndex, points: np.ndarray, distance: np.ndarray, index: np.ndarray) -> Patches:
+    """:func:`nearest_patches` from the points' (N, 3) nearest candidate samples ``index`` (N, c), ``distance``
+    (N, c) m away (inf = none), as the k-d tree gave them."""
     to_patch, candidates = surfel_distances(model, points, index, distance)
     rows = np.arange(len(points))
     nearest = exact.first_smallest(to_patch, axis=1)  # past an edge, both faces' patches tie: the nearer sample

@@ -129,8 +129,46 @@ def _unit_scales(rotational: np.ndarray, A: np.ndarray) -> np.ndarray:
 
 
 def _remapped_solve(A: np.ndarray, b: np.ndarray, scales: np.ndarray) -> np.ndarray:
-    """Solve A x = b (k, m, m), (k, m) in the well-determined eigen-directions of the scaled system only."""
+    """Solve A x = b (k, m, m), (k, m) in the well-determined eigen-directions of the scaled system only.
+
+    Systems whose every eigen-direction is kept are solved directly (:func:`_well_determined`: a batched
+    Cholesky test, a thirtieth of the batched ``eigh``'s time; the same solution to round-off), the others by
+    their eigen-decomposition."""
     A_s = scales[:, :, None] * A * scales[:, None, :]
+    sure = _well_determined(A_s)
+    if sure.all():
+        return scales * np.linalg.solve(A_s, (scales * b)[..., None])[..., 0]
+    x = np.empty_like(b)
+    if sure.any():
+        x[sure] = scales[sure] * np.linalg.solve(A_s[sure], (scales[sure] * b[sure])[..., None])[..., 0]
+    rest = ~sure
+    x[rest] = _eigen_solve(A_s[rest], b[rest], scales[rest])
+    return x
+
+
+def _well_determined(A_s: np.ndarray) -> np.ndarray:
+    """(k,) True where every eigenvalue of the symmetric systems (k, m, m) surely exceeds
+    :data:`DEGENERATE_RATIO` x the largest: A_s - tau I is positive definite (its Cholesky factor exists) for
+    tau = DEGENERATE_RATIO x trace(A_s), which is at least that share of the largest eigenvalue. False is only
+    'not sure' (the eigen-decomposition decides)."""
+    tau = DEGENERATE_RATIO * np.trace(A_s, axis1=1, axis2=2)
+    shifted = A_s - tau[:, None, None] * np.eye(A_s.shape[-1])
+    try:
+        np.linalg.cholesky(shifted)
+        return tau > 0.0
+    except np.linalg.LinAlgError:
+        pass
+    sure = tau > 0.0
+    for i in np.flatnonzero(sure):
+        try:
+            np.linalg.cholesky(shifted[i])
+        except np.linalg.LinAlgError:
+            sure[i] = False
+    return sure
+
+
+def _eigen_solve(A_s: np.ndarray, b: np.ndarray, scales: np.ndarray) -> np.ndarray:
+    """:func:`_remapped_solve` by the eigen-decomposition of the scaled systems ``A_s`` (k, m, m)."""
     values, vectors = np.linalg.eigh(A_s)
     kept = values > DEGENERATE_RATIO * np.maximum(values[:, -1:], 1e-300)
     along = np.einsum("kmj,km->kj", vectors, scales * b)

@@ -37,6 +37,7 @@ from bim2rdt.verify.planned import PlannedConfig, check_planned, look_at, owned_
 from bim2rdt.verify.priors import heading_deg, levelled
 from bim2rdt.verify.transient import RECENT_FRAMES, TransientConfig, mark_transient
 from bim2rdt.verify.rays import RangeLookup
+from bim2rdt.verify.timing import stage
 
 
 REAL_SENSOR = {"inlier_distance": 0.05, "huber_delta": 0.025, "min_inlier_fraction": 0.3}
@@ -279,7 +280,8 @@ def verify_frames(frames: Iterable, model: BimModel, prior: np.ndarray | None = 
         VerifyError: The source holds no frames, or the model has nothing to localize on.
     """
     try:
-        scene = OccludedMap.of(model)
+        with stage("setup"):
+            scene = OccludedMap.of(model)
     except LocalizationError as error:
         raise VerifyError(str(error)) from None
     priors = family_priors(model) if priors is None else priors
@@ -357,24 +359,29 @@ def verify_frame(index: int, frame, model: BimModel, scene: OccludedMap, prior: 
         result.refusal = "no prior pose"
         return _timed(result, start)
     try:
-        scan = scan_points(points_sensor, config.localization)
+        with stage("localize"):
+            scan = scan_points(points_sensor, config.localization)
     except LocalizationError as error:
         result.reason, result.refusal = str(error), error.kind.value
         return _timed(result, start)
     try:
-        loc = localize_cloud(scan, model, prior, (0.0, 0.0, 1.0), config.localization, scene)
+        with stage("localize"):
+            loc = localize_cloud(scan, model, prior, (0.0, 0.0, 1.0), config.localization, scene)
     except LocalizationError as error:
         result.reason = str(error) + prior_hint(model, prior, always=error.kind is Refusal.NO_PERMANENT_IN_VIEW)
         result.refusal = error.kind.value
-        result.depth = _depth_at_best_fit(scan, model, scene, prior, config)
+        with stage("depth check"):
+            result.depth = _depth_at_best_fit(scan, model, scene, prior, config)
         if result.depth is not None and result.depth.miscalibrated:
             result.reason += f"; at its best rigid fit {result.depth.reason} (or the prior is far off)"
         return _timed(result, start)
     result.pose, result.covariance, result.degenerate = loc.pose, loc.covariance, list(loc.degenerate)
     result.degenerate_yaw = loc.degenerate_yaw
     result.residual, result.inliers, result.accepted = loc.residual, loc.inliers, True
-    result.depth = check_depth(scan, scene, loc.pose, config.localization.max_range, config.depth, config.faces)
-    _observe(result, points_sensor, loc.pose, model, scene, config, priors)
+    with stage("depth check"):
+        result.depth = check_depth(scan, scene, loc.pose, config.localization.max_range, config.depth, config.faces)
+    with stage("objects"):
+        _observe(result, points_sensor, loc.pose, model, scene, config, priors)
     if result.depth.miscalibrated:
         _distrust(result, f"(sensor looks miscalibrated: {result.depth.reason})")
     return _timed(result, start)
