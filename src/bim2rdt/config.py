@@ -28,6 +28,7 @@ from bim2rdt.safety.config import MonitorConfig
 from bim2rdt.semantics.llm import LlmPriorsConfig
 from bim2rdt.server.config import ServerConfig
 from bim2rdt.sources.ros_config import RosConfig
+from bim2rdt.structure.config import StructureConfig
 from bim2rdt.twin.config import TwinConfig
 
 
@@ -118,6 +119,7 @@ class Settings(BaseSettings):
     localization: LocalizationConfig = LocalizationConfig()
     mission: MissionConfig = MissionConfig()
     twin: TwinConfig = TwinConfig()
+    structure: StructureConfig = StructureConfig()
     server: ServerConfig = ServerConfig()
     ros: RosConfig = RosConfig()
 

@@ -29,7 +29,8 @@ def verify_command(
     depth_correction: str | None = typer.Option(None, "--depth-correction", help="GX,GY,GZ (1/m): the depth "
                                                 "calibration p_true = p / (1 - g.p)."),
     out: Path = typer.Option(Path("out/verify"), "--out", parser=out_path, callback=writable_folder,
-                             help="Folder for twin.json, twin.ifc, issues.bcf, report.html, localization.json."),
+                             help="Folder for twin.json, twin.ifc, issues.bcf, report.html, localization.json, "
+                             "structure.json, deviation.ply and deviation/ (a PNG per frame)."),
     detector: str = typer.Option("cluster", "--detector", help="New objects: 'cluster' (what neither the building "
                                  "nor a planned object explains) or 'none'."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON document instead of the summary."),
@@ -47,6 +48,8 @@ def verify_command(
     from bim2rdt.config import get_settings, ifc_cache_dir
     from bim2rdt.verify import VerifyConfig, levelled, prior_pose, record_twin, verify_frames, write_outputs
     from bim2rdt.verify.outputs import verdict_counts
+    from bim2rdt.structure import STRUCTURE_STATUSES
+    from bim2rdt.verify.structure_run import StructureRun
 
     if detector not in ("cluster", "none"):
         raise _bad(f"--detector must be 'cluster' or 'none', not {detector!r}")
@@ -74,16 +77,21 @@ def verify_command(
     if not _is_bag(source) and (every or max_frames):
         frames = _Subsampled(frames, every or 1, max_frames)
     config = VerifyConfig(find_new=detector != "none", min_fitness=settings.twin.min_fitness)
+    structure = StructureRun(model, out, settings.structure)
     with _progress(frames, as_json, every, max_frames) as tick:
-        result = verify_frames(frames, model, T_prior, config, progress=lambda frame: tick("frame"))
+        result = verify_frames(frames, model, T_prior, config, progress=lambda frame: tick("frame"),
+                               look=structure.look)
+        judged = structure.finish()
         with record_twin(result, model, out, settings.twin) as twin:
+            counts = verdict_counts(twin.state())  # the objects' verdicts; the structure's are counted apart
+            structure.record(twin, judged)
             files = write_outputs(result, twin, out)
-            counts = verdict_counts(twin.state())
             if publish is not None:
                 published = _publish(publish, result, twin.state(), model, out)
             tick("twin")
     summary = {"frames": len(result.frames), "localized": sum(f.accepted for f in result.frames),
                "verdicts": {k: v for k, v in counts.items() if k != "not observed"},
+               "structure": {s: sum(j.status == s for j in judged) for s in STRUCTURE_STATUSES},
                "miscalibrated": result.miscalibrated, "warnings": result.warnings,
                "seconds_per_frame": round(sum(f.seconds for f in result.frames) / len(result.frames), 2),
                "dropped": result.drop_counts, "source_warnings": result.source_warnings,
@@ -107,7 +115,9 @@ def verify_command(
     if result.dropped:
         console.print(f"dropped {len(result.dropped)} frames: "
                       + ", ".join(f"{n} {k}" for k, n in result.drop_counts.items()) + " (localization.json)")
-    console.print(f"wrote {out}/: twin.json, issues.bcf, localization.json, report.html"
+    console.print("structure: " + ", ".join(f"{v} {k}" for k, v in summary["structure"].items() if v))
+    console.print(f"wrote {out}/: twin.json, issues.bcf, localization.json, report.html, structure.json"
+                  + (", deviation.ply, deviation/" if structure.ply else "")
                   + (", twin.ifc" if files.ifc else f" (no twin.ifc: {files.ifc_note})"))
 
 

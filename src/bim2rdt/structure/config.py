@@ -97,3 +97,12 @@ class StructureConfig(BaseModel):
         description="The other elements pin the pose along a face's normal when this many of their returns (each "
                     "weighted by the cosine squared of its normal with it) face that way.")
     points_per_view: int = Field(60_000, ge=1000, description="At most this many returns of a view are used.")
+    colour_limit: float = Field(
+        0.05, gt=0.0, description="Deviation maps run their colour scale over +- this, m (beyond: the end colour).")
+    far: float = Field(
+        0.2, gt=0.0, description="A return farther than this from every permanent face is not the structure's "
+                                 "(furniture, people): grey in the deviation maps, m.")
+    sample_spacing: float = Field(
+        0.02, gt=0.0, description="The permanent faces are sampled this densely to find each return's nearest, m "
+                                  "(coarser on a large model: at most 2 million samples).")
+    ply_points: int = Field(2_000_000, ge=1000, description="deviation.ply holds at most this many points.")

@@ -88,9 +88,11 @@ def write_outputs(result: VerifyResult, twin: DigitalTwin, out_dir: Path) -> Ver
 
 
 def verdict_counts(states: dict[str, ElementState]) -> dict[str, int]:
-    counts = {s.value: 0 for s in ElementStatus}
+    """{status: number} of the elements' states; "not built" (a permanent element's, counted by verify's
+    ``structure`` apart) only when some element is."""
+    counts = {s.value: 0 for s in ElementStatus if s is not ElementStatus.NOT_BUILT}
     for state in states.values():
-        counts[state.status.value] += 1
+        counts[state.status.value] = counts.get(state.status.value, 0) + 1
     return counts
 
 
