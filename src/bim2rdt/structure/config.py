@@ -10,10 +10,10 @@ each band is a range of the standard deviation at 95 % confidence, i.e. 2 sigma)
 - anything else judged: LOA20's 50 mm.
 
 The tolerance applies to the element's offset (where its faces pin it) or, where they do not, to the median of its
-signed distances; ``rotation_deg`` to its faces' tilt against the model's (a column out of plumb): 2 degrees for
-structure, 3 for doors and windows. The bands are not angular; the tilt a consumer depth camera measures on a wall
-built plumb is 1.0-1.3 degrees (office1's Kinect, depth corrected: its residual warp is 1-2 cm over a wall), so
-tilts under 2 degrees are not told apart from the sensor's own.
+signed distances; ``rotation_deg`` to a face's lean (a vertical face's out of plumb, a horizontal one's out of level:
+a column out of plumb): 1 degree for structure (15 mm over the first metre of face, LOA30's bound again), 2 for
+doors and windows. The bands are not angular; on office1's Kinect frame (depth corrected) the walls built plumb lean
+0.6 degrees or less and the floor 0.3, so 1 degree stays above the sensor's own.
 """
 
 from __future__ import annotations
@@ -33,11 +33,12 @@ class StructureTolerance(BaseModel):
 
     translation: float = Field(gt=0, description="Largest offset of the element (or median signed distance of its "
                                "faces), metres.")
-    rotation_deg: float = Field(gt=0, description="Largest tilt of a face against the model's, degrees.")
+    rotation_deg: float = Field(gt=0, description="Largest lean of a face against the model's (out of plumb or "
+                                "level), degrees.")
 
 
 def _loa30() -> StructureTolerance:
-    return StructureTolerance(translation=LOA30, rotation_deg=2.0)
+    return StructureTolerance(translation=LOA30, rotation_deg=1.0)
 
 
 def _default_tolerances() -> dict[str, StructureTolerance]:
@@ -46,7 +47,7 @@ def _default_tolerances() -> dict[str, StructureTolerance]:
                   "IfcStair", "IfcStairFlight", "IfcRamp", "IfcRampFlight")
     openings = ("IfcDoor", "IfcDoorStandardCase", "IfcWindow", "IfcWindowStandardCase")
     return ({c: _loa30() for c in structural}
-            | {c: StructureTolerance(translation=LOA20, rotation_deg=3.0) for c in openings})
+            | {c: StructureTolerance(translation=LOA20, rotation_deg=2.0) for c in openings})
 
 
 class StructureConfig(BaseModel):
@@ -58,7 +59,7 @@ class StructureConfig(BaseModel):
         default_factory=_default_tolerances,
         description="IFC class -> tolerance (USIBD LOA30 15 mm for structure, LOA20 50 mm for doors and windows).")
     default_tolerance: StructureTolerance = Field(
-        default_factory=lambda: StructureTolerance(translation=LOA20, rotation_deg=3.0),
+        default_factory=lambda: StructureTolerance(translation=LOA20, rotation_deg=2.0),
         description="Tolerance of a judged class the table does not name.")
     min_coverage: float = Field(
         0.1, ge=0.0, le=1.0,

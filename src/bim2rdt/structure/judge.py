@@ -19,7 +19,7 @@ from bim2rdt.structure.config import StructureConfig, StructureTolerance
 from bim2rdt.structure.records import (AS_PLANNED, DEVIATING, NOT_BUILT, NOT_OBSERVED, StructureJudgement,
                                        StructureView)
 from bim2rdt.structure.scene import PERMANENT_CLASSES
-from bim2rdt.structure.survey import ElementEvidence, FaceEvidence, StructureSurvey
+from bim2rdt.structure.survey import ElementEvidence, FaceEvidence, StructureSurvey, tolerance_of
 
 SEE_THROUGH_CLASSES = frozenset({"IfcDoor", "IfcDoorStandardCase", "IfcWindow", "IfcWindowStandardCase"})
 """Seen through, these are open or glazed, not unbuilt."""
@@ -110,19 +110,6 @@ def judge_element(global_id: str, ifc_class: str, evidence: ElementEvidence,
     return StructureJudgement(status=status, reason=reason, **base)
 
 
-def tolerance_of(ifc_class: str, config: StructureConfig) -> StructureTolerance:
-    """The class's tolerance (the configured default for a class the table does not name).
-
-    Args:
-        ifc_class: The element's IFC class.
-        config: The judge's settings.
-
-    Returns:
-        The tolerance.
-    """
-    return config.tolerances.get(ifc_class, config.default_tolerance)
-
-
 def against(offset: np.ndarray | None, median: float | None, rotation: float | None,
             tolerance: StructureTolerance) -> tuple[str, str]:
     """As planned or deviating: the offset's length (else the median's magnitude) against ``translation``, the
@@ -193,10 +180,17 @@ def element_rotation(evidence: ElementEvidence, config: StructureConfig) -> floa
 
 def face_tilt(face: FaceEvidence, extent: float) -> float | None:
     """The tilt (degrees) of a face's returns against its model plane: the signed distances regressed on the
-    in-plane coordinates (a robust fit: returns beyond 3 MADs of it, clutter on the face, left out twice); None
+    in-plane coordinates (a robust fit: returns beyond 3 MADs of it, clutter on the face, left out twice). A
+    vertical face's tilt is its lean out of plumb (the slope up the face; a turn about up is the localization's
+    yaw as much as the wall's, and its offset judges its line); a horizontal one's, its slope either way. None
     when the returns span less than ``extent`` m either way in the plane."""
     points, rho = np.concatenate(face.points), np.concatenate(face.rho)
-    basis = np.linalg.svd(np.eye(3) - np.outer(face.normal, face.normal))[0][:, :2]
+    up = np.array([0.0, 0.0, 1.0]) - face.normal[2] * face.normal
+    if np.linalg.norm(up) < 0.5:  # a horizontal face: any two axes in its plane
+        basis = np.linalg.svd(np.eye(3) - np.outer(face.normal, face.normal))[0][:, :2]
+    else:
+        up /= np.linalg.norm(up)
+        basis = np.column_stack([np.cross(face.normal, up), up])
     uv = (points - points.mean(axis=0)) @ basis
     spans = np.percentile(uv, 95, axis=0) - np.percentile(uv, 5, axis=0)
     if np.min(spans) < extent:
@@ -208,7 +202,8 @@ def face_tilt(face: FaceEvidence, extent: float) -> float | None:
         residual = rho - design @ coef
         spread = 1.4826 * np.median(np.abs(residual[keep] - np.median(residual[keep])))
         keep = np.abs(residual) <= max(3 * spread, 0.005)
-    return float(np.degrees(np.arctan(np.hypot(coef[0], coef[1]))))
+    slope = coef[1] if np.linalg.norm(face.normal[:2]) > 0.5 else np.hypot(coef[0], coef[1])
+    return float(np.degrees(np.arctan(abs(slope))))
 
 
 def _mm(value: float | None) -> float | None:

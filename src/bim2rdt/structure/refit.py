@@ -51,7 +51,8 @@ class Pairs:
         return cls(rho, jacobian, normals, element, fixes)
 
 
-def refit(pairs: Pairs, keep: np.ndarray, huber: float, iterations: int = 6) -> np.ndarray:
+def refit(pairs: Pairs, keep: np.ndarray, huber: float, iterations: int = 6,
+          weights: np.ndarray | None = None) -> np.ndarray:
     """The correction (dx, dy, dz, dyaw) that best puts the ``keep`` pairs on their faces (Huber-weighted least
     squares, m and rad; zero along what they do not constrain).
 
@@ -60,17 +61,19 @@ def refit(pairs: Pairs, keep: np.ndarray, huber: float, iterations: int = 6) -> 
         keep: (K,) bool, the pairs that may fix the pose.
         huber: Huber scale, m.
         iterations: Reweighting passes.
+        weights: (K,) each pair's weight before Huber's (None: 1).
 
     Returns:
         (4,) the correction.
     """
     J, rho = pairs.jacobian[keep], pairs.rho[keep]
+    base = np.ones(len(rho)) if weights is None else weights[keep]
     x = np.zeros(4)
     if len(rho) < 6:
         return x
     for _ in range(iterations):
         r = np.abs(rho + J @ x)
-        w = np.minimum(1.0, huber / np.maximum(r, 1e-12))
+        w = base * np.minimum(1.0, huber / np.maximum(r, 1e-12))
         H = J.T @ (J * w[:, None])
         damping = 1e-9 * max(np.trace(H), 1e-12) * np.eye(4)
         x = -np.linalg.lstsq(H + damping, J.T @ (w * rho), rcond=1e-8)[0]
@@ -92,3 +95,51 @@ def pin_weight(pairs: Pairs, keep: np.ndarray, normal: np.ndarray, huber: float)
     """
     w = np.minimum(1.0, huber / np.maximum(np.abs(pairs.rho[keep]), 1e-12))
     return float(np.sum(w * (pairs.normal[keep] @ normal) ** 2))
+
+
+def consensus(pairs: Pairs, tolerance: dict[int, float], huber: float, min_points: int, min_pin: float) -> np.ndarray:
+    """The elements the pose is fixed on: every map element with ``min_points`` pairs, each weighing the same
+    (its pairs weighted by one over their number), the worst one left out while it lies beyond its
+    ``tolerance`` (m, by element) from the pose the others give and every face direction of it stays pinned by
+    two other elements (``min_pin`` weighted pairs each): a wall built off its line is outvoted when enough
+    other surfaces face its way, never by a single one (two disagreeing elements cannot tell which moved).
+
+    Args:
+        pairs: The view's pairs.
+        tolerance: {element index: its tolerance, m}.
+        huber: Huber scale, m.
+        min_points: Fewer pairs than this, and an element takes no part.
+        min_pin: Weighted pairs that make an element pin a direction.
+
+    Returns:
+        (K,) bool, the pairs of the consensus elements.
+    """
+    elements, counts = np.unique(pairs.element[pairs.fixes], return_counts=True)
+    members = {int(e) for e, n in zip(elements, counts) if n >= min_points}
+    weights = 1.0 / np.maximum(np.bincount(pairs.element, minlength=pairs.element.max() + 1)[pairs.element], 1)
+    while len(members) > 2:
+        keep = np.isin(pairs.element, list(members)) & pairs.fixes
+        x = refit(pairs, keep, huber, weights=weights)
+        off = {e: abs(float(np.median(pairs.rho[pairs.element == e] + pairs.jacobian[pairs.element == e] @ x)))
+               / tolerance.get(e, huber) for e in members}
+        worst = max(off, key=off.get)
+        if off[worst] <= 1.0 or not _still_pinned(pairs, worst, members - {worst}, min_points, min_pin):
+            break
+        members.discard(worst)
+    return np.isin(pairs.element, list(members)) & pairs.fixes
+
+
+def _still_pinned(pairs: Pairs, element: int, others: set[int], min_points: int, min_pin: float) -> bool:
+    """Whether each face direction of ``element`` (``min_points`` pairs) is pinned by two of ``others``."""
+    mine = pairs.element == element
+    groups = np.round(pairs.normal[mine] * 10).astype(int)
+    for key in {tuple(g) for g in groups.tolist()}:
+        face = np.all(groups == key, axis=1)
+        if face.sum() < min_points:
+            continue
+        normal = pairs.normal[mine][face].mean(axis=0)
+        pinning = sum(pin_weight(pairs, pairs.element == other, normal / np.linalg.norm(normal), 1e9) >= min_pin
+                      for other in others)
+        if pinning < 2:
+            return False
+    return True

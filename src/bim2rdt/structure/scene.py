@@ -27,12 +27,14 @@ windows (IFC2X3's *StandardCase classes included)."""
 class Cast:
     """Rays from one origin: ``t`` (K,) metres to the first model face (inf: none), ``element`` (K,) index into
     :attr:`JudgeScene.ids` (-1: none), ``normal`` (K, 3) unit, turned towards the origin, and ``cos`` (K,) of the
-    angle between ray and normal."""
+    angle between ray and normal; ``front`` (K,) whether the ray met the face from outside its body (the mesh's
+    winding: a ray leaving a body meets its faces from inside)."""
 
     t: np.ndarray
     element: np.ndarray
     normal: np.ndarray
     cos: np.ndarray
+    front: np.ndarray
 
 
 @dataclass(frozen=True)
@@ -96,6 +98,7 @@ class JudgeScene:
         element = np.full(len(directions), -1)
         normal = np.zeros((len(directions), 3))
         cos = np.zeros(len(directions))
+        front = np.zeros(len(directions), bool)
         hit = face >= 0
         normals = mesh.face_normals[face[hit]]
         towards = np.einsum("ni,ni->n", normals, directions[hit])
@@ -108,4 +111,5 @@ class JudgeScene:
         element[rows] = self.face_element[face[hit][good]]
         normal[rows] = np.where((towards[good] > 0)[:, None], -normals[good], normals[good])
         cos[rows] = np.abs(towards[good])
-        return Cast(t, element, normal, cos)
+        front[rows] = towards[good] < 0
+        return Cast(t, element, normal, cos, front)

@@ -19,8 +19,8 @@ import numpy as np
 
 from bim2rdt.bim import BimModel
 from bim2rdt.localization.cloud import sphere_directions
-from bim2rdt.structure.config import StructureConfig
-from bim2rdt.structure.refit import UP, Pairs, pin_weight, refit
+from bim2rdt.structure.config import StructureConfig, StructureTolerance
+from bim2rdt.structure.refit import UP, Pairs, consensus, pin_weight, refit
 from bim2rdt.structure.records import StructureView
 from bim2rdt.structure.scene import Cast, JudgeScene
 
@@ -105,9 +105,11 @@ class StructureSurvey:
         model_points = centre + directions[on] * cast.t[on, None]
         element = cast.element[on]
         pairs = Pairs.of(points, model_points, cast.normal[on], element, scene.in_map[element], centre)
+        tolerance = {int(i): tolerance_of(scene.classes[i], cfg).translation for i in np.unique(element)}
+        agreed = consensus(pairs, tolerance, cfg.huber, cfg.min_face_points, cfg.min_pin_points)
         for index in np.unique(element):
             if scene.judged[index]:
-                self._measure(index, pairs, points, centre)
+                self._measure(index, pairs, agreed, points, centre)
 
     def _classify(self, cast: Cast, ranges: np.ndarray, centre: np.ndarray, directions: np.ndarray):
         """(on, through, cell keys) of each return against its ray's face: on within ``on_band`` of it along the
@@ -126,24 +128,26 @@ class StructureSurvey:
         if not through.any():
             return cast
         t, element, normal, cos = cast.t.copy(), cast.element.copy(), cast.normal.copy(), cast.cos.copy()
+        front = cast.front.copy()
         rows, start = np.flatnonzero(through), cast.t[through] + 0.01
-        for _ in range(4):  # past the far faces of the element seen through (a wall's back), to what is behind
+        for _ in range(6):  # past the far faces of what was seen through (a wall's back, a body inside it)
             again = self.scene.cast_each(centre + directions[rows] * start[:, None], directions[rows])
             t[rows] = np.where(again.element >= 0, again.t + start, np.inf)
-            element[rows], normal[rows], cos[rows] = again.element, again.normal, again.cos
-            same = (again.element >= 0) & (again.element == cast.element[rows])
-            rows, start = rows[same], t[rows][same] + 0.01
+            element[rows], normal[rows], cos[rows], front[rows] = again.element, again.normal, again.cos, again.front
+            inside = (again.element >= 0) & ((again.element == cast.element[rows]) | ~again.front)
+            rows, start = rows[inside], t[rows][inside] + 0.01
             if len(rows) == 0:
                 break
-        return Cast(t, element, normal, cos)
+        element[rows] = -1  # still inside after that many faces: nothing to judge
+        return Cast(t, element, normal, cos, front)
 
     def _rays(self, view: StructureView) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The view's sensor position, unit world directions of its returns in range (thinned evenly to
-        ``points_per_view``) and their ranges (m)."""
+        """The view's sensor position, unit world directions of its returns beyond ``min_range`` (thinned evenly to
+        ``points_per_view``) and their ranges (m). Faces beyond ``max_range`` are never judged (:meth:`_classify`)."""
         cfg = self.config
         points = view.points_sensor[np.all(np.isfinite(view.points_sensor), axis=1)]
         ranges = np.linalg.norm(points, axis=1)
-        keep = (ranges >= cfg.min_range) & (ranges <= cfg.max_range)
+        keep = ranges >= cfg.min_range  # a far return still says the sensor saw through what stands before it
         points, ranges = points[keep], ranges[keep]
         step = max(1, -(-len(points) // cfg.points_per_view))
         points, ranges = points[::step], ranges[::step]
@@ -159,11 +163,12 @@ class StructureSurvey:
             if self.scene.judged[index]:
                 self._of(index).visible.update(keys[ok & (cast.element == index)].tolist())
 
-    def _measure(self, index: int, pairs: Pairs, points: np.ndarray, centre: np.ndarray) -> None:
-        """The element's returns measured from the pose refitted on the other elements (leave-one-out)."""
+    def _measure(self, index: int, pairs: Pairs, agreed: np.ndarray, points: np.ndarray, centre: np.ndarray) -> None:
+        """The element's returns measured from the pose refitted on the other elements of the consensus
+        (leave-one-out)."""
         cfg = self.config
         mine = pairs.element == index
-        others = pairs.fixes & ~mine
+        others = agreed & ~mine
         x = refit(pairs, others, cfg.huber)
         rho = pairs.rho[mine] + pairs.jacobian[mine] @ x
         placed = points[mine] + x[:3] + x[3] * np.cross(UP, points[mine] - centre)
@@ -182,6 +187,19 @@ class StructureSurvey:
 
     def _of(self, index: int) -> ElementEvidence:
         return self.evidence.setdefault(self.scene.ids[index], ElementEvidence())
+
+
+def tolerance_of(ifc_class: str, config: StructureConfig) -> StructureTolerance:
+    """The class's tolerance (the configured default for a class the table does not name).
+
+    Args:
+        ifc_class: The element's IFC class.
+        config: The judge's settings.
+
+    Returns:
+        The tolerance.
+    """
+    return config.tolerances.get(ifc_class, config.default_tolerance)
 
 
 def cell_keys(points: np.ndarray, cell: float) -> np.ndarray:
