@@ -12,8 +12,8 @@ each band is a range of the standard deviation at 95 % confidence, i.e. 2 sigma)
 The tolerance applies to the element's offset (where its faces pin it) or, where they do not, to the median of its
 signed distances; ``rotation_deg`` to a face's lean (a vertical face's out of plumb, a horizontal one's out of level:
 a column out of plumb): 1 degree for structure (15 mm over the first metre of face, LOA30's bound again), 2 for
-doors and windows. The bands are not angular; on office1's Kinect frame (depth corrected) the walls built plumb lean
-0.6 degrees or less and the floor 0.3, so 1 degree stays above the sensor's own.
+doors and windows. The bands are not angular; on office1's Kinect frame (depth corrected, verify's fix) the walls
+built plumb lean 0.7 degrees or less and the floor 0.3, so 1 degree stays above the sensor's own.
 """
 
 from __future__ import annotations
