@@ -78,33 +78,37 @@ class StructureSurvey:
         Args:
             view: The returns (sensor frame) and the BIM-fixed pose.
         """
-        cfg, scene = self.config, self.scene
         centre, directions, ranges = self._rays(view)
         self._visible(centre)
         if len(ranges) == 0:
             return
-        first = scene.cast(centre, directions)
-        on_first, through_first, first_keys = self._classify(first, ranges, centre, directions)
-        for index in np.unique(first.element[through_first]):
-            if scene.judged[index]:
-                self._of(index).through.update(first_keys[through_first & (first.element == index)].tolist())
-                self._of(index).clear.update(first_keys[through_first & (first.element == index)].tolist())
-                self._of(index).frames.add(view.index)
+        first = self.scene.cast(centre, directions)
+        _, through_first, first_keys = self._classify(first, ranges, centre, directions)
+        self._tally(view.index, first, np.zeros(len(ranges), bool), through_first, first_keys)
         cast = self._beyond(first, through_first, centre, directions)
         on, through, keys = self._classify(cast, ranges, centre, directions)
-        for index in np.unique(cast.element[on | through]):
-            if not scene.judged[index]:
+        self._tally(view.index, cast, on, through, keys)
+        self._measure_all(cast, on, ranges, centre, directions)
+
+    def _tally(self, index: int, cast: Cast, on: np.ndarray, through: np.ndarray, keys: np.ndarray) -> None:
+        """Each judged element's cells covered (``on``), seen through, in clear view (either), and the frame."""
+        for element in np.unique(cast.element[on | through]):
+            if not self.scene.judged[element]:
                 continue
-            seen = self._of(index)
-            mine = cast.element == index
+            seen, mine = self._of(element), cast.element == element
             seen.covered.update(keys[mine & on].tolist())
             seen.through.update(keys[mine & through].tolist())
             seen.clear.update(keys[mine & (on | through)].tolist())
-            seen.frames.add(view.index)
+            seen.frames.add(index)
+
+    def _measure_all(self, cast: Cast, on: np.ndarray, ranges: np.ndarray, centre: np.ndarray,
+                     directions: np.ndarray) -> None:
+        """The returns on faces as pairs, the consensus of the elements, each judged element measured."""
+        scene, cfg = self.scene, self.config
         points = centre + directions[on] * ranges[on, None]
-        model_points = centre + directions[on] * cast.t[on, None]
         element = cast.element[on]
-        pairs = Pairs.of(points, model_points, cast.normal[on], element, scene.in_map[element], centre)
+        pairs = Pairs.of(points, centre + directions[on] * cast.t[on, None], cast.normal[on], element,
+                         scene.in_map[element], centre)
         tolerance = {int(i): tolerance_of(scene.classes[i], cfg).translation for i in np.unique(element)}
         agreed = consensus(pairs, tolerance, cfg.huber, cfg.min_face_points, cfg.min_pin_points)
         for index in np.unique(element):
