@@ -42,3 +42,15 @@ def test_a_view_needs_n_by_3_points_and_a_finite_pose():
     pose[0, 3] = np.nan
     with pytest.raises(StructureError, match="finite 4x4"):
         StructureView(1, np.zeros((5, 3)), pose)
+
+
+def test_a_view_with_no_return_on_any_face_judges_nothing_and_a_model_element_never_seen_is_not_observed(
+        site_model):
+    from bim2rdt.structure import judge_structure
+
+    pose = np.eye(4)
+    pose[:3, 3] = (10.0, 7.0, 1.2)
+    sky = np.array([[0.0, 0.0, 50.0], [0.1, 0.0, 60.0]])  # two returns far above the open-topped building
+    judged = judge_structure(site_model, [StructureView(0, sky, pose)])
+    assert judged and all(j.status == "not observed" for j in judged)
+    assert {j.ifc_class for j in judged} >= {"IfcWall", "IfcSlab", "IfcColumn", "IfcDoor"}

@@ -114,6 +114,8 @@ def consensus(pairs: Pairs, tolerance: dict[int, float], huber: float, min_point
     Returns:
         (K,) bool, the pairs of the consensus elements.
     """
+    if len(pairs.rho) == 0:
+        return np.zeros(0, bool)
     elements, counts = np.unique(pairs.element[pairs.fixes], return_counts=True)
     members = {int(e) for e, n in zip(elements, counts) if n >= min_points}
     weights = 1.0 / np.maximum(np.bincount(pairs.element, minlength=pairs.element.max() + 1)[pairs.element], 1)
