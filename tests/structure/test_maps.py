@@ -49,3 +49,20 @@ def test_a_frame_gets_its_png_and_the_run_a_ply_with_colours_and_deviations(site
     red = colours[on_wall].astype(int)
     assert np.median(red[:, 0] - red[:, 2]) > 80  # in front: the red end of the scale
     assert np.allclose(cloud.vertices, world, atol=1e-4)
+
+
+def test_a_scan_without_an_image_gets_a_panorama_from_the_scanner(site_model, tmp_path):
+    """A scan (no camera image): its PNG is the equirectangular view from the scanner, wall returns coloured."""
+    import matplotlib.image
+
+    pose = np.eye(4)
+    pose[:3, 3] = (8.0, 10.0, 1.2)
+    y, z = np.meshgrid(np.linspace(-1.0, 1.0, 60), np.linspace(-0.8, 1.0, 40))
+    wall = np.column_stack([np.full(y.size, 11.85 - 8.0 - 0.02), y.ravel(), z.ravel()])  # 2 cm before its face
+    maps = DeviationMaps(site_model, tmp_path / "deviation", StructureConfig())
+    png = maps.add(0, object(), wall, pose)
+    image = matplotlib.image.imread(png)
+    assert image.shape[1] > image.shape[0] > 100
+    cloud = trimesh.load(maps.finish(tmp_path / "deviation.ply"))
+    deviation = np.asarray(cloud.metadata["_ply_raw"]["vertex"]["data"]["deviation"])
+    assert np.median(deviation) == pytest.approx(0.02, abs=2e-3)
