@@ -79,35 +79,38 @@ def judge_element(global_id: str, ifc_class: str, evidence: ElementEvidence,
     Returns:
         The judgement.
     """
-    cell_area = config.cell**2
     coverage = len(evidence.covered) / max(len(evidence.visible | evidence.covered), 1)
-    clear, through = len(evidence.clear), len(evidence.through)
     rho = np.concatenate([r for f in evidence.faces.values() for r in f.rho]) if evidence.faces else np.zeros(0)
     median = float(np.median(rho)) if len(rho) else None
-    p95 = float(np.percentile(np.abs(rho), 95)) if len(rho) else None
     offset, rotation = element_offset(evidence, config), element_rotation(evidence, config)
-    base = dict(global_id=global_id, ifc_class=ifc_class, coverage=round(coverage, 3),
-                median_mm=_mm(median), p95_mm=_mm(p95),
-                offset_m=None if offset is None else tuple(round(float(v), 4) for v in offset),
-                rotation_deg=None if rotation is None else round(rotation, 2), frames=sorted(evidence.frames))
-    share = through / clear if clear else 0.0
+    status, reason = _status(ifc_class, evidence, coverage, len(rho), offset, median, rotation, config)
+    return StructureJudgement(
+        global_id, ifc_class, status, round(coverage, 3), _mm(median),
+        _mm(float(np.percentile(np.abs(rho), 95)) if len(rho) else None),
+        None if offset is None else tuple(round(float(v), 4) for v in offset),
+        None if rotation is None else round(rotation, 2), sorted(evidence.frames), reason)
+
+
+def _status(ifc_class: str, evidence: ElementEvidence, coverage: float, returns: int, offset: np.ndarray | None,
+            median: float | None, rotation: float | None, config: StructureConfig) -> tuple[str, str]:
+    """(status, reason) by the module's rules, in their order."""
+    clear, cell_area = len(evidence.clear), config.cell**2
+    share = len(evidence.through) / clear if clear else 0.0
     if clear * cell_area >= config.min_clear_area and share >= config.not_built_fraction:
         if ifc_class in SEE_THROUGH_CLASSES:
-            return StructureJudgement(status=NOT_OBSERVED, reason=f"seen through over {share:.0%} of its face in "
-                                      "clear view: open, or glazed", **base)
-        return StructureJudgement(status=NOT_BUILT, reason=f"its face in clear view ({clear * cell_area:.2f} m2) is "
-                                  f"seen through over {share:.0%}, with returns on {1 - share:.0%}", **base)
-    if coverage < config.min_coverage or len(rho) < config.min_points:
-        return StructureJudgement(status=NOT_OBSERVED, reason=f"coverage {coverage:.0%} of its sensor-facing "
-                                  f"surface, {len(rho)} returns on it (need {config.min_coverage:.0%} and "
-                                  f"{config.min_points})", **base)
+            return NOT_OBSERVED, f"seen through over {share:.0%} of its face in clear view: open, or glazed"
+        return NOT_BUILT, (f"its face in clear view ({clear * cell_area:.2f} m2) is seen through over {share:.0%}, "
+                           f"with returns on {1 - share:.0%}")
+    if coverage < config.min_coverage or returns < config.min_points:
+        return NOT_OBSERVED, (f"coverage {coverage:.0%} of its sensor-facing surface, {returns} returns on it (need "
+                              f"{config.min_coverage:.0%} and {config.min_points})")
     if share > config.partly_through:
-        return StructureJudgement(status=DEVIATING, reason=f"seen through over {share:.0%} of its face in clear "
-                                  "view: partly built, or an opening the model lacks", **base)
+        return DEVIATING, f"seen through over {share:.0%} of its face in clear view: partly built, or an opening " \
+                          "the model lacks"
     status, reason = against(offset, median, rotation, tolerance_of(ifc_class, config))
     if evidence.unpinned:
         reason += "; along a face's normal the other elements in view did not pin the pose (measured from the fix)"
-    return StructureJudgement(status=status, reason=reason, **base)
+    return status, reason
 
 
 def against(offset: np.ndarray | None, median: float | None, rotation: float | None,
