@@ -36,7 +36,8 @@ def test_a_wall_judged_deviating_then_not_built_shows_in_state_history_and_expor
         assert states[SLAB].status is ElementStatus.AS_PLANNED
         assert twin.state(at=150.0)[WALL].status is ElementStatus.DEVIATING  # the history replays it
         history = twin.history(WALL)
-        assert history[0].data["structure"] == {"coverage": 0.9}
+        assert history[0].kind == "structure" and history[0].data["structure"] == {"coverage": 0.9}
+        assert not twin.events(kinds=["observation"])  # the objects' observations stay the mission's alone
         assert [e.data["to"] for e in history if e.kind == "status"] == ["deviating", "not built"]
         exported = json.loads(twin.export_json(tmp_path / "twin.json").read_text())
         assert exported["counts"]["not built"] == 1

@@ -11,16 +11,16 @@ twin.export_ifc(path); twin.export_bcf(path)
 
 from bim2rdt.twin.deviation import Deviation, pose_deviation
 from bim2rdt.twin.errors import TwinError
-from bim2rdt.twin.records import (EVENT_KINDS, MISSING, OBSERVATION, SAFETY, STATUS, ElementState, Evidence, Fit,
-                                  TwinEvent)
+from bim2rdt.twin.records import (EVENT_KINDS, MISSING, OBSERVATION, SAFETY, STATUS, STRUCTURE, ElementState,
+                                  Evidence, Fit, TwinEvent)
 from bim2rdt.twin.sink import TwinSink
 from bim2rdt.twin.status import STATUS_COLOURS, ElementStatus
 from bim2rdt.twin.config import TolerancePreset, TwinConfig
 from bim2rdt.twin.tolerance import Tolerance, TolerancePolicy
 
 __all__ = ["DigitalTwin", "Deviation", "ElementState", "ElementStatus", "EVENT_KINDS", "Evidence", "Fit", "MISSING",
-           "OBSERVATION", "SAFETY", "STATUS", "STATUS_COLOURS", "Tolerance", "TolerancePolicy", "TolerancePreset",
-           "TwinConfig", "TwinError", "TwinEvent", "TwinSink", "pose_deviation"]
+           "OBSERVATION", "SAFETY", "STATUS", "STATUS_COLOURS", "STRUCTURE", "Tolerance", "TolerancePolicy",
+           "TolerancePreset", "TwinConfig", "TwinError", "TwinEvent", "TwinSink", "pose_deviation"]
 
 
 def __getattr__(name: str):

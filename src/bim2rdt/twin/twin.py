@@ -38,7 +38,7 @@ from bim2rdt.bus.event import Event
 from bim2rdt.perception.observation import Observation
 from bim2rdt.twin.errors import TwinError
 from bim2rdt.twin.projection import STATE_KINDS, Projection
-from bim2rdt.twin.records import MISSING, OBSERVATION, SAFETY, STATUS, ElementState, TwinEvent
+from bim2rdt.twin.records import MISSING, OBSERVATION, SAFETY, STATUS, STRUCTURE, ElementState, TwinEvent
 from bim2rdt.twin.status import ElementStatus
 from bim2rdt.twin.store import EventStore, NewEvent, Writer
 from bim2rdt.twin.config import TwinConfig
@@ -266,7 +266,7 @@ class DigitalTwin:
                     "deviation": deviation.to_dict() if deviation else None,
                     "tolerance": tolerance.to_dict() if tolerance else None, "fit": None, "evidence": evidence,
                     "structure": json.loads(json.dumps(dict(measured or {})))}
-            return self._append_with_status(writer, NewEvent(OBSERVATION, when, global_id, source, data), status)
+            return self._append_with_status(writer, NewEvent(STRUCTURE, when, global_id, source, data), status)
 
         return self._projection.get(self._write(build)[0].global_id)
 
