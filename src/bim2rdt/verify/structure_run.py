@@ -107,10 +107,10 @@ def record_structure(twin: DigitalTwin, judged: list[StructureJudgement], model:
         if states[judgement.global_id].status is not ElementStatus.NOT_OBSERVED:
             continue
         when, camera = seen[frames[-1]]
-        twin.record_structure(judgement.global_id, status, when, pose=_measured_pose(elements[judgement.global_id]
-                                                                                     .placement, judgement),
-                              deviation=_deviation(judgement), tolerance=tolerance_record(judgement.ifc_class, config),
-                              frames=frames, camera=camera, reason=judgement.reason, measured=judgement.to_dict())
+        pose = _measured_pose(elements[judgement.global_id].placement, judgement)
+        twin.record_structure(judgement.global_id, status, when, pose=pose, deviation=_deviation(judgement),
+                              tolerance=tolerance_record(judgement.ifc_class, config), frames=frames, camera=camera,
+                              reason=judgement.reason, measured=judgement.to_dict())
         count += 1
     return count
 
