@@ -30,6 +30,7 @@ from bim2rdt.semantics.llm import LlmPriorsConfig
 from bim2rdt.server.config import ServerConfig
 from bim2rdt.sources import SourcesConfig
 from bim2rdt.sources.ros_config import RosConfig
+from bim2rdt.structure.config import StructureConfig
 from bim2rdt.twin.config import TwinConfig
 from bim2rdt.twin.judge import JudgeConfig
 from bim2rdt.verify import VerifyConfig, real_sensor_localization
@@ -145,6 +146,7 @@ class Settings(BaseSettings):
     verify: VerifyConfig = VerifyConfig()
     twin: TwinConfig = TwinConfig()
     judge: JudgeConfig = JudgeConfig()
+    structure: StructureConfig = StructureConfig()
     server: ServerConfig = ServerConfig()
     ros: RosConfig = RosConfig()
     sources: SourcesConfig = SourcesConfig()

@@ -233,3 +233,16 @@ def test_report_html_lets_text_columns_wrap_instead_of_cutting_the_last_one():
     from bim2rdt.demo.html_report import STYLE
 
     assert "max-width:1300px" not in STYLE and "td.l{white-space:normal" in STYLE
+
+
+def test_the_demo_judges_the_walls_and_slab_its_stations_saw_in_structure_json_and_the_twin(demo_out):
+    """The simulated site builds its walls and slab where the model has them: those the stations' frames cover are
+    as planned (none deviating), and the twin shows the same status."""
+    out, _ = demo_out
+    structure = json.loads((out / "structure.json").read_text())
+    seen = [j for j in structure if j["ifc_class"] in ("IfcWall", "IfcSlab") and j["status"] != "not observed"]
+    assert {"IfcWall", "IfcSlab"} <= {j["ifc_class"] for j in seen}
+    assert not [j for j in seen if j["status"] == "deviating"], seen
+    states = {e["global_id"]: e["status"] for e in json.loads((out / "twin.json").read_text())["elements"]}
+    assert all(states[j["global_id"]] == j["status"] for j in seen)
+    assert all(j["frames"] and 0 < j["coverage"] <= 1 for j in seen)

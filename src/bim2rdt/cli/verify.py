@@ -37,7 +37,8 @@ def verify_command(
                                            "intrinsics.json)."),
     out: Path = typer.Option(Path("out/verify"), "--out", parser=out_path, callback=set_folder,
                              help="Folder for twin.json, twin.ifc, issues.bcf, report.html, localization.json, "
-                             "config.json (the settings that ran), twin.db: written as one set when the run ends "
+                             "config.json (the settings that ran), twin.db, structure.json, deviation.ply and deviation/ (a PNG per "
+                             "frame): written as one set when the run ends "
                              "(an interrupted run leaves the earlier set as it was)."),
     detector: str = typer.Option("cluster", "--detector", help="New objects: 'cluster' (what neither the building "
                                  "nor a planned object explains) or 'none'."),
@@ -65,6 +66,8 @@ def verify_command(
     from bim2rdt.verify.outputs import verdict_counts
     from bim2rdt.verify.report import FrameCapture
     from bim2rdt.verify.report.rows import element_rows
+    from bim2rdt.structure import STRUCTURE_STATUSES
+    from bim2rdt.verify.structure_run import StructureRun
 
     if detector not in ("cluster", "none"):
         raise _bad(f"--detector must be 'cluster' or 'none', not {detector!r}")
@@ -96,8 +99,13 @@ def verify_command(
     frames, output = FrameCapture(recording), OutputSet(out)
     try:
         with output, _progress(recording.expected_frames, as_json) as tick:
-            result = verify_frames(frames, model, T_prior, config, progress=lambda frame: tick("frame"))
+            structure = StructureRun(model, output.folder, settings.structure)
+            result = verify_frames(frames, model, T_prior, config, progress=lambda frame: tick("frame"),
+                                   look=structure.look)
+            judged = structure.finish()
             with record_twin(result, model, output.folder, settings.twin) as twin:
+                counts = verdict_counts(twin.state())  # the objects' verdicts; the structure's are counted apart
+                structure.record(twin, judged)
                 files = write_outputs(result, twin, output.folder, frames.views,
                                       f"verify {ifc_file.name} with {source.name}")
                 _record_run(output.folder, settings, {
@@ -112,10 +120,10 @@ def verify_command(
     except BaseException:
         _say_kept(output)
         raise
-    counts = verdict_counts(states)
     summary = {"frames": len(result.frames), "localized": result.localized,
                "partial": sum(f.fix == "partial" for f in result.frames),
                "verdicts": {k: v for k, v in counts.items() if k != "not observed"},
+               "structure": {s: sum(j.status == s for j in judged) for s in STRUCTURE_STATUSES},
                "miscalibrated": result.miscalibrated, "warnings": result.warnings,
                "seconds_per_frame": round(sum(f.seconds for f in result.frames) / len(result.frames), 2),
                "dropped": result.drop_counts, "source_warnings": result.source_warnings,
@@ -148,6 +156,8 @@ def verify_command(
     if result.dropped:
         console.print(f"dropped {len(result.dropped)} frames: "
                       + ", ".join(f"{n} {k}" for k, n in result.drop_counts.items()) + " (localization.json)")
+    console.print("structure: " + (", ".join(f"{v} {k}" for k, v in summary["structure"].items() if v)
+                                   or "none judged"))
     console.print(f"wrote {out}/: {', '.join(output.committed)}"
                   + ("" if files.ifc else f" (no twin.ifc: {files.ifc_note})"), highlight=False)
     if publish is not None:

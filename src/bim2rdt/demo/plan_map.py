@@ -27,6 +27,7 @@ from bim2rdt.twin import ElementStatus  # noqa: E402
 STATUS_COLOURS = {ElementStatus.AS_PLANNED.value: "tab:green", ElementStatus.DEVIATING.value: "tab:orange",
                   ElementStatus.NEW.value: "tab:red", ElementStatus.MISSING.value: "tab:purple",
                   ElementStatus.UNVERIFIED.value: "tab:grey", ElementStatus.NOT_OBSERVED.value: "white",
+                  ElementStatus.NOT_BUILT.value: "tab:brown",
                   "as-planned": "tab:green", "moved": "tab:orange"}
 """Fill colour per twin status (ElementStatus values; the mission's older verdict words map onto them)."""
 _LAYERS = (("floor edge", (0.93, 0.91, 0.88, 1.0)), ("margin", (0.82, 0.82, 0.82, 1.0)),

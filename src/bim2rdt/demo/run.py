@@ -52,7 +52,8 @@ def run_demo(out_dir: Path, trials: int = DEMO_TRIALS, seed: int = DEMO_SEED, wo
     day = run_site_day(out_dir, seed=seed, workers=workers, minutes=minutes, mission_config=settings.mission,
                        icp=settings.registration, twin_config=settings.twin, tick=tick, detector=detector,
                        yoloe=yoloe, record=record, max_targets=max_targets, keep_odometry=publish is not None,
-                       localization=settings.localization, perception=settings.perception)
+                       localization=settings.localization, perception=settings.perception,
+                       structure_config=settings.structure)
     report = write_site_report(day, out_dir)
     published = None
     if publish is not None:

@@ -22,12 +22,13 @@ from __future__ import annotations
 import shutil
 from collections.abc import Callable
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from bim2rdt.bim import BimModel, load_ifc
+from bim2rdt.demo.day_structure import judge_day_structure
 from bim2rdt.demo.localized import MissionLocalization, localized_mission
 from bim2rdt.demo.routes import UNPLANNED_DRUM_XY, DayRoute, plan_day_route
 from bim2rdt.demo.site_twin import TwinFiles, export_day_twin, ifc_records, open_day_twin, record_mission
@@ -40,6 +41,7 @@ from bim2rdt.sim.meshes import mesh_for_family
 from bim2rdt.demo.perceivers import DemoPerception
 from bim2rdt.sim.reality import Reality, objects_of_interest, simulate_reality
 from bim2rdt.sim.site import ROBOT_START_XY, ZONES, build_site_ifc
+from bim2rdt.structure import StructureConfig, StructureJudgement
 from bim2rdt.twin import DigitalTwin, TwinConfig
 
 WORK_ZONE = ZONES[0][0]
@@ -67,6 +69,8 @@ class SiteDay:
     odometry: list[tuple[float, np.ndarray]] | None = None
     """Each capture's (time, T_odom_camera) on the robot's clock, as ``--record`` writes them (kept with
     ``record`` or ``keep_odometry``)."""
+    structure: list[StructureJudgement] = field(default_factory=list)
+    """Each permanent element's judgement (``structure.json``, :mod:`bim2rdt.demo.day_structure`)."""
 
 
 def run_site_day(out_dir: Path, seed: int = 0, workers: int = 2, minutes: float = 60.0, fs: float = 5000.0,
@@ -76,7 +80,8 @@ def run_site_day(out_dir: Path, seed: int = 0, workers: int = 2, minutes: float 
                  yoloe: tuple[Path, Path] | None = None, record: Path | None = None,
                  max_targets: int | None = None, keep_odometry: bool = False,
                  localization: LocalizationConfig | None = None,
-                 perception: PerceptionConfig = PerceptionConfig()) -> SiteDay:
+                 perception: PerceptionConfig = PerceptionConfig(),
+                 structure_config: StructureConfig = StructureConfig()) -> SiteDay:
     """Run the day into ``out_dir``: ``site.ifc`` (as designed), the day's twin (``twin.db``) and its exports
     (``site_twin.ifc`` as built with safety records, ``site_issues.bcf``, ``twin.json``), and the monitor's state
     under ``state/`` (both started afresh: the demo simulates a new day). The mission runs with
@@ -102,8 +107,11 @@ def run_site_day(out_dir: Path, seed: int = 0, workers: int = 2, minutes: float 
     def route_for_today() -> DayRoute:
         return plan_day_route(model, targets, ROBOT_START_XY, mission_config, events, _shift_start())
 
+    perceivers: list[DemoPerception] = []  # the day's camera: its station frames judge the structure too
+
     def eyes() -> DemoPerception:
-        return DemoPerception(detector, model, reality, priors, seed, yoloe, config=perception)
+        perceivers.append(DemoPerception(detector, model, reality, priors, seed, yoloe, config=perception))
+        return perceivers[-1]
 
     route = route_for_today()
     # every planned object is a target: one the short day's stations see by chance is that element, not a new one
@@ -115,10 +123,12 @@ def run_site_day(out_dir: Path, seed: int = 0, workers: int = 2, minutes: float 
         mission, localization = localized_mission(context, eyes, ROBOT_START_XY, seed, route=route.route,
                                                   comparison_route=route_for_today().route, record=recording)
     record_mission(twin, mission.observations, mission.stations, times=route.route.arrivals, missing=mission.missing)
+    frames = {index: perceivers[0].station_frame(index) for index in range(len(mission.stations))}
+    structure = judge_day_structure(model, frames, route.route.arrivals or {}, twin, out_dir, structure_config)
     tick("twin")
     files = export_day_twin(twin, out_dir)
     return SiteDay(model, priors, reality, mission, files.ifc, events, timeline, ifc_records(files.ifc), twin, files,
-                   route, localization, recorded[0].captures if recorded else None)
+                   route, localization, recorded[0].captures if recorded else None, structure)
 
 
 @contextmanager

@@ -24,7 +24,9 @@ class ElementStatus(str, Enum):
 
     ``DEVIATING`` is out of tolerance (for a site object: moved or turned; for a column: out of plumb or off its
     grid line); ``MISSING`` is its place seen empty; ``NEW`` is an object the BIM does not have;
-    ``UNVERIFIED`` is seen, but the fit is too poor (or the view too weak) to judge."""
+    ``UNVERIFIED`` is seen, but the fit is too poor (or the view too weak) to judge; ``NOT_BUILT`` is a permanent
+    element (a wall, a slab) whose surface was in clear view with nothing on it and free space seen through it
+    (:mod:`bim2rdt.structure`)."""
 
     NOT_OBSERVED = "not observed"
     AS_PLANNED = "as planned"
@@ -32,6 +34,7 @@ class ElementStatus(str, Enum):
     MISSING = "missing"
     NEW = "new"
     UNVERIFIED = "unverified"
+    NOT_BUILT = "not built"
 
     def __str__(self) -> str:
         return self.value

@@ -12,8 +12,8 @@ twin.export_ifc(path); twin.export_bcf(path)
 from bim2rdt.twin.deviation import Deviation, pose_deviation
 from bim2rdt.twin.errors import TwinError
 from bim2rdt.twin.judge import FitEvidence, JudgeConfig, Judgement, PlaceEvidence, judge_evidence, place_seen_empty
-from bim2rdt.twin.records import (EVENT_KINDS, MISSING, OBSERVATION, SAFETY, STATUS, ElementState, Evidence, Fit,
-                                  TwinEvent)
+from bim2rdt.twin.records import (EVENT_KINDS, MISSING, OBSERVATION, SAFETY, STATUS, STRUCTURE, ElementState,
+                                  Evidence, Fit, TwinEvent)
 from bim2rdt.twin.sink import TwinSink
 from bim2rdt.twin.status import STATUS_COLOURS, ElementStatus
 from bim2rdt.twin.config import TolerancePreset, TwinConfig
@@ -22,7 +22,7 @@ from bim2rdt.twin.verdict import fit_trusted
 
 __all__ = ["DigitalTwin", "Deviation", "ElementState", "ElementStatus", "EVENT_KINDS", "Evidence", "Fit", "FitEvidence",
            "JudgeConfig", "Judgement", "MISSING", "PlaceEvidence", "judge_evidence", "place_seen_empty",
-           "OBSERVATION", "SAFETY", "STATUS", "STATUS_COLOURS", "Tolerance", "TolerancePolicy", "TolerancePreset",
+           "OBSERVATION", "SAFETY", "STATUS", "STATUS_COLOURS", "STRUCTURE", "Tolerance", "TolerancePolicy", "TolerancePreset",
            "TwinConfig", "TwinError", "TwinEvent", "TwinSink", "fit_trusted", "pose_deviation",
            "ISSUES", "TopicView", "topic_title", "vertical_fov_deg", "write_bcf"]
 

@@ -29,7 +29,7 @@ from bim2rdt.twin.records import ElementState
 from bim2rdt.twin.snapshot import Layer, render_snapshot, vertical_fov_deg
 from bim2rdt.twin.status import STATUS_COLOURS, ElementStatus
 
-ISSUES = (ElementStatus.DEVIATING, ElementStatus.MISSING, ElementStatus.NEW)
+ISSUES = (ElementStatus.DEVIATING, ElementStatus.MISSING, ElementStatus.NEW, ElementStatus.NOT_BUILT)
 """The statuses a BCF topic is written for."""
 SNAPSHOT = "snapshot.png"
 CONTEXT_RADIUS_M = 8.0
@@ -106,6 +106,8 @@ def topic_title(state: ElementState) -> str:
         return f"Deviating: {what} off by {100 * d.translation:.1f} cm, tilt {d.tilt_deg:.1f}°, yaw {d.yaw_deg:.1f}°"
     if state.status is ElementStatus.MISSING:
         return f"Missing: {what} not at its BIM place"
+    if state.status is ElementStatus.NOT_BUILT:
+        return f"Not built: {what} seen through where the BIM has it"
     return f"New: {what} not in the BIM"
 
 

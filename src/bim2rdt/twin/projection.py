@@ -11,11 +11,11 @@ import numpy as np
 
 from bim2rdt.bim import BimModel
 from bim2rdt.twin.deviation import Deviation
-from bim2rdt.twin.records import MISSING, OBSERVATION, ElementState, Evidence, Fit, TwinEvent
+from bim2rdt.twin.records import MISSING, OBSERVATION, STRUCTURE, ElementState, Evidence, Fit, TwinEvent
 from bim2rdt.twin.status import ElementStatus
 from bim2rdt.twin.tolerance import Tolerance
 
-STATE_KINDS = (OBSERVATION, MISSING)
+STATE_KINDS = (OBSERVATION, MISSING, STRUCTURE)
 """The event kinds that set an element's state (status events record changes; safety events are history)."""
 
 

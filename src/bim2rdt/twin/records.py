@@ -20,9 +20,12 @@ MISSING = "missing"
 """An element whose place the robot saw empty."""
 STATUS = "status"
 """An element's present status changed (``data``: ``from``, ``to``, ``event``: the seq that changed it)."""
+STRUCTURE = "structure"
+"""A permanent element judged by the structure judge (``data``: its status, measured pose, deviation, tolerance,
+evidence, and ``structure``: the judge's figures)."""
 SAFETY = "safety"
 """A safety event of the HAV monitor (``data``: the bus event)."""
-EVENT_KINDS = (OBSERVATION, MISSING, STATUS, SAFETY)
+EVENT_KINDS = (OBSERVATION, MISSING, STATUS, SAFETY, STRUCTURE)
 
 
 @dataclass(frozen=True)

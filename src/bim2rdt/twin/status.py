@@ -10,5 +10,6 @@ __all__ = ["STATUS_COLOURS", "ElementStatus"]
 
 STATUS_COLOURS = {ElementStatus.NOT_OBSERVED: "0.75", ElementStatus.AS_PLANNED: "tab:green",
                   ElementStatus.DEVIATING: "tab:orange", ElementStatus.MISSING: "tab:purple",
-                  ElementStatus.NEW: "tab:red", ElementStatus.UNVERIFIED: "tab:grey"}
+                  ElementStatus.NEW: "tab:red", ElementStatus.UNVERIFIED: "tab:grey",
+                  ElementStatus.NOT_BUILT: "tab:brown"}
 """One matplotlib colour per status, shared by snapshots, plan maps and reports."""

@@ -5,6 +5,7 @@ twin = DigitalTwin.open("sqlite:///out/twin.db", model)   # or postgresql+psycop
 twin.record(observation, time)        # a perception Observation; judged against the BIM and appended
                                       # (rmse inf with fitness 0, a fit with no inlier: unverified, rmse None)
 twin.mark_missing(global_id, time)    # its place was seen empty
+twin.record_structure(global_id, status, time, pose=..., deviation=...)   # a wall's or slab's judgement
 twin.record_event(event)              # a safety event (bus.Event) of the HAV monitor
 twin.record_events(events)            # several (one monitor commit's) in one transaction
 twin.state(at=None)                   # {global_id: ElementState}: the present, or as it was at time `at`
@@ -38,12 +39,13 @@ from bim2rdt.frames import rigid_problem
 from bim2rdt.perception import Observation
 from bim2rdt.twin.errors import TwinError
 from bim2rdt.twin.projection import STATE_KINDS, Projection
-from bim2rdt.twin.records import MISSING, OBSERVATION, SAFETY, STATUS, ElementState, TwinEvent
+from bim2rdt.twin.records import MISSING, OBSERVATION, SAFETY, STATUS, STRUCTURE, ElementState, TwinEvent
 from bim2rdt.twin.status import ElementStatus
 from bim2rdt.twin.store import EventStore, NewEvent, Writer
 from bim2rdt.twin.config import TwinConfig
+from bim2rdt.twin.deviation import Deviation
 from bim2rdt.twin.text import checked_text
-from bim2rdt.twin.tolerance import TolerancePolicy
+from bim2rdt.twin.tolerance import Tolerance, TolerancePolicy
 from bim2rdt.twin.verdict import judge_observation
 
 FamilyMesh = Callable[[str], tuple[np.ndarray, np.ndarray] | None]
@@ -239,6 +241,58 @@ class DigitalTwin:
             data = {"family": family, "status": ElementStatus.MISSING.value, "pose": None, "evidence": evidence}
             return self._append_with_status(writer, NewEvent(MISSING, when, global_id, source, data),
                                             ElementStatus.MISSING)
+
+        return self._projection.get(self._write(build)[0].global_id)
+
+    def record_structure(self, global_id: str, status: ElementStatus, time: float, *, pose: np.ndarray | None = None,
+                         deviation: Deviation | None = None, tolerance: Tolerance | None = None,
+                         frames: Iterable[int] = (), camera: np.ndarray | None = None, reason: str = "",
+                         measured: Mapping | None = None, robot: str | None = None) -> ElementState:
+        """Record a permanent element's judgement as the structure judge made it (:mod:`bim2rdt.structure`: from
+        coverage and signed distances, against its own per-class tolerance), not judged again here.
+
+        Args:
+            global_id: The element's GlobalId (a BIM element).
+            status: As planned, deviating or not built.
+            time: When it was seen, UTC seconds.
+            pose: Its measured placement (``T_world_model``, 4x4 metres: the BIM's moved by the measured offset);
+                None for one not built.
+            deviation: The measured offset and tilt against the BIM.
+            tolerance: The tolerance it was judged by.
+            frames: The indices of the frames that saw it.
+            camera: ``T_world_camera`` (4x4) of a view that saw it; None records no viewpoint.
+            reason: Why this status.
+            measured: The judge's figures (coverage, median_mm, p95_mm, offset_m, rotation_deg), JSON-ready.
+            robot: The record's source; None uses the twin's ``robot``.
+
+        Returns:
+            The element's present state.
+
+        Raises:
+            TwinError: A bad time or pose, a status the judge does not give, a deviating element without a pose,
+                or a GlobalId the BIM does not have.
+        """
+        if status not in (ElementStatus.AS_PLANNED, ElementStatus.DEVIATING, ElementStatus.NOT_BUILT):
+            raise TwinError(f"a structure judgement is as planned, deviating or not built, got {status.value}")
+        when = _checked_time(time)
+        pose = None if pose is None else _checked_pose(pose, "the element's measured pose")
+        if status is ElementStatus.DEVIATING and pose is None:
+            raise TwinError("a deviating element needs its measured pose")
+        camera = None if camera is None else _checked_pose(camera, "the camera pose")
+        evidence = _evidence(None, tuple(frames), camera, None)
+        source = checked_text(robot or self.robot, "robot")
+        reason = checked_text(reason, "reason", may_be_empty=True)
+
+        def build(writer: Writer) -> list[TwinEvent]:
+            element = self._elements.get(global_id)
+            if element is None:
+                raise TwinError(f"{self.model.path.name} has no element with GlobalId {global_id}")
+            data = {"family": element.family, "status": status.value,
+                    "pose": None if pose is None else pose.tolist(), "reason": reason,
+                    "deviation": deviation.to_dict() if deviation else None,
+                    "tolerance": tolerance.to_dict() if tolerance else None, "fit": None, "evidence": evidence,
+                    "structure": json.loads(json.dumps(dict(measured or {})))}
+            return self._append_with_status(writer, NewEvent(STRUCTURE, when, global_id, source, data), status)
 
         return self._projection.get(self._write(build)[0].global_id)
 

@@ -247,7 +247,8 @@ class VerifyResult:
 def verify_frames(frames: Iterable, model: BimModel, prior: np.ndarray | None = None,
                   config: VerifyConfig = VerifyConfig(),
                   progress: Callable[[FrameResult], None] | None = None,
-                  priors: Mapping[str, UprightPrior] | None = None) -> VerifyResult:
+                  priors: Mapping[str, UprightPrior] | None = None,
+                  look: Callable[[object, FrameResult], None] | None = None) -> VerifyResult:
     """Each frame of ``frames`` localized on ``model`` and checked (see the module's note). An item is a
     :class:`Frame` or a scan (anything with ``.points`` (N, 3) in the sensor frame, and ``.path``: a
     ``sources.Cloud``). Each item's prior:
@@ -272,6 +273,8 @@ def verify_frames(frames: Iterable, model: BimModel, prior: np.ndarray | None = 
         progress: Called with each frame's result as it is done.
         priors: Family -> upright prior, to fit each planned object as the mission fits it (default:
             :func:`family_priors` of ``model``).
+        look: Called with each frame (or scan) and its result while the frame is at hand (the structure judge
+            and the deviation maps, :mod:`.structure_run`).
 
     Returns:
         Every frame's result in source order, with what the source dropped and warned about.
@@ -306,6 +309,8 @@ def verify_frames(frames: Iterable, model: BimModel, prior: np.ndarray | None = 
         elif anchor is not None and anchor[0] is None and own is not None:
             anchor = (own, anchor[1])  # the user's prior is where the sensor was at its first pose
         results.append(result)
+        if look is not None:
+            look(frame, result)
         if progress is not None:
             progress(result)
     dropped = list(recording.dropped)

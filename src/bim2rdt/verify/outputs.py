@@ -121,7 +121,8 @@ def write_outputs(result: VerifyResult, twin: DigitalTwin, out_dir: Path,
 
 
 def verdict_counts(states: dict[str, ElementState]) -> dict[str, int]:
-    """{status: number of elements} over every status (zero included).
+    """{status: number of elements} over every status (zero included); "not built" (a permanent element's,
+    counted by verify's ``structure`` apart) only when some element is.
 
     Args:
         states: The twin's states by GlobalId.
@@ -129,7 +130,7 @@ def verdict_counts(states: dict[str, ElementState]) -> dict[str, int]:
     Returns:
         The counts by status value.
     """
-    counts = {s.value: 0 for s in ElementStatus}
+    counts = {s.value: 0 for s in ElementStatus if s is not ElementStatus.NOT_BUILT}
     for state in states.values():
-        counts[state.status.value] += 1
+        counts[state.status.value] = counts.get(state.status.value, 0) + 1
     return counts

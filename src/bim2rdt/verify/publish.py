@@ -29,7 +29,8 @@ ROS_ORDER = [0, 1, 2, 3, 4, 5]
 MAX_TRIANGLES = 20_000
 STATUS_RGBA = {ElementStatus.AS_PLANNED: (0.2, 0.8, 0.2, 0.8), ElementStatus.DEVIATING: (1.0, 0.55, 0.0, 0.9),
                ElementStatus.MISSING: (0.9, 0.1, 0.1, 0.6), ElementStatus.NEW: (0.2, 0.4, 1.0, 0.9),
-               ElementStatus.UNVERIFIED: (0.6, 0.6, 0.6, 0.8), ElementStatus.NOT_OBSERVED: (0.8, 0.8, 0.8, 0.3)}
+               ElementStatus.UNVERIFIED: (0.6, 0.6, 0.6, 0.8), ElementStatus.NOT_OBSERVED: (0.8, 0.8, 0.8, 0.3),
+               ElementStatus.NOT_BUILT: (0.55, 0.34, 0.29, 0.6)}
 
 
 def ros_covariance(covariance: np.ndarray) -> np.ndarray:
