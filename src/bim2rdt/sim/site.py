@@ -16,6 +16,7 @@ from __future__ import annotations
 import math
 import uuid
 from dataclasses import dataclass
+from datetime import date, datetime, timezone
 from pathlib import Path
 
 import ifcopenshell
@@ -35,6 +36,7 @@ import numpy as np
 from bim2rdt.bim.atomic import atomic_write_ifc
 from bim2rdt.bim.ifc_values import add_typed_pset
 from bim2rdt.sim.meshes import mesh_for_family
+from bim2rdt.sim.schedule import add_site_schedule
 
 SITE_LENGTH, SITE_WIDTH = 20.0, 14.0
 WALL_HEIGHT = 3.0
@@ -88,14 +90,23 @@ ZONES = (
     ("Exclusion Zone - Material Storage", (14.0, 1.0, 19.0, 5.0), True, "exclusion"),
 )
 
+UNBUILT_WALLS = ("Interior Wall - Partition NE",)
+"""Walls the BIM plans that the simulated site has not built yet (the schedule's task for them is behind)."""
+PARTITION = ("Interior Wall - Partition NE", 17.6, 12.5, 1.2)
+"""A 150 mm partition the BIM plans in the north-east room: name, x and y of its south end (m), length (m) north
+to the exterior wall; behind the scaffold, in the view of the robot's station for it."""
+
 ROBOT_START_XY = (1.0, 1.0)
 """Where the robot's dock is on the default site, metres."""
 
 
-def build_site_ifc(path: str | Path, schema: str = "IFC4", *, replace_special: bool = False) -> Path:
+def build_site_ifc(path: str | Path, schema: str = "IFC4", *, replace_special: bool = False,
+                   day: date | None = None) -> Path:
     """Write the default construction site (IFC4 by default; IFC4X3 also works) atomically; returns the path.
-    ``replace_special`` lets it replace a symlink or device node at ``path`` (see ``atomic.write_bytes_atomic``)."""
-    builder = _SiteBuilder(schema)
+    ``replace_special`` lets it replace a symlink or device node at ``path`` (see ``atomic.write_bytes_atomic``).
+    Its work schedule (:mod:`bim2rdt.sim.schedule`) is dated around ``day`` (default: today, UTC): the same day
+    writes the same bytes."""
+    builder = _SiteBuilder(schema, day or datetime.now(timezone.utc).date())
     builder.build()
     return atomic_write_ifc(builder.ifc, Path(path), replace_special=replace_special)
 
@@ -112,8 +123,9 @@ def yaw_pose(x: float, y: float, z: float, yaw_deg: float) -> np.ndarray:
 class _SiteBuilder:
     """Builds the site step by step; each step is one kind of thing on site."""
 
-    def __init__(self, schema: str) -> None:
+    def __init__(self, schema: str, day: date) -> None:
         self.ifc = ifcopenshell.api.project.create_file(version=schema)
+        self.day = day
         self._styles: dict[str, ifcopenshell.entity_instance] = {}
 
     def build(self) -> None:
@@ -125,6 +137,8 @@ class _SiteBuilder:
         self._columns()
         self._zones()
         self._site_objects()
+        self._partition()  # after every other element: the earlier ones keep their GlobalIds
+        add_site_schedule(self.ifc, self.day)
         self._stabilise()
 
     def _project(self) -> None:
@@ -199,6 +213,13 @@ class _SiteBuilder:
                                        family="Concrete Column 400x400", type_class="IfcColumnType")
                 self._body(column, _box(self.ifc, (0.4, 0.4, WALL_HEIGHT), (0.0, 0.0, 0.0)), "Concrete")
                 self._place(column, yaw_pose(x, y, 0.0, 0.0))
+
+    def _partition(self) -> None:
+        name, x, y, length = PARTITION
+        wall = self._element("IfcWall", name, "PARTITIONING", family="Basic Wall:Interior - Blockwork 150mm",
+                             type_class="IfcWallType")
+        self._body(wall, _box(self.ifc, (length, 0.15, WALL_HEIGHT), (length / 2, 0.075, 0)), "Blockwork")
+        self._place(wall, yaw_pose(x + 0.075, y, 0.0, 90.0))
 
     def _zones(self) -> None:
         for name, (x0, y0, x1, y1), off_limits, kind in ZONES:

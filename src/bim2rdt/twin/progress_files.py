@@ -1,0 +1,146 @@
+"""The progress of a run, from its twin: ``progress.json`` (the contract other tools read), ``progress_curve.json``
+(the S-curve, planned against observed) and the write-back into the twin's IFC. ``verify`` and ``demo`` call
+:func:`write_progress` after exporting the twin; a model without a work schedule writes nothing.
+
+The structure's judgements reach progress as ``structure.json`` (a list of ``{"global_id", "status", ...}``), read
+by :func:`read_structure_statuses`.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping
+from dataclasses import dataclass
+from datetime import datetime, timezone
+from pathlib import Path
+
+from bim2rdt.atomic import write_bytes_atomic
+from bim2rdt.bim.quantities import product_quantities
+from bim2rdt.bim.schedule import WorkSchedule, read_work_schedules
+from bim2rdt.bim.source import read_source
+from bim2rdt.twin.errors import TwinError
+from bim2rdt.twin.progress import ScheduleProgress
+from bim2rdt.twin.progress_history import (CurvePoint, curve_dates, observation_times, progress_over_time,
+                                           twin_statuses_at)
+from bim2rdt.twin.progress_ifc import write_progress_ifc
+
+PROGRESS_JSON, CURVE_JSON = "progress.json", "progress_curve.json"
+EARLIEST_CLOCK = datetime(2000, 1, 1, tzinfo=timezone.utc)
+"""Observation times before this are frame indices, not a clock (a recording without stamps)."""
+
+
+@dataclass
+class ProgressFiles:
+    """What :func:`write_progress` wrote: ``progress.json``, ``progress_curve.json``, the twin IFC it wrote the
+    tasks' progress into (None when there was none, with ``ifc_note`` saying why), and the progress itself."""
+
+    progress_json: Path
+    curve_json: Path
+    progress: ScheduleProgress
+    curve: list[CurvePoint]
+    ifc: Path | None = None
+    ifc_note: str | None = None
+
+
+def read_structure_statuses(path: str | Path) -> dict[str, str]:
+    """``structure.json``'s judgements as {GlobalId: status}; empty when the file does not exist.
+
+    Args:
+        path: The structure.json file (a list of objects with ``global_id`` and ``status``).
+
+    Returns:
+        {GlobalId: "as planned" | "deviating" | "not built" | "not observed"}.
+
+    Raises:
+        TwinError: The file is not such a list.
+    """
+    path = Path(path)
+    if not path.is_file():
+        return {}
+    try:
+        rows = json.loads(path.read_text(encoding="utf-8"))
+        return {str(row["global_id"]): str(row["status"]) for row in rows}
+    except (ValueError, TypeError, KeyError) as error:
+        raise TwinError(f"{path.name}: not a list of structure judgements ({error})") from None
+
+
+def twin_progress(twin, schedule: WorkSchedule, *, ifc=None, at: datetime | None = None,
+                  structure: Mapping[str, str] | None = None, structure_time: datetime | None = None,
+                  behind_percent: float = 10.0, ahead_percent: float = 10.0) -> tuple[ScheduleProgress,
+                                                                                     list[CurvePoint]]:
+    """A schedule's progress from a twin at ``at`` (default: the twin's last observation, else now), with actual
+    starts and finishes and the S-curve from its history.
+
+    Args:
+        twin: A ``DigitalTwin`` of the schedule's model.
+        schedule: The work schedule.
+        ifc: The model's open IFC file (for its IfcElementQuantity); None opens ``twin.model.path``.
+        at: The progress date (aware); None: the twin's last observation time, else now.
+        structure: {GlobalId: structure status} merged over the twin's verdicts.
+        structure_time: When the structure was judged; None: always.
+        behind_percent: Percentage points under planned beyond which a task is behind.
+        ahead_percent: Percentage points over planned beyond which a task is ahead.
+
+    Returns:
+        (progress, S-curve points).
+    """
+    observed = [t for t in observation_times(twin) if t >= EARLIEST_CLOCK]
+    now = at or (observed[-1] if observed else datetime.now(timezone.utc))
+    products = [p for task in schedule.tasks for p in task.products]
+    ifc = ifc if ifc is not None else read_source(Path(twin.model.path)).ifc
+    quantities = product_quantities(twin.model, ifc, products)
+    dates = curve_dates(schedule, [t for t in observed if t <= now], now)
+    return progress_over_time(schedule, quantities, twin_statuses_at(twin, structure, structure_time), now, dates,
+                              behind_percent, ahead_percent)
+
+
+def write_progress(twin, out_dir: Path, *, twin_ifc: Path | None = None, structure: Mapping[str, str] | None = None,
+                   structure_time: datetime | None = None, behind_percent: float = 10.0,
+                   ahead_percent: float = 10.0) -> ProgressFiles | None:
+    """Write ``progress.json`` and ``progress_curve.json`` into ``out_dir`` and the tasks' progress into
+    ``twin_ifc``, when the twin's model has a work schedule.
+
+    Args:
+        twin: The run's ``DigitalTwin``.
+        out_dir: The run's folder.
+        twin_ifc: The exported twin IFC to write the progress into; None writes no IFC.
+        structure: {GlobalId: structure status} (see :func:`read_structure_statuses`).
+        structure_time: When the structure was judged; None: always.
+        behind_percent: Percentage points under planned beyond which a task is behind.
+        ahead_percent: Percentage points over planned beyond which a task is ahead.
+
+    Returns:
+        The files and the progress; None when the model has no work schedule.
+    """
+    ifc = read_source(Path(twin.model.path)).ifc
+    schedules = read_work_schedules(ifc)
+    if not schedules:
+        return None
+    progress, curve = twin_progress(twin, schedules[0], ifc=ifc, structure=structure, structure_time=structure_time,
+                                    behind_percent=behind_percent, ahead_percent=ahead_percent)
+    files = ProgressFiles(
+        write_bytes_atomic(out_dir / PROGRESS_JSON, json.dumps(progress.to_dict(), indent=1).encode("utf-8")),
+        write_bytes_atomic(out_dir / CURVE_JSON, json.dumps(curve_dict(curve), indent=1).encode("utf-8")),
+        progress, curve)
+    if twin_ifc is not None:
+        try:
+            files.ifc = write_progress_ifc(twin_ifc, progress)
+        except TwinError as error:
+            files.ifc_note = str(error)
+    return files
+
+
+def curve_dict(curve: list[CurvePoint]) -> dict:
+    """The S-curve as progress_curve.json writes it.
+
+    Args:
+        curve: The curve's points.
+
+    Returns:
+        {"points": [{"date": ISO 8601, "planned_percent", "observed_percent"}]}.
+    """
+    def rounded(value):
+        return round(value, 1) if value is not None else None
+
+    return {"points": [{"date": p.date.isoformat(), "planned_percent": rounded(p.planned_percent),
+                        "observed_percent": rounded(p.observed_percent)} for p in curve]}
