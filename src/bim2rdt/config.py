@@ -29,6 +29,7 @@ from bim2rdt.semantics.llm import LlmPriorsConfig
 from bim2rdt.server.config import ServerConfig
 from bim2rdt.sources.ros_config import RosConfig
 from bim2rdt.twin.config import TwinConfig
+from bim2rdt.twin.progress_config import ProgressConfig
 
 
 def default_samples_dir() -> Path:
@@ -118,6 +119,7 @@ class Settings(BaseSettings):
     localization: LocalizationConfig = LocalizationConfig()
     mission: MissionConfig = MissionConfig()
     twin: TwinConfig = TwinConfig()
+    progress: ProgressConfig = ProgressConfig()
     server: ServerConfig = ServerConfig()
     ros: RosConfig = RosConfig()
 

@@ -39,6 +39,7 @@ from bim2rdt.demo.perceivers import DemoPerception
 from bim2rdt.sim.reality import Reality, objects_of_interest, simulate_reality
 from bim2rdt.sim.site import ROBOT_START_XY, ZONES, build_site_ifc
 from bim2rdt.twin import DigitalTwin, TwinConfig
+from bim2rdt.twin.progress_files import ProgressFiles
 
 WORK_ZONE = ZONES[0][0]
 REMOVED_OBJECTS = 1
@@ -65,6 +66,9 @@ class SiteDay:
     odometry: list[tuple[float, np.ndarray]] | None = None
     """Each capture's (time, T_odom_camera) on the robot's clock, as ``--record`` writes them (kept with
     ``record`` or ``keep_odometry``)."""
+    progress: ProgressFiles | None = None
+    """The day's progress against the site's work schedule (:mod:`bim2rdt.demo.progress`; None before it is
+    written, or without a schedule)."""
 
 
 def run_site_day(out_dir: Path, seed: int = 0, workers: int = 2, minutes: float = 60.0, fs: float = 5000.0,

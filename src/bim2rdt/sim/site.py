@@ -137,9 +137,10 @@ class _SiteBuilder:
         self._columns()
         self._zones()
         self._site_objects()
-        self._partition()  # after every other element: the earlier ones keep their GlobalIds
-        add_site_schedule(self.ifc, self.day)
         self._stabilise()
+        self._partition()  # added after the first GlobalIds were given: the earlier elements keep theirs
+        add_site_schedule(self.ifc, self.day)
+        self._stabilise(later=True)
 
     def _project(self) -> None:
         ifc = self.ifc
@@ -286,9 +287,10 @@ class _SiteBuilder:
     def _place(self, product: ifcopenshell.entity_instance, pose: np.ndarray) -> None:
         ifcopenshell.api.geometry.edit_object_placement(self.ifc, product=product, matrix=pose, is_si=True)
 
-    def _stabilise(self) -> None:
+    def _stabilise(self, later: bool = False) -> None:
         """Deterministic GlobalIds, relation member order and header time stamp: the same build, the same bytes
-        (ifcopenshell's api fills relation members from sets, whose order varies between runs)."""
+        (ifcopenshell's api fills relation members from sets, whose order varies between runs). ``later``: only
+        entities added since the first pass get GlobalIds (keyed apart), so the first ones keep theirs."""
         for relation in self.ifc.by_type("IfcRelationship"):
             for attribute in ("RelatedElements", "RelatedObjects"):
                 members = getattr(relation, attribute, None)
@@ -296,9 +298,13 @@ class _SiteBuilder:
                     setattr(relation, attribute, sorted(members, key=lambda entity: entity.id()))
         for assignment in self.ifc.by_type("IfcUnitAssignment"):
             assignment.Units = sorted(assignment.Units, key=lambda unit: unit.id())
+        given = getattr(self, "_given", set())
         for index, entity in enumerate(self.ifc.by_type("IfcRoot")):
-            key = uuid.uuid5(_GUID_NAMESPACE, f"{entity.is_a()}:{entity.Name}:{index}")
+            if entity.id() in given:
+                continue
+            key = uuid.uuid5(_GUID_NAMESPACE, f"{entity.is_a()}:{entity.Name}:{'later:' if later else ''}{index}")
             entity.GlobalId = ifcopenshell.guid.compress(key.hex)
+        self._given = given | {entity.id() for entity in self.ifc.by_type("IfcRoot")}
         self.ifc.header.file_name.time_stamp = "2026-01-01T00:00:00"
 
 

@@ -175,9 +175,10 @@ def schedule_progress(schedule: WorkSchedule, statuses: Mapping[str, str], quant
         visit(task)
     roots = [done[task.global_id] for task in schedule.roots]
     products = _all_products(schedule, [task.task for task in roots])
-    built, total, _ = _quantities(products, states, quantities)
+    built, total, unobserved = _quantities(products, states, quantities)
+    observed = 100.0 * built / total if total > 0 and unobserved < total else None
     return ScheduleProgress(schedule, at, tuple(done[task.global_id] for task in schedule.tasks), quantities.kind,
-                            _weighted(roots, None), 100.0 * built / total if total > 0 else None)
+                            _weighted(roots, None), observed)
 
 
 def _task_progress(task: ScheduledTask, children: list[TaskProgress], states: Mapping[str, str],

@@ -20,6 +20,8 @@ from bim2rdt.bim.schedule import WorkSchedule, read_work_schedules
 from bim2rdt.bim.source import read_source
 from bim2rdt.twin.errors import TwinError
 from bim2rdt.twin.progress import ScheduleProgress
+from bim2rdt.perception.structure import permanent_elements
+from bim2rdt.twin.progress_groups import GroupProgress, group_progress
 from bim2rdt.twin.progress_history import (CurvePoint, curve_dates, observation_times, progress_over_time,
                                            twin_statuses_at)
 from bim2rdt.twin.progress_ifc import write_progress_ifc
@@ -92,6 +94,32 @@ def twin_progress(twin, schedule: WorkSchedule, *, ifc=None, at: datetime | None
     dates = curve_dates(schedule, [t for t in observed if t <= now], now)
     return progress_over_time(schedule, quantities, twin_statuses_at(twin, structure, structure_time), now, dates,
                               behind_percent, ahead_percent)
+
+
+def progress_of(twin, *, at: datetime | None = None, structure: Mapping[str, str] | None = None,
+                behind_percent: float = 10.0, ahead_percent: float = 10.0
+                ) -> tuple[ScheduleProgress | None, list[GroupProgress]]:
+    """A twin's progress at ``at``: against its model's first work schedule, else by storey and by class.
+
+    Args:
+        twin: A ``DigitalTwin``.
+        at: The date (aware); None: the twin's last observation, else now.
+        structure: {GlobalId: structure status} merged over the twin's verdicts.
+        behind_percent: Percentage points under planned beyond which a task is behind.
+        ahead_percent: Percentage points over planned beyond which a task is ahead.
+
+    Returns:
+        (the schedule's progress, []) when the model has a schedule; (None, groups by storey then class) when not.
+    """
+    ifc = read_source(Path(twin.model.path)).ifc
+    schedules = read_work_schedules(ifc)
+    if schedules:
+        progress, _ = twin_progress(twin, schedules[0], ifc=ifc, at=at, structure=structure,
+                                    behind_percent=behind_percent, ahead_percent=ahead_percent)
+        return progress, []
+    states = twin_statuses_at(twin, structure)(at or datetime.now(timezone.utc))
+    ids = [el.global_id for el in permanent_elements(twin.model)]
+    return None, group_progress(twin.model, states, product_quantities(twin.model, ifc, ids))
 
 
 def write_progress(twin, out_dir: Path, *, twin_ifc: Path | None = None, structure: Mapping[str, str] | None = None,
