@@ -55,8 +55,8 @@ def product_quantities(model: BimModel, ifc: ifcopenshell.file | None, global_id
         global_ids: The products' GlobalIds.
 
     Returns:
-        Their quantities: volume (m³) if every product has one, else area (m²) if every product has one, else
-        a count.
+        Their quantities, volume (m³) if every product has one, else area (m²) if every product has one, else a
+            count.
     """
     ids = list(dict.fromkeys(global_ids))
     found = {global_id: _measures(model, ifc, global_id) for global_id in ids}

@@ -77,7 +77,7 @@ def verify_command(
     with _progress(frames, as_json, every, max_frames) as tick:
         result = verify_frames(frames, model, T_prior, config, progress=lambda frame: tick("frame"))
         with record_twin(result, model, out, settings.twin) as twin:
-            files = write_outputs(result, twin, out)
+            files = write_outputs(result, twin, out, settings.progress)
             counts = verdict_counts(twin.state())
             if publish is not None:
                 published = _publish(publish, result, twin.state(), model, out)

@@ -21,8 +21,7 @@ from dataclasses import dataclass, replace
 from datetime import datetime
 from enum import Enum
 
-from bim2rdt.bim.quantities import Quantities
-from bim2rdt.bim.schedule import ScheduledTask, WorkSchedule
+from bim2rdt.bim import Quantities, ScheduledTask, WorkSchedule
 
 AS_PLANNED, DEVIATING, NOT_BUILT, NOT_OBSERVED = "as planned", "deviating", "not built", "not observed"
 PRODUCT_STATES = (AS_PLANNED, DEVIATING, NOT_BUILT, NOT_OBSERVED)

@@ -15,29 +15,31 @@ from datetime import datetime, timezone
 from pathlib import Path
 
 from bim2rdt.atomic import write_bytes_atomic
-from bim2rdt.bim.quantities import product_quantities
-from bim2rdt.bim.schedule import WorkSchedule, read_work_schedules
+from bim2rdt.bim import WorkSchedule, product_quantities, read_work_schedules
 from bim2rdt.bim.source import read_source
 from bim2rdt.twin.errors import TwinError
-from bim2rdt.twin.progress import ScheduleProgress
 from bim2rdt.perception.structure import permanent_elements
+from bim2rdt.twin.progress import ScheduleProgress, merge_statuses
 from bim2rdt.twin.progress_groups import GroupProgress, group_progress
 from bim2rdt.twin.progress_history import (CurvePoint, curve_dates, observation_times, progress_over_time,
-                                           twin_statuses_at)
+                                           twin_statuses, twin_statuses_at)
 from bim2rdt.twin.progress_ifc import write_progress_ifc
+from bim2rdt.twin.progress_report import progress_section_html, structure_png
 
-PROGRESS_JSON, CURVE_JSON = "progress.json", "progress_curve.json"
+PROGRESS_JSON, CURVE_JSON, STRUCTURE_PNG = "progress.json", "progress_curve.json", "progress_structure.png"
 EARLIEST_CLOCK = datetime(2000, 1, 1, tzinfo=timezone.utc)
 """Observation times before this are frame indices, not a clock (a recording without stamps)."""
 
 
 @dataclass
 class ProgressFiles:
-    """What :func:`write_progress` wrote: ``progress.json``, ``progress_curve.json``, the twin IFC it wrote the
-    tasks' progress into (None when there was none, with ``ifc_note`` saying why), and the progress itself."""
+    """What :func:`write_progress` wrote: ``progress.json``, ``progress_curve.json``, ``progress_structure.png``
+    (the structure on plan, built / not built), the twin IFC it wrote the tasks' progress into (None when there
+    was none, with ``ifc_note`` saying why), and the progress itself."""
 
     progress_json: Path
     curve_json: Path
+    structure_png: Path
     progress: ScheduleProgress
     curve: list[CurvePoint]
     ifc: Path | None = None
@@ -125,8 +127,8 @@ def progress_of(twin, *, at: datetime | None = None, structure: Mapping[str, str
 def write_progress(twin, out_dir: Path, *, twin_ifc: Path | None = None, structure: Mapping[str, str] | None = None,
                    structure_time: datetime | None = None, behind_percent: float = 10.0,
                    ahead_percent: float = 10.0) -> ProgressFiles | None:
-    """Write ``progress.json`` and ``progress_curve.json`` into ``out_dir`` and the tasks' progress into
-    ``twin_ifc``, when the twin's model has a work schedule.
+    """Write ``progress.json``, ``progress_curve.json`` and ``progress_structure.png`` into ``out_dir`` and the
+    tasks' progress into ``twin_ifc``, when the twin's model has a work schedule.
 
     Args:
         twin: The run's ``DigitalTwin``.
@@ -146,10 +148,12 @@ def write_progress(twin, out_dir: Path, *, twin_ifc: Path | None = None, structu
         return None
     progress, curve = twin_progress(twin, schedules[0], ifc=ifc, structure=structure, structure_time=structure_time,
                                     behind_percent=behind_percent, ahead_percent=ahead_percent)
+    states = merge_statuses(twin_statuses(twin.state()), structure or {})
+    meshes = {el.global_id: twin.model.mesh(el.global_id) for el in permanent_elements(twin.model)}
     files = ProgressFiles(
         write_bytes_atomic(out_dir / PROGRESS_JSON, json.dumps(progress.to_dict(), indent=1).encode("utf-8")),
         write_bytes_atomic(out_dir / CURVE_JSON, json.dumps(curve_dict(curve), indent=1).encode("utf-8")),
-        progress, curve)
+        write_bytes_atomic(out_dir / STRUCTURE_PNG, structure_png(meshes, states)), progress, curve)
     if twin_ifc is not None:
         try:
             files.ifc = write_progress_ifc(twin_ifc, progress)
@@ -172,3 +176,24 @@ def curve_dict(curve: list[CurvePoint]) -> dict:
 
     return {"points": [{"date": p.date.isoformat(), "planned_percent": rounded(p.planned_percent),
                         "observed_percent": rounded(p.observed_percent)} for p in curve]}
+
+
+def progress_section(out_dir: str | Path, heading: bool = True) -> str | None:
+    """The report's progress section from the files :func:`write_progress` left in a run's folder (for the verify
+    report and the demo's).
+
+    Args:
+        out_dir: The run's folder.
+        heading: Wrap it in a ``<section>`` with its own ``<h2>``; False gives the body only.
+
+    Returns:
+        HTML with the images embedded, or None when the folder has no progress.json (no schedule).
+    """
+    out_dir = Path(out_dir)
+    if not (out_dir / PROGRESS_JSON).is_file():
+        return None
+    progress = json.loads((out_dir / PROGRESS_JSON).read_text(encoding="utf-8"))
+    curve = json.loads((out_dir / CURVE_JSON).read_text(encoding="utf-8")) if (out_dir / CURVE_JSON).is_file() \
+        else None
+    picture = (out_dir / STRUCTURE_PNG).read_bytes() if (out_dir / STRUCTURE_PNG).is_file() else None
+    return progress_section_html(progress, curve, picture, heading=heading)

@@ -6,8 +6,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass
 
-from bim2rdt.bim import BimModel
-from bim2rdt.bim.quantities import Quantities
+from bim2rdt.bim import BimModel, Quantities
 from bim2rdt.perception.structure import permanent_elements
 from bim2rdt.twin.progress import BUILT, NOT_OBSERVED, PRODUCT_STATES, product_state
 

@@ -12,8 +12,7 @@ from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 from datetime import datetime, timedelta, timezone
 
-from bim2rdt.bim.quantities import Quantities
-from bim2rdt.bim.schedule import WorkSchedule
+from bim2rdt.bim import Quantities, WorkSchedule
 from bim2rdt.twin.progress import ScheduleProgress, merge_statuses, schedule_progress, with_actuals
 from bim2rdt.twin.records import MISSING, OBSERVATION, ElementState
 

@@ -12,6 +12,8 @@ from pathlib import Path
 from bim2rdt.atomic import write_bytes_atomic
 from bim2rdt.bim import BimModel
 from bim2rdt.twin import DigitalTwin, ElementState, ElementStatus, TwinConfig, TwinError
+from bim2rdt.twin.progress_config import ProgressConfig
+from bim2rdt.twin.progress_files import read_structure_statuses, write_progress
 from bim2rdt.verify.chain import VerifyResult, family_priors
 
 TWIN_DB = "twin.db"
@@ -27,6 +29,8 @@ class VerifyFiles:
     report: Path
     ifc: Path | None
     ifc_note: str | None = None
+    progress: Path | None = None
+    """progress.json, when the model has a work schedule."""
 
 
 def record_twin(result: VerifyResult, model: BimModel, out_dir: Path, config: TwinConfig = TwinConfig(),
@@ -61,13 +65,16 @@ def record_twin(result: VerifyResult, model: BimModel, out_dir: Path, config: Tw
     return twin
 
 
-def write_outputs(result: VerifyResult, twin: DigitalTwin, out_dir: Path) -> VerifyFiles:
-    """Write every file of the verify folder.
+def write_outputs(result: VerifyResult, twin: DigitalTwin, out_dir: Path,
+                  progress: ProgressConfig = ProgressConfig()) -> VerifyFiles:
+    """Write every file of the verify folder; with a work schedule in the model also progress.json (and its
+    curve and structure view), with ``structure.json``'s judgements where the folder has one.
 
     Args:
         result: What verify found in every frame.
         twin: The twin :func:`record_twin` made of it.
         out_dir: The verify folder.
+        progress: When a task of the schedule is behind or ahead.
 
     Returns:
         The paths of twin.json, issues.bcf, localization.json, report.html and twin.ifc (None, with a note,
@@ -83,6 +90,10 @@ def write_outputs(result: VerifyResult, twin: DigitalTwin, out_dir: Path) -> Ver
         files.ifc = twin.export_ifc(out_dir / "twin.ifc")
     except TwinError as error:
         files.ifc_note = str(error)
+    written = write_progress(twin, out_dir, twin_ifc=files.ifc,
+                             structure=read_structure_statuses(out_dir / "structure.json"),
+                             behind_percent=progress.behind_percent, ahead_percent=progress.ahead_percent)
+    files.progress = written.progress_json if written is not None else None
     write_bytes_atomic(files.report, report_html(result, twin.state()).encode())
     return files
 
