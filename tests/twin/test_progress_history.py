@@ -106,10 +106,10 @@ def test_the_s_curve_observes_nothing_before_the_first_observation_and_more_afte
 
 def test_at_a_past_date_the_twin_as_it_was_gives_the_progress(site, day_twin):
     twin, _ = day_twin
-    progress, groups = progress_of(twin, at=datetime.fromtimestamp(T1 + 60, timezone.utc))
+    progress, _, groups = progress_of(twin, at=datetime.fromtimestamp(T1 + 60, timezone.utc))
     task = rows(progress.to_dict())
     assert not groups and task["T.1"]["status"] == "complete" and task["T.4"]["status"] == "unknown"
-    later, _ = progress_of(twin)
+    later, _, _ = progress_of(twin)
     assert later.task(task["T.4"]["global_id"]).status is TaskStatus.AHEAD
 
 
@@ -130,9 +130,9 @@ def test_a_model_without_a_schedule_gets_progress_by_storey_and_by_class(tmp_pat
     model = load_ifc(tmp_path / "plain.ifc")
     with DigitalTwin.open(f"sqlite:///{tmp_path / 'twin.db'}", model) as twin:
         wall = named(model, "Exterior Wall - South")[0]
-        progress, groups = progress_of(twin, structure={wall.global_id: "as planned"})
+        progress, curve, groups = progress_of(twin, structure={wall.global_id: "as planned"})
         assert write_progress(twin, tmp_path) is None and not (tmp_path / "progress.json").exists()
-    assert progress is None
+    assert progress is None and curve == []
     by = {(g.by, g.name): g for g in groups}
     assert by[("storey", "Ground Floor")].products["as planned"] == 1
     walls = by[("class", "IfcWall")]

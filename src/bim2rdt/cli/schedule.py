@@ -35,7 +35,7 @@ def progress_command(
     when = _date(at) if at is not None else None
     judged = read_structure_statuses(structure or _beside(url))
     with _open(ifc_file, url) as twin:
-        progress, groups = progress_of(twin, at=when, structure=judged, behind_percent=config.behind_percent,
+        progress, _, groups = progress_of(twin, at=when, structure=judged, behind_percent=config.behind_percent,
                                        ahead_percent=config.ahead_percent)
     if progress is None:
         _print_groups(ifc_file, groups, as_json)

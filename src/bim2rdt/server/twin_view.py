@@ -34,6 +34,7 @@ class TwinView:
         self.twin = twin
         self.model = twin.model
         self._lock = threading.Lock()
+        self._progress = None
         self._colours = palette()
         self._elements = {el.global_id: el for el in self.model.elements}
         self._glb: tuple[int, bytes] | None = None
@@ -140,6 +141,17 @@ class TwinView:
             data = self._build_glb(self.twin.state())
             self._glb = (self.seq, data)
             return data
+
+    # ---- progress ---------------------------------------------------------------------------------------
+    def progress(self, at: float | None = None) -> dict:
+        """Progress against the model's work schedule (see :class:`~bim2rdt.server.progress_view.ProgressView`),
+        now or as the twin was at time ``at``."""
+        from bim2rdt.server.progress_view import ProgressView
+
+        with self._lock:
+            if self._progress is None:
+                self._progress = ProgressView(self.twin)
+            return self._progress.record(at)
 
     # ---- exports ----------------------------------------------------------------------------------------
     def export(self, kind: str) -> bytes:

@@ -98,30 +98,33 @@ def twin_progress(twin, schedule: WorkSchedule, *, ifc=None, at: datetime | None
                               behind_percent, ahead_percent)
 
 
-def progress_of(twin, *, at: datetime | None = None, structure: Mapping[str, str] | None = None,
+def progress_of(twin, *, ifc=None, at: datetime | None = None, structure: Mapping[str, str] | None = None,
                 behind_percent: float = 10.0, ahead_percent: float = 10.0
-                ) -> tuple[ScheduleProgress | None, list[GroupProgress]]:
-    """A twin's progress at ``at``: against its model's first work schedule, else by storey and by class.
+                ) -> tuple[ScheduleProgress | None, list[CurvePoint], list[GroupProgress]]:
+    """A twin's progress at ``at``: against its model's first work schedule (with its S-curve), else by storey
+    and by class.
 
     Args:
         twin: A ``DigitalTwin``.
+        ifc: The model's open IFC file; None opens ``twin.model.path``.
         at: The date (aware); None: the twin's last observation, else now.
         structure: {GlobalId: structure status} merged over the twin's verdicts.
         behind_percent: Percentage points under planned beyond which a task is behind.
         ahead_percent: Percentage points over planned beyond which a task is ahead.
 
     Returns:
-        (the schedule's progress, []) when the model has a schedule; (None, groups by storey then class) when not.
+        (the schedule's progress, its S-curve, []) when the model has a schedule; (None, [], groups by storey
+        then class) when not.
     """
-    ifc = read_source(Path(twin.model.path)).ifc
+    ifc = ifc if ifc is not None else read_source(Path(twin.model.path)).ifc
     schedules = read_work_schedules(ifc)
     if schedules:
-        progress, _ = twin_progress(twin, schedules[0], ifc=ifc, at=at, structure=structure,
-                                    behind_percent=behind_percent, ahead_percent=ahead_percent)
-        return progress, []
+        progress, curve = twin_progress(twin, schedules[0], ifc=ifc, at=at, structure=structure,
+                                        behind_percent=behind_percent, ahead_percent=ahead_percent)
+        return progress, curve, []
     states = twin_statuses_at(twin, structure)(at or datetime.now(timezone.utc))
     ids = [el.global_id for el in permanent_elements(twin.model)]
-    return None, group_progress(twin.model, states, product_quantities(twin.model, ifc, ids))
+    return None, [], group_progress(twin.model, states, product_quantities(twin.model, ifc, ids))
 
 
 def write_progress(twin, out_dir: Path, *, twin_ifc: Path | None = None, structure: Mapping[str, str] | None = None,
