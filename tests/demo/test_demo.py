@@ -241,7 +241,8 @@ def test_the_demo_writes_progress_json_with_the_scaffold_ahead_and_the_tripods_t
     partition the site has not built is behind once the structure is judged (structure.json), unknown before."""
     out = demo_out[0]
     record = json.loads((out / "progress.json").read_text())
-    assert set(record) == {"schedule", "date", "tasks"} and record["schedule"]["name"] == "Block A - construction programme"
+    assert set(record) == {"schedule", "date", "tasks"}
+    assert record["schedule"]["name"] == "Block A - construction programme"
     task = {t["identification"]: t for t in record["tasks"]}
     assert (task["T.4"]["status"], task["T.4"]["planned_percent"], task["T.4"]["observed_percent"]) == ("ahead", 0.0,
                                                                                                         100.0)

@@ -29,7 +29,7 @@ def progress_command(
     """Each task's planned %, observed % (built quantity over total) and status: not started, in progress,
     complete, behind, ahead or unknown (its products not observed)."""
     from bim2rdt.config import get_settings
-    from bim2rdt.twin.progress_files import progress_of, read_structure_statuses
+    from bim2rdt.twin import progress_of, read_structure_statuses
 
     config = get_settings().progress
     when = _date(at) if at is not None else None

@@ -11,10 +11,8 @@ from __future__ import annotations
 from collections.abc import Mapping
 from pathlib import Path
 
-from bim2rdt.twin.progress_config import ProgressConfig
-from bim2rdt.twin.progress_files import ProgressFiles, progress_section, read_structure_statuses, write_progress
-from bim2rdt.twin.progress_history import observation_times
-from bim2rdt.twin.progress_report import progress_markdown
+from bim2rdt.twin import (ProgressConfig, ProgressFiles, progress_markdown, progress_section, read_structure_statuses,
+                          write_progress)
 
 
 def write_day_progress(day, out_dir: Path, config: ProgressConfig = ProgressConfig(),
@@ -31,10 +29,8 @@ def write_day_progress(day, out_dir: Path, config: ProgressConfig = ProgressConf
         The files written, or None without a schedule.
     """
     structure = read_structure_statuses(out_dir / "structure.json") if structure is None else dict(structure)
-    seen = observation_times(day.twin)
     ifc = day.twin_files.ifc if day.twin_files is not None else None
-    return write_progress(day.twin, out_dir, twin_ifc=ifc, structure=structure,
-                          structure_time=seen[0] if seen else None, behind_percent=config.behind_percent,
+    return write_progress(day.twin, out_dir, twin_ifc=ifc, structure=structure, behind_percent=config.behind_percent,
                           ahead_percent=config.ahead_percent)
 
 

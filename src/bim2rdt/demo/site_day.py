@@ -38,8 +38,7 @@ from bim2rdt.sim.meshes import mesh_for_family
 from bim2rdt.demo.perceivers import DemoPerception
 from bim2rdt.sim.reality import Reality, objects_of_interest, simulate_reality
 from bim2rdt.sim.site import ROBOT_START_XY, ZONES, build_site_ifc
-from bim2rdt.twin import DigitalTwin, TwinConfig
-from bim2rdt.twin.progress_files import ProgressFiles
+from bim2rdt.twin import DigitalTwin, ProgressFiles, TwinConfig
 
 WORK_ZONE = ZONES[0][0]
 REMOVED_OBJECTS = 1

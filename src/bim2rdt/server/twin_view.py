@@ -34,7 +34,7 @@ class TwinView:
         self.twin = twin
         self.model = twin.model
         self._lock = threading.Lock()
-        self._progress = None
+        self._model_ifc = None
         self._colours = palette()
         self._elements = {el.global_id: el for el in self.model.elements}
         self._glb: tuple[int, bytes] | None = None
@@ -144,14 +144,14 @@ class TwinView:
 
     # ---- progress ---------------------------------------------------------------------------------------
     def progress(self, at: float | None = None) -> dict:
-        """Progress against the model's work schedule (see :class:`~bim2rdt.server.progress_view.ProgressView`),
-        now or as the twin was at time ``at``."""
-        from bim2rdt.server.progress_view import ProgressView
+        """Progress against the model's work schedule (``twin.progress_record``: the tasks, the S-curve, the
+        structure built / not built), now or as the twin was at time ``at``; the IFC file is parsed once."""
+        from bim2rdt.twin import open_model_ifc, progress_record
 
         with self._lock:
-            if self._progress is None:
-                self._progress = ProgressView(self.twin)
-            return self._progress.record(at)
+            if self._model_ifc is None:
+                self._model_ifc = open_model_ifc(self.twin)
+            return progress_record(self.twin, self._model_ifc, at)
 
     # ---- exports ----------------------------------------------------------------------------------------
     def export(self, kind: str) -> bytes:

@@ -6,6 +6,7 @@ from bim2rdt.twin import DigitalTwin, ElementStatus
 twin = DigitalTwin.open("sqlite:///out/twin.db", model)
 twin.record(observation, time); twin.state(at=None); twin.history(global_id)
 twin.export_ifc(path); twin.export_bcf(path)
+write_progress(twin, out_dir)        # progress against the model's work schedule: progress.json and more
 ```
 """
 
@@ -17,10 +18,17 @@ from bim2rdt.twin.sink import TwinSink
 from bim2rdt.twin.status import STATUS_COLOURS, ElementStatus
 from bim2rdt.twin.config import TolerancePreset, TwinConfig
 from bim2rdt.twin.tolerance import Tolerance, TolerancePolicy
+from bim2rdt.twin.progress import ScheduleProgress, TaskProgress, TaskStatus, schedule_progress
+from bim2rdt.twin.progress_config import ProgressConfig
+from bim2rdt.twin.progress_files import (ProgressFiles, open_model_ifc, progress_of, progress_record, progress_section,
+                                         read_structure_statuses, write_progress)
+from bim2rdt.twin.progress_report import progress_markdown
 
 __all__ = ["DigitalTwin", "Deviation", "ElementState", "ElementStatus", "EVENT_KINDS", "Evidence", "Fit", "MISSING",
-           "OBSERVATION", "SAFETY", "STATUS", "STATUS_COLOURS", "Tolerance", "TolerancePolicy", "TolerancePreset",
-           "TwinConfig", "TwinError", "TwinEvent", "TwinSink", "pose_deviation"]
+           "OBSERVATION", "ProgressConfig", "ProgressFiles", "SAFETY", "STATUS", "STATUS_COLOURS", "ScheduleProgress",
+           "TaskProgress", "TaskStatus", "Tolerance", "TolerancePolicy", "TolerancePreset", "TwinConfig", "TwinError",
+           "TwinEvent", "TwinSink", "open_model_ifc", "pose_deviation", "progress_markdown", "progress_of",
+           "progress_record", "progress_section", "read_structure_statuses", "schedule_progress", "write_progress"]
 
 
 def __getattr__(name: str):

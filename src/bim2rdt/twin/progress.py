@@ -97,7 +97,7 @@ class TaskProgress:
 
         Returns:
             {global_id, name, identification, planned_start, planned_finish (ISO 8601), planned_percent,
-            observed_percent, status, products: {state: count}, children: [GlobalId]}.
+                observed_percent, status, products: {state: count}, children: [GlobalId]}.
         """
         task = self.task
         return {"global_id": task.global_id, "name": task.name, "identification": task.identification,

@@ -13,22 +13,28 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+import ifcopenshell
 
 from bim2rdt.atomic import write_bytes_atomic
 from bim2rdt.bim import WorkSchedule, product_quantities, read_work_schedules
 from bim2rdt.bim.source import read_source
-from bim2rdt.twin.errors import TwinError
 from bim2rdt.perception.structure import permanent_elements
+from bim2rdt.twin.errors import TwinError
 from bim2rdt.twin.progress import ScheduleProgress, merge_statuses
 from bim2rdt.twin.progress_groups import GroupProgress, group_progress
 from bim2rdt.twin.progress_history import (CurvePoint, curve_dates, observation_times, progress_over_time,
                                            twin_statuses, twin_statuses_at)
 from bim2rdt.twin.progress_ifc import write_progress_ifc
-from bim2rdt.twin.progress_report import progress_section_html, structure_png
+from bim2rdt.twin.progress_report import BUILT_COLOURS, TASK_COLOURS, progress_section_html, structure_png
 
 PROGRESS_JSON, CURVE_JSON, STRUCTURE_PNG = "progress.json", "progress_curve.json", "progress_structure.png"
 EARLIEST_CLOCK = datetime(2000, 1, 1, tzinfo=timezone.utc)
 """Observation times before this are frame indices, not a clock (a recording without stamps)."""
+
+if TYPE_CHECKING:
+    from bim2rdt.twin.twin import DigitalTwin
 
 
 @dataclass
@@ -68,7 +74,8 @@ def read_structure_statuses(path: str | Path) -> dict[str, str]:
         raise TwinError(f"{path.name}: not a list of structure judgements ({error})") from None
 
 
-def twin_progress(twin, schedule: WorkSchedule, *, ifc=None, at: datetime | None = None,
+def twin_progress(twin: DigitalTwin, schedule: WorkSchedule, *, ifc: ifcopenshell.file | None = None,
+                  at: datetime | None = None,
                   structure: Mapping[str, str] | None = None, structure_time: datetime | None = None,
                   behind_percent: float = 10.0, ahead_percent: float = 10.0) -> tuple[ScheduleProgress,
                                                                                      list[CurvePoint]]:
@@ -94,11 +101,12 @@ def twin_progress(twin, schedule: WorkSchedule, *, ifc=None, at: datetime | None
     ifc = ifc if ifc is not None else read_source(Path(twin.model.path)).ifc
     quantities = product_quantities(twin.model, ifc, products)
     dates = curve_dates(schedule, [t for t in observed if t <= now], now)
-    return progress_over_time(schedule, quantities, twin_statuses_at(twin, structure, structure_time), now, dates,
-                              behind_percent, ahead_percent)
+    statuses_at = twin_statuses_at(twin, structure, structure_time)
+    return progress_over_time(schedule, quantities, statuses_at, now, dates, behind_percent, ahead_percent)
 
 
-def progress_of(twin, *, ifc=None, at: datetime | None = None, structure: Mapping[str, str] | None = None,
+def progress_of(twin: DigitalTwin, *, ifc: ifcopenshell.file | None = None, at: datetime | None = None,
+                structure: Mapping[str, str] | None = None,
                 behind_percent: float = 10.0, ahead_percent: float = 10.0
                 ) -> tuple[ScheduleProgress | None, list[CurvePoint], list[GroupProgress]]:
     """A twin's progress at ``at``: against its model's first work schedule (with its S-curve), else by storey
@@ -114,7 +122,7 @@ def progress_of(twin, *, ifc=None, at: datetime | None = None, structure: Mappin
 
     Returns:
         (the schedule's progress, its S-curve, []) when the model has a schedule; (None, [], groups by storey
-        then class) when not.
+            then class) when not.
     """
     ifc = ifc if ifc is not None else read_source(Path(twin.model.path)).ifc
     schedules = read_work_schedules(ifc)
@@ -127,7 +135,8 @@ def progress_of(twin, *, ifc=None, at: datetime | None = None, structure: Mappin
     return None, [], group_progress(twin.model, states, product_quantities(twin.model, ifc, ids))
 
 
-def write_progress(twin, out_dir: Path, *, twin_ifc: Path | None = None, structure: Mapping[str, str] | None = None,
+def write_progress(twin: DigitalTwin, out_dir: Path, *, twin_ifc: Path | None = None,
+                   structure: Mapping[str, str] | None = None,
                    structure_time: datetime | None = None, behind_percent: float = 10.0,
                    ahead_percent: float = 10.0) -> ProgressFiles | None:
     """Write ``progress.json``, ``progress_curve.json`` and ``progress_structure.png`` into ``out_dir`` and the
@@ -138,7 +147,7 @@ def write_progress(twin, out_dir: Path, *, twin_ifc: Path | None = None, structu
         out_dir: The run's folder.
         twin_ifc: The exported twin IFC to write the progress into; None writes no IFC.
         structure: {GlobalId: structure status} (see :func:`read_structure_statuses`).
-        structure_time: When the structure was judged; None: always.
+        structure_time: When the structure was judged; None: the twin's first observation (the run's start).
         behind_percent: Percentage points under planned beyond which a task is behind.
         ahead_percent: Percentage points over planned beyond which a task is ahead.
 
@@ -149,8 +158,12 @@ def write_progress(twin, out_dir: Path, *, twin_ifc: Path | None = None, structu
     schedules = read_work_schedules(ifc)
     if not schedules:
         return None
-    progress, curve = twin_progress(twin, schedules[0], ifc=ifc, structure=structure, structure_time=structure_time,
-                                    behind_percent=behind_percent, ahead_percent=ahead_percent)
+    if structure_time is None:
+        seen = observation_times(twin)
+        structure_time = seen[0] if seen else None
+    progress, curve = twin_progress(twin, schedules[0], ifc=ifc, structure=structure,
+                                    structure_time=structure_time, behind_percent=behind_percent,
+                                    ahead_percent=ahead_percent)
     states = merge_statuses(twin_statuses(twin.state()), structure or {})
     meshes = {el.global_id: twin.model.mesh(el.global_id) for el in permanent_elements(twin.model)}
     files = ProgressFiles(
@@ -200,3 +213,48 @@ def progress_section(out_dir: str | Path, heading: bool = True) -> str | None:
         else None
     picture = (out_dir / STRUCTURE_PNG).read_bytes() if (out_dir / STRUCTURE_PNG).is_file() else None
     return progress_section_html(progress, curve, picture, heading=heading)
+
+
+def progress_record(twin: DigitalTwin, ifc: ifcopenshell.file | None = None, at: float | None = None,
+                    behind_percent: float = 10.0,
+                    ahead_percent: float = 10.0) -> dict:
+    """The progress as the dashboard draws it, with the structure's judgements of ``structure.json`` beside the
+    model's IFC file (where verify and the demo write them) when there is one.
+
+    Args:
+        twin: A ``DigitalTwin``.
+        ifc: The model's open IFC file (a server keeps it); None opens ``twin.model.path``.
+        at: A past time, UTC seconds; None: the twin's last observation.
+        behind_percent: Percentage points under planned beyond which a task is behind.
+        ahead_percent: Percentage points over planned beyond which a task is ahead.
+
+    Returns:
+        {"progress": progress.json's document or None (no schedule), "curve": the S-curve's points, "groups": by
+            storey and class (no schedule), "structure": {GlobalId: state} of the permanent elements, "colours":
+            {task status: colour}, "state_colours": {built | not built | not observed: colour}}.
+    """
+    structure = read_structure_statuses(Path(twin.model.path).parent / "structure.json")
+    when = datetime.fromtimestamp(at, timezone.utc) if at is not None else None
+    progress, curve, groups = progress_of(twin, ifc=ifc, at=when, structure=structure,
+                                          behind_percent=behind_percent, ahead_percent=ahead_percent)
+    states = merge_statuses(twin_statuses(twin.state(at)), structure)
+    permanent = sorted(el.global_id for el in permanent_elements(twin.model))
+    return {"progress": progress.to_dict() if progress is not None else None, "curve": curve_dict(curve)["points"],
+            "groups": [g.to_dict() for g in groups],
+            "structure": {gid: states.get(gid, "not observed") for gid in permanent},
+            "colours": TASK_COLOURS, "state_colours": BUILT_COLOURS}
+
+
+def open_model_ifc(twin: DigitalTwin) -> ifcopenshell.file:
+    """The twin's model as an open IFC file (for :func:`progress_record`, which a server calls often).
+
+    Args:
+        twin: A ``DigitalTwin``.
+
+    Returns:
+        The ifcopenshell file.
+
+    Raises:
+        BimError: The file cannot be read.
+    """
+    return read_source(Path(twin.model.path)).ifc

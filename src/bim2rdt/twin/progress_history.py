@@ -11,6 +11,7 @@ from __future__ import annotations
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 from datetime import datetime, timedelta, timezone
+from typing import TYPE_CHECKING
 
 from bim2rdt.bim import Quantities, WorkSchedule
 from bim2rdt.twin.progress import ScheduleProgress, merge_statuses, schedule_progress, with_actuals
@@ -18,6 +19,9 @@ from bim2rdt.twin.records import MISSING, OBSERVATION, ElementState
 
 StatusesAt = Callable[[datetime], Mapping[str, str]]
 """date -> {GlobalId: status}: the products' states as they were known at that date."""
+
+if TYPE_CHECKING:
+    from bim2rdt.twin.twin import DigitalTwin
 
 
 @dataclass(frozen=True)
@@ -42,7 +46,7 @@ def twin_statuses(states: Mapping[str, ElementState]) -> dict[str, str]:
     return {global_id: state.status.value for global_id, state in states.items() if state.in_bim}
 
 
-def twin_statuses_at(twin, structure: Mapping[str, str] | None = None,
+def twin_statuses_at(twin: DigitalTwin, structure: Mapping[str, str] | None = None,
                      structure_time: datetime | None = None) -> StatusesAt:
     """The products' states at any date: the twin's verdicts then, with ``structure`` merged over them from
     ``structure_time`` on (always, when it is None).
@@ -64,7 +68,7 @@ def twin_statuses_at(twin, structure: Mapping[str, str] | None = None,
     return statuses
 
 
-def observation_times(twin) -> list[datetime]:
+def observation_times(twin: DigitalTwin) -> list[datetime]:
     """When the twin's history observed something (observations and places seen empty), UTC, oldest first.
 
     Args:

@@ -14,10 +14,10 @@ from datetime import datetime
 
 import numpy as np
 
-STATUS_COLOURS = {"complete": "#2ca02c", "ahead": "#17becf", "in progress": "#1f77b4", "not started": "#c7c7c7",
+TASK_COLOURS = {"complete": "#2ca02c", "ahead": "#17becf", "in progress": "#1f77b4", "not started": "#c7c7c7",
                   "behind": "#d62728", "unknown": "#8c8c8c"}
 """One colour per task status (tables, bars)."""
-STATE_COLOURS = {"built": "#2ca02c", "not built": "#d62728", "not observed": "#bdbdbd"}
+BUILT_COLOURS = {"built": "#2ca02c", "not built": "#d62728", "not observed": "#bdbdbd"}
 """One colour per product state in the structure view."""
 
 
@@ -84,7 +84,7 @@ def _task_table(progress: Mapping) -> str:
     depth = _depths(tasks)
     rows = []
     for task in tasks:
-        colour = STATUS_COLOURS.get(task["status"], "#8c8c8c")
+        colour = TASK_COLOURS.get(task["status"], "#8c8c8c")
         name = html.escape(f"{task['identification'] or ''} {task['name'] or ''}".strip())
         weight = "bold" if task["children"] else "normal"
         counts = task["products"]
@@ -177,7 +177,7 @@ def structure_png(meshes: Mapping[str, tuple[np.ndarray, np.ndarray]], states: M
     for _, global_id, vertices in drawn:
         key = _state_key(states.get(global_id))
         flat = np.ptp(vertices[:, 2]) < 0.5  # slabs: pale, so the walls and columns on them stand out
-        axes.add_patch(Polygon(_footprint(vertices[:, :2]), closed=True, facecolor=STATE_COLOURS[key],
+        axes.add_patch(Polygon(_footprint(vertices[:, :2]), closed=True, facecolor=BUILT_COLOURS[key],
                                alpha=0.3 if flat else 1.0, edgecolor="0.25", linewidth=0.5,
                                hatch="//" if key == "not built" else None))
     if drawn:
@@ -190,7 +190,7 @@ def structure_png(meshes: Mapping[str, tuple[np.ndarray, np.ndarray]], states: M
     axes.set_xlabel("x (m)")
     axes.set_ylabel("y (m)")
     axes.set_title("Structure: built / not built / not observed")
-    axes.legend(handles=[Patch(color=c, label=k) for k, c in STATE_COLOURS.items()], loc="upper left",
+    axes.legend(handles=[Patch(color=c, label=k) for k, c in BUILT_COLOURS.items()], loc="upper left",
                 bbox_to_anchor=(1.01, 1.0))
     return _png(figure)
 

@@ -11,9 +11,8 @@ from pathlib import Path
 
 from bim2rdt.atomic import write_bytes_atomic
 from bim2rdt.bim import BimModel
-from bim2rdt.twin import DigitalTwin, ElementState, ElementStatus, TwinConfig, TwinError
-from bim2rdt.twin.progress_config import ProgressConfig
-from bim2rdt.twin.progress_files import read_structure_statuses, write_progress
+from bim2rdt.twin import (DigitalTwin, ElementState, ElementStatus, ProgressConfig, TwinConfig, TwinError,
+                          read_structure_statuses, write_progress)
 from bim2rdt.verify.chain import VerifyResult, family_priors
 
 TWIN_DB = "twin.db"
