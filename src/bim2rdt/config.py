@@ -34,6 +34,7 @@ from bim2rdt.structure.config import StructureConfig
 from bim2rdt.twin.config import TwinConfig
 from bim2rdt.twin.judge import JudgeConfig
 from bim2rdt.verify import VerifyConfig, real_sensor_localization
+from bim2rdt.twin.progress_config import ProgressConfig
 
 
 def default_samples_dir() -> Path:
@@ -147,6 +148,7 @@ class Settings(BaseSettings):
     twin: TwinConfig = TwinConfig()
     judge: JudgeConfig = JudgeConfig()
     structure: StructureConfig = StructureConfig()
+    progress: ProgressConfig = ProgressConfig()
     server: ServerConfig = ServerConfig()
     ros: RosConfig = RosConfig()
     sources: SourcesConfig = SourcesConfig()

@@ -246,3 +246,50 @@ def test_the_demo_judges_the_walls_and_slab_its_stations_saw_in_structure_json_a
     states = {e["global_id"]: e["status"] for e in json.loads((out / "twin.json").read_text())["elements"]}
     assert all(states[j["global_id"]] == j["status"] for j in seen)
     assert all(j["frames"] and 0 < j["coverage"] <= 1 for j in seen)
+
+
+def test_the_demo_writes_progress_json_with_the_scaffold_ahead_and_the_tripods_task_not_started(demo_out):
+    """The site's schedule (sim.schedule) against the day: the scaffold stands two days early (ahead), the tripod
+    taken off site was due tomorrow (not started), the cones and deliveries due yesterday stand (complete). The
+    partition the site has not built is behind once the structure is judged (structure.json), unknown before."""
+    out = demo_out[0]
+    record = json.loads((out / "progress.json").read_text())
+    assert set(record) == {"schedule", "date", "tasks"}
+    assert record["schedule"]["name"] == "Block A - construction programme"
+    task = {t["identification"]: t for t in record["tasks"]}
+    assert (task["T.4"]["status"], task["T.4"]["planned_percent"], task["T.4"]["observed_percent"]) == ("ahead", 0.0,
+                                                                                                        100.0)
+    assert task["T.3"]["status"] == "not started" and task["T.3"]["products"]["not built"] == 1
+    assert task["T.1"]["status"] == task["T.2"]["status"] == "complete"
+    judged = (out / "structure.json").exists()
+    assert task["S.5"]["status"] == ("behind" if judged else "unknown")
+    page, text = (out / "report.html").read_text(), (out / "report.md").read_text()
+    assert "Progress against the work schedule" in page and ">ahead<" in page
+    assert "| T.4 Scaffold erection | 0.0 % | 100.0 % | ahead |" in text.replace("|   T.4", "| T.4")
+
+
+def test_with_the_partition_judged_not_built_the_demos_progress_has_its_task_behind(demo_out, tmp_path):
+    """What the structure judge says of the simulated site (the partition is not there; the rest stands), fed to
+    the demo's own progress step over the day's twin: the partition's task is behind, the scaffold's ahead."""
+    import shutil
+    from types import SimpleNamespace
+
+    from bim2rdt.demo.progress import write_day_progress
+    from bim2rdt.perception.structure import permanent_elements
+    from bim2rdt.sim.site import UNBUILT_WALLS
+    from bim2rdt.twin import DigitalTwin
+
+    out = demo_out[0]
+    for name in ("site.ifc", "site_twin.ifc", "twin.db"):
+        shutil.copy(out / name, tmp_path / name)
+    model = load_ifc(tmp_path / "site.ifc")
+    structure = {el.global_id: "not built" if el.name in UNBUILT_WALLS else "as planned"
+                 for el in permanent_elements(model)}
+    with DigitalTwin.open(f"sqlite:///{tmp_path / 'twin.db'}", model, create=False) as twin:
+        files = write_day_progress(SimpleNamespace(twin=twin, model=model,
+                                                   twin_files=SimpleNamespace(ifc=tmp_path / "site_twin.ifc")),
+                                   tmp_path, structure=structure)
+    status = {row.task.identification: row.status.value for row in files.progress.tasks}
+    assert [k for k, v in status.items() if v == "behind"] == ["S.5"]
+    assert [k for k, v in status.items() if v == "ahead"] == ["T.4"]
+    assert files.ifc is not None and files.ifc_note is None

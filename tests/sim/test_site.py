@@ -16,7 +16,7 @@ def test_the_site_is_an_ifc4_shell_with_slab_walls_columns_door_and_one_storey(t
     counts = model.counts_by_class()
     assert model.schema == "IFC4" and model.unit_scale == 1.0
     assert [s.name for s in model.storeys] == ["Ground Floor"]
-    assert (counts["IfcSlab"], counts["IfcWall"], counts["IfcColumn"], counts["IfcDoor"]) == (1, 6, 6, 1)
+    assert (counts["IfcSlab"], counts["IfcWall"], counts["IfcColumn"], counts["IfcDoor"]) == (1, 7, 6, 1)  # 7: the partition
     assert counts["IfcBuildingElementProxy"] == len(SITE_OBJECTS)
     assert not model.geometry_failures
 

@@ -4,6 +4,7 @@ import { Unauthorized, follow, getBlob, getBytes, getJson, postJson, setToken, t
 import { el, setSourcesNow } from "./format.js";
 import { drawBanner, drawGauges } from "./gauges.js";
 import { drawPlan, recolour } from "./plan.js";
+import { drawProgress } from "./progress.js";
 import { drawDeviations, drawDetail, timelineItem } from "./tables.js";
 import { TwinView } from "./view3d.js";
 
@@ -25,6 +26,7 @@ async function start() {
   follow(onMessage, onConnection).catch(() => askToken());
   await startClock();
   await Promise.all([loadTwin(), loadWorkers(), loadEvents()]);
+  await loadProgress();
   wireDownloads();
 }
 
@@ -60,12 +62,35 @@ async function loadTwin() {
     drawDeviations($("deviations"), state.elements, pick);
     updateCounts();
     state.view = new TwinView($("view3d"), pick);
+    wireBuiltView();
     await loadModel();
     await wireTimebar();
   } catch (error) {
     if (String(error).includes("503")) $("plan-card").append(el("p", { class: "empty" }, "This server has no twin."));
     else throw error;
   }
+}
+
+// Progress against the work schedule (the card stays hidden for a server without a twin); follows the time bar.
+async function loadProgress(at = null) {
+  let record;
+  try {
+    record = await getJson(`/api/progress${at === null ? "" : `?at=${at}`}`);
+  } catch (error) {
+    if (String(error).includes("503")) return;
+    throw error;
+  }
+  state.progress = record;
+  $("progress-card").hidden = false;
+  drawProgress($("progress"), record);
+  if ($("built-view").checked) state.view?.colourBuilt(record.structure, record.state_colours);
+}
+
+function wireBuiltView() {
+  $("built-view").addEventListener("change", (event) => {
+    if (event.target.checked && state.progress) state.view?.colourBuilt(state.progress.structure, state.progress.state_colours);
+    else for (const element of state.elements.values()) state.view?.colour(element);
+  });
 }
 
 async function loadModel() {
@@ -175,6 +200,7 @@ async function showAt(at) {
   drawDeviations($("deviations"), shown, pick);
   updateCounts(shown);  // the header follows the time bar
   for (const element of shown.values()) state.view?.colour(element);
+  await loadProgress(at);
 }
 
 // Newest first by event time: a live event goes where its time puts it (a late batch's events arrive after newer ones).

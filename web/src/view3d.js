@@ -61,6 +61,18 @@ export class TwinView {
     this.render();
   }
 
+  // The structure by progress: each permanent element built, not built or not observed (states from /api/progress).
+  colourBuilt(structure, colours) {
+    for (const [gid, state] of Object.entries(structure)) {
+      const mesh = this.meshes.get(gid);
+      if (!mesh) continue;
+      const key = state === "as planned" || state === "deviating" ? "built" : state === "not built" ? "not built" : "not observed";
+      mesh.material = new MeshLambertMaterial({ color: colours[key], transparent: key === "not observed", opacity: key === "not observed" ? 0.5 : 1 });
+      mesh.userData = { ...mesh.userData, gid, progress: key };
+    }
+    this.render();
+  }
+
   select(gid) {
     const previous = this.meshes.get(this.selected);
     if (previous) previous.material.emissive = new Color("#000000");

@@ -43,7 +43,17 @@ class IfcSource:
 
 
 def read_source(path: str | Path) -> IfcSource:
-    """Check, scan and parse an IFC-SPF file (see the module docstring); BimError on anything fatal."""
+    """Check, scan and parse an IFC-SPF file (see the module docstring).
+
+    Args:
+        path: The IFC-SPF file.
+
+    Returns:
+        The parsed source.
+
+    Raises:
+        BimError: Anything fatal about the file.
+    """
     path = Path(path)
     check_bytes(path)
     with open(path, "rb") as stream, mmap.mmap(stream.fileno(), 0, access=mmap.ACCESS_READ) as data:

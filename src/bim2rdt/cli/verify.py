@@ -107,7 +107,7 @@ def verify_command(
                 counts = verdict_counts(twin.state())  # the objects' verdicts; the structure's are counted apart
                 structure.record(twin, judged)
                 files = write_outputs(result, twin, output.folder, frames.views,
-                                      f"verify {ifc_file.name} with {source.name}")
+                                      f"verify {ifc_file.name} with {source.name}", settings.progress)
                 _record_run(output.folder, settings, {
                     "ifc": str(ifc_file.resolve()), "source": str(source.resolve()),
                     "prior": None if T_prior is None else T_prior.tolist(), "detector": detector, "every": every,

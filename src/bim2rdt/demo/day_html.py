@@ -14,6 +14,7 @@ from bim2rdt.twin import ElementStatus
 LINKS = {"twin IFC (as built)": ("site_twin.ifc",), "BCF issues": ("site_issues.bcf",),
          "twin state (JSON)": ("twin.json",), "BIM (as designed)": ("site.ifc",),
          "Nav2 map": ("nav2/site.yaml", "site.yaml"), "Markdown report": ("report.md",),
+         "progress (JSON)": ("progress.json",),
          "run configuration": ("config.json",)}
 """The files the page links to, by label (the first of the candidates present in the folder; absent ones are
 left out)."""
@@ -49,6 +50,10 @@ def day_sections(day) -> list[tuple[str, str]]:
     if getattr(day, "localization", None) is not None:
         sections.append(("Robot localization", localization_html(day)))
     sections.append(("Safety events (HAV monitor, written to the twin)", safety_html(day.hav_events)))
+    if getattr(day, "progress", None) is not None:
+        from bim2rdt.demo.progress import progress_html
+
+        sections.append(("Progress against the work schedule", progress_html(day.progress)))
     return sections
 
 

@@ -44,6 +44,7 @@ def run_demo(out_dir: Path, trials: int = DEMO_TRIALS, seed: int = DEMO_SEED, wo
     embeddings). ``config.json`` records those settings (secrets masked), the detector, the seed and the versions.
     ``publish``: also write the results as a ROS 2 bag there (:mod:`bim2rdt.demo.publish`)."""
     from bim2rdt.config import settings_record
+    from bim2rdt.demo.progress import write_day_progress
     from bim2rdt.demo.settings import demo_settings
     from bim2rdt.demo.site_report import write_site_report
 
@@ -54,6 +55,7 @@ def run_demo(out_dir: Path, trials: int = DEMO_TRIALS, seed: int = DEMO_SEED, wo
                        yoloe=yoloe, record=record, max_targets=max_targets, keep_odometry=publish is not None,
                        localization=settings.localization, perception=settings.perception,
                        structure_config=settings.structure)
+    day.progress = write_day_progress(day, out_dir, settings.progress)
     report = write_site_report(day, out_dir)
     published = None
     if publish is not None:

@@ -42,7 +42,7 @@ from bim2rdt.demo.perceivers import DemoPerception
 from bim2rdt.sim.reality import Reality, objects_of_interest, simulate_reality
 from bim2rdt.sim.site import ROBOT_START_XY, ZONES, build_site_ifc
 from bim2rdt.structure import StructureConfig, StructureJudgement
-from bim2rdt.twin import DigitalTwin, TwinConfig
+from bim2rdt.twin import DigitalTwin, ProgressFiles, TwinConfig
 
 WORK_ZONE = ZONES[0][0]
 REMOVED_OBJECTS = 1
@@ -71,6 +71,9 @@ class SiteDay:
     ``record`` or ``keep_odometry``)."""
     structure: list[StructureJudgement] = field(default_factory=list)
     """Each permanent element's judgement (``structure.json``, :mod:`bim2rdt.demo.day_structure`)."""
+    progress: ProgressFiles | None = None
+    """The day's progress against the site's work schedule (:mod:`bim2rdt.demo.progress`; None before it is
+    written, or without a schedule)."""
 
 
 def run_site_day(out_dir: Path, seed: int = 0, workers: int = 2, minutes: float = 60.0, fs: float = 5000.0,

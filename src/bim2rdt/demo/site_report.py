@@ -207,6 +207,10 @@ def _markdown(day: SiteDay, rows: list[dict], record: dict) -> str:
               f"({sum(c == 'IfcEvent' for c, _ in day.twin_records)} IfcEvent, "
               f"{sum(c == 'IfcTask' for c, _ in day.twin_records)} IfcTask).", "",
               "![plan](plan.png)", "", "![exposure](exposure.png)", ""]
+    if getattr(day, "progress", None) is not None:
+        from bim2rdt.demo.progress import progress_text
+
+        lines.append(progress_text(day.progress))
     return "\n".join(lines)
 
 

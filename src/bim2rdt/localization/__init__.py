@@ -10,11 +10,13 @@ thins a cloud as the fix uses it, ``depth_points`` turns a frame's depth into ca
 from bim2rdt.localization.config import LocalizationConfig
 from bim2rdt.localization.errors import LocalizationError, Refusal
 from bim2rdt.localization.filter import OdometryNoise, PoseFilter, StationFix, fuse_frame
-from bim2rdt.localization.cloud import OccludedMap, ScanPoints, localize_cloud, scan_points, voxel_means
+from bim2rdt.localization.cloud import (OccludedMap, ScanPoints, localize_cloud, scan_points, sphere_directions,
+                                       voxel_means)
+from bim2rdt.localization.surfaces import GRAZING_COS
 from bim2rdt.localization.depth import depth_points
 from bim2rdt.localization.fix import Localization, localize
 from bim2rdt.localization.station import Turned, localize_station, pinned
 
 __all__ = ["Localization", "LocalizationConfig", "LocalizationError", "OccludedMap", "OdometryNoise", "PoseFilter",
            "Refusal", "ScanPoints", "StationFix", "Turned", "depth_points", "fuse_frame", "localize", "localize_cloud",
-           "localize_station", "pinned", "scan_points", "voxel_means"]
+           "localize_station", "pinned", "scan_points", "voxel_means", "GRAZING_COS", "sphere_directions"]

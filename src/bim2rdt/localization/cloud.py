@@ -323,7 +323,14 @@ _MAPS: OrderedDict[tuple[str, int], OccludedMap] = OrderedDict()
 
 
 def sphere_directions(step_deg: float) -> np.ndarray:
-    """Unit vectors (K, 3) spread evenly over the sphere about ``step_deg`` apart (a Fibonacci lattice)."""
+    """Unit vectors spread evenly over the sphere about ``step_deg`` apart (a Fibonacci lattice).
+
+    Args:
+        step_deg: The angle between neighbouring directions, degrees.
+
+    Returns:
+        (K, 3) unit vectors.
+    """
     step = np.deg2rad(step_deg)
     count = max(16, int(round(4 * np.pi / step**2)))
     k = np.arange(count) + 0.5

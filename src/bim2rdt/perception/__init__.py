@@ -16,10 +16,10 @@ from bim2rdt.perception.fitting import FitRules, fit_detection
 from bim2rdt.perception.library import element_body_mesh
 from bim2rdt.perception.observation import UNKNOWN_FAMILY, Observation
 from bim2rdt.perception.perceive import PerceiveConfig, locate_detections, perceive_frame, perceive_frames
-from bim2rdt.perception.structure import movable_elements
+from bim2rdt.perception.structure import movable_elements, permanent_elements
 from bim2rdt.perception.yoloe import YoloeDetector
 
 __all__ = ["UNKNOWN_FAMILY", "CameraError", "Detection", "Detector", "EdgeFilter", "FitRules", "Frame",
            "GeometricConfig", "GeometricDetector", "Intrinsics", "Observation", "PerceiveConfig", "PerceptionConfig",
            "PerceptionError", "YoloeDetector", "element_body_mesh", "explained", "fit_detection", "locate_detections",
-           "look_at", "movable_elements", "perceive_frame", "perceive_frames", "structure_for"]
+           "look_at", "movable_elements", "perceive_frame", "permanent_elements", "perceive_frames", "structure_for"]

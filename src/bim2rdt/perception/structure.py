@@ -25,7 +25,14 @@ NOT_OBJECTS = frozenset({"IfcSpace", "IfcOpeningElement", "IfcVirtualElement", "
 
 
 def permanent_elements(model: BimModel) -> list[BimElement]:
-    """The model's permanent elements (:data:`PERMANENT_CLASSES`) that have a tessellated body."""
+    """The model's permanent elements (:data:`PERMANENT_CLASSES`) that have a tessellated body.
+
+    Args:
+        model: The BIM.
+
+    Returns:
+        Those elements, in the model's order.
+    """
     return [el for el in model.elements if el.ifc_class in PERMANENT_CLASSES and model.has_mesh(el.global_id)]
 
 

@@ -93,6 +93,14 @@ async def plan(request: Request, at: float | None = Query(None, ge=0, le=1e11, d
     return await run_in_threadpool(_twin(request).plan, at)
 
 
+@router.get("/progress", openapi_extra=READ, responses=UNAVAILABLE,
+            summary="Progress against the model's work schedule: each task's planned %, observed % and status, the "
+                    "S-curve, the structure built / not built")
+async def progress(request: Request, at: float | None = Query(None, ge=0, le=1e11, description="UTC epoch seconds: "
+                                                              "the progress as the twin was then.")) -> dict:
+    return await run_in_threadpool(_twin(request).progress, at)
+
+
 @router.get("/model.glb", openapi_extra=READ, response_class=Response, summary="The twin in 3-D (binary glTF)",
             responses={200: {"content": {"model/gltf-binary": {}}}, **UNAVAILABLE})
 async def model_glb(request: Request) -> Response:

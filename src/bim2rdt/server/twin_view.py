@@ -34,6 +34,7 @@ class TwinView:
         self.twin = twin
         self.model = twin.model
         self._lock = threading.Lock()
+        self._model_ifc = None
         self._colours = palette()
         self._elements = {el.global_id: el for el in self.model.elements}
         self._glb: tuple[int, bytes] | None = None
@@ -140,6 +141,17 @@ class TwinView:
             data = self._build_glb(self.twin.state())
             self._glb = (self.seq, data)
             return data
+
+    # ---- progress ---------------------------------------------------------------------------------------
+    def progress(self, at: float | None = None) -> dict:
+        """Progress against the model's work schedule (``twin.progress_record``: the tasks, the S-curve, the
+        structure built / not built), now or as the twin was at time ``at``; the IFC file is parsed once."""
+        from bim2rdt.twin import open_model_ifc, progress_record
+
+        with self._lock:
+            if self._model_ifc is None:
+                self._model_ifc = open_model_ifc(self.twin)
+            return progress_record(self.twin, self._model_ifc, at)
 
     # ---- exports ----------------------------------------------------------------------------------------
     def export(self, kind: str) -> bytes:

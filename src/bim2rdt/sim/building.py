@@ -7,7 +7,7 @@ slab, walls and doors around the objects, as a robot's camera does.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Collection, Iterable, Sequence
 
 import trimesh
 
@@ -26,18 +26,20 @@ share their base class's)."""
 DEFAULT_COLOUR: Colour = (0.6, 0.6, 0.6)
 
 
-def building_parts(model: BimModel, colours: dict[str, Colour] | None = None) -> list[BuildingPart]:
+def building_parts(model: BimModel, colours: dict[str, Colour] | None = None,
+                   unbuilt: Collection[str] = ()) -> list[BuildingPart]:
     """The model's permanent elements as :class:`BuildingPart` (world meshes, metres). ``colours``
     ({GlobalId: RGB}) defaults to the IFC file's own surface styles (read from ``model.path``).
 
     Args:
         model: The BIM, loaded with geometry.
         colours: {GlobalId: RGB 0-1}; None reads the IFC file's surface styles (class colours where none).
+        unbuilt: GlobalIds of permanent elements the site has not built yet (left out).
 
     Returns:
         One part per permanent element: GlobalId, IFC class, world mesh (metres), colour and finish.
     """
-    elements = permanent_elements(model)
+    elements = [el for el in permanent_elements(model) if el.global_id not in unbuilt]
     if colours is None:
         colours = element_colours(model, [el.global_id for el in elements])
     parts = []
@@ -71,7 +73,7 @@ def finish(element: BimElement) -> str:
 
 
 def building_scene(model: BimModel, objects: Sequence[PlacedObject] = (),
-                   workers: Sequence[PlacedObject] = ()) -> SiteScene:
+                   workers: Sequence[PlacedObject] = (), unbuilt: Collection[str] = ()) -> SiteScene:
     """A scene of the model's building (no ground plane: the building's slabs are the floor) with ``objects``
     and ``workers`` in it.
 
@@ -79,11 +81,13 @@ def building_scene(model: BimModel, objects: Sequence[PlacedObject] = (),
         model: The BIM, loaded with geometry.
         objects: Site objects placed in the world.
         workers: Workers placed in the world.
+        unbuilt: GlobalIds of permanent elements the site has not built yet (left out of the scene).
 
     Returns:
         The scene, ready to render.
     """
-    return SiteScene(list(objects), ground_size=0.0, building=building_parts(model), workers=list(workers))
+    return SiteScene(list(objects), ground_size=0.0, building=building_parts(model, unbuilt=unbuilt),
+                     workers=list(workers))
 
 
 def _base_class(ifc_class: str) -> str:

@@ -22,7 +22,7 @@ from bim2rdt.registration.so3 import axis_angle
 from bim2rdt.sim.building import DEFAULT_COLOUR, building_scene, element_colours
 from bim2rdt.sim.meshes import mesh_for_family
 from bim2rdt.sim.scene import PlacedObject, SiteScene, ground_pose
-from bim2rdt.sim.site import SURFACE_COLOURS
+from bim2rdt.sim.site import SURFACE_COLOURS, UNBUILT_WALLS
 
 UNPLANNED_FAMILY = "Steel_Drum_55gal"
 """The family of the unplanned object the default reality adds (a drum nobody put in the model)."""
@@ -46,6 +46,8 @@ class Reality:
     scene: SiteScene
     truth: list[TrueObject]
     removed: list[TrueObject] = field(default_factory=list)
+    unbuilt: tuple[str, ...] = ()
+    """GlobalIds of permanent elements the BIM plans that the site has not built (not in the scene)."""
 
 
 body_mesh = element_body_mesh
@@ -54,11 +56,12 @@ body_mesh = element_body_mesh
 
 def simulate_reality(model: BimModel, global_ids: list[str], seed: int = 0, move_fraction: float = 0.5,
                      unplanned_at: tuple[float, float] | None = (5.0, 4.0), building: bool = False,
-                     removed: int = 0) -> Reality:
+                     removed: int = 0, unbuilt: tuple[str, ...] | None = None) -> Reality:
     """Draw site changes for the objects ``global_ids``: about ``move_fraction`` of them moved by 0.15-0.6 m and
     turned by up to 40 degrees, one cone (if any) knocked 12 degrees off upright, ``removed`` of the unchanged
     ones taken off the site (the last ones in ``global_ids``' order), and an unplanned drum at ``unplanned_at``
-    (x, y metres; None for none). Deterministic for a seed (``removed`` leaves every other draw as it was). With
+    (x, y metres; None for none). ``unbuilt``: GlobalIds of permanent elements not built yet (None: the embedded
+    site's :data:`~bim2rdt.sim.site.UNBUILT_WALLS`, by name, where the model has them). Deterministic for a seed (``removed`` leaves every other draw as it was). With
     ``building`` the scene is the model's building (walls occlude, the slab is the floor) with the objects in
     their IFC colours; without, the objects stand grey on an open ground plane. The truth is the same either way."""
     rng = np.random.default_rng(seed)
@@ -68,7 +71,9 @@ def simulate_reality(model: BimModel, global_ids: list[str], seed: int = 0, move
         truth.append(TrueObject(None, UNPLANNED_FAMILY, ground_pose(*unplanned_at, yaw_rad=np.deg2rad(25.0)), "unplanned"))
     albedos = [0.35 + 0.3 * rng.random() for _ in truth]
     truth, albedos, gone = _take_away(truth, albedos, removed)
-    return replace(_placed(model, global_ids, truth, albedos, building), removed=gone)
+    if unbuilt is None:
+        unbuilt = tuple(el.global_id for el in model.elements if el.ifc_class == "IfcWall" and el.name in UNBUILT_WALLS)
+    return replace(_placed(model, global_ids, truth, albedos, building, unbuilt), removed=gone, unbuilt=unbuilt)
 
 
 def _take_away(truth: list[TrueObject], albedos: list[float], count: int):
@@ -83,14 +88,14 @@ def _take_away(truth: list[TrueObject], albedos: list[float], count: int):
 
 
 def _placed(model: BimModel, global_ids: list[str], truth: list[TrueObject], albedos: list[float],
-            building: bool) -> Reality:
+            building: bool, unbuilt: tuple[str, ...]) -> Reality:
     if not building:
         objects = [PlacedObject(t.family, _mesh(model, t), t.T_world_model, albedo=a) for t, a in zip(truth, albedos)]
         return Reality(SiteScene(objects, ground_size=60.0), truth)
     colours = element_colours(model, global_ids)
     objects = [PlacedObject(t.family, _mesh(model, t), t.T_world_model, a, _colour(t, colours))
                for t, a in zip(truth, albedos)]
-    return Reality(building_scene(model, objects), truth)
+    return Reality(building_scene(model, objects, unbuilt=unbuilt), truth)
 
 
 def _colour(obj: TrueObject, colours: dict) -> tuple[float, float, float]:

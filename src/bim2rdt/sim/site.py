@@ -16,6 +16,7 @@ from __future__ import annotations
 import math
 import uuid
 from dataclasses import dataclass
+from datetime import date, datetime, timezone
 from pathlib import Path
 
 import ifcopenshell
@@ -35,6 +36,7 @@ import numpy as np
 from bim2rdt.bim.atomic import atomic_write_ifc
 from bim2rdt.bim.ifc_values import add_typed_pset
 from bim2rdt.sim.meshes import mesh_for_family
+from bim2rdt.sim.schedule import add_site_schedule
 
 SITE_LENGTH, SITE_WIDTH = 20.0, 14.0
 WALL_HEIGHT = 3.0
@@ -88,14 +90,23 @@ ZONES = (
     ("Exclusion Zone - Material Storage", (14.0, 1.0, 19.0, 5.0), True, "exclusion"),
 )
 
+UNBUILT_WALLS = ("Interior Wall - Partition NE",)
+"""Walls the BIM plans that the simulated site has not built yet (the schedule's task for them is behind)."""
+PARTITION = ("Interior Wall - Partition NE", 17.6, 12.5, 1.2)
+"""A 150 mm partition the BIM plans in the north-east room: name, x and y of its south end (m), length (m) north
+to the exterior wall; behind the scaffold, in the view of the robot's station for it."""
+
 ROBOT_START_XY = (1.0, 1.0)
 """Where the robot's dock is on the default site, metres."""
 
 
-def build_site_ifc(path: str | Path, schema: str = "IFC4", *, replace_special: bool = False) -> Path:
+def build_site_ifc(path: str | Path, schema: str = "IFC4", *, replace_special: bool = False,
+                   day: date | None = None) -> Path:
     """Write the default construction site (IFC4 by default; IFC4X3 also works) atomically; returns the path.
-    ``replace_special`` lets it replace a symlink or device node at ``path`` (see ``atomic.write_bytes_atomic``)."""
-    builder = _SiteBuilder(schema)
+    ``replace_special`` lets it replace a symlink or device node at ``path`` (see ``atomic.write_bytes_atomic``).
+    Its work schedule (:mod:`bim2rdt.sim.schedule`) is dated around ``day`` (default: today, UTC): the same day
+    writes the same bytes."""
+    builder = _SiteBuilder(schema, day or datetime.now(timezone.utc).date())
     builder.build()
     return atomic_write_ifc(builder.ifc, Path(path), replace_special=replace_special)
 
@@ -112,8 +123,9 @@ def yaw_pose(x: float, y: float, z: float, yaw_deg: float) -> np.ndarray:
 class _SiteBuilder:
     """Builds the site step by step; each step is one kind of thing on site."""
 
-    def __init__(self, schema: str) -> None:
+    def __init__(self, schema: str, day: date) -> None:
         self.ifc = ifcopenshell.api.project.create_file(version=schema)
+        self.day = day
         self._styles: dict[str, ifcopenshell.entity_instance] = {}
 
     def build(self) -> None:
@@ -126,6 +138,9 @@ class _SiteBuilder:
         self._zones()
         self._site_objects()
         self._stabilise()
+        self._partition()  # added after the first GlobalIds were given: the earlier elements keep theirs
+        add_site_schedule(self.ifc, self.day)
+        self._stabilise(later=True)
 
     def _project(self) -> None:
         ifc = self.ifc
@@ -200,6 +215,13 @@ class _SiteBuilder:
                 self._body(column, _box(self.ifc, (0.4, 0.4, WALL_HEIGHT), (0.0, 0.0, 0.0)), "Concrete")
                 self._place(column, yaw_pose(x, y, 0.0, 0.0))
 
+    def _partition(self) -> None:
+        name, x, y, length = PARTITION
+        wall = self._element("IfcWall", name, "PARTITIONING", family="Basic Wall:Interior - Blockwork 150mm",
+                             type_class="IfcWallType")
+        self._body(wall, _box(self.ifc, (length, 0.15, WALL_HEIGHT), (length / 2, 0.075, 0)), "Blockwork")
+        self._place(wall, yaw_pose(x + 0.075, y, 0.0, 90.0))
+
     def _zones(self) -> None:
         for name, (x0, y0, x1, y1), off_limits, kind in ZONES:
             space = ifcopenshell.api.root.create_entity(self.ifc, "IfcSpace", name=name, predefined_type="SPACE")
@@ -265,9 +287,10 @@ class _SiteBuilder:
     def _place(self, product: ifcopenshell.entity_instance, pose: np.ndarray) -> None:
         ifcopenshell.api.geometry.edit_object_placement(self.ifc, product=product, matrix=pose, is_si=True)
 
-    def _stabilise(self) -> None:
+    def _stabilise(self, later: bool = False) -> None:
         """Deterministic GlobalIds, relation member order and header time stamp: the same build, the same bytes
-        (ifcopenshell's api fills relation members from sets, whose order varies between runs)."""
+        (ifcopenshell's api fills relation members from sets, whose order varies between runs). ``later``: only
+        entities added since the first pass get GlobalIds (keyed apart), so the first ones keep theirs."""
         for relation in self.ifc.by_type("IfcRelationship"):
             for attribute in ("RelatedElements", "RelatedObjects"):
                 members = getattr(relation, attribute, None)
@@ -275,9 +298,13 @@ class _SiteBuilder:
                     setattr(relation, attribute, sorted(members, key=lambda entity: entity.id()))
         for assignment in self.ifc.by_type("IfcUnitAssignment"):
             assignment.Units = sorted(assignment.Units, key=lambda unit: unit.id())
+        given = getattr(self, "_given", set())
         for index, entity in enumerate(self.ifc.by_type("IfcRoot")):
-            key = uuid.uuid5(_GUID_NAMESPACE, f"{entity.is_a()}:{entity.Name}:{index}")
+            if entity.id() in given:
+                continue
+            key = uuid.uuid5(_GUID_NAMESPACE, f"{entity.is_a()}:{entity.Name}:{'later:' if later else ''}{index}")
             entity.GlobalId = ifcopenshell.guid.compress(key.hex)
+        self._given = given | {entity.id() for entity in self.ifc.by_type("IfcRoot")}
         self.ifc.header.file_name.time_stamp = "2026-01-01T00:00:00"
 
 

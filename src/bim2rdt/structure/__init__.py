@@ -9,12 +9,13 @@ judgements = judge_structure(model, [StructureView(0, points_sensor, T_world_sen
 
 from bim2rdt.structure.config import StructureConfig, StructureTolerance
 from bim2rdt.structure.errors import StructureError
-from bim2rdt.structure.judge import judge_structure
+from bim2rdt.structure.judge import judge_structure, judgements
 from bim2rdt.structure.records import (STRUCTURE_STATUSES, StructureJudgement, StructureView, read_structure_json,
                                        write_structure_json)
 from bim2rdt.structure.scene import PERMANENT_CLASSES
-from bim2rdt.structure.survey import StructureSurvey
+from bim2rdt.structure.maps import DeviationMaps
+from bim2rdt.structure.survey import StructureSurvey, tolerance_of
 
-__all__ = ["PERMANENT_CLASSES", "STRUCTURE_STATUSES", "StructureConfig", "StructureError", "StructureJudgement",
-           "StructureSurvey", "StructureTolerance", "StructureView", "judge_structure", "read_structure_json",
-           "write_structure_json"]
+__all__ = ["DeviationMaps", "PERMANENT_CLASSES", "STRUCTURE_STATUSES", "StructureConfig", "StructureError", "StructureJudgement",
+           "StructureSurvey", "StructureTolerance", "StructureView", "judge_structure", "judgements", "read_structure_json",
+           "tolerance_of", "write_structure_json"]

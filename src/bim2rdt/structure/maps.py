@@ -21,7 +21,7 @@ import numpy as np  # noqa: E402
 
 from bim2rdt.atomic import write_bytes_atomic  # noqa: E402
 from bim2rdt.bim import BimModel  # noqa: E402
-from bim2rdt.perception.frame import Frame  # noqa: E402
+from bim2rdt.perception import Frame  # noqa: E402
 from bim2rdt.structure.config import StructureConfig  # noqa: E402
 from bim2rdt.structure.distances import FaceSamples  # noqa: E402
 

@@ -9,8 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from bim2rdt.bim import BimModel
-from bim2rdt.localization.cloud import OccludedMap
-from bim2rdt.localization.surfaces import GRAZING_COS
+from bim2rdt.localization import GRAZING_COS, OccludedMap
 
 PERMANENT_CLASSES: frozenset[str] = frozenset({
     "IfcWall", "IfcWallStandardCase", "IfcWallElementedCase",

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from bim2rdt.bim import BimModel
-from bim2rdt.localization.cloud import sphere_directions
+from bim2rdt.localization import sphere_directions
 from bim2rdt.structure.config import StructureConfig, StructureTolerance
 from bim2rdt.structure.refit import UP, Pairs, consensus, pin_weight, refit
 from bim2rdt.structure.records import StructureView

@@ -6,6 +6,7 @@ from bim2rdt.twin import DigitalTwin, ElementStatus
 twin = DigitalTwin.open("sqlite:///out/twin.db", model)
 twin.record(observation, time); twin.state(at=None); twin.history(global_id)
 twin.export_ifc(path); twin.export_bcf(path)
+write_progress(twin, out_dir)        # progress against the model's work schedule: progress.json and more
 ```
 """
 
@@ -19,12 +20,20 @@ from bim2rdt.twin.status import STATUS_COLOURS, ElementStatus
 from bim2rdt.twin.config import TolerancePreset, TwinConfig
 from bim2rdt.twin.tolerance import Tolerance, TolerancePolicy
 from bim2rdt.twin.verdict import fit_trusted
+from bim2rdt.twin.progress import ScheduleProgress, TaskProgress, TaskStatus, schedule_progress
+from bim2rdt.twin.progress_config import ProgressConfig
+from bim2rdt.twin.progress_files import (ProgressFiles, open_model_ifc, progress_of, progress_record, progress_section,
+                                         read_structure_statuses, write_progress)
+from bim2rdt.twin.progress_report import progress_markdown
 
 __all__ = ["DigitalTwin", "Deviation", "ElementState", "ElementStatus", "EVENT_KINDS", "Evidence", "Fit", "FitEvidence",
            "JudgeConfig", "Judgement", "MISSING", "PlaceEvidence", "judge_evidence", "place_seen_empty",
            "OBSERVATION", "SAFETY", "STATUS", "STATUS_COLOURS", "STRUCTURE", "Tolerance", "TolerancePolicy", "TolerancePreset",
            "TwinConfig", "TwinError", "TwinEvent", "TwinSink", "fit_trusted", "pose_deviation",
-           "ISSUES", "TopicView", "topic_title", "vertical_fov_deg", "write_bcf"]
+           "ISSUES", "TopicView", "topic_title", "vertical_fov_deg", "write_bcf",
+           "ProgressConfig", "ProgressFiles", "ScheduleProgress", "TaskProgress", "TaskStatus", "open_model_ifc",
+           "progress_markdown", "progress_of", "progress_record", "progress_section", "read_structure_statuses",
+           "schedule_progress", "write_progress"]
 
 _HOMES = {"DigitalTwin": "twin", "ISSUES": "bcf_export", "TopicView": "bcf_export", "topic_title": "bcf_export",
           "write_bcf": "bcf_export", "vertical_fov_deg": "snapshot"}

@@ -11,8 +11,8 @@ from pathlib import Path
 
 from bim2rdt.atomic import write_bytes_atomic
 from bim2rdt.bim import BimModel
-from bim2rdt.twin import DigitalTwin, ElementState, ElementStatus, TwinConfig, TwinError
-from bim2rdt.twin import write_bcf
+from bim2rdt.twin import (DigitalTwin, ElementState, ElementStatus, ProgressConfig, TwinConfig, TwinError,
+                          read_structure_statuses, write_bcf, write_progress)
 from bim2rdt.verify.chain import VerifyResult, family_priors
 from bim2rdt.verify.report import FrameView, topic_views, write_report
 
@@ -29,6 +29,8 @@ class VerifyFiles:
     report: Path
     ifc: Path | None
     ifc_note: str | None = None
+    progress: Path | None = None
+    """progress.json, when the model has a work schedule."""
 
 
 def record_twin(result: VerifyResult, model: BimModel, out_dir: Path, config: TwinConfig = TwinConfig(),
@@ -83,9 +85,11 @@ def _when(frame) -> float:
 
 
 def write_outputs(result: VerifyResult, twin: DigitalTwin, out_dir: Path,
-                  views: Mapping[int, FrameView] | None = None, title: str = "bim2rdt verify") -> VerifyFiles:
+                  views: Mapping[int, FrameView] | None = None, title: str = "bim2rdt verify",
+                  progress: ProgressConfig = ProgressConfig()) -> VerifyFiles:
     """Write every file of the verify folder (a run's staging folder: :class:`~bim2rdt.verify.output_set.OutputSet`
-    moves them into ``--out``).
+    moves them into ``--out``); with a work schedule in the model also progress.json (and its curve and structure
+    view), with ``structure.json``'s judgements where the folder has one.
 
     Args:
         result: What verify found in every frame.
@@ -94,6 +98,7 @@ def write_outputs(result: VerifyResult, twin: DigitalTwin, out_dir: Path,
         views: The frames' small copies by index (:class:`~bim2rdt.verify.report.FrameCapture`): the BCF
             snapshots and the report's pictures; None: rendered snapshots and no frame pictures.
         title: The report's heading.
+        progress: When a task of the schedule is behind or ahead.
 
     Returns:
         The paths of twin.json, issues.bcf, localization.json, report.html and twin.ifc (None, with a note,
@@ -116,6 +121,10 @@ def write_outputs(result: VerifyResult, twin: DigitalTwin, out_dir: Path,
         files.ifc = twin.export_ifc(out_dir / "twin.ifc")
     except TwinError as error:
         files.ifc_note = str(error)
+    written = write_progress(twin, out_dir, twin_ifc=files.ifc,
+                             structure=read_structure_statuses(out_dir / "structure.json"),
+                             behind_percent=progress.behind_percent, ahead_percent=progress.ahead_percent)
+    files.progress = written.progress_json if written is not None else None
     write_report(result, states, twin.model, out_dir, views, topics, title)
     return files
 

@@ -9,11 +9,10 @@ from pathlib import Path
 import numpy as np
 
 from bim2rdt.bim import BimModel
-from bim2rdt.perception.frame import Frame
+from bim2rdt.perception import Frame
 from bim2rdt.structure import (StructureConfig, StructureJudgement, StructureSurvey, StructureView,
                                write_structure_json)
-from bim2rdt.structure.judge import judgements, tolerance_of
-from bim2rdt.structure.maps import DeviationMaps
+from bim2rdt.structure import DeviationMaps, judgements, tolerance_of
 from bim2rdt.twin import Deviation, DigitalTwin, ElementStatus, Tolerance
 from bim2rdt.verify.chain import FrameResult, frame_points
 
