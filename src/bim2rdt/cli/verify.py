@@ -21,7 +21,8 @@ def verify_command(
                                   ".mkv, PCL grabber TIFFs (what bim2rdt.sources reads); or a scan: "
                                   ".ply .las .laz .e57, an unorganised .pcd."),
     prior: str | None = typer.Option(None, "--prior", help="X,Y,Z,YAW_DEG: the sensor's approximate pose in the "
-                                     "model's frame (m, deg: the optical axis' heading from +x, counter-clockwise)."),
+                                     "model's frame (m, deg: the optical axis' heading from +x, counter-clockwise). "
+                                     "Without it the sensor is found on the BIM and tracked."),
     prior_file: Path | None = typer.Option(None, "--prior-file", help="JSON 4x4 T_world_sensor (a list of 4 lists); "
                                            "its roll and pitch are kept."),
     up: str | None = typer.Option(None, "--up", help="UX,UY,UZ: gravity up in the sensor frame (an IMU); sets the "
@@ -37,6 +38,8 @@ def verify_command(
                                       "depth, camera_info, imu, odometry); the others are found by message type."),
     every: int | None = typer.Option(None, "--every", min=1, help="Keep every N-th frame of the recording."),
     max_frames: int | None = typer.Option(None, "--max-frames", min=1, help="Stop after this many frames."),
+    storey: str | None = typer.Option(None, "--storey", help="Without a prior, search only this storey (name or "
+                                      "GlobalId) for the sensor; default: every storey."),
     publish: Path | None = typer.Option(None, "--publish", help="Also write the results as a ROS 2 bag (NAME.mcap: "
                                         "the rosbag2 folder NAME/): /tf map->odom from the fixes, /bim2rdt/pose, "
                                         "/bim2rdt/objects, /map, /keepout_filter_mask."),
@@ -75,7 +78,7 @@ def verify_command(
         frames = _Subsampled(frames, every or 1, max_frames)
     config = VerifyConfig(find_new=detector != "none", min_fitness=settings.twin.min_fitness)
     with _progress(frames, as_json, every, max_frames) as tick:
-        result = verify_frames(frames, model, T_prior, config, progress=lambda frame: tick("frame"))
+        result = verify_frames(frames, model, T_prior, config, progress=lambda frame: tick("frame"), storey=storey)
         with record_twin(result, model, out, settings.twin) as twin:
             files = write_outputs(result, twin, out)
             counts = verdict_counts(twin.state())

@@ -37,7 +37,9 @@ class GlobalSearchConfig(BaseModel):
         2000, ge=100, description="Every coarse peak is first fixed with at most this many of the cloud's points ...")
     quick_ray_deg: float = Field(0.5, gt=0.0, le=10.0, description="... and the BIM ray cast this far apart, deg; "
                                  "the contenders are fixed again with the whole cloud and the fix's own settings.")
-    polish: int = Field(3, ge=1, le=50, description="At most this many contenders are fixed again in full.")
+    quick_basin: float = Field(
+        2.0, ge=1.0, le=5.0, description="The quick fix's basin is the fix's (max_correction, max_correction_deg) "
+                                         "times this: a coarse peak is a cell and a heading step away at best.")
     candidates: int = Field(6, ge=1, le=50, description="The best coarse peaks refined by the 4-DoF fix.")
     peak_separation: float = Field(0.5, gt=0.0, description="Two coarse peaks nearer than this (m) ...")
     peak_separation_deg: float = Field(15.0, gt=0.0, description="... and this (deg) are one candidate.")

@@ -3,9 +3,10 @@ the floor, rasterised, with the free space a sensor can stand in.
 
 Per storey, on a grid of ``resolution`` m (rows along world y, columns along x):
 
-- ``likelihood``: exp(-d^2 / 2 sigma^2) of each cell's distance d to the nearest permanent surface in the band;
-- ``solid``: the cells a sensor ray cannot cross (surfaces, grown by one cell so a sampled ray cannot step over
-  a wall);
+- ``likelihood``: exp(-d^2 / 2 sigma^2) of each cell's distance d to the nearest surface in the band: the
+  permanent map's, and the model's other bodies' (they explain the points on them, as they occlude in the fix);
+- ``solid``: the cells a sensor ray cannot cross (permanent surfaces, grown by one cell so a sampled ray cannot
+  step over a wall);
 - ``free``: the cells a sensor can stand in: over the storey's floor (its slabs' top faces), at least
   ``clearance`` from any surface. This is the planning grid's free space, built from the same permanent map here
   because localization sits below planning in the layers.
@@ -22,7 +23,7 @@ from scipy import ndimage
 
 from bim2rdt.bim import BimModel
 from bim2rdt.localization.errors import LocalizationError
-from bim2rdt.localization.surfaces import PermanentMap, permanent_map
+from bim2rdt.localization.surfaces import PermanentMap
 
 _CACHE_SIZE = 8
 _SAMPLE_SPACING = 0.04
@@ -79,9 +80,11 @@ _PLANS: OrderedDict[tuple, list[StoreyPlan]] = OrderedDict()
 
 def _build(model: BimModel, storey: str | None, resolution: float, band: tuple[float, float], sigma: float,
            clearance: float) -> list[StoreyPlan]:
-    surfaces = permanent_map(model)
-    levels = floor_levels(model, surfaces, storey)
-    plans = [_plan(surfaces, name, z, resolution, band, sigma, clearance) for name, z in levels]
+    from bim2rdt.localization.cloud import OccludedMap
+
+    scene = OccludedMap.of(model)
+    levels = floor_levels(model, scene.permanent, storey)
+    plans = [_plan(scene, name, z, resolution, band, sigma, clearance) for name, z in levels]
     plans = [plan for plan in plans if plan is not None]
     if not plans:
         raise LocalizationError(f"{model.path.name}: no floor with walls around it to search (the global search "
@@ -118,10 +121,14 @@ def _mode(heights: np.ndarray, areas: np.ndarray, near: float | None) -> float:
     return float(values[np.argmax(np.bincount(inverse, weights=areas[keep]))] * 0.05)
 
 
-def _plan(surfaces: PermanentMap, name: str, floor_z: float, resolution: float, band: tuple[float, float],
+def _plan(scene, name: str, floor_z: float, resolution: float, band: tuple[float, float],
           sigma: float, clearance: float) -> StoreyPlan | None:
-    walls = _band_samples(surfaces.mesh, floor_z + band[0], floor_z + band[1])
-    floor = _floor_samples(surfaces.mesh, floor_z)
+    """The storey's rasters: its surfaces in the band are the permanent map's and the model's other bodies'
+    (a built-in wardrobe in front of a wall explains the points on it, as it occludes in the fix); its floor and
+    clearance are the permanent map's alone."""
+    walls = _band_samples(scene.mesh, floor_z + band[0], floor_z + band[1])
+    permanent = _band_samples(scene.permanent.mesh, floor_z + band[0], floor_z + band[1])
+    floor = _floor_samples(scene.permanent.mesh, floor_z)
     if len(walls) == 0 or len(floor) == 0:
         return None
     low = np.minimum(walls.min(axis=0), floor.min(axis=0)) - 1.0
@@ -129,10 +136,12 @@ def _plan(surfaces: PermanentMap, name: str, floor_z: float, resolution: float, 
     shape = tuple((np.ceil((high - low) / resolution)).astype(int)[::-1])
     surface = _raster(walls, low, resolution, shape)
     distance = ndimage.distance_transform_edt(~surface) * resolution
+    structure = _raster(permanent, low, resolution, shape)
+    clear = ndimage.distance_transform_edt(~structure) * resolution > clearance
     on_floor = ndimage.binary_closing(_raster(floor, low, resolution, shape), iterations=2)
-    solid = ndimage.binary_dilation(surface)
+    solid = ndimage.binary_dilation(structure)
     return StoreyPlan(name, float(floor_z), low, resolution, np.exp(-0.5 * (distance / sigma) ** 2),
-                      solid, on_floor & (distance > clearance) & ~solid)
+                      solid, on_floor & clear & ~solid)
 
 
 def _band_samples(mesh: trimesh.Trimesh, low: float, high: float) -> np.ndarray:

@@ -7,7 +7,9 @@
    FFT correlation per heading) by how near they fall to a permanent surface, less a penalty for each sample
    of their rays that would cross a wall before the return (a sensor cannot see through walls);
 3. the best separated peaks are refined by the 4-DoF fix (:func:`~bim2rdt.localization.localize_cloud`: the
-   BIM ray cast from the candidate with the model's other bodies occluding, yaw-only ICP, its acceptance tests);
+   BIM ray cast from the candidate with the model's other bodies occluding, yaw-only ICP, its acceptance tests),
+   first quickly (a thinner cloud, a wider basin: a peak is a guess, not a prior); when one place stands out
+   it is fixed again in full, from where the quick fix stopped;
 4. each refined candidate is scored on the cloud's sideways-facing points (the floor says nothing about where on
    it the sensor stands): the share on the first permanent surface their ray meets from the pose, less the share
    seen through one. When a second place scores within noise of the best (:func:`noise`), or the best cannot fix
@@ -98,10 +100,11 @@ def find_pose(data: object, model: BimModel, up: np.ndarray | tuple[float, float
     quick_scan, quick_cfg = _quick(scan, cfg)
     judge = _ViewScore(walls, OccludedMap.of(model), cfg)
     quick = _unique([_refine(quick_scan, model, levelled, peak, quick_cfg, judge) for peak in peaks], cfg)
-    best = max((c.score for c in quick if c.refined), default=0.0)
-    contenders = [c for c in quick if c.refined and c.score >= best - 2 * noise(best, cfg)][: cfg.polish]
-    final = [_fixed(scan, model, c, cfg.fix, judge) for c in contenders]
-    candidates = _unique(final + [c for c in quick if not any(c is k for k in contenders)], cfg)
+    taken, _ = choose(quick, cfg)
+    if taken is None:  # no place fits, or several do already: fixing them again in full would not make one
+        candidates = quick
+    else:
+        candidates = _unique([_fixed(scan, model, taken, cfg.fix, judge)] + [c for c in quick if c is not taken], cfg)
     seconds = time.process_time() - started
     return [replace(c, seconds=seconds) for c in candidates]
 
@@ -306,11 +309,14 @@ def _separated(peaks: list, cfg: GlobalSearchConfig) -> list:
 
 
 def _quick(scan: ScanPoints, cfg: GlobalSearchConfig) -> tuple[ScanPoints, LocalizationConfig]:
-    """The thinner cloud and coarser ray cast every coarse peak is first fixed with (``quick_points``,
-    ``quick_ray_deg``); the contenders are then fixed again with the full cloud and settings."""
+    """The thinner cloud, ray cast and wider basin every coarse peak is first fixed with (``quick_points``,
+    ``quick_ray_deg``, ``quick_basin``: a coarse peak is a guess, not a prior); the contenders are then fixed
+    again with the full cloud and settings."""
     quick = cfg.fix.model_copy(update={"cloud_ray_deg": max(cfg.fix.cloud_ray_deg, cfg.quick_ray_deg),
                                        "min_points": min(cfg.fix.min_points, cfg.quick_points // 8),
-                                       "min_inliers": min(cfg.fix.min_inliers, cfg.quick_points // 10)})
+                                       "min_inliers": min(cfg.fix.min_inliers, cfg.quick_points // 10),
+                                       "max_correction": cfg.quick_basin * cfg.fix.max_correction,
+                                       "max_correction_deg": cfg.quick_basin * cfg.fix.max_correction_deg})
     if len(scan.points) <= cfg.quick_points:
         return scan, quick
     pick = np.random.default_rng(0).choice(len(scan.points), cfg.quick_points, replace=False)

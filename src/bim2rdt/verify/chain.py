@@ -18,7 +18,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from bim2rdt.bim import BimModel
-from bim2rdt.localization import LocalizationConfig, LocalizationError, localize_cloud
+from bim2rdt.localization import GlobalSearchConfig, LocalizationConfig, LocalizationError, localize_cloud
 from bim2rdt.localization.cloud import OccludedMap, scan_points
 from bim2rdt.perception.background import explained, structure_for
 from bim2rdt.perception.frame import Frame
@@ -33,6 +33,7 @@ from bim2rdt.verify.new_objects import NewObjectConfig, new_objects
 from bim2rdt.verify.planned import PlannedConfig, check_planned, planned_in_view, seen_empty
 from bim2rdt.verify.priors import levelled
 from bim2rdt.verify.rays import RangeLookup
+from bim2rdt.verify.tracking import Tracker
 
 
 def real_sensor_localization() -> LocalizationConfig:
@@ -83,6 +84,10 @@ class FrameResult:
     seconds: float = 0.0
     recorded: np.ndarray | None = None
     """The frame's own pose as the recording gave it (a bag's camera in its world frame), or None."""
+    prior_source: str = ""
+    """Where the prior came from: ``global``, ``tracked``, ``source`` or ``user`` (:mod:`.tracking`)."""
+    candidates: list[dict] = field(default_factory=list)
+    """The global search's candidates (JSON), when it ran for this frame."""
 
     def to_dict(self) -> dict:
         """The frame's entry in localization.json.
@@ -97,7 +102,9 @@ class FrameResult:
                  "inliers": self.inliers, "accepted": self.accepted,
                  "prior": None if self.prior is None else self.prior.tolist(),
                  "depth_check": self.depth.to_dict() if self.depth else None, "missing": self.missing,
-                 "seconds": round(self.seconds, 3)}
+                 "seconds": round(self.seconds, 3), "prior_source": self.prior_source}
+        if self.candidates:
+            entry["candidates"] = self.candidates
         if not self.accepted:
             entry["reason"] = self.reason
         return entry
@@ -134,7 +141,7 @@ class VerifyResult:
 def verify_frames(frames: Iterable, model: BimModel, prior: np.ndarray | None = None,
                   config: VerifyConfig = VerifyConfig(),
                   progress: Callable[[FrameResult], None] | None = None,
-                  priors: Mapping[str, UprightPrior] | None = None) -> VerifyResult:
+                  priors: Mapping[str, UprightPrior] | None = None, storey: str | None = None) -> VerifyResult:
     """Each frame of ``frames`` localized on ``model`` and checked (see the module's note). An item is a
     :class:`Frame` or a scan (anything with ``.points`` (N, 3) in the sensor frame, and ``.path``: a
     ``sources.Cloud``). Each item's prior:
@@ -142,10 +149,15 @@ def verify_frames(frames: Iterable, model: BimModel, prior: np.ndarray | None = 
     - with ``prior`` (4, 4 T_world_sensor, the model's frame) and frames that carry poses (a recording's own,
       in whatever frame it keeps them): those poses are odometry, anchored at the last accepted fix (at first,
       ``prior`` for the first frame): prior_i = T_fix_k @ inv(T_own_k) @ T_own_i;
-    - with ``prior`` and no poses: the last accepted fix, else ``prior``;
-    - without ``prior``: the frame's own pose, taken as in the model's frame (none: refused with the reason),
-      until a fix is accepted: from then on the own poses are odometry anchored at the last fix, as with
-      ``prior`` (a ROS bag's camera in ``map``: the fix is what map -> odom should be).
+    - with ``prior`` and camera frames without poses: ``prior`` for the first, then the last fix (or the last
+      prediction) composed with frame-to-frame odometry (``tracked``); a scan: the last fix, else ``prior``;
+    - without ``prior``: the frame's own pose, taken as in the model's frame, until a fix is accepted: from then
+      on the own poses are odometry anchored at the last fix, as with ``prior`` (a ROS bag's camera in ``map``:
+      the fix is what map -> odom should be);
+    - without ``prior`` or poses: the BIM is searched globally (:func:`~bim2rdt.localization.find_pose`) for
+      the first frame, each scan, and a frame after two refused fixes in a row; the frames in between are
+      tracked. An ambiguous view is refused ("ambiguous: N places fit") with every candidate listed.
+      Each result's ``prior_source`` says which (:mod:`.tracking`).
 
     A source that drops frames (``dropped``: a list of ``{"time", "reason"}``, read after iterating) or warns about
     the recording (``warnings``) has them carried into the result.
@@ -154,11 +166,12 @@ def verify_frames(frames: Iterable, model: BimModel, prior: np.ndarray | None = 
         frames: The frames or scans, in the order they were taken (a ``FrameSource`` or any iterable).
         model: The BIM, loaded with geometry.
         prior: ``T_world_sensor`` (4x4, metres) of the first frame in the model's frame; None trusts the
-            frames' own poses until a fix is accepted.
+            frames' own poses until a fix is accepted, or searches the BIM when they have none.
         config: Localization, depth check and perception settings.
         progress: Called with each frame's result as it is done.
         priors: Family -> upright prior, to fit each planned object as the mission fits it (default:
             :func:`family_priors` of ``model``).
+        storey: The storey (name or GlobalId) a global search looks in; None searches every storey.
 
     Returns:
         Every frame's result in source order, with what the source dropped and warned about.
@@ -172,15 +185,15 @@ def verify_frames(frames: Iterable, model: BimModel, prior: np.ndarray | None = 
         raise VerifyError(str(error)) from None
     priors = family_priors(model) if priors is None else priors
     results: list[FrameResult] = []
-    anchor: tuple[np.ndarray | None, np.ndarray] | None = None if prior is None else (None, np.asarray(prior))
+    tracker = Tracker(model, prior, GlobalSearchConfig(fix=config.localization), storey)
     for index, frame in enumerate(frames):
-        own = frame.T_world_camera if isinstance(frame, Frame) else None
-        result = verify_frame(index, frame, model, scene, _prior_for(own, anchor), config, priors)
-        result.recorded = own
-        if result.accepted and (anchor is not None or own is not None):
-            anchor = (own, result.pose)
-        elif anchor is not None and anchor[0] is None and own is not None:
-            anchor = (own, anchor[1])  # the user's prior is where the sensor was at its first pose
+        guess = tracker.prior(frame, sensor_points(frame))
+        result = verify_frame(index, frame, model, scene, guess.pose, config, priors)
+        result.recorded = frame.T_world_camera if isinstance(frame, Frame) else None
+        result.prior_source, result.candidates = guess.source, guess.candidates
+        if guess.pose is None and guess.reason:
+            result.reason = guess.reason
+        tracker.update(guess, result.pose, result.accepted)
         results.append(result)
         if progress is not None:
             progress(result)
@@ -202,29 +215,18 @@ def family_priors(model: BimModel) -> dict[str, UprightPrior]:
     return KnowledgeBasePriors().priors(families, families)
 
 
-def _prior_for(own: np.ndarray | None, anchor) -> np.ndarray | None:
-    """A frame's prior from its own pose and the anchor (see :func:`verify_frames`)."""
-    if anchor is None:
-        return own
-    anchor_own, anchor_world = anchor
-    if own is None or anchor_own is None:  # no odometry to carry the anchor forward (or the first frame)
-        return anchor_world
-    return anchor_world @ np.linalg.inv(anchor_own) @ own
-
-
 def verify_frame(index: int, frame, model: BimModel, scene: OccludedMap, prior: np.ndarray | None,
                  config: VerifyConfig, priors: Mapping[str, UprightPrior] | None = None) -> FrameResult:
     """One frame or scan from ``prior`` (see :func:`verify_frames`); a frame's IMU ``up`` sets the prior's roll
     and pitch."""
     start = clock.perf_counter()
+    points_sensor = sensor_points(frame)
     if isinstance(frame, Frame):
-        name, when, points_sensor = frame.source, frame.time, frame_points(frame)
+        name, when = frame.source, frame.time
         if prior is not None and frame.up is not None:
             prior = levelled(prior, frame.up)
     else:
-        points = np.asarray(frame.points, dtype=np.float64)
         name, when = getattr(getattr(frame, "path", None), "name", None), None
-        points_sensor = points[np.all(np.isfinite(points), axis=1)] if points.ndim == 2 else points
     result = FrameResult(index, name or f"frame {index}", when, prior)
     if prior is None:
         result.reason = "no prior pose: give --prior X,Y,Z,YAW_DEG or --prior-file, or a source with poses"
@@ -270,6 +272,14 @@ def _depth_at_best_fit(scan, model: BimModel, scene: OccludedMap, prior: np.ndar
     except LocalizationError:
         return None
     return check_depth(scan, scene, best.pose, config.localization.max_range, config.depth)
+
+
+def sensor_points(frame) -> np.ndarray:
+    """A frame's valid depth pixels, or a scan's finite points, in the sensor frame (N, 3), metres."""
+    if isinstance(frame, Frame):
+        return frame_points(frame)
+    points = np.asarray(frame.points, dtype=np.float64)
+    return points[np.all(np.isfinite(points), axis=1)] if points.ndim == 2 else points
 
 
 def frame_points(frame: Frame) -> np.ndarray:
