@@ -53,7 +53,8 @@ class GlobalSearchConfig(BaseModel):
         2.0, ge=0.0, description="Standard deviations of a score (a share over the fix's independent_points "
                                  "observations) within which two places are a tie.")
     floor_cone_deg: float = Field(
-        35.0, gt=0.0, le=90.0,
+        60.0, gt=0.0, le=85.0,
         description="Without an IMU, the floor's normal is sought within this of the sensor's usual up (a camera "
-                    "held level: -y; a scanner: +z).")
+                    "held level: -y; a scanner: +z): a handheld camera looking down at 50 deg still finds it; "
+                    "walls (90 deg off) and ceilings (180) never pass.")
     min_floor_points: int = Field(40, ge=3, description="Fewer thinned points on the floor, and there is none.")
