@@ -68,6 +68,9 @@ def verify_command(
             T_prior = levelled(T_prior, up_sensor)
     if T_prior is not None:
         _inside(model, T_prior[:3, 3])
+    if storey is not None and not any(storey in (s.name, s.global_id) for s in model.storeys):
+        raise _bad(f"{ifc_file.name} has no storey {storey!r} (its storeys: "
+                   f"{', '.join(str(s.name) for s in model.storeys) or 'none'})")
     correction = _numbers(depth_correction, 3, "--depth-correction") if depth_correction else None
     if topics is not None and not _is_bag(source):
         raise _bad("--topics is for ROS bags (.mcap, .db3, .bag, a rosbag2 folder)")

@@ -34,8 +34,8 @@ class GlobalSearchConfig(BaseModel):
                                           "(a wall, a column): it takes part in the coarse search.")
     max_plan_points: int = Field(500, ge=20, description="At most this many plan points (an even draw) per search.")
     quick_points: int = Field(
-        2000, ge=100, description="Every coarse peak is first fixed with at most this many of the cloud's points ...")
-    quick_ray_deg: float = Field(0.5, gt=0.0, le=10.0, description="... and the BIM ray cast this far apart, deg; "
+        1500, ge=100, description="Every coarse peak is first fixed with at most this many of the cloud's points ...")
+    quick_ray_deg: float = Field(1.0, gt=0.0, le=10.0, description="... and the BIM ray cast this far apart, deg; "
                                  "the contenders are fixed again with the whole cloud and the fix's own settings.")
     quick_basin: float = Field(
         2.0, ge=1.0, le=5.0, description="The quick fix's basin is the fix's (max_correction, max_correction_deg) "
