@@ -15,5 +15,6 @@ from bim2rdt.localization.global_config import GlobalSearchConfig
 from bim2rdt.localization.global_search import Candidate, choose, find_pose
 from bim2rdt.localization.station import Turned, localize_station, pinned
 
-__all__ = ["Candidate", "GlobalSearchConfig", "Localization", "LocalizationConfig", "LocalizationError", "OdometryNoise", "PoseFilter", "StationFix",
-           "Turned", "choose", "find_pose", "fuse_frame", "localize", "localize_cloud", "localize_station", "pinned"]
+__all__ = ["Candidate", "GlobalSearchConfig", "Localization", "LocalizationConfig", "LocalizationError",
+           "OdometryNoise", "PoseFilter", "StationFix", "Turned", "choose", "find_pose", "fuse_frame", "localize",
+           "localize_cloud", "localize_station", "pinned"]

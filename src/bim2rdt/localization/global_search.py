@@ -58,7 +58,11 @@ class Candidate:
     extra: dict = field(default_factory=dict)
 
     def to_json(self) -> dict:
-        """The candidate as JSON: pose rows, scores, storey, gravity, free directions, the fix's reason."""
+        """The candidate as localization.json lists it.
+
+        Returns:
+            JSON-ready fields (pose rows, scores, storey, gravity, free directions, the fix's reason).
+        """
         return {"pose": np.round(self.pose, 6).tolist(), "score": round(self.score, 4),
                 "coarse_score": round(self.coarse_score, 4), "refined": self.refined, "storey": self.storey,
                 "gravity": self.gravity, "degenerate": [np.round(d, 4).tolist() for d in self.degenerate],
@@ -79,8 +83,8 @@ def find_pose(data: object, model: BimModel, up: np.ndarray | tuple[float, float
         storey: A storey's name or GlobalId to search; None searches every storey.
 
     Returns:
-        The candidates, best first: the fix-accepted ones by score, then the refused ones. :func:`choose` says
-        whether the best is to be taken.
+        The candidates, best first (the fix-accepted ones by score, then the refused ones); :func:`choose` says
+            whether the best is to be taken.
 
     Raises:
         LocalizationError: Bad data, no floor in view (the height is unknown) or nothing to search.
@@ -117,8 +121,8 @@ def choose(candidates: list[Candidate], config: GlobalSearchConfig | None = None
         config: The search's settings (its ``ambiguity_margin``); None uses the defaults.
 
     Returns:
-        (the best candidate, "") when it is the only place that fits within noise and its view fixes every
-        direction; else (None, the reason: ``"ambiguous: N places fit"`` or why no place fits).
+        The best candidate and an empty reason when it is the only place that fits within noise and its view fixes
+            every direction; else None and the reason (``"ambiguous: N places fit"``, or why no place fits).
     """
     cfg = config or GlobalSearchConfig()
     fits = [c for c in candidates if c.refined]
