@@ -80,3 +80,16 @@ def test_the_correlation_scores_a_point_on_the_surface_at_the_sensors_true_cell(
     row, col = np.unravel_index(np.argmax(scores[1]), scores[1].shape)
     assert (row, col) == (20, 25) and scores[1, row, col] == pytest.approx(1.0)
     assert np.argmax(scores[0]) != np.argmax(scores[1])
+
+
+def test_a_scan_in_a_cameras_axes_finds_its_floor_along_another_axis_and_its_place(office1):
+    """office1's points as a cloud (no image): a scanner's usual up (+z) sees no floor, the camera's -y does."""
+    from bim2rdt.sources import Cloud
+    from bim2rdt.verify.chain import frame_points
+
+    cloud = Cloud(frame_points(office1.frame), None, None, office1.model.path)
+    best, reason = choose(find_pose(cloud, office1.model, config=REAL), REAL)
+    assert best is not None, reason
+    offset, yaw = errors(best.pose, office1.T_world_camera)
+    assert np.linalg.norm(offset) < 0.05 and abs(yaw) < 2.0, (offset, yaw)
+    assert best.gravity == "floor"

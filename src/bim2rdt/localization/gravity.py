@@ -4,7 +4,8 @@ data alone (or an IMU).
 Up is the source's IMU reading when it has one (``given``/``imu``); else the dominant floor plane: the largest
 flat patch whose normal lies within ``floor_cone_deg`` of the sensor's usual up (a camera's -y, a scanner's +z)
 and that lies lowest below the sensor (a desk top is nearer, the floor is the lowest surface that many points
-share). The height is the sensor's distance to that plane along up, so the search is left with x, y and yaw.
+share). When there is none around the usual up, the other axes are tried (a scan written y-up), a floor
+accepted only with the sensor 0.1-3 m above it. The height is the sensor's distance to that plane along up, so the search is left with x, y and yaw.
 """
 
 from __future__ import annotations
@@ -58,13 +59,32 @@ def level(scan: ScanPoints, up: np.ndarray | None, gravity: str, default_up: np.
         if up.shape != (3,) or not np.all(np.isfinite(up)) or np.linalg.norm(up) < 1e-9:
             raise LocalizationError(f"up must be a finite non-zero 3-vector in the sensor frame, got {up.tolist()}")
         up = up / np.linalg.norm(up)
-    axis = default_up if up is None else up
-    normal, height, count = _floor(scan, axis, cone_deg if up is None else min(cone_deg, 10.0), min_floor_points)
-    if up is None:
-        up, gravity = normal, "floor"
-    else:
+    if up is not None:
+        _, height, count = _floor(scan, up, min(cone_deg, 10.0), min_floor_points)
         height = float(np.median(-(scan.points[_on_floor(scan, up, height)] @ up)))
-    return Levelled(level_rotation(up), height, up, gravity, count)
+        return Levelled(level_rotation(up), height, up, gravity, count)
+    first_error = None
+    for axis in _axes(default_up):
+        try:
+            normal, height, count = _floor(scan, axis, cone_deg, min_floor_points)
+        except LocalizationError as error:
+            first_error = first_error or error
+            continue
+        if MIN_HEIGHT <= height <= MAX_HEIGHT:
+            return Levelled(level_rotation(normal), height, normal, "floor", count)
+    raise first_error or _no_floor(0, min_floor_points)
+
+
+MIN_HEIGHT, MAX_HEIGHT = 0.1, 3.0
+"""A floor found along another axis than the sensor's usual up is taken only with the sensor this high above it
+(m): a scan written y-up, or in a camera's axes, still finds its floor; a wall's plane does not pass as one."""
+
+
+def _axes(default_up: np.ndarray) -> list[np.ndarray]:
+    """The sensor's usual up, then the other five axis directions (a scan written y-up or in a camera's axes)."""
+    others = [np.array(v, dtype=np.float64) for v in ((0, 0, 1), (0, -1, 0), (0, 1, 0), (0, 0, -1), (1, 0, 0),
+                                                      (-1, 0, 0))]
+    return [default_up] + [v for v in others if not np.allclose(v, default_up)]
 
 
 def level_rotation(up: np.ndarray) -> np.ndarray:
