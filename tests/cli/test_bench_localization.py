@@ -58,6 +58,8 @@ def test_the_global_section_searches_every_station_with_no_prior_and_runs_fpfh_r
     assert stations[1]["outcome"] == "success" and stations[1]["position_m"] < 0.05  # the unique view
     assert stations[0]["outcome"] == "refused" and stations[0]["reason"].startswith("ambiguous")  # a corner
     assert report["summary"]["peer"]["stations"] == len(stations)
+    assert report["summary"]["look_around"]["wrong_and_confident_rate"] == 0.0
+    assert all(s["look_around"]["seconds"] > 0 for s in stations)
 
 
 def test_bench_localization_rejects_a_tour_too_short_to_walk(tmp_path):

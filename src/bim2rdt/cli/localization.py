@@ -101,7 +101,8 @@ def _global(out: Path, seed: int, distance: float, peers: bool | None, sensors: 
 def show_global(record: dict) -> None:
     """No prior: success, wrong-and-confident and refused rates, time per search; ours and the peer's."""
     rows = []
-    for name, label in (("ours", "find_pose"), ("peer", "Open3D FPFH + RANSAC + ICP")):
+    for name, label in (("ours", "find_pose, one frame"), ("look_around", "find_pose, looking 70 deg either way"),
+                        ("peer", "Open3D FPFH + RANSAC + ICP, one frame")):
         s = record["summary"].get(name)
         if s is None or not s["stations"]:
             continue

@@ -34,9 +34,11 @@ PEER_VOXEL = 0.1
 
 
 def run_global(out_dir: Path, seed: int = 0, distance: float = 100.0, config: GlobalSearchConfig | None = None,
-               peer: bool = True, sensors: Path | None = None, tick=lambda: None, tour: bool = True) -> dict:
+               peer: bool = True, sensors: Path | None = None, tick=lambda: None, tour: bool = True,
+               look_around: bool = True) -> dict:
     """The tour's stations (unless not ``tour``) and office1 (when ``sensors`` holds it) searched without a
-    prior, and the peer on the same frames (JSON-able)."""
+    prior, and the peer on the same frames (JSON-able); with ``look_around``, each station also as the robot
+    sees it turning 70 degrees either way (three frames as one cloud, placed by its odometry and IMU)."""
     cfg = config or GlobalSearchConfig()
     model = load_ifc(build_site_ifc(Path(out_dir) / "site.ifc"), cache_dir=Path(out_dir) / "cache")
     scene = tour_scene(model, seed=seed).scene
@@ -47,6 +49,9 @@ def run_global(out_dir: Path, seed: int = 0, distance: float = 100.0, config: Gl
         frame = replace(render_frame(scene, T_true, rng), T_world_camera=None)
         up = T_true[:3, :3].T @ np.array([0.0, 0.0, 1.0])  # the IMU's up, in the camera frame
         entry = {"index": index, **_ours(frame, model, up, cfg, T_true, YAW_DEG)}
+        if look_around:
+            entry["look_around"] = _ours(_looked_around(scene, T_true, seed + index), model, up, cfg, T_true,
+                                         YAW_DEG)
         if ransac is not None:
             entry["peer"] = ransac.score(frame, T_true, YAW_DEG)
         stations.append(entry)
@@ -80,6 +85,35 @@ def _error(T: np.ndarray, T_true: np.ndarray) -> tuple[float, float]:
     return float(np.linalg.norm(T[:3, 3] - T_true[:3, 3])), float(np.rad2deg(wrap(a[3] - b[3])))
 
 
+LOOK_AROUND_DEG = 70.0
+"""The turns of a look-around, as ``localize_station`` makes them."""
+
+
+class _Points:
+    def __init__(self, points: np.ndarray) -> None:
+        self.points = points
+
+
+def _looked_around(scene, T_true: np.ndarray, seed: int) -> _Points:
+    """The station's frame and two more, the robot turned 70 degrees left and right of it in place: their points
+    in the first frame's camera axes, placed by the turns' odometry readings and the IMU's tilt (the simulated
+    robot's, drift and all)."""
+    from bim2rdt.localization.planar import compose, from_planar
+    from bim2rdt.sim.robot import SimulatedRobot
+    from bim2rdt.verify.chain import frame_points
+
+    robot = SimulatedRobot(scene, T_true, seed)
+    state, tilt = np.zeros(4), to_planar(T_true)[1]
+    first = from_planar(state, tilt)
+    clouds = [frame_points(robot.capture())]
+    for angle in (LOOK_AROUND_DEG, -2 * LOOK_AROUND_DEG):
+        turned = robot.turn(np.deg2rad(angle))
+        state = compose(state, turned.increment)
+        T = np.linalg.inv(first) @ from_planar(state, to_planar(robot.T_world_camera)[1])
+        clouds.append(frame_points(turned.frame) @ T[:3, :3].T + T[:3, 3])
+    return _Points(np.concatenate(clouds)[::4])
+
+
 def _summary(stations: list[dict], peer: bool) -> dict:
     def rates(entries: list[dict]) -> dict:
         n = max(len(entries), 1)
@@ -91,6 +125,8 @@ def _summary(stations: list[dict], peer: bool) -> dict:
                 "max_seconds": float(np.max(seconds)) if seconds else None}
 
     summary = {"ours": rates(stations)}
+    if stations and "look_around" in stations[0]:
+        summary["look_around"] = rates([s["look_around"] for s in stations])
     if peer:
         summary["peer"] = rates([s["peer"] for s in stations])
     return summary
