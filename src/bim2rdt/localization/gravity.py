@@ -5,7 +5,8 @@ Up is the source's IMU reading when it has one (``given``/``imu``); else the dom
 flat patch whose normal lies within ``floor_cone_deg`` of the sensor's usual up (a camera's -y, a scanner's +z)
 and that lies lowest below the sensor (a desk top is nearer, the floor is the lowest surface that many points
 share). When there is none around the usual up, the other axes are tried (a scan written y-up), a floor
-accepted only with the sensor 0.1-3 m above it. The height is the sensor's distance to that plane along up, so the search is left with x, y and yaw.
+accepted only with the sensor 0.1-3 m above it. The height is the sensor's distance to that plane along up,
+so the search is left with x, y and yaw.
 """
 
 from __future__ import annotations
