@@ -16,8 +16,8 @@ def run_cli(*args: str) -> subprocess.CompletedProcess:
 
 
 def test_bench_localization_json_scores_every_station_against_dead_reckoning_and_the_peer(tmp_path):
-    result = run_cli("bench", "localization", "--distance", "15", "--tolerance", "0", "--no-office", "--json",
-                     "--out", str(tmp_path))
+    result = run_cli("bench", "localization", "--distance", "15", "--tolerance", "0", "--no-office", "--no-global",
+                     "--json", "--out", str(tmp_path))
     assert result.returncode == 0, result.stderr
     report = json.loads(result.stdout)
     stations = report["stations"]
@@ -36,11 +36,30 @@ def test_bench_localization_json_scores_every_station_against_dead_reckoning_and
 
 
 def test_bench_localization_prints_errors_against_distance_and_the_targets(tmp_path):
-    result = run_cli("bench", "localization", "--distance", "10", "--no-peers", "--no-office", "--out", str(tmp_path))
+    result = run_cli("bench", "localization", "--distance", "10", "--no-peers", "--no-office", "--no-global", "--out",
+                     str(tmp_path))
     assert result.returncode == 0, result.stderr
     assert "against distance walked" in result.stdout and "dead reckoning" in result.stdout
     verdicts = [line for line in result.stdout.splitlines() if " PASS " in line or " FAIL " in line]
     assert len(verdicts) == 4  # without peers: the four targets
+
+
+def test_the_global_section_searches_every_station_with_no_prior_and_runs_fpfh_ransac_on_the_same_frames(tmp_path):
+    result = run_cli("bench", "localization", "--distance", "5", "--no-office", "--json", "--out", str(tmp_path))
+    assert result.returncode == 0, result.stderr
+    report = json.loads(result.stdout)["global"]
+    stations = report["stations"]
+    assert len(stations) == len(json.loads(result.stdout)["stations"]) >= 2
+    assert {s["outcome"] for s in stations} <= {"success", "wrong", "refused"}
+    assert all(s["seconds"] > 0 and s["peer"]["seconds"] > 0 for s in stations)
+    ours = report["summary"]["ours"]
+    assert ours["wrong_and_confident_rate"] == 0.0  # never a confident wrong pose
+    assert ours["success_rate"] == sum(s["outcome"] == "success" for s in stations) / len(stations) > 0
+    assert stations[1]["outcome"] == "success" and stations[1]["position_m"] < 0.05  # the unique view
+    assert stations[0]["outcome"] == "refused" and stations[0]["reason"].startswith("ambiguous")  # a corner
+    assert report["summary"]["peer"]["stations"] == len(stations)
+    assert report["summary"]["look_around"]["wrong_and_confident_rate"] == 0.0
+    assert all(s["look_around"]["seconds"] > 0 for s in stations)
 
 
 def test_bench_localization_rejects_a_tour_too_short_to_walk(tmp_path):

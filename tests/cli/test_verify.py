@@ -225,3 +225,27 @@ def test_an_object_the_ifc_puts_where_the_sensor_sees_the_floor_is_missing(senso
     assert [e for e in states if e["status"] == "new"
             and np.linalg.norm(np.array(e["pose"])[:2, 3] - desk_truth["centre"][:2]) < 0.6]
     assert json.loads((tmp_path / "out" / "localization.json").read_text())["frames"][0]["missing"] == [MOVED]
+
+
+def test_verify_finds_office1_with_no_prior_within_5_cm_and_2_degrees(sensors, tmp_path):
+    """No --prior: the frame is found on the BIM (gravity from the floor), then verified as with a prior."""
+    truth = _truth(sensors)
+    result = _run(sensors / "pcl" / "office1.ifc", sensors / "pcl" / "office1.pcd", tmp_path / "out",
+                  "--depth-correction", "0.0605,0.0071,-0.0041")
+    assert result.exit_code == 0, result.output
+    assert json.loads(result.output)["localized"] == 1
+    frame = json.loads((tmp_path / "out" / "localization.json").read_text())["frames"][0]
+    assert frame["accepted"] and frame["prior_source"] == "global"
+    assert frame["candidates"] and frame["candidates"][0]["gravity"] == "floor"
+    pose, T_true = np.array(frame["pose"]), np.array(truth["T_world_camera"])
+    turned = np.rad2deg(np.arccos(np.clip((np.trace(pose[:3, :3].T @ T_true[:3, :3]) - 1) / 2, -1, 1)))
+    assert np.linalg.norm(pose[:3, 3] - T_true[:3, 3]) < 0.05 and turned < 2.0
+    states = {e["global_id"]: e["status"] for e in json.loads((tmp_path / "out" / "twin.json").read_text())["elements"]}
+    assert all(states[b["GlobalId"]] == "as planned" for b in truth["furniture"])
+
+
+def test_verify_refuses_a_storey_the_model_does_not_have_in_one_line(sensors, tmp_path, monkeypatch, capsys):
+    line = _fails(monkeypatch, capsys, sensors / "pcl" / "office1.ifc", sensors / "pcl" / "office1.pcd", "--out",
+                  tmp_path, "--storey", "Roof")
+    assert "no storey 'Roof'" in line and "Office floor" in line
+    assert not (tmp_path / "localization.json").exists()

@@ -46,24 +46,37 @@ def test_a_360_degree_scan_is_localized_and_its_planned_objects_are_not_deviatin
         assert np.linalg.norm(o.pose[:3, 3] - site_model.element(o.global_id).placement[:3, 3]) < 0.05, o.family
 
 
-def test_a_scan_without_a_prior_is_refused_with_its_reason_and_no_frames_is_an_error(site_model):
+def test_a_scan_without_a_prior_is_searched_and_refused_with_its_reason_and_no_frames_is_an_error(site_model):
     result = verify_frames([SimpleNamespace(points=np.zeros((10, 3)))], site_model, None)
-    assert not result.frames[0].accepted and "no prior" in result.frames[0].reason
+    frame = result.frames[0]
+    assert not frame.accepted and frame.prior_source == "global"
+    assert frame.reason.startswith("global search: the cloud has 0 returns"), frame.reason
     with pytest.raises(VerifyError, match="no frames"):
         verify_frames([], site_model, np.eye(4))
 
 
 def test_a_recordings_own_poses_carry_the_last_fix_forward_as_odometry():
-    from bim2rdt.verify.chain import _prior_for
+    from bim2rdt.localization import GlobalSearchConfig
+    from bim2rdt.perception import Frame, Intrinsics
+    from bim2rdt.verify.tracking import Tracker
+
+    def frame(own):
+        return Frame(np.zeros((3, 4, 3), np.uint8), np.ones((3, 4), np.float32), Intrinsics(4, 3, 2.0, 2.0, 2.0, 1.5),
+                     own)
 
     shift = np.eye(4)
     shift[:3, 3] = (1.0, 0.0, 0.0)
     own_0, own_1 = np.eye(4), shift  # the recording moved 1 m along its own x
     fix_0 = look_at((5.0, 5.0, 1.2), (5.0, 9.0, 1.2))  # where the BIM put its first frame
-    prior_1 = _prior_for(own_1, (own_0, fix_0))
-    assert np.allclose(prior_1, fix_0 @ shift)  # 1 m along the fixed frame's own x
-    assert np.allclose(_prior_for(None, (None, fix_0)), fix_0)
-    assert _prior_for(own_1, None) is own_1
+    tracker = Tracker(None, None, GlobalSearchConfig())
+    first = tracker.prior(frame(own_0), np.zeros((0, 3)))
+    assert first.source == "source" and first.pose is own_0  # no anchor yet: the recording's own pose
+    tracker.update(first, fix_0, True)
+    second = tracker.prior(frame(own_1), np.zeros((0, 3)))
+    assert second.source == "source" and np.allclose(second.pose, fix_0 @ shift)  # 1 m along the fixed x
+    scans = Tracker(None, fix_0, GlobalSearchConfig())
+    scan = SimpleNamespace(points=np.zeros((5, 3)))
+    assert scans.prior(scan, scan.points).source == "user" and scans.prior(scan, scan.points).pose is scans.user
 
 
 class _Recording:

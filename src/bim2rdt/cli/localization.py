@@ -38,6 +38,8 @@ def bench_localization(
                                       "office1_truth.json); default $BIM2RDT_SENSORS or ../shared/data/sensors."),
     office_priors: int = typer.Option(20, "--office-priors", min=1, help="Priors to fix the office frame from "
                                       "(sampled within 30 cm and 8 deg of its truth)."),
+    global_search: bool = typer.Option(True, "--global/--no-global", help="Search the tour's stations and the "
+                                       "office frame with no prior too (and Open3D FPFH + RANSAC with --peers)."),
     as_json: bool = typer.Option(False, "--json", help="Print JSON instead of tables."),
 ) -> None:
     """Walk the tour, localize every station on the BIM, fuse with odometry, and print errors and targets; then
@@ -63,6 +65,8 @@ def bench_localization(
         plot = plot_errors(run, out / "errors.png")
     if office:
         record["office"] = _office(sensors, config, seed, out, office_priors)
+    if global_search and (tour or office):
+        record["global"] = _global(out, seed, distance, peers, sensors if office else None, tour)
     write_bytes_atomic(out / "results.json", json.dumps(record, indent=2, default=float).encode("utf-8"))
     if as_json:
         print_json(record)
@@ -71,6 +75,8 @@ def bench_localization(
         show_record(record)
     if office:
         show_office(record["office"])
+    if "global" in record:
+        show_global(record["global"])
     console.print(f"{f'plot {plot}, ' if plot else ''}results.json in {out}")
 
 
@@ -80,6 +86,40 @@ def _office(sensors: Path, config, seed: int, out: Path, count: int) -> dict:
     if not (sensors / FRAME).is_file():
         return {"skipped": f"no {FRAME} under {sensors} (set --sensors or BIM2RDT_SENSORS)"}
     return run_office(sensors, config, count, seed=seed, cache_dir=out / "cache")
+
+
+def _global(out: Path, seed: int, distance: float, peers: bool | None, sensors: Path | None, tour: bool) -> dict:
+    from bim2rdt.bench.localization.global_bench import run_global
+    from bim2rdt.cli.registration import _open3d_available, step_progress
+    from bim2rdt.sim.tour import tour_poses
+
+    peer = _open3d_available() if peers is None else peers
+    with step_progress(len(tour_poses(distance)) if tour else 1, "global search") as tick:
+        return run_global(out, seed, distance, peer=peer, sensors=sensors, tick=tick, tour=tour)
+
+
+def show_global(record: dict) -> None:
+    """No prior: success, wrong-and-confident and refused rates, time per search; ours and the peer's."""
+    rows = []
+    for name, label in (("ours", "find_pose, one frame"), ("look_around", "find_pose, looking 70 deg either way"),
+                        ("peer", "Open3D FPFH + RANSAC + ICP, one frame")):
+        s = record["summary"].get(name)
+        if s is None or not s["stations"]:
+            continue
+        rows.append((label, f"{s['success_rate']:.0%}", f"{s['wrong_and_confident_rate']:.0%}",
+                     f"{s['refused_rate']:.0%}", f"{s['median_seconds']:.2f} / {s['max_seconds']:.2f}"))
+    tolerance = record["tolerance"]
+    print_table(f"No prior: {record['summary']['ours']['stations']} tour stations, success within "
+                f"{tolerance['position_m'] * 100:.0f} cm and {tolerance['yaw_deg']:.0f} deg",
+                ["method", "success", "wrong and confident", "refused", "s per search (median / max)"], rows)
+    office = record.get("office")
+    if office:
+        for name, entry in (("find_pose", office["ours"]), ("FPFH + RANSAC", office.get("peer"))):
+            if entry is None:
+                continue
+            detail = (f"{entry['position_m'] * 100:.1f} cm / {entry['yaw_deg']:.2f} deg" if "position_m" in entry
+                      else entry.get("reason", ""))
+            console.print(f"office1, no prior, {name}: {entry['outcome']} ({detail}), {entry['seconds']:.2f} s")
 
 
 def show_office(office: dict) -> None:

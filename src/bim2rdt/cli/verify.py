@@ -21,7 +21,8 @@ def verify_command(
                                   ".mkv, PCL grabber TIFFs (what bim2rdt.sources reads); or a scan: "
                                   ".ply .las .laz .e57, an unorganised .pcd."),
     prior: str | None = typer.Option(None, "--prior", help="X,Y,Z,YAW_DEG: the sensor's approximate pose in the "
-                                     "model's frame (m, deg: the optical axis' heading from +x, counter-clockwise)."),
+                                     "model's frame (m, deg: the optical axis' heading from +x, counter-clockwise). "
+                                     "Without it the sensor is found on the BIM and tracked."),
     prior_file: Path | None = typer.Option(None, "--prior-file", help="JSON 4x4 T_world_sensor (a list of 4 lists); "
                                            "its roll and pitch are kept."),
     up: str | None = typer.Option(None, "--up", help="UX,UY,UZ: gravity up in the sensor frame (an IMU); sets the "
@@ -47,6 +48,8 @@ def verify_command(
                                       "depth, camera_info, imu, odometry); the others are found by message type."),
     every: int | None = typer.Option(None, "--every", min=1, help="Keep every N-th frame of the recording."),
     max_frames: int | None = typer.Option(None, "--max-frames", min=1, help="Stop after this many frames."),
+    storey: str | None = typer.Option(None, "--storey", help="Without a prior, search only this storey (name or "
+                                      "GlobalId) for the sensor; default: every storey."),
     publish: Path | None = typer.Option(None, "--publish", help="Also write the results as a ROS 2 bag (NAME.mcap: "
                                         "the rosbag2 folder NAME/): /tf map->odom from the fixes, /bim2rdt/pose, "
                                         "/bim2rdt/objects, /map, /keepout_filter_mask."),
@@ -87,6 +90,9 @@ def verify_command(
     model = load_ifc(ifc_file, cache_dir=ifc_cache_dir(settings))
     if T_prior is not None:
         _inside(model, T_prior[:3, 3])
+    if storey is not None and not any(storey in (s.name, s.global_id) for s in model.storeys):
+        raise _bad(f"{ifc_file.name} has no storey {storey!r} (its storeys: "
+                   f"{', '.join(str(s.name) for s in model.storeys) or 'none'})")
     correction = _numbers(depth_correction, 3, "--depth-correction") if depth_correction else None
     if depth_scale is not None and not (math.isfinite(depth_scale) and depth_scale > 0):
         raise _bad(f"--depth-scale must be a positive number of raw units per metre (1000: millimetres), got "
@@ -101,7 +107,7 @@ def verify_command(
         with output, _progress(recording.expected_frames, as_json) as tick:
             structure = StructureRun(model, output.folder, settings.structure)
             result = verify_frames(frames, model, T_prior, config, progress=lambda frame: tick("frame"),
-                                   look=structure.look)
+                                   look=structure.look, storey=storey)
             judged = structure.finish()
             with record_twin(result, model, output.folder, settings.twin) as twin:
                 counts = verdict_counts(twin.state())  # the objects' verdicts; the structure's are counted apart

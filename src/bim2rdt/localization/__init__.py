@@ -5,7 +5,9 @@ slabs, stairs, door frames), fused with odometry over a tour.
 core (:mod:`.core`); ``PoseFilter`` fuses odometry between stations with those fixes (an EKF over x, y, z and yaw);
 ``check_shots`` measures each fix against BIM landmarks an engineer can tape. ``OccludedMap`` is the model's
 permanent surface with its other bodies as occluders (build it once per model and pass it on), ``scan_points``
-thins a cloud as the fix uses it, ``depth_points`` turns a frame's depth into camera-frame points."""
+thins a cloud as the fix uses it, ``depth_points`` turns a frame's depth into camera-frame points;
+``find_pose(data, model)`` finds the sensor on the BIM without a prior (candidates, and ``choose`` says whether one
+is to be taken or the view is ambiguous)."""
 
 from bim2rdt.localization.config import LocalizationConfig
 from bim2rdt.localization.errors import LocalizationError, Refusal
@@ -14,9 +16,13 @@ from bim2rdt.localization.cloud import (OccludedMap, ScanPoints, localize_cloud,
                                        voxel_means)
 from bim2rdt.localization.surfaces import GRAZING_COS
 from bim2rdt.localization.depth import depth_points
+from bim2rdt.localization.odometry import icp_odometry
 from bim2rdt.localization.fix import Localization, localize
+from bim2rdt.localization.global_config import GlobalSearchConfig
+from bim2rdt.localization.global_search import Candidate, choose, find_pose
 from bim2rdt.localization.station import Turned, localize_station, pinned
 
-__all__ = ["Localization", "LocalizationConfig", "LocalizationError", "OccludedMap", "OdometryNoise", "PoseFilter",
-           "Refusal", "ScanPoints", "StationFix", "Turned", "depth_points", "fuse_frame", "localize", "localize_cloud",
-           "localize_station", "pinned", "scan_points", "voxel_means", "GRAZING_COS", "sphere_directions"]
+__all__ = ["Candidate", "GRAZING_COS", "GlobalSearchConfig", "Localization", "LocalizationConfig", "LocalizationError",
+           "OccludedMap", "OdometryNoise", "PoseFilter", "Refusal", "ScanPoints", "StationFix", "Turned", "choose",
+           "depth_points", "find_pose", "fuse_frame", "icp_odometry", "localize", "localize_cloud", "localize_station", "pinned",
+           "scan_points", "sphere_directions", "voxel_means"]

@@ -43,6 +43,7 @@ FOLDER_READERS: list[tuple[str, str]] = [
     ("bim2rdt.sources.tum:is_tum_folder", "bim2rdt.sources.tum:TumFolder"),
     ("bim2rdt.sources.grabber:is_grabber_folder", "bim2rdt.sources.grabber:GrabberFolder"),
     ("bim2rdt.sources.tum:is_pair_folder", "bim2rdt.sources.tum:PairFolder"),
+    ("bim2rdt.sources.pcd_folder:is_pcd_folder", "bim2rdt.sources.pcd_folder:PcdFolder"),
 ]
 """(``"module:function"`` telling whether a folder is in the format, ``"module:Class"`` of its reader), asked in
 order."""
@@ -77,8 +78,8 @@ def _reader_name(path: Path) -> str:
             if _reader(looks_like)(path):
                 return name
         raise SourceError(path, "no frames here: a folder needs a TUM rgb.txt + depth.txt, a colour + depth PNG pair "
-                                "(*_color.png, *_depth.png), PCL grabber TIFFs (*_depth.tiff + .xml) or a rosbag2 folder "
-                                "(metadata.yaml)")
+                                "(*_color.png, *_depth.png), PCL grabber TIFFs (*_depth.tiff + .xml), .pcd frames or a "
+                                "rosbag2 folder (metadata.yaml)")
     name = FILE_READERS.get(path.suffix.lower())
     if name is None:
         raise SourceError(path, f"no frame reader for '{path.suffix or path.name}' files (readers: "

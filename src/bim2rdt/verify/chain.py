@@ -21,8 +21,8 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from bim2rdt.bim import BimModel
-from bim2rdt.localization import (LocalizationConfig, LocalizationError, OccludedMap, Refusal, depth_points,
-                                  localize_cloud, scan_points)
+from bim2rdt.localization import (GlobalSearchConfig, LocalizationConfig, LocalizationError, OccludedMap, Refusal,
+                                  depth_points, localize_cloud, scan_points)
 from bim2rdt.perception import Frame, Observation, explained, movable_elements, structure_for
 from bim2rdt.semantics import KnowledgeBasePriors, UprightPrior
 from bim2rdt.sources import as_recording
@@ -38,6 +38,7 @@ from bim2rdt.verify.priors import heading_deg, levelled
 from bim2rdt.verify.transient import RECENT_FRAMES, TransientConfig, mark_transient
 from bim2rdt.verify.rays import RangeLookup
 from bim2rdt.verify.timing import stage
+from bim2rdt.verify.tracking import Tracker
 
 
 REAL_SENSOR = {"inlier_distance": 0.05, "huber_delta": 0.025, "min_inlier_fraction": 0.3}
@@ -145,6 +146,10 @@ class FrameResult:
         """What the fix leaves free, in words: "x free", "y free", "z free", "free along 35 deg" (a horizontal
         direction off the axes: along the one wall the view pins), "yaw free"."""
         return free_directions(self.degenerate, self.degenerate_yaw)
+    prior_source: str = ""
+    """Where the prior came from: ``global``, ``tracked``, ``source`` or ``user`` (:mod:`.tracking`)."""
+    candidates: list[dict] = field(default_factory=list)
+    """The global search's candidates (JSON), when it ran for this frame."""
 
     def to_dict(self) -> dict:
         """The frame's entry in localization.json.
@@ -165,7 +170,9 @@ class FrameResult:
                             for look in self.looks},
                  "transient": [{"centre": [round(float(v), 3) for v in c.observation.pose[:3, 3]],
                                 "reason": c.transient} for c in self.clusters if c.transient],
-                 "seconds": round(self.seconds, 3)}
+                 "seconds": round(self.seconds, 3), "prior_source": self.prior_source}
+        if self.candidates:
+            entry["candidates"] = self.candidates
         if not self.accepted:
             entry["reason"], entry["refusal"] = self.reason, self.refusal
         return entry
@@ -248,7 +255,8 @@ def verify_frames(frames: Iterable, model: BimModel, prior: np.ndarray | None = 
                   config: VerifyConfig = VerifyConfig(),
                   progress: Callable[[FrameResult], None] | None = None,
                   priors: Mapping[str, UprightPrior] | None = None,
-                  look: Callable[[object, FrameResult], None] | None = None) -> VerifyResult:
+                  look: Callable[[object, FrameResult], None] | None = None, storey: str | None = None
+                  ) -> VerifyResult:
     """Each frame of ``frames`` localized on ``model`` and checked (see the module's note). An item is a
     :class:`Frame` or a scan (anything with ``.points`` (N, 3) in the sensor frame, and ``.path``: a
     ``sources.Cloud``). Each item's prior:
@@ -256,10 +264,15 @@ def verify_frames(frames: Iterable, model: BimModel, prior: np.ndarray | None = 
     - with ``prior`` (4, 4 T_world_sensor, the model's frame) and frames that carry poses (a recording's own,
       in whatever frame it keeps them): those poses are odometry, anchored at the last accepted fix (at first,
       ``prior`` for the first frame): prior_i = T_fix_k @ inv(T_own_k) @ T_own_i;
-    - with ``prior`` and no poses: the last accepted fix, else ``prior``;
-    - without ``prior``: the frame's own pose, taken as in the model's frame (none: refused with the reason),
-      until a fix is accepted: from then on the own poses are odometry anchored at the last fix, as with
-      ``prior`` (a ROS bag's camera in ``map``: the fix is what map -> odom should be).
+    - with ``prior`` and camera frames without poses: ``prior`` for the first, then the last fix (or the last
+      prediction) composed with frame-to-frame odometry (``tracked``); a scan: the last fix, else ``prior``;
+    - without ``prior``: the frame's own pose, taken as in the model's frame, until a fix is accepted: from then
+      on the own poses are odometry anchored at the last fix, as with ``prior`` (a ROS bag's camera in ``map``:
+      the fix is what map -> odom should be);
+    - without ``prior`` or poses: the BIM is searched globally (:func:`~bim2rdt.localization.find_pose`) for
+      the first frame, each scan, and a frame after two refused fixes in a row; the frames in between are
+      tracked. An ambiguous view is refused ("ambiguous: N places fit") with every candidate listed.
+      Each result's ``prior_source`` says which (:mod:`.tracking`).
 
     What a :class:`~bim2rdt.sources.Recording` dropped (``{"time", "reason", "kind"}``, read after iterating) and
     its warnings about the recording are carried into the result (a plain iterable drops nothing).
@@ -268,13 +281,14 @@ def verify_frames(frames: Iterable, model: BimModel, prior: np.ndarray | None = 
         frames: The frames or scans, in the order they were taken (a ``Recording``, or any iterable).
         model: The BIM, loaded with geometry.
         prior: ``T_world_sensor`` (4x4, metres) of the first frame in the model's frame; None trusts the
-            frames' own poses until a fix is accepted.
+            frames' own poses until a fix is accepted, or searches the BIM when they have none.
         config: Localization, depth check and perception settings.
         progress: Called with each frame's result as it is done.
         priors: Family -> upright prior, to fit each planned object as the mission fits it (default:
             :func:`family_priors` of ``model``).
         look: Called with each frame (or scan) and its result while the frame is at hand (the structure judge
             and the deviation maps, :mod:`.structure_run`).
+        storey: The storey (name or GlobalId) a global search looks in; None searches every storey.
 
     Returns:
         Every frame's result in source order, with what the source dropped and warned about.
@@ -293,10 +307,16 @@ def verify_frames(frames: Iterable, model: BimModel, prior: np.ndarray | None = 
     anchor_covariance = None  # the located covariance of the fix the anchor is (None: the user's prior)
     recent: deque = deque(maxlen=RECENT_FRAMES)  # the frames a cluster is tested for motion against
     recording = as_recording(frames)
+    tracker = Tracker(model, prior, GlobalSearchConfig(fix=config.localization), storey)
     for index, frame in enumerate(recording):
         own = frame.T_world_camera if isinstance(frame, Frame) else None
-        result = verify_frame(index, frame, model, scene, _prior_for(own, anchor), config, priors)
+        guess = tracker.prior(frame, sensor_points(frame))
+        result = verify_frame(index, frame, model, scene, guess.pose, config, priors)
         result.recorded = own
+        result.prior_source, result.candidates = guess.source, guess.candidates
+        if guess.pose is None and guess.reason:
+            result.reason = guess.reason
+        tracker.update(guess, result.pose, result.accepted)
         if result.accepted:
             result.located_covariance = located_covariance(result.covariance, anchor, anchor_covariance, own,
                                                            config.fusion)
@@ -335,29 +355,18 @@ def family_priors(model: BimModel) -> dict[str, UprightPrior]:
     return KnowledgeBasePriors().priors(families, families)
 
 
-def _prior_for(own: np.ndarray | None, anchor) -> np.ndarray | None:
-    """A frame's prior from its own pose and the anchor (see :func:`verify_frames`)."""
-    if anchor is None:
-        return own
-    anchor_own, anchor_world = anchor
-    if own is None or anchor_own is None:  # no odometry to carry the anchor forward (or the first frame)
-        return anchor_world
-    return anchor_world @ np.linalg.inv(anchor_own) @ own
-
-
 def verify_frame(index: int, frame, model: BimModel, scene: OccludedMap, prior: np.ndarray | None,
                  config: VerifyConfig, priors: Mapping[str, UprightPrior] | None = None) -> FrameResult:
     """One frame or scan from ``prior`` (see :func:`verify_frames`); a frame's IMU ``up`` sets the prior's roll
     and pitch."""
     start = clock.perf_counter()
+    points_sensor = sensor_points(frame)
     if isinstance(frame, Frame):
         name, when, points_sensor = frame.source, frame.time, depth_points(frame)
         if prior is not None and frame.up is not None:
             prior = levelled(prior, frame.up)
     else:
-        points = np.asarray(frame.points, dtype=np.float64)
         name, when = getattr(getattr(frame, "path", None), "name", None), None
-        points_sensor = points[np.all(np.isfinite(points), axis=1)] if points.ndim == 2 else points
     result = FrameResult(index, name or f"frame {index}", when, prior)
     if prior is None:
         result.reason = "no prior pose: give --prior X,Y,Z,YAW_DEG or --prior-file, or a source with poses"
@@ -445,6 +454,21 @@ def _depth_at_best_fit(scan, model: BimModel, scene: OccludedMap, prior: np.ndar
     except LocalizationError:
         return None
     return check_depth(scan, scene, best.pose, config.localization.max_range, config.depth, config.faces)
+
+
+def sensor_points(frame) -> np.ndarray:
+    """A frame's valid depth pixels, or a scan's finite points, in the sensor frame (N, 3), metres.
+
+    Args:
+        frame: A :class:`~bim2rdt.perception.Frame` or a cloud (``points``).
+
+    Returns:
+        The points.
+    """
+    if isinstance(frame, Frame):
+        return depth_points(frame)
+    points = np.asarray(frame.points, dtype=np.float64)
+    return points[np.all(np.isfinite(points), axis=1)] if points.ndim == 2 else points
 
 
 def _observe(result: FrameResult, points_sensor: np.ndarray, pose: np.ndarray, model: BimModel,

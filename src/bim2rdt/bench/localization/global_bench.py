@@ -1,0 +1,200 @@
+"""The global section of ``bench localization``: every station of the simulated tour, and the real office frame,
+localized with no prior at all (:func:`~bim2rdt.localization.find_pose`), against Open3D's FPFH + RANSAC global
+registration (then its point-to-plane ICP, as Open3D's tutorial pipeline does) on points sampled from the BIM's
+permanent surfaces, in the same run.
+
+A station is a success when the pose taken is within ``POSITION_M`` and ``YAW_DEG`` of the truth; "wrong and
+confident" when a pose is taken outside that; otherwise the view was refused (ambiguous, no place fits, no floor).
+The peer takes whatever RANSAC returns, so each of its answers is confident. Truth is read here only to render
+frames and score; the search sees the depth frame (its pose stripped) and, on the tour, the IMU's up. Times are
+CPU seconds per search (one core when pinned).
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from bim2rdt.bim import BimModel, load_ifc
+from bim2rdt.localization import GlobalSearchConfig, LocalizationError, choose, find_pose
+from bim2rdt.localization.depth import depth_points
+from bim2rdt.localization.planar import to_planar, wrap
+from bim2rdt.localization.surfaces import permanent_map
+from bim2rdt.sim.site import build_site_ifc
+from bim2rdt.sim.tour import render_frame, tour_poses, tour_scene
+
+POSITION_M = 0.05
+YAW_DEG = 1.0
+OFFICE_YAW_DEG = 2.0
+PEER_VOXEL = 0.1
+
+
+def run_global(out_dir: Path, seed: int = 0, distance: float = 100.0, config: GlobalSearchConfig | None = None,
+               peer: bool = True, sensors: Path | None = None, tick=lambda: None, tour: bool = True,
+               look_around: bool = True) -> dict:
+    """The tour's stations (unless not ``tour``) and office1 (when ``sensors`` holds it) searched without a
+    prior, and the peer on the same frames (JSON-able); with ``look_around``, each station also as the robot
+    sees it turning 70 degrees either way (three frames as one cloud, placed by its odometry and IMU)."""
+    cfg = config or GlobalSearchConfig()
+    model = load_ifc(build_site_ifc(Path(out_dir) / "site.ifc"), cache_dir=Path(out_dir) / "cache")
+    scene = tour_scene(model, seed=seed).scene
+    rng = np.random.default_rng(seed)
+    ransac = _FpfhRansac(model, seed) if peer else None
+    stations = []
+    for index, T_true in enumerate(tour_poses(distance) if tour else []):
+        frame = replace(render_frame(scene, T_true, rng), T_world_camera=None)
+        up = T_true[:3, :3].T @ np.array([0.0, 0.0, 1.0])  # the IMU's up, in the camera frame
+        entry = {"index": index, **_ours(frame, model, up, cfg, T_true, YAW_DEG)}
+        if look_around:
+            entry["look_around"] = _ours(_looked_around(scene, T_true, seed + index), model, up, cfg, T_true,
+                                         YAW_DEG)
+        if ransac is not None:
+            entry["peer"] = ransac.score(frame, T_true, YAW_DEG)
+        stations.append(entry)
+        tick()
+    record = {"tolerance": {"position_m": POSITION_M, "yaw_deg": YAW_DEG}, "stations": stations,
+              "summary": _summary(stations, peer)}
+    if sensors is not None and (sensors / "pcl" / "office1.pcd").is_file():
+        record["office"] = _office(sensors, cfg, peer, Path(out_dir) / "cache")
+    return record
+
+
+def _ours(frame, model: BimModel, up, cfg: GlobalSearchConfig, T_true: np.ndarray, yaw_tol: float) -> dict:
+    started = time.process_time()
+    try:
+        candidates = find_pose(frame, model, up=up, config=cfg)
+        best, reason = choose(candidates, cfg)
+    except LocalizationError as error:
+        candidates, best, reason = [], None, str(error)
+    seconds = time.process_time() - started
+    if best is None:
+        return {"outcome": "refused", "reason": reason, "candidates": len(candidates), "seconds": seconds}
+    position, yaw = _error(best.pose, T_true)
+    right = position <= POSITION_M and abs(yaw) <= yaw_tol
+    return {"outcome": "success" if right else "wrong", "position_m": position, "yaw_deg": yaw,
+            "candidates": len(candidates), "gravity": best.gravity, "seconds": seconds}
+
+
+def _error(T: np.ndarray, T_true: np.ndarray) -> tuple[float, float]:
+    a, _ = to_planar(T)
+    b, _ = to_planar(T_true)
+    return float(np.linalg.norm(T[:3, 3] - T_true[:3, 3])), float(np.rad2deg(wrap(a[3] - b[3])))
+
+
+LOOK_AROUND_DEG = 70.0
+"""The turns of a look-around, as ``localize_station`` makes them."""
+
+
+class _Points:
+    def __init__(self, points: np.ndarray) -> None:
+        self.points = points
+
+
+def _looked_around(scene, T_true: np.ndarray, seed: int) -> _Points:
+    """The station's frame and two more, the robot turned 70 degrees left and right of it in place: their points
+    in the first frame's camera axes, placed by the turns' odometry readings and the IMU's tilt (the simulated
+    robot's, drift and all)."""
+    from bim2rdt.localization.planar import compose, from_planar
+    from bim2rdt.sim.robot import SimulatedRobot
+    from bim2rdt.verify.chain import frame_points
+
+    robot = SimulatedRobot(scene, T_true, seed)
+    state, tilt = np.zeros(4), to_planar(T_true)[1]
+    first = from_planar(state, tilt)
+    clouds = [frame_points(robot.capture())]
+    for angle in (LOOK_AROUND_DEG, -2 * LOOK_AROUND_DEG):
+        turned = robot.turn(np.deg2rad(angle))
+        state = compose(state, turned.increment)
+        T = np.linalg.inv(first) @ from_planar(state, to_planar(robot.T_world_camera)[1])
+        clouds.append(frame_points(turned.frame) @ T[:3, :3].T + T[:3, 3])
+    return _Points(np.concatenate(clouds)[::4])
+
+
+def _summary(stations: list[dict], peer: bool) -> dict:
+    def rates(entries: list[dict]) -> dict:
+        n = max(len(entries), 1)
+        seconds = [e["seconds"] for e in entries]
+        return {"stations": len(entries), "success_rate": sum(e["outcome"] == "success" for e in entries) / n,
+                "wrong_and_confident_rate": sum(e["outcome"] == "wrong" for e in entries) / n,
+                "refused_rate": sum(e["outcome"] == "refused" for e in entries) / n,
+                "median_seconds": float(np.median(seconds)) if seconds else None,
+                "max_seconds": float(np.max(seconds)) if seconds else None}
+
+    summary = {"ours": rates(stations)}
+    if stations and "look_around" in stations[0]:
+        summary["look_around"] = rates([s["look_around"] for s in stations])
+    if peer:
+        summary["peer"] = rates([s["peer"] for s in stations])
+    return summary
+
+
+def _office(sensors: Path, cfg: GlobalSearchConfig, peer: bool, cache_dir: Path) -> dict:
+    from bim2rdt.sources import open_source
+    from bim2rdt.verify.chain import real_sensor_localization
+
+    folder = sensors / "pcl"
+    truth = json.loads((folder / "office1_truth.json").read_text())
+    T_true = np.array(truth["T_world_camera"])
+    model = load_ifc(folder / "office1.ifc", cache_dir=cache_dir)
+    [frame] = list(open_source(folder / "office1.pcd", depth_correction=truth["depth_correction"]["g"]))
+    real = cfg.model_copy(update={"fix": real_sensor_localization()})
+    record = {"ours": _ours(frame, model, None, real, T_true, OFFICE_YAW_DEG),
+              "tolerance": {"position_m": POSITION_M, "yaw_deg": OFFICE_YAW_DEG}}
+    if peer:
+        record["peer"] = _FpfhRansac(model, 0).score(frame, T_true, OFFICE_YAW_DEG)
+    return record
+
+
+class _FpfhRansac:
+    """Open3D's global registration pipeline: FPFH features of the frame's points and of points sampled from the
+    BIM's permanent surfaces (both faces of every wall, ``PEER_VOXEL`` apart), RANSAC on feature matches, then
+    point-to-plane ICP; 6-DoF, no gravity, no free-space knowledge."""
+
+    def __init__(self, model: BimModel, seed: int) -> None:
+        from bim2rdt.evaluation.peers import import_open3d
+
+        self.o3d, self.seed = import_open3d(), seed
+        self.o3d.utility.set_verbosity_level(self.o3d.utility.VerbosityLevel.Error)  # its warnings go to stdout
+        points, normals = permanent_map(model).samples(PEER_VOXEL / 2, seed=seed)
+        self.target, self.target_features = self._features(points, normals)
+
+    def _features(self, points: np.ndarray, normals: np.ndarray | None = None):
+        o3d = self.o3d
+        cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points))
+        if normals is not None:
+            cloud.normals = o3d.utility.Vector3dVector(normals)
+        cloud = cloud.voxel_down_sample(PEER_VOXEL)
+        if normals is None:
+            cloud.estimate_normals(o3d.geometry.KDTreeSearchParamHybrid(radius=2 * PEER_VOXEL, max_nn=30))
+        features = o3d.pipelines.registration.compute_fpfh_feature(
+            cloud, o3d.geometry.KDTreeSearchParamHybrid(radius=5 * PEER_VOXEL, max_nn=100))
+        return cloud, features
+
+    def pose(self, frame) -> np.ndarray:
+        """T_world_camera by FPFH + RANSAC, refined by point-to-plane ICP."""
+        o3d = self.o3d
+        reg = o3d.pipelines.registration
+        o3d.utility.random.seed(self.seed)
+        source, features = self._features(depth_points(frame, 2, 0.3, 8.0))
+        distance = 1.5 * PEER_VOXEL
+        coarse = reg.registration_ransac_based_on_feature_matching(
+            source, self.target, features, self.target_features, True, distance,
+            reg.TransformationEstimationPointToPoint(False), 3,
+            [reg.CorrespondenceCheckerBasedOnEdgeLength(0.9), reg.CorrespondenceCheckerBasedOnDistance(distance)],
+            reg.RANSACConvergenceCriteria(100000, 0.999))
+        fine = reg.registration_icp(source, self.target, PEER_VOXEL, coarse.transformation,
+                                    reg.TransformationEstimationPointToPlane())
+        return np.asarray(fine.transformation)
+
+    def score(self, frame, T_true: np.ndarray, yaw_tol: float) -> dict:
+        started = time.process_time()
+        pose = self.pose(frame)
+        seconds = time.process_time() - started
+        position, yaw = _error(pose, T_true)
+        right = position <= POSITION_M and abs(yaw) <= yaw_tol
+        return {"outcome": "success" if right else "wrong", "position_m": position, "yaw_deg": yaw,
+                "seconds": seconds}

@@ -1,0 +1,60 @@
+"""The knobs of the global search (:func:`bim2rdt.localization.find_pose`): lengths in metres, angles in degrees."""
+
+from __future__ import annotations
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from bim2rdt.localization.config import LocalizationConfig
+
+
+class GlobalSearchConfig(BaseModel):
+    """Parameters of :func:`bim2rdt.localization.find_pose`: the coarse 2-D search and the refinement's fix."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    fix: LocalizationConfig = Field(default_factory=LocalizationConfig,
+                                    description="The 4-DoF fix that refines each candidate (its basin and tests).")
+    resolution: float = Field(
+        0.1, gt=0.0, le=1.0,
+        description="Cell of the coarse search's plan grid, m: the 4-DoF fix's basin (0.6 m) is six cells wide.")
+    yaw_step_deg: float = Field(
+        3.0, gt=0.0, le=30.0, description="Heading step of the coarse search, deg (the fix's yaw basin is 6 deg).")
+    band: tuple[float, float] = Field(
+        (0.25, 2.1),
+        description="Heights above the floor (m) whose wall-facing points and BIM surfaces the coarse search "
+                    "compares: walls and columns, above skirting clutter and below ceiling fittings.")
+    sigma: float = Field(0.1, gt=0.0, description="Width of the coarse score's surface likelihood, m.")
+    through_weight: float = Field(
+        0.5, ge=0.0,
+        description="Weight of the occlusion penalty: each sample of a sensor ray that would cross a wall before "
+                    "its return costs this much of a point on a surface.")
+    clearance: float = Field(0.15, ge=0.0, description="The sensor stands at least this far from a wall, m.")
+    wall_normal_z: float = Field(
+        0.35, gt=0.0, le=1.0, description="A point whose normal's vertical part is below this faces sideways "
+                                          "(a wall, a column): it takes part in the coarse search.")
+    max_plan_points: int = Field(500, ge=20, description="At most this many plan points (an even draw) per search.")
+    quick_points: int = Field(
+        1500, ge=100, description="Every coarse peak is first fixed with at most this many of the cloud's points ...")
+    quick_ray_deg: float = Field(1.0, gt=0.0, le=10.0, description="... and the BIM ray cast this far apart, deg; "
+                                 "the contenders are fixed again with the whole cloud and the fix's own settings.")
+    quick_basin: float = Field(
+        2.0, ge=1.0, le=5.0, description="The quick fix's basin is the fix's (max_correction, max_correction_deg) "
+                                         "times this: a coarse peak is a cell and a heading step away at best.")
+    candidates: int = Field(6, ge=1, le=50, description="The best coarse peaks refined by the 4-DoF fix.")
+    peak_separation: float = Field(0.5, gt=0.0, description="Two coarse peaks nearer than this (m) ...")
+    peak_separation_deg: float = Field(15.0, gt=0.0, description="... and this (deg) are one candidate.")
+    same_place: float = Field(0.15, gt=0.0, description="Refined candidates nearer than this (m) ...")
+    same_place_deg: float = Field(3.0, gt=0.0, description="... and this (deg) converged to the same pose.")
+    ambiguity_margin: float = Field(
+        0.05, ge=0.0, le=1.0,
+        description="A second place whose score is within this of the best's (or within ambiguity_sigmas of its "
+                    "noise, if more) fits within noise: the view is ambiguous and no pose is taken.")
+    ambiguity_sigmas: float = Field(
+        2.0, ge=0.0, description="Standard deviations of a score (a share over the fix's independent_points "
+                                 "observations) within which two places are a tie.")
+    floor_cone_deg: float = Field(
+        60.0, gt=0.0, le=85.0,
+        description="Without an IMU, the floor's normal is sought within this of the sensor's usual up (a camera "
+                    "held level: -y; a scanner: +z): a handheld camera looking down at 50 deg still finds it; "
+                    "walls (90 deg off) and ceilings (180) never pass.")
+    min_floor_points: int = Field(40, ge=3, description="Fewer thinned points on the floor, and there is none.")

@@ -1,0 +1,95 @@
+"""Global localization without a prior (``localization.find_pose``): the real office1 frame found on its BIM from
+the floor's gravity alone; a corner of the embedded site, which looks the same from several corners, is refused
+as ambiguous with every candidate listed; a station whose view is unique is found within 5 cm and 1 degree; the
+coarse search's correlation puts a point's surface at the right cell."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from loc_helpers import errors, frame
+
+from bim2rdt.localization import Candidate, GlobalSearchConfig, LocalizationError, choose, find_pose
+from bim2rdt.localization.global_map import StoreyPlan
+from bim2rdt.localization.global_search import correlate, noise
+from bim2rdt.sim.tour import tour_poses
+from bim2rdt.verify.chain import real_sensor_localization
+
+REAL = GlobalSearchConfig(fix=real_sensor_localization())
+
+
+def test_office1_is_found_without_a_prior_within_5_cm_and_2_degrees(office1):
+    candidates = find_pose(office1.frame, office1.model, config=REAL)
+    best, reason = choose(candidates, REAL)
+    assert best is not None, reason
+    offset, yaw = errors(best.pose, office1.T_world_camera)
+    assert np.linalg.norm(offset) < 0.05 and abs(yaw) < 2.0, (offset, yaw)
+    assert best.gravity == "floor" and best.storey == "Office floor"
+    assert best.covariance.shape == (6, 6) and best.degenerate == []
+    assert all(isinstance(c, Candidate) for c in candidates) and candidates[0] is best
+
+
+def test_an_imu_up_is_used_when_given_and_gives_the_same_place(office1):
+    up_sensor = office1.T_world_camera[:3, :3].T @ np.array([0.0, 0.0, 1.0])
+    best, reason = choose(find_pose(office1.frame, office1.model, up=up_sensor, config=REAL), REAL)
+    assert best is not None, reason
+    assert best.gravity == "given"
+    offset, yaw = errors(best.pose, office1.T_world_camera)
+    assert np.linalg.norm(offset) < 0.05 and abs(yaw) < 2.0
+
+
+def test_an_unknown_storey_is_refused_naming_the_storeys(office1):
+    with pytest.raises(LocalizationError, match="no storey 'Roof'.*Office floor"):
+        find_pose(office1.frame, office1.model, config=REAL, storey="Roof")
+
+
+@pytest.fixture(scope="module")
+def stations(site_model, built):
+    poses = tour_poses(10.0)
+    return [(T, frame(built, T, seed)) for seed, T in enumerate(poses[:2])]
+
+
+def test_a_corner_seen_alike_from_several_corners_is_ambiguous_and_lists_every_candidate(site_model, stations):
+    T_true, corner = stations[0]  # the south-west corner: two walls meeting, as at every corner of the site
+    candidates = find_pose(corner, site_model)
+    best, reason = choose(candidates)
+    assert best is None and reason.startswith("ambiguous: ") and reason.endswith(" places fit")
+    count = int(reason.split()[1])
+    fits = [c for c in candidates if c.refined]
+    assert count >= 2 and len(fits) >= count
+    places = {tuple(np.round(c.pose[:2, 3])) for c in fits}
+    assert len(places) >= 2  # different places, not one place found twice
+    assert all(c.score >= fits[0].score - noise(fits[0].score, GlobalSearchConfig()) for c in fits[:count])
+
+
+def test_a_unique_view_is_found_within_5_cm_and_1_degree(site_model, stations):
+    T_true, view = stations[1]  # the interior walls' ends and a column
+    best, reason = choose(find_pose(view, site_model))
+    assert best is not None, reason
+    offset, yaw = errors(best.pose, T_true)
+    assert np.linalg.norm(offset) < 0.05 and abs(yaw) < 1.0, (offset, yaw)
+
+
+def test_the_correlation_scores_a_point_on_the_surface_at_the_sensors_true_cell():
+    likelihood = np.zeros((40, 50))
+    likelihood[30, 20] = 1.0  # one surface cell: world (2.05, 3.05) at 0.1 m cells from the origin
+    plan = StoreyPlan("test", 0.0, np.zeros(2), 0.1, likelihood, np.zeros((40, 50), bool), np.ones((40, 50), bool))
+    point = np.array([[1.0, 0.5]])  # seen 1 m ahead, 0.5 m left in the sensor's levelled frame
+    yaw = np.deg2rad(90.0)  # turned to face +y: the point lies 0.5 m towards -x, 1 m towards +y
+    scores = correlate(plan, point, np.array([0.0, yaw]), through_weight=0.0)
+    row, col = np.unravel_index(np.argmax(scores[1]), scores[1].shape)
+    assert (row, col) == (20, 25) and scores[1, row, col] == pytest.approx(1.0)
+    assert np.argmax(scores[0]) != np.argmax(scores[1])
+
+
+def test_a_scan_in_a_cameras_axes_finds_its_floor_along_another_axis_and_its_place(office1):
+    """office1's points as a cloud (no image): a scanner's usual up (+z) sees no floor, the camera's -y does."""
+    from bim2rdt.sources import Cloud
+    from bim2rdt.verify.chain import frame_points
+
+    cloud = Cloud(frame_points(office1.frame), None, None, office1.model.path)
+    best, reason = choose(find_pose(cloud, office1.model, config=REAL), REAL)
+    assert best is not None, reason
+    offset, yaw = errors(best.pose, office1.T_world_camera)
+    assert np.linalg.norm(offset) < 0.05 and abs(yaw) < 2.0, (offset, yaw)
+    assert best.gravity == "floor"
