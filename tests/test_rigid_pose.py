@@ -12,7 +12,7 @@ import pytest
 from bim2rdt.bim.writer import _checked_pose as bim_pose
 from bim2rdt.errors import Bim2RdtError
 from bim2rdt.frames import RIGID_TOLERANCE, rigid_problem
-from bim2rdt.localization.fix import _rigid_prior
+from bim2rdt.localization.core import rigid_prior
 from bim2rdt.perception.frame import _rigid
 from bim2rdt.registration.validation import _rigid_pose
 from bim2rdt.twin.twin import _checked_pose as twin_pose
@@ -48,7 +48,7 @@ def _checks(tmp_path):
         (tmp_path / "prior.json").write_text(json.dumps(np.asarray(T).tolist()))
         return read_prior_file(tmp_path / "prior.json")
 
-    return {"verify --prior-file": prior_file, "localization": _rigid_prior, "perception": _rigid,
+    return {"verify --prior-file": prior_file, "localization": rigid_prior, "perception": _rigid,
             "registration": _rigid_pose, "twin": lambda T: twin_pose(T, "pose"), "bim writer": bim_pose}
 
 

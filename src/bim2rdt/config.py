@@ -15,6 +15,7 @@ import re
 import tempfile
 from functools import lru_cache
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from pydantic import BaseModel, Field, ValidationError, model_validator
 from pydantic_settings import BaseSettings, SettingsConfigDict
@@ -35,6 +36,9 @@ from bim2rdt.twin.config import TwinConfig
 from bim2rdt.twin.judge import JudgeConfig
 from bim2rdt.verify import VerifyConfig, real_sensor_localization
 from bim2rdt.twin.progress_config import ProgressConfig
+
+if TYPE_CHECKING:
+    from bim2rdt.bus.nats_bus import StreamLimits
 
 
 def default_samples_dir() -> Path:
@@ -86,7 +90,7 @@ class HavSettings(MonitorConfig):
                                 "shared by; each keeps at most stream_max_bytes / stream_devices, so one device's "
                                 "flood evicts only its own messages (decision 0037).")
 
-    def stream_limits(self):
+    def stream_limits(self) -> StreamLimits:
         """The HAV stream's limits from these settings (:class:`~bim2rdt.bus.nats_bus.StreamLimits`).
 
         Returns:

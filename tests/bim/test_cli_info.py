@@ -59,7 +59,7 @@ def test_bench_ifc_reports_both_figures_as_json(site_ifc):
     result = run_cli("bench", "ifc", "--file", str(site_ifc), "--repeat", "1", "--json")
     assert result.returncode == 0, result.stderr
     payload = json.loads(result.stdout)
-    assert payload["shapes"] == payload["meshes"] == 26
+    assert payload["shapes"] == payload["meshes"] == 27  # the partition of the schedule's task S.5 included
     for contender in ("bare_loop", "load", "cached"):
         assert payload[contender]["wall_s"] > 0 and payload[contender]["cpu_s"] > 0
     assert payload["overhead"] == payload["load"]["cpu_s"] / payload["bare_loop"]["cpu_s"] - 1

@@ -78,7 +78,7 @@ def test_the_shipped_default_secrets_refuse_to_start_outside_dev(args, variable,
 
 
 def test_the_monitor_needs_its_own_password_outside_dev(tmp_path):
-    result = run_cli("hav", "listen", "--mqtt", "127.0.0.1:1", env={"BIM2RDT_HAV__SITE_SECRET": "s3cret",
+    result = run_cli("hav", "listen", "--mqtt", "127.0.0.1:1", env={"BIM2RDT_HAV__SITE_SECRET": "s3cret-of-this-site",
                                                                     "BIM2RDT_DATA_DIR": str(tmp_path)})
     assert result.returncode == 1 and "BIM2RDT_MQTT__PASSWORD" in result.stderr
 

@@ -85,9 +85,9 @@ def test_the_correlation_scores_a_point_on_the_surface_at_the_sensors_true_cell(
 def test_a_scan_in_a_cameras_axes_finds_its_floor_along_another_axis_and_its_place(office1):
     """office1's points as a cloud (no image): a scanner's usual up (+z) sees no floor, the camera's -y does."""
     from bim2rdt.sources import Cloud
-    from bim2rdt.verify.chain import frame_points
+    from bim2rdt.localization import depth_points
 
-    cloud = Cloud(frame_points(office1.frame), None, None, office1.model.path)
+    cloud = Cloud(depth_points(office1.frame), None, None, office1.model.path)
     best, reason = choose(find_pose(cloud, office1.model, config=REAL), REAL)
     assert best is not None, reason
     offset, yaw = errors(best.pose, office1.T_world_camera)

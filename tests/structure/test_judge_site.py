@@ -15,7 +15,7 @@ from bim2rdt.sim.building import building_parts
 from bim2rdt.sim.render import render_rgbd
 from bim2rdt.sim.scene import SiteScene
 from bim2rdt.structure import STRUCTURE_STATUSES, StructureView, judge_structure
-from bim2rdt.verify.chain import frame_points
+from bim2rdt.localization import depth_points
 
 WALL = "2Bau$NfuHQWgIBDszY$vLS"  # Interior Wall - North/South, x 11.85-12 m
 CAMERA = look_at((5.0, 8.2, 1.1), (12.0, 8.5, 0.9))
@@ -23,7 +23,7 @@ CAMERA = look_at((5.0, 8.2, 1.1), (12.0, 8.5, 0.9))
 
 def _judged(model, parts, pose=CAMERA):
     frame = render_rgbd(SiteScene([], 0.0, parts), Intrinsics(), CAMERA, np.random.default_rng(0))
-    view = StructureView(0, frame_points(frame.as_frame(Intrinsics())), pose)
+    view = StructureView(0, depth_points(frame.as_frame(Intrinsics())), pose)
     return {j.global_id: j for j in judge_structure(model, [view])}
 
 

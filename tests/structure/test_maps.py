@@ -13,7 +13,7 @@ from bim2rdt.sim.render import render_rgbd
 from bim2rdt.structure import StructureConfig
 from bim2rdt.structure.distances import FaceSamples
 from bim2rdt.structure.maps import DeviationMaps
-from bim2rdt.verify.chain import frame_points
+from bim2rdt.localization import depth_points
 
 
 def test_a_point_in_front_of_a_wall_is_positive_behind_it_negative_and_far_from_all_is_nan(site_model):
@@ -30,7 +30,7 @@ def test_a_frame_gets_its_png_and_the_run_a_ply_with_colours_and_deviations(site
     camera = look_at((5.0, 8.2, 1.1), (12.0, 8.5, 0.9))
     frame = render_rgbd(building_scene(site_model), Intrinsics(), camera, np.random.default_rng(0))
     frame = frame.as_frame(Intrinsics())
-    points = frame_points(frame)
+    points = depth_points(frame)
     shifted = camera.copy()
     shifted[0, 3] -= 0.03  # the pose 3 cm west: the wall facing it lands 3 cm in front of its face
     maps = DeviationMaps(site_model, tmp_path / "deviation", StructureConfig())

@@ -17,7 +17,8 @@ from bim2rdt.sim.tour import render_frame, tour_poses, tour_scene
 from bim2rdt.sources import open_source
 from bim2rdt.sources.pcd_folder import write_organised_pcd
 from bim2rdt.verify import VerifyConfig, prior_pose, verify_frames
-from bim2rdt.verify.chain import _Cloud, frame_points, real_sensor_localization
+from bim2rdt.localization import depth_points
+from bim2rdt.verify.chain import real_sensor_localization
 
 FAST = VerifyConfig(find_new=False)
 
@@ -35,12 +36,12 @@ def test_the_grabber_frames_as_a_pcd_folder_are_tracked_by_odometry_from_the_fir
     frames = open_source(grabber_folder)
     first = next(iter(frames))
     # the camera looks down at a carpet: its height and tilt from the floor, its place on the site's slab given
-    floor = level(scan_points(_Cloud(frame_points(first)), real_sensor_localization()), None, "", CAMERA_UP, 60, 40)
+    floor = level(scan_points(depth_points(first), real_sensor_localization()), None, "", CAMERA_UP, 60, 40)
     prior = prior_pose((10.0, 7.0, floor.height), 30.0, floor.up)
     result = verify_frames(frames, site_model, prior, FAST)
     assert [f.prior_source for f in result.frames] == ["user", "tracked", "tracked"]
     assert all(f.accepted for f in result.frames), [f.reason for f in result.frames]
-    clouds = [frame_points(f) for f in frames]
+    clouds = [depth_points(f) for f in frames]
     for k in (1, 2):
         step = icp_odometry(clouds[k - 1], clouds[k])
         assert step.fitness > 0.8

@@ -13,7 +13,7 @@ from bim2rdt.structure import (StructureConfig, StructureJudgement, StructureSur
                                write_structure_json)
 from bim2rdt.structure.judge import judgements
 from bim2rdt.twin import DigitalTwin
-from bim2rdt.verify.chain import frame_points
+from bim2rdt.localization import depth_points
 from bim2rdt.verify.structure_run import STRUCTURE_JSON, record_structure
 
 
@@ -39,7 +39,7 @@ def judge_day_structure(model: BimModel, frames: Mapping[int, Frame], times: Map
         frame = frames[station]
         if frame is None or frame.T_world_camera is None:
             continue
-        survey.add(StructureView(station, frame_points(frame), frame.T_world_camera))
+        survey.add(StructureView(station, depth_points(frame), frame.T_world_camera))
         seen[station] = (times.get(station, float(station)), frame.T_world_camera)
     judged = judgements(survey)
     write_structure_json(judged, Path(out_dir) / STRUCTURE_JSON)

@@ -178,8 +178,7 @@ def voxel_means(points: np.ndarray, voxel: float) -> np.ndarray:
         voxel: The cube's side, metres.
 
     Returns:
-        (M, 3) the cubes' mean points; none for no points (a planned object in view that owns none of a
-        frame's points).
+        (M, 3) the cubes' mean points, none for no points (an object in view owning none of a frame's).
     """
     if len(points) == 0:
         return np.zeros((0, 3))

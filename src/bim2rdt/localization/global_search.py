@@ -27,6 +27,7 @@ from scipy import fft, ndimage
 from bim2rdt.bim import BimModel
 from bim2rdt.localization.cloud import OccludedMap, ScanPoints, localize_cloud, scan_points
 from bim2rdt.localization.config import LocalizationConfig
+from bim2rdt.localization.depth import depth_points
 from bim2rdt.localization.errors import LocalizationError
 from bim2rdt.localization.global_config import GlobalSearchConfig
 from bim2rdt.localization.global_map import StoreyPlan, storey_plans
@@ -220,24 +221,16 @@ def _ray_samples(points_xy: np.ndarray, step: float = 0.15, start: float = 0.3, 
 def _prepared(data: object, up, cfg: GlobalSearchConfig) -> tuple[ScanPoints, np.ndarray, np.ndarray | None, str]:
     """(thinned points with normals, the sensor's usual up, the up to use or None, where it came from)."""
     if isinstance(data, Frame):
-        from bim2rdt.localization.depth import depth_grid
-
-        grid = depth_grid(data, 2, cfg.fix.min_range, cfg.fix.max_range)
-        points = grid[np.isfinite(grid[..., 2])]
+        points = depth_points(data, 2, cfg.fix.min_range, cfg.fix.max_range)
         default_up, imu = CAMERA_UP, data.up
     else:
-        points, default_up, imu = getattr(data, "points", None), SCANNER_UP, getattr(data, "up", None)
-    scan = scan_points(_Cloud(points) if points is not None else data, cfg.fix)
+        points, default_up, imu = getattr(data, "points", data), SCANNER_UP, getattr(data, "up", None)
+    scan = scan_points(np.asarray(points, dtype=np.float64), cfg.fix)
     if up is not None:
         return scan, default_up, np.asarray(up, dtype=np.float64), "given"
     if imu is not None:
         return scan, default_up, np.asarray(imu, dtype=np.float64), "imu"
     return scan, default_up, None, "floor"
-
-
-@dataclass(frozen=True)
-class _Cloud:
-    points: np.ndarray
 
 
 def _plan_points(scan: ScanPoints, levelled: Levelled, cfg: GlobalSearchConfig) -> tuple[np.ndarray, np.ndarray]:

@@ -346,12 +346,6 @@ class RosbagSource:
                               colour_message)
         if info is None and self.options.intrinsics is None:
             return _drop(when, f"no CameraInfo on {self.topics.camera_info} before this frame", "no CameraInfo")
-        found = None
-        if info is not None:
-            undistort = self._undistorter(info)
-            raw = undistort.depth(raw)
-            rgb = None if rgb is None else undistort.colour(rgb)
-            found = undistort.intrinsics
         if rgb is not None and rgb.shape[:2] != raw.shape:
             raise SourceError(self.path, f"colour {self.topics.colour} is {rgb.shape[1]}x{rgb.shape[0]} but depth "
                                          f"{self.topics.depth} is {raw.shape[1]}x{raw.shape[0]}: record the depth "

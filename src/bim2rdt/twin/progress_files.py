@@ -31,7 +31,7 @@ from bim2rdt.twin.progress_report import BUILT_COLOURS, TASK_COLOURS, progress_s
 
 PROGRESS_JSON, CURVE_JSON, STRUCTURE_PNG = "progress.json", "progress_curve.json", "progress_structure.png"
 EARLIEST_CLOCK = datetime(2000, 1, 1, tzinfo=timezone.utc)
-"""Observation times before this are frame indices, not a clock (a recording without stamps)."""
+"""Observation times under this are frame indices, not a clock (a recording without stamps)."""
 
 if TYPE_CHECKING:
     from bim2rdt.twin.twin import DigitalTwin

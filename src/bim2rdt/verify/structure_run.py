@@ -14,7 +14,8 @@ from bim2rdt.structure import (StructureConfig, StructureJudgement, StructureSur
                                write_structure_json)
 from bim2rdt.structure import DeviationMaps, judgements, tolerance_of
 from bim2rdt.twin import Deviation, DigitalTwin, ElementStatus, Tolerance
-from bim2rdt.verify.chain import FrameResult, frame_points
+from bim2rdt.localization import depth_points
+from bim2rdt.verify.chain import FrameResult
 
 STRUCTURE_JSON = "structure.json"
 DEVIATION_DIR = "deviation"
@@ -47,7 +48,7 @@ class StructureRun:
         if not result.accepted or (result.depth is not None and result.depth.miscalibrated):
             return
         if isinstance(frame, Frame):
-            points = frame_points(frame)
+            points = depth_points(frame)
         else:
             points = np.asarray(frame.points, dtype=np.float64)
             points = points[np.all(np.isfinite(points), axis=1)]

@@ -77,7 +77,7 @@ RECENT_FRAMES = 8
 def mark_transient(result, recent: deque, config: TransientConfig = TransientConfig()) -> None:
     """Mark the clusters of ``result`` (a frame's result: ``clusters``, ``lookup``) that are people, or that the
     ``recent`` frames saw through, and the recent frames' clusters this frame saw through; then keep this frame
-    among the recent ones (the oldest gives up its lookup: its returns are no longer needed)."""
+    among the recent ones (the oldest gives up its lookup: the window holds the returns it needs)."""
     lookups = [earlier.lookup for earlier in recent]
     result.clusters = [replace(c, transient=transient_reason(c, lookups, config)) for c in result.clusters]
     if result.lookup is None:

@@ -100,17 +100,17 @@ def _looked_around(scene, T_true: np.ndarray, seed: int) -> _Points:
     robot's, drift and all)."""
     from bim2rdt.localization.planar import compose, from_planar
     from bim2rdt.sim.robot import SimulatedRobot
-    from bim2rdt.verify.chain import frame_points
+    from bim2rdt.localization import depth_points
 
     robot = SimulatedRobot(scene, T_true, seed)
     state, tilt = np.zeros(4), to_planar(T_true)[1]
     first = from_planar(state, tilt)
-    clouds = [frame_points(robot.capture())]
+    clouds = [depth_points(robot.capture())]
     for angle in (LOOK_AROUND_DEG, -2 * LOOK_AROUND_DEG):
         turned = robot.turn(np.deg2rad(angle))
         state = compose(state, turned.increment)
         T = np.linalg.inv(first) @ from_planar(state, to_planar(robot.T_world_camera)[1])
-        clouds.append(frame_points(turned.frame) @ T[:3, :3].T + T[:3, 3])
+        clouds.append(depth_points(turned.frame) @ T[:3, :3].T + T[:3, 3])
     return _Points(np.concatenate(clouds)[::4])
 
 
