@@ -23,7 +23,8 @@ from tests.sources.bags import write_bag
 from tests.verify.ifc2x3_room import write_room_ifc2x3
 
 runner = CliRunner()
-OUTPUTS = ("twin.db", "twin.json", "twin.ifc", "issues.bcf", "localization.json", "report.html", "config.json")
+OUTPUTS = ("twin.db", "twin.json", "twin.ifc", "issues.bcf", "localization.json", "report.html", "config.json",
+           "structure.json")
 
 
 @pytest.fixture(scope="module")

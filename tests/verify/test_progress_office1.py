@@ -85,7 +85,8 @@ def test_verify_writes_progress_json_with_the_desks_task_complete_from_its_real_
     desk = tasks(record)["Desk"]
     assert desk["status"] == "complete" and desk["observed_percent"] == 100.0
     assert desk["products"] == {"as planned": 1, "deviating": 0, "not built": 0, "not observed": 0}
-    assert tasks(record)["Walls"]["status"] == "unknown"  # no structure judgement in this folder
+    walls = tasks(record)["Walls"]  # judged by verify's own structure judge (structure.json in the folder)
+    assert walls["status"] in ("complete", "in progress") and walls["products"]["as planned"] >= 1, walls
 
 
 def test_with_the_structures_judgements_the_walls_are_complete_and_the_partition_is_behind(verified, tmp_path):

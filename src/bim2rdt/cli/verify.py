@@ -194,8 +194,8 @@ def _say_kept(output) -> None:
     elif output.previous():
         kept = (f"kept {output.out_dir} as the earlier run left it ({', '.join(output.previous())}); nothing of "
                 "this run was kept")
-    else:
-        kept = f"nothing was kept: {output.out_dir} holds no verify outputs"
+    else:  # nothing to say beside the error itself (one line)
+        return
     typer.secho(f"verify stopped: {kept}", err=True, fg=typer.colors.YELLOW)
 
 
