@@ -22,6 +22,7 @@ SERIAL_MODULES = (
     "tests/bus/test_bench_scale.py",  # the scale bench: processes and latency
     "tests/bus/test_nats_supervisor.py",  # a supervisor, its monitors and a kill -9
     "tests/bus/test_nats_monitor.py",  # redeliveries after an ack wait of 1-2 s
+    "tests/bus/test_monitor_acks.py",  # a monitor killed within its 10 s group-commit delay
     "tests/bus/test_nats_last_delivery.py",  # monitor lives of an ack wait of 1 s each
     "tests/server/test_connections.py",  # answers within 2 s under 1,000 connections
     "tests/server/test_server_clock.py",  # the served day's clock against the wall clock

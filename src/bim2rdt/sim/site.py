@@ -94,7 +94,7 @@ UNBUILT_WALLS: tuple[str, ...] = ()
 """Walls the BIM plans that the simulated site has not built yet (the schedule's task for them would be behind).
 None today: with the north-east partition left out, the robot's BIM fix in that room moves 16 mm towards it and the
 structure judge reads the east wall deviating and the partition only partly seen through (87 %), not not built
-(decision 0033; issue 33 stays open on it)."""
+(decision 0033)."""
 PARTITION = ("Interior Wall - Partition NE", 17.6, 12.5, 1.2)
 """A 150 mm partition the BIM plans in the north-east room: name, x and y of its south end (m), length (m) north
 to the exterior wall; behind the scaffold, in the view of the robot's station for it."""
