@@ -310,8 +310,9 @@ def verify_frames(frames: Iterable, model: BimModel, prior: np.ndarray | None = 
     tracker = Tracker(model, prior, GlobalSearchConfig(fix=config.localization), storey)
     for index, frame in enumerate(recording):
         own = frame.T_world_camera if isinstance(frame, Frame) else None
-        guess = tracker.prior(frame, sensor_points(frame))
-        result = verify_frame(index, frame, model, scene, guess.pose, config, priors)
+        points_sensor = sensor_points(frame)  # once per frame: the tracker's odometry and the fix share them
+        guess = tracker.prior(frame, points_sensor)
+        result = verify_frame(index, frame, model, scene, guess.pose, config, priors, points_sensor)
         result.recorded = own
         result.prior_source, result.candidates = guess.source, guess.candidates
         if guess.pose is None and guess.reason:
@@ -356,13 +357,14 @@ def family_priors(model: BimModel) -> dict[str, UprightPrior]:
 
 
 def verify_frame(index: int, frame, model: BimModel, scene: OccludedMap, prior: np.ndarray | None,
-                 config: VerifyConfig, priors: Mapping[str, UprightPrior] | None = None) -> FrameResult:
+                 config: VerifyConfig, priors: Mapping[str, UprightPrior] | None = None,
+                 points_sensor: np.ndarray | None = None) -> FrameResult:
     """One frame or scan from ``prior`` (see :func:`verify_frames`); a frame's IMU ``up`` sets the prior's roll
-    and pitch."""
+    and pitch. ``points_sensor``: its :func:`sensor_points`, when the caller has them already."""
     start = clock.perf_counter()
-    points_sensor = sensor_points(frame)
+    points_sensor = sensor_points(frame) if points_sensor is None else points_sensor
     if isinstance(frame, Frame):
-        name, when, points_sensor = frame.source, frame.time, depth_points(frame)
+        name, when = frame.source, frame.time
         if prior is not None and frame.up is not None:
             prior = levelled(prior, frame.up)
     else:
