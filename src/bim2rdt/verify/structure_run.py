@@ -9,13 +9,10 @@ from pathlib import Path
 import numpy as np
 
 from bim2rdt.bim import BimModel
-from bim2rdt.perception import Frame
-from bim2rdt.structure import (StructureConfig, StructureJudgement, StructureSurvey, StructureView,
-                               write_structure_json)
-from bim2rdt.structure import DeviationMaps, judgements, tolerance_of
+from bim2rdt.structure import (DeviationMaps, StructureConfig, StructureJudgement, StructureSurvey, StructureView,
+                               judgements, tolerance_of, write_structure_json)
 from bim2rdt.twin import Deviation, DigitalTwin, ElementStatus, Tolerance
-from bim2rdt.localization import depth_points
-from bim2rdt.verify.chain import FrameResult
+from bim2rdt.verify.chain import FrameResult, sensor_points
 
 STRUCTURE_JSON = "structure.json"
 DEVIATION_DIR = "deviation"
@@ -47,11 +44,7 @@ class StructureRun:
         """
         if not result.accepted or (result.depth is not None and result.depth.miscalibrated):
             return
-        if isinstance(frame, Frame):
-            points = depth_points(frame)
-        else:
-            points = np.asarray(frame.points, dtype=np.float64)
-            points = points[np.all(np.isfinite(points), axis=1)]
+        points = sensor_points(frame)
         self.survey.add(StructureView(result.index, points, result.pose))
         self.maps.add(result.index, frame, points, result.pose)
         self.seen[result.index] = (result.time if result.time is not None else float(result.index), result.pose)
