@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import logging
 import threading
-import time
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
@@ -74,8 +73,9 @@ class BusSubscriber:
             self._flusher.join()
 
     def oversized(self, device: str, payload: bytes, received: float) -> bool:
-        """True (and the message dead-lettered) when ``payload`` is longer than any wearable sends: it is refused
-        before decoding, so a valid header declaring millions of samples costs nothing."""
+        """True (and the message dead-lettered) when an accel ``payload`` is longer than any wearable sends: it is
+        refused before decoding, so a valid header declaring millions of samples costs nothing (statuses and
+        summaries have their own, smaller bounds where they are decoded)."""
         limit = self.monitor.config.max_message_bytes
         if len(payload) <= limit:
             return False
@@ -104,8 +104,6 @@ class BusSubscriber:
     def accept_summary(self, topic: str, payload: bytes, received: float) -> DeviceSummary | None:
         """The on-device summary, stamped ``received``; None (dead-lettered) if malformed or not the topic's device."""
         device = device_of(topic) or "?"
-        if self.oversized(device, payload, received):
-            return None
         try:
             summary = decode_summary(payload)
         except PayloadError as error:
@@ -140,8 +138,7 @@ class BusSubscriber:
         """A wearable's retained status, after committing what is waiting."""
         with self._lock:
             events = self.flush()
-            if not self.oversized(device_of(topic) or "?", payload, time.time()):
-                events += self.monitor.on_status(topic, payload)
+            events += self.monitor.on_status(topic, payload)
             _call(ack)
             return events
 
