@@ -169,11 +169,13 @@ class Settings(BaseSettings):
 
     @model_validator(mode="after")
     def _one_localization(self) -> Settings:
-        """verify localizes with ``localization`` (the real sensor's defaults where it sets nothing) and trusts
-        fits as the twin does (``twin.min_fitness``): one place to set each."""
+        """verify localizes with ``localization`` (the real sensor's defaults where it sets nothing), judges as the
+        mission does (``judge``) and trusts fits as the twin does (``twin.min_fitness``): one place to set each."""
         if "localization" in self.verify.model_fields_set:
             raise ValueError("verify.localization follows localization: set BIM2RDT_LOCALIZATION__* only")
-        follow = {"localization": real_sensor_localization(self.localization)}
+        if "judge" in self.verify.model_fields_set:
+            raise ValueError("verify.judge follows judge: set BIM2RDT_JUDGE__* only")
+        follow = {"localization": real_sensor_localization(self.localization), "judge": self.judge}
         if "min_fitness" not in self.verify.model_fields_set:
             follow["min_fitness"] = self.twin.min_fitness
         self.verify = self.verify.model_copy(update=follow)

@@ -34,6 +34,16 @@ def test_verify_localization_is_set_in_one_place(monkeypatch):
         get_settings()
 
 
+def test_verify_judges_with_the_one_judge_section_set_in_one_place(monkeypatch):
+    monkeypatch.setenv("BIM2RDT_JUDGE__MIN_FIT_ON", "0.2")
+    get_settings.cache_clear()
+    assert get_settings().verify.judge.min_fit_on == 0.2  # verify judges as the mission does
+    get_settings.cache_clear()
+    monkeypatch.setenv("BIM2RDT_VERIFY__JUDGE__MIN_FIT_ON", "0.3")
+    with pytest.raises(ConfigError, match="set BIM2RDT_JUDGE__\\* only"):
+        get_settings()
+
+
 def test_the_verify_and_perception_sections_come_from_the_environment(monkeypatch):
     monkeypatch.setenv("BIM2RDT_VERIFY__PLANNED__SEARCH", "0.7")
     monkeypatch.setenv("BIM2RDT_VERIFY__DEPTH__MAX_ANGLE_ERROR_DEG", "4")

@@ -101,7 +101,7 @@ def verify_command(
                                max_frames=max_frames, sync_tolerance=settings.ros.sync_tolerance,
                                depth_scale=depth_scale,
                                intrinsics=_intrinsics(intrinsics) if intrinsics is not None else None)
-    config = settings.verify.model_copy(update={"find_new": detector != "none", "judge": settings.judge})
+    config = settings.verify.model_copy(update={"find_new": detector != "none"})
     frames, output = FrameCapture(recording), OutputSet(out)
     try:
         with output, _progress(recording.expected_frames, as_json) as tick:
