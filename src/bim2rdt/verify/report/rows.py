@@ -84,7 +84,7 @@ def reason(state: ElementState, note: str = "") -> str:
         return f"too few of its points on the body to judge ({fitness})"
     if d is None or t is None:
         return state.status.value
-    bounds = f"the '{t.name}' tolerance ({100 * t.translation:.0f} cm, {t.rotation_deg:.0f}°)"
+    bounds = f"the '{t.name}' tolerance ({100 * t.translation:.3g} cm, {t.rotation_deg:.3g}°)"
     if state.status is ElementStatus.AS_PLANNED:
         return f"within {bounds}"
     checks = ((f"off by {100 * d.translation:.1f} cm", d.translation > t.translation),
