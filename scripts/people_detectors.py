@@ -9,6 +9,11 @@ MediaPipe's legacy pose solution, whose models ship inside its wheel. Neither is
     python scripts/people_detectors.py measure /tmp/frames hog
     python scripts/people_detectors.py measure /tmp/frames mediapipe --confidence 0.5
 
+The scratch venvs measured (decision 0042): ``pip install --no-deps mediapipe==0.10.21`` then ``pip install
+"numpy<2" "protobuf>=4.25.3,<5" absl-py attrs flatbuffers "opencv-contrib-python-headless<4.11" matplotlib pillow``
+(HOG of OpenCV 4.10 and MediaPipe); ``pip install numpy==2.4.6 opencv-contrib-python-headless==5.1.0.95 pillow``
+(HOG of OpenCV 5's contrib build).
+
 The measure step imports nothing of bim2rdt, so it runs where bim2rdt's numpy 2 cannot.
 """
 

@@ -3,8 +3,9 @@ site.ifc run/run.mcap`` on it. The bag holds RealSense topics and REP 105 TF as 
 frame where the demo's robot did, and reproduces the demo's verdicts: on the frames the demo judged from (its
 stations' views) verify judges the demo's GlobalIds with the demo's statuses, poses within each element's tolerance
 preset of the demo's (the knocked cone's tilt included), and the demo's new object within 15 cm. The bag also holds
-the robot's look-around captures, which the demo's mission never reads detections on: what verify judges on those
-alone is scored against the simulated truth, apart (docs/decisions/0042)."""
+the robot's other captures (the look ahead along each leg, the BIM fix's look-around turns), whose detections the
+demo's mission does not judge: what verify judges on those alone is scored against the simulated truth, apart
+(docs/decisions/0042)."""
 
 from __future__ import annotations
 
@@ -129,9 +130,9 @@ def test_verify_gives_the_demos_verdicts_and_its_new_objects_within_15_cm_and_no
     judges on the frames the demo judged from (each station's view) are exactly the demo's, with the demo's
     statuses, each from the demo's frame among others; every new object of the demo is one of verify's within
     15 cm and every new object verify sees on those frames is one of the demo's within 15 cm. The bag also holds the
-    robot's look-around captures (its BIM fix turns the camera; the mission reads detections on the station's view
-    only): what verify judges beyond the demo rests on those captures alone. The workers walking through two
-    frames are transient (no new object, no BCF topic)."""
+    robot's other captures (the route's look ahead along each leg, the BIM fix's look-around turns; the mission
+    judges the detections of each station's view only): what verify judges beyond the demo rests on those alone.
+    The workers walking through two frames are transient (no new object, no BCF topic)."""
     out, day, _ = round_trip
     demo, verify = _elements(out / "twin.json"), _elements(out / "verify" / "twin.json")
     capture = {s.index: s.located.capture for s in day.localization.stations}  # the bag holds every capture
@@ -163,10 +164,10 @@ def test_verify_gives_the_demos_verdicts_and_its_new_objects_within_15_cm_and_no
     assert titles.count("New: unknown") == len(new_verify)
 
 
-def test_what_verify_judges_beyond_the_demo_from_the_look_around_captures_agrees_with_the_truth(round_trip):
-    """The demo's short day never read detections on its look-around captures; verify judges what they show (the
-    I-beam, moved in the simulated truth; columns; the beam's far end, which the fit along the beam does not
-    cover, as a new object). Scored against the simulated truth, for the test only."""
+def test_what_verify_judges_beyond_the_demo_from_its_other_captures_agrees_with_the_truth(round_trip):
+    """The demo's short day judges no detection of its other captures (look-aheads, look-arounds); verify judges
+    what they show (the I-beam, moved in the simulated truth; columns; the beam's far end, which the fit along the
+    beam does not cover, as a new object). Scored against the simulated truth, for the test only."""
     out, day, _ = round_trip
     demo, verify = _elements(out / "twin.json"), _elements(out / "verify" / "twin.json")
     truth = {t.global_id: t for t in day.reality.truth if t.global_id}
