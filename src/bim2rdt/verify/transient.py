@@ -2,7 +2,7 @@
 
 A site is not empty while it is scanned: workers walk through, a barrow is pushed past. Such a cluster is not an
 object the BIM lacks and must not become a "new" object with a BCF topic. Two tests, both geometric
-(docs/decisions/0030 says why no image detector is used yet):
+(docs/decisions/0042 gives the measured reasons no image people detector is used):
 
 - **a person's shape**: a cluster standing on the slab (its bottom within ``max_bottom`` of it), as tall as a
   person (``person_height``) and no wider than one (``max_width``). The demo's worker is 1.8 m tall and 0.5 m
