@@ -18,7 +18,7 @@ from __future__ import annotations
 from collections.abc import Callable
 
 from bim2rdt.bim import BimModel, BimProcess
-from bim2rdt.bus.event import Event
+from bim2rdt.bus import Event
 from bim2rdt.safety.activity import ACTIVITY_ENDED, ACTIVITY_STARTED, EAV_REACHED, ELV_REACHED
 
 TOOL_WORDS = {"hammer_drill": ("drill", "anchor", "core"), "grinder": ("grind", "cut", "chase"),
