@@ -176,7 +176,7 @@ def check_shots(frame: Frame, model: BimModel, T_world_camera: np.ndarray,
 
     Returns:
         The landmarks measured, their RMS residual (m; NaN when none was measured) and whether it exceeds
-        ``config.flag_distance``.
+            ``config.flag_distance``.
     """
     surfaces = permanent_map(model)
     marks = [mark for mark in model_landmarks(model, config.min_height)

@@ -38,8 +38,8 @@ def to_planar(T_world_camera: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         T_world_camera: (4, 4) the camera pose, metres, world z-up.
 
     Returns:
-        (state, R_level_camera): the state (4,) = x, y, z (m) and yaw (radians, the optical axis's heading from
-        world x), and the tilt (3, 3) that holds roll and pitch, so that T = Rz(yaw) @ R_level_camera.
+        The state, (4,) x, y, z (m) and yaw (radians, the optical axis's heading from world x), and the tilt
+            R_level_camera, (3, 3) roll and pitch, so that T = Rz(yaw) @ R_level_camera.
     """
     yaw = heading(T_world_camera)
     return np.r_[T_world_camera[:3, 3], yaw], rz(-yaw) @ T_world_camera[:3, :3]
@@ -53,7 +53,7 @@ def from_planar(state: np.ndarray, R_level_camera: np.ndarray) -> np.ndarray:
         R_level_camera: (3, 3) the tilt (roll and pitch).
 
     Returns:
-        T_world_camera (4, 4): Rz(yaw) @ R_level_camera at (x, y, z).
+        T_world_camera, (4, 4): Rz(yaw) @ R_level_camera at (x, y, z).
     """
     T = np.eye(4)
     T[:3, :3] = rz(float(state[3])) @ R_level_camera
