@@ -206,8 +206,8 @@ class NatsBus:
         partition: The partition k (0-based) to consume; None only publishes (no consumer).
         partitions: How many partitions the site's devices are spread over.
         ack_wait_s: How long JetStream waits for a message's acknowledgement before it redelivers it, seconds.
-        max_deliver: How often JetStream delivers a message at most (its last delivery goes to
-            ``on_last_delivery``).
+        max_deliver: The consumer's JetStream delivery limit; a message whose deliveries, counting those to the
+            partition's earlier consumers, reach it goes to ``on_last_delivery`` when that is set.
         limits: How much of the stream JetStream keeps (the stream is created or brought to these on connect).
         fetch_batch: Messages one fetch takes at most.
         timeout_s: How long to wait for the server (connecting, publishing with ``wait``, closing), seconds.
