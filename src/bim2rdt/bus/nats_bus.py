@@ -26,10 +26,14 @@ import threading
 from collections.abc import Callable
 from concurrent.futures import Future
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 from bim2rdt.bus.mqtt import BusError
 from bim2rdt.bus.partitions import PREFIX, STREAM, partition_filter, topic_of
 from bim2rdt.bus.topics import topic_matches
+
+if TYPE_CHECKING:
+    from nats.aio.msg import Msg
 
 Handler = Callable[..., object]
 PREFETCH = 2
@@ -430,7 +434,7 @@ class NatsBus:
             for message in messages:
                 if self._closing or not self.accepting():
                     return  # the rest stays unacknowledged: the partition's next start gets it again
-                deliveries = self._deliveries(message)
+                deliveries = self.deliveries(message)
                 if deliveries >= self.max_deliver and self.on_last_delivery is not None:
                     self._last_delivery(message, deliveries)
                 else:
@@ -438,8 +442,16 @@ class NatsBus:
             self._commit_fetched()
             self._send_acks()
 
-    def _deliveries(self, message) -> int:
-        """How often ``message`` was delivered, this one included, to this consumer and the partition's earlier ones."""
+    def deliveries(self, message: Msg) -> int:
+        """How often a message was delivered: JetStream's count for this consumer, this delivery included, plus
+        the deliveries to the partition's earlier consumers (:class:`Earlier`).
+
+        Args:
+            message: A JetStream message this consumer fetched.
+
+        Returns:
+            The deliveries, 1 or more.
+        """
         return message.metadata.num_delivered + self.earlier.of(message.metadata.sequence.stream)
 
     def _commit_fetched(self) -> bool:
