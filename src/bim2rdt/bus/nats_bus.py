@@ -26,10 +26,14 @@ import threading
 from collections.abc import Callable
 from concurrent.futures import Future
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 from bim2rdt.bus.mqtt import BusError
 from bim2rdt.bus.partitions import PREFIX, STREAM, partition_filter, topic_of
 from bim2rdt.bus.topics import topic_matches
+
+if TYPE_CHECKING:
+    from nats.aio.msg import Msg
 
 Handler = Callable[..., object]
 PREFETCH = 2
@@ -196,7 +200,22 @@ async def _resume_from(js, durable: str) -> tuple[int | None, Earlier]:
 
 class NatsBus:
     """A connection to nats-server; with ``partition`` (k of ``partitions``) a durable pull consumer of the site's
-    wearable messages in that partition."""
+    wearable messages in that partition; :meth:`connect` connects it.
+
+    Args:
+        url: ``nats://HOST:PORT``.
+        user: The user to log in as; None logs in anonymously.
+        password: Its password.
+        site: The site whose wearable stream the consumer reads.
+        partition: The partition k (0-based) to consume; None only publishes (no consumer).
+        partitions: How many partitions the site's devices are spread over.
+        ack_wait_s: How long JetStream waits for a message's acknowledgement before it redelivers it, seconds.
+        max_deliver: The consumer's JetStream delivery limit; a message whose deliveries, counting those to the
+            partition's earlier consumers, reach it goes to ``on_last_delivery`` when that is set.
+        limits: How much of the stream JetStream keeps (the stream is created or brought to these on connect).
+        fetch_batch: Messages one fetch takes at most.
+        timeout_s: How long to wait for the server (connecting, publishing with ``wait``, closing), seconds.
+    """
 
     def __init__(self, url: str, user: str | None, password: str | None, site: str, partition: int | None = None,
                  partitions: int = 1, ack_wait_s: float = 30.0, max_deliver: int = 20,
@@ -236,8 +255,14 @@ class NatsBus:
 
     # --- the MqttBus interface ------------------------------------------------------------------------------
     def connect(self) -> NatsBus:
-        """Connect, make sure the stream (and this partition's consumer) exist, start fetching; BusError in one
-        line when the server cannot be reached or refuses us."""
+        """Connect, make sure the stream (and this partition's consumer) exist, start fetching.
+
+        Returns:
+            This bus, connected.
+
+        Raises:
+            BusError: The server cannot be reached, refuses the login, or refuses the stream or consumer.
+        """
         self._thread.start()
         try:
             self._run(self._connect(), self.timeout_s * 2)
@@ -251,13 +276,37 @@ class NatsBus:
         return self
 
     def subscribe(self, pattern: str, handler: Handler, qos: int = 1, manual_ack: bool = False) -> int:
-        """Call ``handler(topic, payload[, ack])`` for this partition's messages whose MQTT topic matches."""
+        """Call ``handler(topic, payload)`` for this partition's messages whose MQTT topic matches ``pattern`` (on
+        the dispatcher thread, in stream order); with ``manual_ack``, ``handler(topic, payload, ack)``.
+
+        Args:
+            pattern: An MQTT topic filter (``+`` and ``#`` wildcards) matched against the topic the wearable used.
+            handler: Called with (topic, payload), or (topic, payload, ack) with ``manual_ack``.
+            qos: Accepted for :class:`~bim2rdt.bus.mqtt.MqttBus`'s interface; JetStream delivers at least once
+                whatever it is.
+            manual_ack: The handler acknowledges by calling ``ack`` (after its commit); without it, the message is
+                acknowledged once every handler returned without raising.
+
+        Returns:
+            0 (there is no SUBACK on NATS).
+        """
         self._handlers.append((pattern, handler, manual_ack))
         self._routes.clear()
         return 0
 
     def publish(self, topic: str, payload: bytes, qos: int = 0, retain: bool = False, wait: bool = False) -> int:
-        """Publish on the subject of ``topic`` ('/' -> '.'); with ``wait``, after the server has it."""
+        """Publish on the subject of ``topic`` ('/' -> '.').
+
+        Args:
+            topic: The MQTT topic.
+            payload: The message.
+            qos: Accepted for :class:`~bim2rdt.bus.mqtt.MqttBus`'s interface; unused.
+            retain: Accepted for :class:`~bim2rdt.bus.mqtt.MqttBus`'s interface; unused.
+            wait: Return only after the server has the message (at most ``timeout_s``).
+
+        Returns:
+            0 (there is no PUBACK reason code on NATS).
+        """
         future = asyncio.run_coroutine_threadsafe(self._publish(topic.replace("/", "."), payload, wait), self._loop)
         if wait:
             future.result(self.timeout_s)
@@ -271,6 +320,7 @@ class NatsBus:
 
     @property
     def connected(self) -> bool:
+        """Whether the client is connected to the server now."""
         return self._nc is not None and self._nc.is_connected
 
     def close(self) -> None:
@@ -392,8 +442,16 @@ class NatsBus:
             self._commit_fetched()
             self._send_acks()
 
-    def deliveries(self, message) -> int:
-        """How often ``message`` was delivered, this one included, to this consumer and the partition's earlier ones."""
+    def deliveries(self, message: Msg) -> int:
+        """How often a message was delivered: JetStream's count for this consumer, this delivery included, plus
+        the deliveries to the partition's earlier consumers (:class:`Earlier`).
+
+        Args:
+            message: A JetStream message this consumer fetched.
+
+        Returns:
+            The deliveries, 1 or more.
+        """
         return message.metadata.num_delivered + self.earlier.of(message.metadata.sequence.stream)
 
     def _commit_fetched(self) -> bool:

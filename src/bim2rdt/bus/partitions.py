@@ -34,7 +34,20 @@ def fnv1a_32(data: bytes) -> int:
 
 
 def partition_of(site: str, device: str, partitions: int) -> int:
-    """The partition nats-server's ``partition(partitions, 1, 2)`` gives ``device`` of ``site``."""
+    """The partition nats-server's ``partition(partitions, 1, 2)`` gives ``device`` of ``site``: FNV-1a 32 of the
+    two ids concatenated, modulo ``partitions``.
+
+    Args:
+        site: The site id.
+        device: The wearable's device id.
+        partitions: How many partitions the site's devices are spread over.
+
+    Returns:
+        The partition, 0 <= k < ``partitions``.
+
+    Raises:
+        ValueError: ``partitions`` is less than 1.
+    """
     if partitions < 1:
         raise ValueError("partitions must be at least 1")
     return fnv1a_32((site + device).encode()) % partitions

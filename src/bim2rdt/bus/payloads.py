@@ -189,7 +189,17 @@ class WearableStatus(BaseModel):
 
 
 def decode_status(payload: bytes) -> WearableStatus:
-    """A status message; PayloadError with the reason if it is not one."""
+    """Read a wearable's status message; PayloadError with the reason if it is not one.
+
+    Args:
+        payload: A message from a wearable's status topic: one JSON object, at most ``MAX_STATUS_BYTES`` bytes.
+
+    Returns:
+        The status: online or offline, and who wears the device on which tool.
+
+    Raises:
+        PayloadError: The payload is too long, not JSON, or a field is missing, of the wrong type or out of bounds.
+    """
     if len(payload) > MAX_STATUS_BYTES:
         raise PayloadError(f"status message of {len(payload)} bytes: at most {MAX_STATUS_BYTES}")
     try:

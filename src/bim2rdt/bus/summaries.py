@@ -29,7 +29,13 @@ Peak = Annotated[float, Strict(), Field(ge=0.0, le=1e6)]
 
 @dataclass(frozen=True, slots=True)
 class DeviceSummary:
-    """One second (``seconds``) of a wearable's on-device weighing."""
+    """One second (``seconds``) of a wearable's on-device weighing.
+
+    ``device_time`` is the first sample's time on the device clock, ``received_time`` when the summary reached us
+    (both seconds; None until stamped); ``fs`` the device's sampling rate, Hz; ``ahw`` the per-axis
+    frequency-weighted r.m.s. and ``peak`` the unweighted per-axis peak, m/s^2; ``saturated`` whether the sensor
+    saturated; ``full_scale`` the sensor range, m/s^2 (None when unknown).
+    """
 
     device: str
     seq: int
@@ -51,9 +57,18 @@ class DeviceSummary:
 
     @property
     def end_time(self) -> float:
+        """When the second's samples end on the device clock, seconds: ``device_time + seconds``."""
         return self.device_time + self.seconds
 
     def received_at(self, when: float) -> DeviceSummary:
+        """A copy stamped with the monitor's receive time.
+
+        Args:
+            when: When the monitor received it, seconds (the monitor's clock).
+
+        Returns:
+            The stamped summary.
+        """
         return replace(self, received_time=when)
 
 
@@ -87,7 +102,17 @@ def encode_summary(summary: DeviceSummary) -> bytes:
 
 
 def decode_summary(payload: bytes) -> DeviceSummary:
-    """A summary; PayloadError with the reason if the payload is not one."""
+    """Read a wearable's on-device summary; PayloadError with the reason if the payload is not one.
+
+    Args:
+        payload: A message from a wearable's summary topic: one JSON object, at most ``MAX_SUMMARY_BYTES`` bytes.
+
+    Returns:
+        The summary, its device time converted from ms to seconds.
+
+    Raises:
+        PayloadError: The payload is too long, not JSON, or a field is missing, of the wrong type or out of bounds.
+    """
     if len(payload) > MAX_SUMMARY_BYTES:
         raise PayloadError(f"summary of {len(payload)} bytes: at most {MAX_SUMMARY_BYTES}")
     try:

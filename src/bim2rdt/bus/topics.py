@@ -73,7 +73,18 @@ def events_topic(site: str) -> str:
 
 
 def wearable_pattern(site: str, leaf: str = "+") -> str:
-    """Subscription pattern for every wearable's ``leaf`` topic (accel, status or + for both)."""
+    """Subscription pattern for every wearable's ``leaf`` topic.
+
+    Args:
+        site: The site id (one topic level).
+        leaf: ``accel``, ``status``, ``summary``, or ``+`` for all of them.
+
+    Returns:
+        ``site/{site}/wearable/+/{leaf}``.
+
+    Raises:
+        TopicError: A site id that is not one safe topic level.
+    """
     return f"site/{check_level(site, 'site')}/wearable/+/{leaf}"
 
 

@@ -20,9 +20,12 @@ from bim2rdt.localization.odometry import icp_odometry
 from bim2rdt.localization.fix import Localization, localize
 from bim2rdt.localization.global_config import GlobalSearchConfig
 from bim2rdt.localization.global_search import Candidate, choose, find_pose
+from bim2rdt.localization.checkshots import StationCheck, check_shots
+from bim2rdt.localization.planar import between, from_planar, to_planar
 from bim2rdt.localization.station import Turned, localize_station, pinned
 
-__all__ = ["Candidate", "GRAZING_COS", "GlobalSearchConfig", "Localization", "LocalizationConfig", "LocalizationError",
-           "OccludedMap", "OdometryNoise", "PoseFilter", "Refusal", "ScanPoints", "StationFix", "Turned", "choose",
-           "depth_points", "find_pose", "fuse_frame", "icp_odometry", "localize", "localize_cloud", "localize_station", "pinned",
-           "scan_points", "sphere_directions", "voxel_means"]
+__all__ = ["between", "Candidate", "check_shots", "choose", "depth_points", "find_pose", "from_planar", "fuse_frame",
+           "GlobalSearchConfig", "GRAZING_COS", "icp_odometry", "Localization", "LocalizationConfig",
+           "LocalizationError", "localize", "localize_cloud", "localize_station", "OccludedMap", "OdometryNoise",
+           "pinned", "PoseFilter", "Refusal", "scan_points", "ScanPoints", "sphere_directions", "StationCheck",
+           "StationFix", "to_planar", "Turned", "voxel_means"]

@@ -165,7 +165,19 @@ def _runs(face: _Face, xy: np.ndarray, tolerance: float) -> list[tuple[np.ndarra
 def check_shots(frame: Frame, model: BimModel, T_world_camera: np.ndarray,
                 config: CheckShotConfig = CheckShotConfig()) -> StationCheck:
     """Measure every landmark of ``model`` the frame sees from the fixed pose ``T_world_camera``; see the module
-    docstring. A landmark counts only when both its faces are in view and not hidden behind other elements."""
+    docstring. A landmark counts only when both its faces are in view and not hidden behind other elements, and
+    each face has at least ``config.min_points`` depth points on it.
+
+    Args:
+        frame: An RGB-D frame (depth in metres) with its camera intrinsics.
+        model: The BIM model whose permanent elements give the landmarks.
+        T_world_camera: (4, 4) the camera pose the station's localization fixed, metres.
+        config: Where face points count, how many are needed, and the flag distance.
+
+    Returns:
+        The landmarks measured, their RMS residual (m; NaN when none was measured) and whether it exceeds
+            ``config.flag_distance``.
+    """
     surfaces = permanent_map(model)
     marks = [mark for mark in model_landmarks(model, config.min_height)
              if _in_sight(mark, T_world_camera, frame.intrinsics, surfaces)]

@@ -32,13 +32,29 @@ def heading(T_world_camera: np.ndarray) -> float:
 
 
 def to_planar(T_world_camera: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(state (4,) = x, y, z, yaw; R_level_camera (3, 3), the tilt) of a camera pose."""
+    """Split a camera pose into a planar state and a tilt.
+
+    Args:
+        T_world_camera: (4, 4) the camera pose, metres, world z-up.
+
+    Returns:
+        The state, (4,) x, y, z (m) and yaw (radians, the optical axis's heading from world x), and the tilt
+            R_level_camera, (3, 3) roll and pitch, so that T = Rz(yaw) @ R_level_camera.
+    """
     yaw = heading(T_world_camera)
     return np.r_[T_world_camera[:3, 3], yaw], rz(-yaw) @ T_world_camera[:3, :3]
 
 
 def from_planar(state: np.ndarray, R_level_camera: np.ndarray) -> np.ndarray:
-    """T_world_camera (4, 4) of a planar state and a tilt."""
+    """Join a planar state and a tilt into a camera pose (the inverse of :func:`to_planar`).
+
+    Args:
+        state: (4,) x, y, z (m) and yaw (radians).
+        R_level_camera: (3, 3) the tilt (roll and pitch).
+
+    Returns:
+        T_world_camera, (4, 4): Rz(yaw) @ R_level_camera at (x, y, z).
+    """
     T = np.eye(4)
     T[:3, :3] = rz(float(state[3])) @ R_level_camera
     T[:3, 3] = state[:3]
@@ -54,7 +70,15 @@ def compose(state: np.ndarray, increment: np.ndarray) -> np.ndarray:
 
 
 def between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """The increment that takes state ``a`` to state ``b`` (inverse of :func:`compose`)."""
+    """The odometry increment that takes state ``a`` to state ``b`` (the inverse of :func:`compose`).
+
+    Args:
+        a: (4,) the state before: x, y, z (m) and yaw (radians).
+        b: (4,) the state after, likewise.
+
+    Returns:
+        (4,) forward, left, up (m, in the heading frame of ``a``) and turn (radians, wrapped to [-pi, pi)).
+    """
     c, s = np.cos(a[3]), np.sin(a[3])
     dx, dy = b[0] - a[0], b[1] - a[1]
     return np.array([c * dx + s * dy, -s * dx + c * dy, b[2] - a[2], float(wrap(b[3] - a[3]))])

@@ -14,7 +14,7 @@ from collections.abc import Mapping
 from bim2rdt.mission.config import MissionConfig
 from bim2rdt.mission.records import MissingElement, Target
 from bim2rdt.perception import Frame
-from bim2rdt.perception.visibility import DepthView, PlaceLook, look_at_place
+from bim2rdt.perception import DepthView, PlaceLook, look_at_place
 from bim2rdt.registration import IcpConfig, sample_model
 from bim2rdt.twin import JudgeConfig, PlaceEvidence, place_seen_empty
 

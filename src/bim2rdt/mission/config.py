@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from bim2rdt.perception.slab import SLAB_CLEARANCE
+from bim2rdt.perception import SLAB_CLEARANCE
 
 
 class MissionConfig(BaseModel):

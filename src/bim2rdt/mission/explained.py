@@ -29,9 +29,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from bim2rdt.bim import BimModel
-from bim2rdt.perception.background import SLAB_CLASSES
-from bim2rdt.perception.structure import permanent_elements
-from bim2rdt.perception.surfaces import KnownSurface
+from bim2rdt.perception import SLAB_CLASSES
+from bim2rdt.perception import permanent_elements
+from bim2rdt.perception import KnownSurface
 
 
 def building_surfaces(model: BimModel) -> list[KnownSurface]:

@@ -11,7 +11,7 @@ import numpy as np
 from bim2rdt.mission.config import MissionConfig
 from bim2rdt.mission.records import Target
 from bim2rdt.perception import Detection
-from bim2rdt.perception.fitting import FitRules, Plausible, fit_detection
+from bim2rdt.perception import FitRules, Plausible, fit_detection
 from bim2rdt.registration import IcpConfig, RegistrationResult
 from bim2rdt.semantics import UprightPrior
 

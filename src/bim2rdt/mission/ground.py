@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from bim2rdt.mission.config import MissionConfig
-from bim2rdt.perception.slab import off_the_slab
+from bim2rdt.perception import off_the_slab
 
 
 def object_points(points_world: np.ndarray, config: MissionConfig, least: int | None = None) -> np.ndarray:

@@ -25,8 +25,8 @@ import numpy as np
 
 from bim2rdt.bim import BimModel
 from bim2rdt.localization import LocalizationConfig, OdometryNoise, PoseFilter, StationFix, Turned, localize_station
-from bim2rdt.localization.checkshots import StationCheck, check_shots
-from bim2rdt.localization.planar import between, from_planar, to_planar
+from bim2rdt.localization import StationCheck, check_shots
+from bim2rdt.localization import between, from_planar, to_planar
 from bim2rdt.mission.context import MissionContext
 from bim2rdt.mission.records import MissionResult
 from bim2rdt.mission.route import DirectRoute, Route

@@ -39,7 +39,7 @@ from bim2rdt.mission.records import MissionResult, Observation, Target
 from bim2rdt.mission.route import DirectRoute, Locate, Route
 from bim2rdt.mission.verdict import judge, tolerance_of
 from bim2rdt.perception import Detection, Frame
-from bim2rdt.perception.visibility import DepthView, see_through_fraction
+from bim2rdt.perception import DepthView, see_through_fraction
 from bim2rdt.registration import IcpConfig, RegistrationResult, sample_model
 from bim2rdt.twin import ElementStatus, FitEvidence, judge_evidence
 

@@ -16,7 +16,7 @@ from bim2rdt.mission.records import Target
 from bim2rdt.registration import RegistrationResult
 from bim2rdt.twin import (Deviation, ElementStatus, FitEvidence, Tolerance, TolerancePolicy, TwinConfig,
                           judge_evidence, pose_deviation)
-from bim2rdt.twin.verdict import against_tolerance
+from bim2rdt.twin import against_tolerance
 
 DEFAULT_MIN_FITNESS = TwinConfig().min_fitness
 """The twin's default ``min_fitness``, for a mission run without the twin's settings."""

@@ -34,7 +34,7 @@ from bim2rdt.perception.visibility import DepthView, see_through_fraction
 from bim2rdt.perception.slab import SLAB_CLEARANCE
 from bim2rdt.perception.yoloe import yoloe_prompts
 from bim2rdt.registration import IcpConfig
-from bim2rdt.registration.validation import MIN_SCENE_POINTS
+from bim2rdt.registration import MIN_SCENE_POINTS
 from bim2rdt.semantics import UprightPrior
 
 log = logging.getLogger(__name__)

@@ -20,9 +20,19 @@ SLAB_CLEARANCE = 0.015
 
 def off_the_slab(points_world: np.ndarray, slab_height: float = 0.0, clearance: float = SLAB_CLEARANCE,
                  up: np.ndarray = UP, least: int = 0) -> np.ndarray:
-    """The points (N, 3) more than ``clearance`` above the slab at height ``slab_height`` along ``up``; all of
-    them when fewer than ``least`` would remain (a flat object seen edge-on is better registered on its ROI
-    than not at all)."""
+    """The points more than ``clearance`` above the slab at height ``slab_height`` along ``up``; all of them when
+    fewer than ``least`` would remain (a flat object seen edge-on is better registered on its ROI than not at all).
+
+    Args:
+        points_world: (N, 3) points in the world frame, metres.
+        slab_height: The slab's top along ``up``, metres.
+        clearance: Points less than this above the slab are slab, metres.
+        up: (3,) the world's unit up vector.
+        least: The fewest points to keep; fewer above the slab keeps them all.
+
+    Returns:
+        (M, 3) the points above the slab, or all of ``points_world`` when fewer than ``least`` are.
+    """
     points_world = np.asarray(points_world, dtype=float)
     above = points_world[exact.matmul(points_world, np.asarray(up, dtype=float)) > slab_height + clearance]
     return above if len(above) >= least else points_world

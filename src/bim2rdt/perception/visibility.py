@@ -37,16 +37,32 @@ class DepthView:
         """Every :data:`STRIDE`-th pixel's nearest measured depth within one grid step (inf: no return around).
         Comparing with the nearest around, not the pixel itself, spares the silhouettes of thin parts (a
         tripod leg two cells wide): a model sample that projects a pixel beside its leg still has the leg next
-        to it."""
+        to it.
+
+        Returns:
+            (ceil(H / STRIDE), ceil(W / STRIDE)) the nearest depth around each grid cell, metres; inf where no
+                pixel around has a return.
+        """
         grid = np.where(np.isfinite(self.depth) & (self.depth > 0), self.depth, np.inf)[::STRIDE, ::STRIDE]
         return minimum_filter(grid, size=3, mode="nearest")
 
 
 def see_through_fraction(T_world_model: np.ndarray, model_pts: np.ndarray, model_normals: np.ndarray,
                          view: DepthView, tolerance: float = 0.04) -> float:
-    """Fraction (0-1) of the posed model's visible samples (facing the camera, nearest in their pixel, with a
-    depth return there) behind which the camera measured a farther surface by more than ``tolerance`` m.
-    0 when none of the model is in view."""
+    """How much of the posed model's place the camera saw through: of its visible samples (facing the camera,
+    nearest in their grid cell, with a depth return around), the fraction behind which the camera measured a
+    farther surface by more than ``tolerance``.
+
+    Args:
+        T_world_model: (4, 4) the model's pose in the world, metres.
+        model_pts: (N, 3) surface samples in the model's body frame, metres.
+        model_normals: (N, 3) their outward unit normals, body frame.
+        view: The frame's depth, intrinsics and camera pose.
+        tolerance: How much farther the measured surface must be to count as seen through, metres.
+
+    Returns:
+        The fraction, 0 to 1; 0 when none of the model is in view.
+    """
     look = look_at_place(T_world_model, model_pts, model_normals, view, tolerance)
     return look.through / look.seen if look.seen else 0.0
 
@@ -68,7 +84,21 @@ class PlaceLook:
 
 def look_at_place(T_world_model: np.ndarray, model_pts: np.ndarray, model_normals: np.ndarray, view: DepthView,
                   tolerance: float) -> PlaceLook:
-    """Compare the posed model's camera-facing surface samples (body frame) with the frame's measured depth."""
+    """Compare the posed model's camera-facing surface samples with the frame's measured depth: project them
+    into the frame, keep the nearest per :data:`STRIDE` grid cell, and count where the camera measured beyond
+    (through) or in front of (blocked) them.
+
+    Args:
+        T_world_model: (4, 4) the model's pose in the world, metres.
+        model_pts: (N, 3) surface samples in the model's body frame, metres.
+        model_normals: (N, 3) their outward unit normals, body frame.
+        view: The frame's depth, intrinsics and camera pose.
+        tolerance: How far the measured surface must be behind or in front of the model's to count as
+            through or blocked, metres.
+
+    Returns:
+        The counts of samples facing the camera, in the image, and of grid cells seen, through and blocked.
+    """
     T_camera_world = np.linalg.inv(view.T_world_camera)
     R = T_camera_world[:3, :3] @ T_world_model[:3, :3]
     t = T_camera_world[:3, :3] @ T_world_model[:3, 3] + T_camera_world[:3, 3]

@@ -11,7 +11,7 @@ replans when objects or zones block them; ``save_nav2`` writes the map for ROS m
 
 from bim2rdt.planning.errors import PlanningError
 from bim2rdt.planning.frame import GridFrame
-from bim2rdt.planning.grid import OccupancyGrid
+from bim2rdt.planning.grid import KEEPOUT_KINDS, STRUCTURE_KINDS, OccupancyGrid
 from bim2rdt.planning.navigator import Leg, Navigator, Replan
 from bim2rdt.planning.path import path_length, plan_path
 from bim2rdt.planning.raster import Footprint
@@ -20,7 +20,7 @@ from bim2rdt.planning.tour import Tour, plan_tour
 from bim2rdt.planning.viewpoints import pick_viewpoint, reachable
 from bim2rdt.planning.zones import KeepOut, WorkerZones, activity_windows, worker_keepouts
 
-__all__ = ["Footprint", "GridFrame", "KeepOut", "Leg", "WorkerZones", "activity_windows", "Navigator", "OccupancyGrid", "PlanningError", "Replan", "Tour",
-           "first_blocked_leg",
-           "line_of_sight", "occluders", "path_length", "pick_viewpoint", "plan_path", "plan_tour", "reachable",
-           "worker_keepouts"]
+__all__ = ["activity_windows", "first_blocked_leg", "Footprint", "GridFrame", "KeepOut", "KEEPOUT_KINDS", "Leg",
+           "line_of_sight", "Navigator", "occluders", "OccupancyGrid", "path_length", "pick_viewpoint", "plan_path",
+           "plan_tour", "PlanningError", "reachable", "Replan", "STRUCTURE_KINDS", "Tour", "worker_keepouts",
+           "WorkerZones"]

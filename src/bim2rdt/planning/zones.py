@@ -20,7 +20,7 @@ from bim2rdt.bim import BimModel, BimZone
 from bim2rdt.planning.errors import PlanningError
 from bim2rdt.planning.frame import GridFrame
 from bim2rdt.planning.raster import Footprint, disc_cells, mesh_cells, polygon_cells
-from bim2rdt.safety.activity import ACTIVITY_ENDED, ACTIVITY_STARTED
+from bim2rdt.safety import ACTIVITY_ENDED, ACTIVITY_STARTED
 
 WORKER_RADIUS = 1.0
 """Keep-out radius around a worker, m: room to pass without crowding them."""

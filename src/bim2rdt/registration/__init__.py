@@ -7,8 +7,10 @@ from bim2rdt.registration.icp import RegistrationResult, register
 from bim2rdt.registration.metrics import HausdorffStats, hausdorff
 from bim2rdt.registration.sampling import sample_model
 from bim2rdt.registration.so3 import invert_poses
+from bim2rdt.registration.symmetry import closest_equivalent
 from bim2rdt.registration.uncertainty import POSE_PARAMETERS, PoseUncertainty
 from bim2rdt.registration.validation import MIN_SCENE_POINTS, unit_up
 
-__all__ = ["MIN_SCENE_POINTS", "POSE_PARAMETERS", "HausdorffStats", "IcpConfig", "PoseUncertainty", "RegistrationError",
-           "RegistrationResult", "hausdorff", "invert_poses", "register", "sample_model", "unit_up"]
+__all__ = ["closest_equivalent", "hausdorff", "HausdorffStats", "IcpConfig", "invert_poses", "MIN_SCENE_POINTS",
+           "POSE_PARAMETERS", "PoseUncertainty", "register", "RegistrationError", "RegistrationResult", "sample_model",
+           "unit_up"]

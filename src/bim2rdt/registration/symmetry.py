@@ -19,7 +19,17 @@ def closest_equivalent(T: np.ndarray, T_ref: np.ndarray, order: float) -> np.nda
     """The pose (4x4, model to world) that shows the same object as ``T`` (turned about its body z axis by a
     symmetry of order ``order``) and is closest in rotation to ``T_ref``. Metrics on fixed surface samples then
     measure the surface error, not the sampling: a drum turned by 10 degrees about its axis puts every sample
-    somewhere else, on the same surface."""
+    somewhere else, on the same surface.
+
+    Args:
+        T: (4, 4) the pose to turn, model to world, metres.
+        T_ref: (4, 4) the reference pose, model to world, metres.
+        order: The symmetry's order about body z: 1 (none), 2, 4, ... or ``math.inf`` (any turn).
+
+    Returns:
+        (4, 4) ``T`` turned about its body z axis by the symmetry that brings its rotation closest to
+            ``T_ref``'s; its translation unchanged.
+    """
     M = T_ref[:3, :3].T @ T[:3, :3]
     if math.isinf(order):  # argmax over theta of tr(M Rz(theta))
         angles = np.array([np.arctan2(M[0, 1] - M[1, 0], M[0, 0] + M[1, 1])])

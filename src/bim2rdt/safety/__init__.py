@@ -12,6 +12,7 @@ _HOMES = {
     "Trigger": "config", "ArtefactLimits": "config", "MonitorConfig": "config",
     "AccessDenied": "errors", "HavError": "errors",
     "EAV": "exposure", "ELV": "exposure", "a_hv": "exposure", "combine_exposures": "exposure",
+    "T0_S": "exposure", "ACTIVITY_ENDED": "activity", "ACTIVITY_STARTED": "activity", "IfcSink": "ifc_sink",
     "daily_exposure": "exposure", "exposure_points": "exposure", "time_to_limit": "exposure",
     "HavMonitor": "monitor", "MonitorQueries": "queries", "Session": "sessions", "MountingCorrection": "mounting",
     "IdentityMap": "privacy", "PartitionIdentities": "privacy", "pseudonym": "privacy",

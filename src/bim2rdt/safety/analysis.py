@@ -13,8 +13,8 @@ from pathlib import Path
 import numpy as np
 
 from bim2rdt.atomic import WriteError, write_bytes_atomic
-from bim2rdt.bus.event import Event
-from bim2rdt.bus.payloads import AccelBatch
+from bim2rdt.bus import Event
+from bim2rdt.bus import AccelBatch
 from bim2rdt.safety.activity import ACTIVITY_ENDED, ARTEFACT
 from bim2rdt.safety.config import MonitorConfig
 from bim2rdt.safety.errors import HavError

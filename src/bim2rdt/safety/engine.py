@@ -14,8 +14,8 @@ import math
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 
-from bim2rdt.bus.event import Event
-from bim2rdt.bus.payloads import AccelBatch
+from bim2rdt.bus import Event
+from bim2rdt.bus import AccelBatch
 from bim2rdt.safety.activity import ARTEFACT, GAP, ActivityState, ActivityTracker, DayState, Notice, utc_day
 from bim2rdt.safety.blocks import describe_flags
 from bim2rdt.safety.clock import DeviceClock

@@ -16,10 +16,14 @@ lends its name, and the activity task is nested under it; without one, the recor
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 from bim2rdt.bim import BimModel, BimProcess
-from bim2rdt.bus.event import Event
+from bim2rdt.bus import Event
 from bim2rdt.safety.activity import ACTIVITY_ENDED, ACTIVITY_STARTED, EAV_REACHED, ELV_REACHED
+
+if TYPE_CHECKING:
+    from bim2rdt.bim import TwinWriter
 
 TOOL_WORDS = {"hammer_drill": ("drill", "anchor", "core"), "grinder": ("grind", "cut", "chase"),
               "breaker": ("break", "demoli", "chisel")}
@@ -28,9 +32,15 @@ TOOL_LABELS = {"hammer_drill": "hammer drilling", "grinder": "grinding", "breake
 
 
 class IfcSink:
-    """Writes HAV events through a :class:`bim2rdt.bim.TwinWriter` (call ``writer.save`` to persist)."""
+    """Writes HAV events through a :class:`bim2rdt.bim.TwinWriter` (call ``writer.save`` to persist); ``records``
+    lists (IFC class, GlobalId) of everything written, in order.
 
-    def __init__(self, writer, model: BimModel):
+    Args:
+        writer: The writer of the twin's IFC that takes the IfcEvent and IfcTask records.
+        model: The BIM model whose zones, products and scheduled tasks the records are linked to.
+    """
+
+    def __init__(self, writer: TwinWriter, model: BimModel):
         self.writer, self.model = writer, model
         self._zones = {z.name: z.global_id for z in model.zones} | {z.global_id: z.global_id for z in model.zones}
         self._products = {el.global_id for el in model.elements}
@@ -42,6 +52,12 @@ class IfcSink:
             EAV_REACHED: self._limit_reached, ELV_REACHED: self._limit_reached}
 
     def emit(self, event: Event) -> None:
+        """Write the IFC records of one HAV event: activity started or ended, EAV or ELV reached; other kinds
+        write nothing.
+
+        Args:
+            event: A bus event from the HAV monitor.
+        """
         handler = self._handlers.get(event.kind)
         if handler is not None:
             handler(event)

@@ -22,9 +22,9 @@ import time
 from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 
-from bim2rdt.bus.event import Event
-from bim2rdt.bus.payloads import MAX_BATCH_S, AccelBatch, PayloadError, decode_status
-from bim2rdt.bus.topics import device_of
+from bim2rdt.bus import Event
+from bim2rdt.bus import MAX_BATCH_S, AccelBatch, PayloadError, decode_status
+from bim2rdt.bus import device_of
 from bim2rdt.safety.config import MonitorConfig
 from bim2rdt.safety.deadletters import DeadLetters, MalformedMessages
 from bim2rdt.safety.engine import ExposureEngine, Outcome

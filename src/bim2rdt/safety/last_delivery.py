@@ -13,9 +13,9 @@ from __future__ import annotations
 
 import logging
 
-from bim2rdt.bus.summaries import decode_summary
-from bim2rdt.bus.payloads import PayloadError
-from bim2rdt.bus.topics import device_of
+from bim2rdt.bus import decode_summary
+from bim2rdt.bus import PayloadError
+from bim2rdt.bus import device_of
 
 log = logging.getLogger("bim2rdt.safety")
 UNDELIVERABLE = "undeliverable"

@@ -14,7 +14,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from bim2rdt.bus.event import Event
+from bim2rdt.bus import Event
 from bim2rdt.safety.config import MonitorConfig
 from bim2rdt.safety.deadletters import MalformedMessages
 from bim2rdt.safety.ingest import MonitorIngest
@@ -24,9 +24,9 @@ from bim2rdt.safety.sinks import EventSink
 from bim2rdt.safety.subscriber import BusSubscriber
 
 if TYPE_CHECKING:
-    from bim2rdt.bus.local import LocalBus
-    from bim2rdt.bus.mqtt import MqttBus
-    from bim2rdt.bus.nats_bus import NatsBus
+    from bim2rdt.bus import LocalBus
+    from bim2rdt.bus import MqttBus
+    from bim2rdt.bus import NatsBus
 
 __all__ = ["ISO_POSITIONS", "HavMonitor", "MalformedMessages", "MonitorConfig", "Session"]
 

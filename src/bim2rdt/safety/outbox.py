@@ -23,7 +23,7 @@ import threading
 from collections.abc import Sequence
 from dataclasses import replace
 
-from bim2rdt.bus.event import Event
+from bim2rdt.bus import Event
 from bim2rdt.safety.store import ExposureStore
 
 log = logging.getLogger("bim2rdt.safety")

@@ -19,9 +19,9 @@ from __future__ import annotations
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 
-from bim2rdt.bus.event import Event
-from bim2rdt.bus.payloads import AccelBatch
-from bim2rdt.bus.partitions import partition_of
+from bim2rdt.bus import Event
+from bim2rdt.bus import AccelBatch
+from bim2rdt.bus import partition_of
 from bim2rdt.safety.activity import ACTIVITY_ENDED, ACTIVITY_STARTED, ActivityState, DayState, utc_day
 from bim2rdt.safety.engine import ExposureEngine, Stream
 from bim2rdt.safety.mounting import MountingCorrection

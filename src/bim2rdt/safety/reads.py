@@ -5,8 +5,8 @@ monitor writes). Exposure figures that live in the monitor's memory (days, sessi
 
 from __future__ import annotations
 
-from bim2rdt.bus.event import Event
-from bim2rdt.bus.payloads import AccelBatch
+from bim2rdt.bus import Event
+from bim2rdt.bus import AccelBatch
 from bim2rdt.safety.store import ExposureStore
 
 

@@ -22,7 +22,7 @@ import math
 import zlib
 from collections.abc import Callable, Iterable
 
-from bim2rdt.bus.event import Event
+from bim2rdt.bus import Event
 from bim2rdt.safety.activity import ACTIVITY_ENDED, ACTIVITY_STARTED, ARTEFACT, EAV_REACHED, ELV_REACHED
 from bim2rdt.safety.store import ExposureStore
 

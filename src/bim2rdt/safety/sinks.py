@@ -13,8 +13,8 @@ import logging
 from collections.abc import Callable, Iterable, Sequence
 from typing import TYPE_CHECKING, Protocol
 
-from bim2rdt.bus.event import Event
-from bim2rdt.bus.topics import events_topic
+from bim2rdt.bus import Event
+from bim2rdt.bus import events_topic
 
 if TYPE_CHECKING:
     from bim2rdt.bus import LocalBus, MqttBus

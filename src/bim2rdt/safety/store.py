@@ -28,8 +28,8 @@ from sqlalchemy.engine import Connection
 from sqlalchemy.exc import SQLAlchemyError
 
 from bim2rdt import sqlstore
-from bim2rdt.bus.event import Event
-from bim2rdt.bus.payloads import MAX_BATCH_S, AccelBatch
+from bim2rdt.bus import Event
+from bim2rdt.bus import MAX_BATCH_S, AccelBatch
 from bim2rdt.safety.errors import AlreadyApplied, StoreError
 
 PAGE_SIZE = 16384

@@ -27,7 +27,7 @@ from __future__ import annotations
 from collections import deque
 from dataclasses import dataclass, field, replace
 
-from bim2rdt.bus.payloads import AccelBatch
+from bim2rdt.bus import AccelBatch
 
 TIME_JUMP_S = 0.05
 """A device-time jump larger than this between consecutive batches is a pause in sampling (a gap)."""

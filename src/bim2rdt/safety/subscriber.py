@@ -27,10 +27,10 @@ import threading
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
-from bim2rdt.bus.event import Event
-from bim2rdt.bus.payloads import AccelBatch, PayloadError, decode_accel
-from bim2rdt.bus.summaries import DeviceSummary, decode_summary
-from bim2rdt.bus.topics import device_of, wearable_pattern
+from bim2rdt.bus import Event
+from bim2rdt.bus import AccelBatch, PayloadError, decode_accel
+from bim2rdt.bus import DeviceSummary, decode_summary
+from bim2rdt.bus import device_of, wearable_pattern
 from bim2rdt.safety.errors import HavError, StoreError
 from bim2rdt.safety.weighting import require_weighable_rate
 

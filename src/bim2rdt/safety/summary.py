@@ -20,7 +20,7 @@ from collections.abc import Iterable
 import numpy as np
 import scipy.signal
 
-from bim2rdt.bus.summaries import DeviceSummary
+from bim2rdt.bus import DeviceSummary
 from bim2rdt.safety.activity import GAP
 from bim2rdt.safety.blocks import SATURATION
 

@@ -20,7 +20,7 @@ from functools import lru_cache
 import numpy as np
 import scipy.signal
 
-from bim2rdt.bus.payloads import AccelBatch
+from bim2rdt.bus import AccelBatch
 from bim2rdt.safety.blocks import (IMPOSSIBLE, NAN, REJECTED_BEFORE_SETTLING, SETTLING, ArtefactLimits,
                                    block_extremes, block_flags, block_starts, block_sums, has_bad_samples,
                                    replace_bad_samples, sample_limits)

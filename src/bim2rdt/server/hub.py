@@ -17,7 +17,7 @@ from collections import deque
 from dataclasses import dataclass
 from typing import Any
 
-from bim2rdt.bus.event import Event
+from bim2rdt.bus import Event
 
 
 @dataclass(frozen=True)

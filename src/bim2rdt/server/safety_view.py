@@ -14,7 +14,7 @@ import threading
 
 import numpy as np
 
-from bim2rdt.safety.exposure import EAV, ELV, T0_S
+from bim2rdt.safety import EAV, ELV, T0_S
 from bim2rdt.server.hub import event_record
 
 E_EAV, E_ELV = EAV**2 * T0_S, ELV**2 * T0_S

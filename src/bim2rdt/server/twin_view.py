@@ -14,7 +14,7 @@ import numpy as np
 
 from bim2rdt.server.plan import FLOORS, STRUCTURE, ZONES, bounds, hull_xy, posed, robot_path
 from bim2rdt.twin import MISSING, OBSERVATION, SAFETY, STATUS, STATUS_COLOURS, ElementState, ElementStatus
-from bim2rdt.twin.sink import recorded_outbox_ids
+from bim2rdt.twin import recorded_outbox_ids
 
 CHANGE_KINDS = (OBSERVATION, MISSING, STATUS)
 """Twin records the live stream forwards (safety events reach it straight from the monitor)."""

@@ -18,7 +18,9 @@ from bim2rdt.sources.errors import SourceError
 from bim2rdt.sources.options import SourceOptions
 from bim2rdt.sources.recording import Recording, RecordingKind, as_recording, is_rosbag, open_recording
 from bim2rdt.sources.source import FrameSource, open_source
+from bim2rdt.sources.tf import translation_quaternion
+from bim2rdt.sources.bag_writer import BagWriter
 
-__all__ = ["Cloud", "FrameSource", "Recording", "RecordingKind", "SourceError", "SourceOptions", "SourcesConfig",
-           "as_recording", "correct_depth", "correct_points", "is_rosbag", "limit_memory", "memory_cap",
-           "open_recording", "open_source", "read_cloud"]
+__all__ = ["as_recording", "BagWriter", "Cloud", "correct_depth", "correct_points", "FrameSource", "is_rosbag",
+           "limit_memory", "memory_cap", "open_recording", "open_source", "read_cloud", "Recording", "RecordingKind",
+           "SourceError", "SourceOptions", "SourcesConfig", "translation_quaternion"]

@@ -40,7 +40,14 @@ def slerp(q0: np.ndarray, q1: np.ndarray, s: float) -> np.ndarray:
 
 
 def translation_quaternion(T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(translation (3,), quaternion (x, y, z, w)) of a 4x4 rigid transform."""
+    """Split a rigid transform into a translation and a quaternion, ROS's way.
+
+    Args:
+        T: (4, 4) a rigid transform, metres.
+
+    Returns:
+        The translation, (3,) metres, and the unit quaternion, (4,) in ROS's order x, y, z, w.
+    """
     return np.asarray(T[:3, 3], float), Rotation.from_matrix(T[:3, :3]).as_quat()
 
 

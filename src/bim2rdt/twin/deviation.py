@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from bim2rdt.registration.symmetry import closest_equivalent
+from bim2rdt.registration import closest_equivalent
 
 
 @dataclass(frozen=True)

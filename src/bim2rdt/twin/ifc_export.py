@@ -16,7 +16,7 @@ import numpy as np
 
 from bim2rdt.bim import BimError, BimModel, TwinWriter
 from bim2rdt.bus import Event
-from bim2rdt.safety.ifc_sink import IfcSink
+from bim2rdt.safety import IfcSink
 from bim2rdt.twin.errors import TwinError
 from bim2rdt.twin.records import ElementState
 from bim2rdt.twin.status import ElementStatus

@@ -55,8 +55,17 @@ class TwinSink:
         return recorded_outbox_ids(self.twin, events)
 
 
-def recorded_outbox_ids(twin, events: Sequence[Event]) -> set[int]:
-    """The ``data["outbox_id"]`` of those ``events`` (same kind, source, time and id) already in ``twin``'s history."""
+def recorded_outbox_ids(twin: DigitalTwin, events: Sequence[Event]) -> set[int]:
+    """Which of ``events`` the twin's history already holds: a safety record with the same kind, source, time (to
+    the microsecond) and outbox id. Only records from one second before the earliest event on are read.
+
+    Args:
+        twin: The twin whose history is searched.
+        events: Events from the monitor's outbox, each with ``data["outbox_id"]``; times in seconds.
+
+    Returns:
+        The ``data["outbox_id"]`` of those already held.
+    """
     wanted = {_key(e.kind, e.source, e.time, e.data.get("outbox_id")) for e in events}
     since = min(e.time for e in events) - 1.0 if events else None
     held = set()

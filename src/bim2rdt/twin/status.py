@@ -3,7 +3,7 @@ shared observation record, :mod:`bim2rdt.perception.observation`) and its colour
 
 from __future__ import annotations
 
-from bim2rdt.perception.observation import ElementStatus
+from bim2rdt.perception import ElementStatus
 
 __all__ = ["STATUS_COLOURS", "ElementStatus"]
 

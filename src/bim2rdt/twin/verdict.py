@@ -42,7 +42,15 @@ def fit_trusted(fitness: float, min_fitness: float) -> bool:
 
 
 def against_tolerance(deviation: Deviation, tolerance: Tolerance) -> ElementStatus:
-    """AS_PLANNED when translation, tilt and yaw are all within the preset, else DEVIATING: the one judge of
-    both, used by the twin and by the mission (which supplies the deviation), so their verdicts agree."""
+    """Judge a deviation against a tolerance preset: the one judge of both, used by the twin and by the mission
+    (which supplies the deviation), so their verdicts agree.
+
+    Args:
+        deviation: How far an observed pose is from the BIM's: translation (m), tilt and yaw (degrees).
+        tolerance: The preset: the largest translation (m) and the largest tilt or yaw (degrees).
+
+    Returns:
+        AS_PLANNED when translation, tilt and yaw are all within the preset, else DEVIATING.
+    """
     within = deviation.within(tolerance.translation, tolerance.rotation_deg)
     return ElementStatus.AS_PLANNED if within else ElementStatus.DEVIATING

@@ -20,9 +20,9 @@ from pathlib import Path
 import numpy as np
 
 from bim2rdt.bim import BimModel
-from bim2rdt.perception.observation import ElementStatus
-from bim2rdt.sources.bag_writer import BagWriter
-from bim2rdt.sources.tf import translation_quaternion
+from bim2rdt.perception import ElementStatus
+from bim2rdt.sources import BagWriter
+from bim2rdt.sources import translation_quaternion
 
 ROS_ORDER = [0, 1, 2, 3, 4, 5]
 """ROS covariance index i <- the library's index ROS_ORDER[i] (both x, y, z, rot x, rot y, rot z)."""
@@ -132,7 +132,7 @@ def _local_mesh(state, model: BimModel, T: np.ndarray) -> tuple[np.ndarray, np.n
 
 
 def _grids(bag: BagWriter, grid, when: float) -> None:
-    from bim2rdt.planning.grid import KEEPOUT_KINDS, STRUCTURE_KINDS
+    from bim2rdt.planning import KEEPOUT_KINDS, STRUCTURE_KINDS
 
     bag.write("/map", occupancy_message(bag, grid, grid.layer(STRUCTURE_KINDS + ("object",)), when), when)
     keepout = grid.layer(KEEPOUT_KINDS)
