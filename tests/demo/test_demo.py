@@ -163,7 +163,8 @@ def test_reaching_the_eav_puts_an_intervention_task_after_its_event_on_the_work_
 
 def test_the_day_is_recorded_in_the_twin_and_exported_as_ifc_bcf_json_and_html(demo_out):
     """Every observation is in the twin's history with the mission's verdict, the monitor's events are in it
-    too, the BCF has one topic per deviating or new object, and report.html is self-contained."""
+    too, the BCF has one topic per deviating, missing or new object and per element not built (the north-east
+    partition), and report.html is self-contained."""
     from bcf.v2.bcfxml import BcfXml
 
     from bim2rdt.twin import DigitalTwin
@@ -181,7 +182,7 @@ def test_the_day_is_recorded_in_the_twin_and_exported_as_ifc_bcf_json_and_html(d
     assert sum(e.kind == "observation" for e in events) == sum(r["status"] != "missing" for r in rows)
     assert sum(e.kind == "missing" for e in events) == sum(r["status"] == "missing" for r in rows) == 1
     assert any(e.kind == "safety" and e.data["kind"] == "hav.eav_reached" for e in events)
-    issues = sum(s.status.value in ("deviating", "missing", "new") for s in states.values())
+    issues = sum(s.status.value in ("deviating", "missing", "new", "not built") for s in states.values())
     bcf = BcfXml.load(out / "site_issues.bcf")
     assert len(bcf.topics) == issues > 0
     assert all(next(iter(t.viewpoints.values())).snapshot.startswith(b"\x89PNG") for t in bcf.topics.values())
