@@ -109,10 +109,11 @@ class StructureSurvey:
 
     def _ambiguous(self, first: Cast, on_first: np.ndarray, through_first: np.ndarray, ranges: np.ndarray,
                    centre: np.ndarray, directions: np.ndarray) -> np.ndarray:
-        """(K,) the returns on the first face of an element the view sees through somewhere whose ray leaves that
-        element's body or meets another face before ``on_band`` past the return: where the element ends at a wall
-        or the floor, a return there lies as much on the surface behind it, so it says neither that the element
-        is built nor that it is not (a built face's returns lie a wall's thickness before its back face)."""
+        """(K,) the returns on the first face of an element the view sees through somewhere whose ray meets another
+        element's face, or leaves the element through a face other than its back face, before ``on_band`` past the
+        return: where the element ends at a wall or the floor, a return there lies as much on the surface behind
+        it, so it says neither that the element is built nor that it is not (a thin door leaf's back face, within
+        the band, leaves its returns decisive)."""
         ambiguous = np.zeros(len(ranges), bool)
         suspects = np.unique(first.element[through_first])
         rows = on_first & np.isin(first.element, suspects[suspects >= 0])
@@ -122,7 +123,9 @@ class StructureSurvey:
         start = first.t[index] + 1e-3
         reach = ranges[index] + self.config.on_band / np.maximum(first.cos[index], GRAZING_COS)
         again = self.scene.cast_each(centre + directions[index] * start[:, None], directions[index])
-        ambiguous[index] = (again.element >= 0) & (again.t + start <= reach)
+        back = (again.element == first.element[index]) & (np.abs(np.einsum(
+            "ni,ni->n", again.normal, first.normal[index])) >= 0.9)  # its own back face: a thin leaf's, not an end
+        ambiguous[index] = (again.element >= 0) & (again.t + start <= reach) & ~back
         return ambiguous
 
     def _seen_through(self, first: Cast, decisive_on: np.ndarray, through_first: np.ndarray) -> set[int]:
