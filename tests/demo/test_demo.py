@@ -13,7 +13,7 @@ import pytest
 
 from bim2rdt.bim import load_ifc
 from bim2rdt.config import Settings, settings_record
-from bim2rdt.sim.site import PARTITION
+from bim2rdt.sim.site import PARTITION, UNBUILT_WALLS
 from bim2rdt.sim.wearables import default_plans, timed_messages
 from bim2rdt.twin import ElementStatus
 
@@ -163,7 +163,8 @@ def test_reaching_the_eav_puts_an_intervention_task_after_its_event_on_the_work_
 
 def test_the_day_is_recorded_in_the_twin_and_exported_as_ifc_bcf_json_and_html(demo_out):
     """Every observation is in the twin's history with the mission's verdict, the monitor's events are in it
-    too, the BCF has one topic per deviating or new object, and report.html is self-contained."""
+    too, the BCF has one topic per deviating, missing or new object and per element not built (the north-east
+    partition), and report.html is self-contained."""
     from bcf.v2.bcfxml import BcfXml
 
     from bim2rdt.twin import DigitalTwin
@@ -181,7 +182,7 @@ def test_the_day_is_recorded_in_the_twin_and_exported_as_ifc_bcf_json_and_html(d
     assert sum(e.kind == "observation" for e in events) == sum(r["status"] != "missing" for r in rows)
     assert sum(e.kind == "missing" for e in events) == sum(r["status"] == "missing" for r in rows) == 1
     assert any(e.kind == "safety" and e.data["kind"] == "hav.eav_reached" for e in events)
-    issues = sum(s.status.value in ("deviating", "missing", "new") for s in states.values())
+    issues = sum(s.status.value in ("deviating", "missing", "new", "not built") for s in states.values())
     bcf = BcfXml.load(out / "site_issues.bcf")
     assert len(bcf.topics) == issues > 0
     assert all(next(iter(t.viewpoints.values())).snapshot.startswith(b"\x89PNG") for t in bcf.topics.values())
@@ -237,8 +238,10 @@ def test_report_html_lets_text_columns_wrap_instead_of_cutting_the_last_one():
 
 
 def test_the_demo_judges_the_walls_and_slab_its_stations_saw_in_structure_json_and_the_twin(demo_out):
-    """The simulated site builds its walls and slab where the model has them: those the stations' frames cover are
-    as planned (none deviating), and the twin shows the same status."""
+    """The simulated site builds its walls and slab where the model has them (the north-east partition aside, not
+    built yet): those the stations' frames cover are as planned or, the partition, not built (none deviating:
+    nothing leans the pose the walls behind the partition's place are measured from), and the twin shows the
+    same status."""
     out, _ = demo_out
     structure = json.loads((out / "structure.json").read_text())
     seen = [j for j in structure if j["ifc_class"] in ("IfcWall", "IfcSlab") and j["status"] != "not observed"]
@@ -251,8 +254,7 @@ def test_the_demo_judges_the_walls_and_slab_its_stations_saw_in_structure_json_a
 
 def test_the_demo_writes_progress_json_with_the_scaffold_ahead_and_the_tripods_task_not_started(demo_out):
     """The site's schedule (sim.schedule) against the day: the scaffold stands two days early (ahead), the tripod
-    taken off site was due tomorrow (not started), the cones and deliveries due yesterday stand (complete). The
-    partition the site has not built is behind once the structure is judged (structure.json), unknown before."""
+    taken off site was due tomorrow (not started), the cones and deliveries due yesterday stand (complete)."""
     out = demo_out[0]
     record = json.loads((out / "progress.json").read_text())
     assert set(record) == {"schedule", "date", "tasks"}
@@ -262,12 +264,29 @@ def test_the_demo_writes_progress_json_with_the_scaffold_ahead_and_the_tripods_t
                                                                                                         100.0)
     assert task["T.3"]["status"] == "not started" and task["T.3"]["products"]["not built"] == 1
     assert task["T.1"]["status"] == task["T.2"]["status"] == "complete"
-    partition = next(el.global_id for el in load_ifc(out / "site.ifc").elements if el.name == PARTITION[0])
-    judged = {j["global_id"]: j["status"] for j in json.loads((out / "structure.json").read_text())}
-    assert task["S.5"]["status"] == {"as planned": "complete", "not observed": "unknown"}[judged[partition]]
     page, text = (out / "report.html").read_text(), (out / "report.md").read_text()
     assert "Progress against the work schedule" in page and ">ahead<" in page
     assert "| T.4 Scaffold erection | 0.0 % | 100.0 % | ahead |" in text.replace("|   T.4", "| T.4")
+
+
+def test_the_demos_progress_has_exactly_one_task_behind_the_unbuilt_partitions_and_one_ahead(demo_out):
+    """The simulated site has not built the north-east partition (sim.site.UNBUILT_WALLS): the structure judge, fed
+    the robot's station frames, reads it not built (not partly built), so its task S.5 is the day's one task
+    behind; the scaffold's T.4 is the one ahead. The walls seen through the partition's place stay as planned."""
+    out = demo_out[0]
+    model = load_ifc(out / "site.ifc")
+    partition = next(el.global_id for el in model.elements if el.name == PARTITION[0])
+    assert PARTITION[0] in UNBUILT_WALLS
+    judged = {j["global_id"]: j for j in json.loads((out / "structure.json").read_text())}
+    assert (judged[partition]["status"], judged[partition]["built_share"]) == ("not built", 0.0), judged[partition]
+    tasks = json.loads((out / "progress.json").read_text())["tasks"]
+    behind = [t for t in tasks if t["status"] == "behind"]
+    assert [t["identification"] for t in behind] == ["S.5"]
+    assert behind[0]["products"] == {"as planned": 0, "deviating": 0, "not built": 1, "not observed": 0}
+    assert behind[0]["observed_percent"] == 0.0 and behind[0]["planned_percent"] == 100.0
+    assert [t["identification"] for t in tasks if t["status"] == "ahead"] == ["T.4"]
+    text = (out / "report.md").read_text().replace("|   S.5", "| S.5")
+    assert "| S.5 Partition north-east room | 100.0 % | 0.0 % | behind |" in text
 
 
 def test_with_the_partition_judged_not_built_the_demos_progress_has_its_task_behind(demo_out, tmp_path):

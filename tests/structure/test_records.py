@@ -11,7 +11,7 @@ from bim2rdt.structure import (StructureError, StructureJudgement, StructureView
                                write_structure_json)
 
 FIELDS = {"global_id", "ifc_class", "status", "coverage", "median_mm", "p95_mm", "offset_m", "rotation_deg",
-          "frames", "reason"}
+          "frames", "reason", "built_share"}
 
 
 def test_structure_json_holds_exactly_the_contracts_fields_and_reads_back(tmp_path):
@@ -54,3 +54,12 @@ def test_a_view_with_no_return_on_any_face_judges_nothing_and_a_model_element_ne
     judged = judge_structure(site_model, [StructureView(0, sky, pose)])
     assert judged and all(j.status == "not observed" for j in judged)
     assert {j.ifc_class for j in judged} >= {"IfcWall", "IfcSlab", "IfcColumn", "IfcDoor"}
+
+
+def test_the_built_share_round_trips_and_a_file_written_before_it_reads_as_none(tmp_path):
+    judged = [StructureJudgement("a", "IfcWall", "deviating", 0.5, reason="partly built", built_share=0.45)]
+    path = write_structure_json(judged, tmp_path / "structure.json")
+    assert json.loads(path.read_text())[0]["built_share"] == 0.45 and read_structure_json(path) == judged
+    older = [{k: v for k, v in entry.items() if k != "built_share"} for entry in json.loads(path.read_text())]
+    path.write_text(json.dumps(older))
+    assert read_structure_json(path)[0].built_share is None

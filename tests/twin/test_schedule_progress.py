@@ -3,6 +3,7 @@ scheduled dates (or Completion), observed % by quantity, the statuses, the roll-
 
 from __future__ import annotations
 
+import json
 from dataclasses import replace
 from datetime import date, datetime, timezone
 
@@ -12,7 +13,9 @@ from bim2rdt.bim import load_ifc
 from bim2rdt.bim.quantities import mesh_volume_area, product_quantities
 from bim2rdt.bim.schedule import read_work_schedule
 from bim2rdt.sim.site import build_site_ifc
-from bim2rdt.twin.progress import TaskStatus, merge_statuses, product_state, schedule_progress
+from bim2rdt.twin.progress import (PartlyBuilt, TaskStatus, built_share, merge_statuses, product_state,
+                                   schedule_progress)
+from bim2rdt.twin.progress_files import read_structure_statuses
 
 DAY = date(2026, 12, 6)
 NOON = datetime(2026, 12, 6, 12, 0, tzinfo=timezone.utc)
@@ -132,3 +135,42 @@ def test_progress_json_has_the_contracted_shape(site):
                                        "planned_percent", "observed_percent", "status", "products", "children"}
     assert set(record["tasks"][0]["products"]) == {"as planned", "deviating", "not built", "not observed"}
     assert record["tasks"][0]["children"] == list(by_id(schedule, "S").children)
+
+
+def test_a_partly_built_product_counts_its_quantity_by_the_share_built_and_its_task_stays_behind(site):
+    """The structure judge's partly built wall ("deviating", built on 40 % of its face) counts 40 % of its volume,
+    not all of it: the partition's task is behind at 40 %, and the structure's summary counts the same share."""
+    model, schedule, quantities = site
+    partition = by_id(schedule, "S.5").products[0]
+    states = statuses_of(model, schedule, S_1="as planned", S_2="as planned", S_3="as planned", S_4="as planned")
+    progress = schedule_progress(schedule, states | {partition: PartlyBuilt("deviating", 0.4)}, quantities, NOON)
+    row = progress.task(by_id(schedule, "S.5").global_id)
+    assert row.observed_percent == pytest.approx(40.0) and row.status is TaskStatus.BEHIND
+    assert row.products["deviating"] == 1 and row.built_quantity == pytest.approx(0.4 * quantities.values[partition])
+    whole = schedule_progress(schedule, states | {partition: "deviating"}, quantities, NOON)
+    assert whole.task(by_id(schedule, "S.5").global_id).status is TaskStatus.COMPLETE  # a plain status: all built
+    summary = progress.task(by_id(schedule, "S").global_id)
+    assert summary.built_quantity == pytest.approx(summary.total_quantity - 0.6 * quantities.values[partition])
+
+
+def test_a_partly_built_state_merges_prints_and_counts_as_its_status_and_needs_a_built_status_and_a_share():
+    state = PartlyBuilt("deviating", 0.25)
+    assert state == "deviating" and str(state) == "deviating" and json.dumps({"a": state}) == '{"a": "deviating"}'
+    assert merge_statuses({"a": "as planned"}, {"a": state})["a"].built == 0.25
+    assert [built_share(s) for s in (state, "as planned", "deviating", "not built", "not observed", None)] == [
+        0.25, 1.0, 1.0, 0.0, 0.0, 0.0]
+    for status, share in (("not built", 0.5), ("deviating", 1.5), ("deviating", -0.1)):
+        with pytest.raises(ValueError):
+            PartlyBuilt(status, share)
+
+
+def test_structure_json_built_share_under_one_reads_as_partly_built(tmp_path):
+    path = tmp_path / "structure.json"
+    path.write_text(json.dumps([{"global_id": "a", "status": "deviating", "built_share": 0.3},
+                                {"global_id": "b", "status": "deviating", "built_share": 1.0},
+                                {"global_id": "c", "status": "not built", "built_share": 0.0},
+                                {"global_id": "d", "status": "as planned"}]))
+    states = read_structure_statuses(path)
+    assert states == {"a": "deviating", "b": "deviating", "c": "not built", "d": "as planned"}
+    assert [built_share(states[k]) for k in "abcd"] == [0.3, 1.0, 0.0, 1.0]
+    assert isinstance(states["a"], PartlyBuilt) and not isinstance(states["b"], PartlyBuilt)

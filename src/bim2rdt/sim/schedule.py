@@ -5,10 +5,11 @@ IfcTask, IfcTaskTime, IfcRelAssignsToProduct, IfcRelSequence).
 On the simulated day (``day``, the robot walks from 07:00 UTC):
 
 - the slab, exterior walls, columns and interior walls were due weeks ago and are built;
-- the north-east partition was due yesterday and stands (``sim.site.UNBUILT_WALLS`` is empty: see there): complete;
+- the north-east partition was due yesterday and is not built (``sim.site.UNBUILT_WALLS``): behind, the day's one
+  task behind;
 - the cones and the material deliveries were due yesterday and stand on site;
 - setting out (the survey tripod) starts tomorrow, and the tripod is not there yet: not started;
-- the scaffold is planned for the day after tomorrow but already stands: ahead.
+- the scaffold is planned for the day after tomorrow but already stands: ahead, the day's one task ahead.
 """
 
 from __future__ import annotations

@@ -87,7 +87,8 @@ class StructureConfig(BaseModel):
     partly_through: float = Field(
         0.3, gt=0.0, le=1.0,
         description="An observed element seen through over more than this share of its face in clear view is "
-                    "deviating (partly built, or an opening the model lacks).")
+                    "deviating (a wall partly built, its built_share the rest; a door or window with an opening the "
+                    "model lacks); seen through so in one view, it takes no part in that view's consensus pose.")
     min_points: int = Field(30, ge=3, description="Fewer returns on an element than this, and it is not observed.")
     min_face_points: int = Field(30, ge=3, description="A face (one normal) pins an offset with this many returns.")
     min_face_extent: float = Field(

@@ -3,9 +3,14 @@
 - not built: its face in clear view (returns on it or beyond it) covers at least ``min_clear_area`` and is seen
   through over ``not_built_fraction`` of it (a door seen through is open, a window glazed: not observed instead);
 - not observed: under ``min_coverage`` of its sensor-facing surface covered, or under ``min_points`` returns;
-- deviating: seen through over ``partly_through`` of its face in clear view (partly built), or its offset (where
-  its faces pin one; else the median signed distance) beyond its class's tolerance, or a face tilted beyond it;
+- deviating: seen through over ``partly_through`` of its face in clear view (partly built: its ``built_share`` is
+  the share not seen through, which progress weighs its quantity by; a door or window seen through so far has an
+  opening the model lacks), or its offset (where its faces pin one; else the median signed distance) beyond its
+  class's tolerance, or a face tilted beyond it;
 - as planned: within it.
+
+The face in clear view counts only decisive returns (:mod:`~bim2rdt.structure.survey`): where an element ends at
+a wall or the floor behind it, a return there lies on both and says neither built nor not built.
 """
 
 from __future__ import annotations
@@ -83,34 +88,51 @@ def judge_element(global_id: str, ifc_class: str, evidence: ElementEvidence,
     rho = np.concatenate([r for f in evidence.faces.values() for r in f.rho]) if evidence.faces else np.zeros(0)
     median = float(np.median(rho)) if len(rho) else None
     offset, rotation = element_offset(evidence, config), element_rotation(evidence, config)
-    status, reason = _status(ifc_class, evidence, coverage, len(rho), offset, median, rotation, config)
+    status, reason, built = _status(ifc_class, evidence, coverage, len(rho), offset, median, rotation, config)
     return StructureJudgement(
         global_id, ifc_class, status, round(coverage, 3), _mm(median),
         _mm(float(np.percentile(np.abs(rho), 95)) if len(rho) else None),
         None if offset is None else tuple(round(float(v), 4) for v in offset),
-        None if rotation is None else round(rotation, 2), sorted(evidence.frames), reason)
+        None if rotation is None else round(rotation, 2), sorted(evidence.frames), reason,
+        None if built is None else round(built, 3))
+
+
+def through_share(evidence: ElementEvidence) -> float:
+    """The share (0-1) of the element's face in clear view that the views saw through (0 when none is in clear
+    view): its cells with a return beyond the face over its cells with a decisive return, on it or beyond it.
+
+    Args:
+        evidence: What the views said about it.
+
+    Returns:
+        The share.
+    """
+    clear = len(evidence.clear)
+    return len(evidence.through & evidence.clear) / clear if clear else 0.0
 
 
 def _status(ifc_class: str, evidence: ElementEvidence, coverage: float, returns: int, offset: np.ndarray | None,
-            median: float | None, rotation: float | None, config: StructureConfig) -> tuple[str, str]:
-    """(status, reason) by the module's rules, in their order."""
-    clear, cell_area = len(evidence.clear), config.cell**2
-    share = len(evidence.through) / clear if clear else 0.0
-    if clear * cell_area >= config.min_clear_area and share >= config.not_built_fraction:
+            median: float | None, rotation: float | None,
+            config: StructureConfig) -> tuple[str, str, float | None]:
+    """(status, reason, built share) by the module's rules, in their order."""
+    clear_area, share = len(evidence.clear) * config.cell**2, through_share(evidence)
+    if clear_area >= config.min_clear_area and share >= config.not_built_fraction:
         if ifc_class in SEE_THROUGH_CLASSES:
-            return NOT_OBSERVED, f"seen through over {share:.0%} of its face in clear view: open, or glazed"
-        return NOT_BUILT, (f"its face in clear view ({clear * cell_area:.2f} m2) is seen through over {share:.0%}, "
-                           f"with returns on {1 - share:.0%}")
+            return NOT_OBSERVED, f"seen through over {share:.0%} of its face in clear view: open, or glazed", None
+        return NOT_BUILT, (f"its face in clear view ({clear_area:.2f} m2) is seen through over {share:.0%}, with "
+                           f"returns on {1 - share:.0%}"), 0.0
     if coverage < config.min_coverage or returns < config.min_points:
         return NOT_OBSERVED, (f"coverage {coverage:.0%} of its sensor-facing surface, {returns} returns on it (need "
-                              f"{config.min_coverage:.0%} and {config.min_points})")
+                              f"{config.min_coverage:.0%} and {config.min_points})"), None
+    if share > config.partly_through and ifc_class not in SEE_THROUGH_CLASSES:
+        return DEVIATING, (f"partly built: seen through over {share:.0%} of its face in clear view ({clear_area:.2f} "
+                           f"m2), built on {1 - share:.0%}"), 1.0 - share
     if share > config.partly_through:
-        return DEVIATING, f"seen through over {share:.0%} of its face in clear view: partly built, or an opening " \
-                          "the model lacks"
+        return DEVIATING, f"seen through over {share:.0%} of its face in clear view: an opening the model lacks", 1.0
     status, reason = against(offset, median, rotation, tolerance_of(ifc_class, config))
     if evidence.unpinned:
         reason += "; along a face's normal the other elements in view did not pin the pose (measured from the fix)"
-    return status, reason
+    return status, reason, 1.0
 
 
 def against(offset: np.ndarray | None, median: float | None, rotation: float | None,

@@ -45,7 +45,9 @@ class StructureJudgement:
     the model face, towards the sensor) and ``p95_mm`` (of the distances' magnitudes) of the returns on its faces,
     ``offset_m`` (x, y, z world, m: zero along what its faces do not pin; None when no face pins any) and
     ``rotation_deg`` (its faces' tilt against the model's; None when no face is large enough), the ``frames`` that
-    saw it, and ``reason``: why this status."""
+    saw it, ``reason``: why this status, and ``built_share`` (0-1: the share of its face in clear view not seen
+    through; 0 when not built, 1 when as planned or deviating by its offset or tilt; None when not observed), which
+    progress weighs the element's quantity by."""
 
     global_id: str
     ifc_class: str
@@ -57,6 +59,7 @@ class StructureJudgement:
     rotation_deg: float | None = None
     frames: list[int] = field(default_factory=list)
     reason: str = ""
+    built_share: float | None = None
 
     def to_dict(self) -> dict:
         """The judgement as structure.json holds it.
@@ -67,7 +70,8 @@ class StructureJudgement:
         return {"global_id": self.global_id, "ifc_class": self.ifc_class, "status": self.status,
                 "coverage": self.coverage, "median_mm": self.median_mm, "p95_mm": self.p95_mm,
                 "offset_m": None if self.offset_m is None else list(self.offset_m),
-                "rotation_deg": self.rotation_deg, "frames": list(self.frames), "reason": self.reason}
+                "rotation_deg": self.rotation_deg, "frames": list(self.frames), "reason": self.reason,
+                "built_share": self.built_share}
 
     @classmethod
     def from_dict(cls, data: dict) -> StructureJudgement:
@@ -80,13 +84,14 @@ class StructureJudgement:
             The judgement.
 
         Raises:
-            StructureError: A missing field or an unknown status.
+            StructureError: A missing field or an unknown status (``built_share`` may be absent: None).
         """
         try:
             judgement = cls(data["global_id"], data["ifc_class"], data["status"], float(data["coverage"]),
                             data["median_mm"], data["p95_mm"],
                             None if data["offset_m"] is None else tuple(float(v) for v in data["offset_m"]),
-                            data["rotation_deg"], [int(f) for f in data["frames"]], data["reason"])
+                            data["rotation_deg"], [int(f) for f in data["frames"]], data["reason"],
+                            None if data.get("built_share") is None else float(data["built_share"]))
         except (KeyError, TypeError, ValueError) as error:
             raise StructureError(f"a structure judgement needs every field of StructureJudgement: {error}") from None
         if judgement.status not in STRUCTURE_STATUSES:

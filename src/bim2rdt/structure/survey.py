@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from bim2rdt.bim import BimModel
-from bim2rdt.localization import sphere_directions
+from bim2rdt.localization import GRAZING_COS, sphere_directions
 from bim2rdt.structure.config import StructureConfig, StructureTolerance
 from bim2rdt.structure.refit import UP, Pairs, consensus, pin_weight, refit
 from bim2rdt.structure.records import StructureView
@@ -83,32 +83,73 @@ class StructureSurvey:
         if len(ranges) == 0:
             return
         first = self.scene.cast(centre, directions)
-        _, through_first, first_keys = self._classify(first, ranges, centre, directions)
+        on_first, through_first, first_keys = self._classify(first, ranges, centre, directions)
         self._tally(view.index, first, np.zeros(len(ranges), bool), through_first, first_keys)
         cast = self._beyond(first, through_first, centre, directions)
         on, through, keys = self._classify(cast, ranges, centre, directions)
-        self._tally(view.index, cast, on, through, keys)
-        self._measure_all(cast, on, ranges, centre, directions)
+        ambiguous = self._ambiguous(first, on_first, through_first, ranges, centre, directions)
+        self._tally(view.index, cast, on, through, keys, decisive=~ambiguous)
+        seen_through = self._seen_through(first, on_first & ~ambiguous, through_first)
+        self._measure_all(cast, on, ranges, centre, directions, seen_through)
 
-    def _tally(self, index: int, cast: Cast, on: np.ndarray, through: np.ndarray, keys: np.ndarray) -> None:
-        """Each judged element's cells covered (``on``), seen through, in clear view (either), and the frame."""
+    def _tally(self, index: int, cast: Cast, on: np.ndarray, through: np.ndarray, keys: np.ndarray,
+               decisive: np.ndarray | None = None) -> None:
+        """Each judged element's cells covered (``on``), seen through, in clear view (either, where ``decisive``:
+        a return on a face that lies on the surface behind it too says nothing of whether the face is built), and
+        the frame."""
+        decisive = np.ones(len(on), bool) if decisive is None else decisive
         for element in np.unique(cast.element[on | through]):
             if not self.scene.judged[element]:
                 continue
             seen, mine = self._of(element), cast.element == element
             seen.covered.update(keys[mine & on].tolist())
             seen.through.update(keys[mine & through].tolist())
-            seen.clear.update(keys[mine & (on | through)].tolist())
+            seen.clear.update(keys[mine & (on | through) & decisive].tolist())
             seen.frames.add(index)
 
+    def _ambiguous(self, first: Cast, on_first: np.ndarray, through_first: np.ndarray, ranges: np.ndarray,
+                   centre: np.ndarray, directions: np.ndarray) -> np.ndarray:
+        """(K,) the returns on the first face of an element the view sees through somewhere whose ray meets another
+        element's face, or leaves the element through a face other than its back face, before ``on_band`` past the
+        return: where the element ends at a wall or the floor, a return there lies as much on the surface behind
+        it, so it says neither that the element is built nor that it is not (a thin door leaf's back face, within
+        the band, leaves its returns decisive)."""
+        ambiguous = np.zeros(len(ranges), bool)
+        suspects = np.unique(first.element[through_first])
+        rows = on_first & np.isin(first.element, suspects[suspects >= 0])
+        if not rows.any():
+            return ambiguous
+        index = np.flatnonzero(rows)
+        start = first.t[index] + 1e-3
+        reach = ranges[index] + self.config.on_band / np.maximum(first.cos[index], GRAZING_COS)
+        again = self.scene.cast_each(centre + directions[index] * start[:, None], directions[index])
+        back = (again.element == first.element[index]) & (np.abs(np.einsum(
+            "ni,ni->n", again.normal, first.normal[index])) >= 0.9)  # its own back face: a thin leaf's, not an end
+        ambiguous[index] = (again.element >= 0) & (again.t + start <= reach) & ~back
+        return ambiguous
+
+    def _seen_through(self, first: Cast, decisive_on: np.ndarray, through_first: np.ndarray) -> set[int]:
+        """The elements this view sees through over more than ``partly_through`` of their decisive returns (on
+        them, not also on the surface behind, or through them), with ``min_points`` through: at best partly built
+        here, so they must not fix the pose the others are measured from."""
+        out = set()
+        for element in np.unique(first.element[through_first]):
+            through = int(np.sum(through_first & (first.element == element)))
+            on = int(np.sum(decisive_on & (first.element == element)))
+            if through >= self.config.min_points and through > self.config.partly_through * (through + on):
+                out.add(int(element))
+        return out
+
     def _measure_all(self, cast: Cast, on: np.ndarray, ranges: np.ndarray, centre: np.ndarray,
-                     directions: np.ndarray) -> None:
-        """The returns on faces as pairs, the consensus of the elements, each judged element measured."""
+                     directions: np.ndarray, seen_through: set[int] = frozenset()) -> None:
+        """The returns on faces as pairs, the consensus of the elements (those ``seen_through`` left out), each
+        judged element measured."""
         scene, cfg = self.scene, self.config
         points = centre + directions[on] * ranges[on, None]
         element = cast.element[on]
-        pairs = Pairs.of(points, centre + directions[on] * cast.t[on, None], cast.normal[on], element,
-                         scene.in_map[element], centre)
+        fixes = scene.in_map[element] & ~np.isin(element, list(seen_through))
+        pairs = Pairs.of(points, centre + directions[on] * cast.t[on, None], cast.normal[on], element, fixes,
+                         centre)
         tolerance = {int(i): tolerance_of(scene.classes[i], cfg).translation for i in np.unique(element)}
         agreed = consensus(pairs, tolerance, cfg.huber, cfg.min_face_points, cfg.min_pin_points)
         for index in np.unique(element):

@@ -10,7 +10,9 @@
 
 The products' states are a plain mapping ``{GlobalId: status}``: the structure's judgements ("as planned",
 "deviating", "not built", "not observed") and the twin's object verdicts, where "as planned" and "deviating" are
-built, "missing" is not built and anything else is not observed. Summary tasks roll up their children: the union
+built, "missing" is not built and anything else is not observed. A partly built element's state is a
+:class:`PartlyBuilt` ("deviating", with the share of it built, from structure.json's ``built_share``): its quantity
+counts built by that share. Summary tasks roll up their children: the union
 of their products, and the children's planned percentages weighted by the children's quantities.
 """
 
@@ -28,6 +30,40 @@ PRODUCT_STATES = (AS_PLANNED, DEVIATING, NOT_BUILT, NOT_OBSERVED)
 """The states a product of a task is counted in (progress.json's ``products``)."""
 BUILT = frozenset({AS_PLANNED, DEVIATING})
 FULL = 100.0 - 1e-6
+
+
+class PartlyBuilt(str):
+    """A built state ("deviating" or "as planned") that carries ``built``, the share of the element built (0-1):
+    a wall built on a third of its face counts a third of its quantity. Compares, hashes and prints as its status.
+
+    Args:
+        status: The state, one of :data:`BUILT`.
+        built: The share built, 0-1.
+    """
+
+    built: float
+
+    def __new__(cls, status: str, built: float) -> PartlyBuilt:
+        if status not in BUILT or not 0.0 <= built <= 1.0:
+            raise ValueError(f"a partly built state is 'as planned' or 'deviating' with a share 0-1, got {status!r}, "
+                             f"{built!r}")
+        state = super().__new__(cls, status)
+        state.built = float(built)
+        return state
+
+
+def built_share(state: str | None) -> float:
+    """How much of a product a state counts built: 0 unless built, a :class:`PartlyBuilt`'s share, else 1.
+
+    Args:
+        state: A product state (see :func:`product_state`), or None.
+
+    Returns:
+        The share, 0-1.
+    """
+    if state not in BUILT:
+        return 0.0
+    return state.built if isinstance(state, PartlyBuilt) else 1.0
 
 
 class TaskStatus(str, Enum):
@@ -203,8 +239,8 @@ def _all_products(schedule: WorkSchedule, tasks: Iterable[ScheduledTask]) -> lis
 
 
 def _quantities(products: list[str], states: Mapping[str, str], quantities: Quantities) -> tuple[float, float, float]:
-    """(built, total, not observed) quantity of ``products``."""
-    built = quantities.total(p for p in products if states.get(p) in BUILT)
+    """(built, total, not observed) quantity of ``products`` (a partly built one's by its share)."""
+    built = float(sum(quantities.values.get(p, 0.0) * built_share(states.get(p)) for p in products))
     unobserved = quantities.total(p for p in products if states.get(p, NOT_OBSERVED) == NOT_OBSERVED)
     return built, quantities.total(products), unobserved
 

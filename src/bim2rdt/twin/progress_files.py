@@ -22,7 +22,7 @@ from bim2rdt.bim import WorkSchedule, product_quantities, read_work_schedules
 from bim2rdt.bim import read_source
 from bim2rdt.perception import permanent_elements
 from bim2rdt.twin.errors import TwinError
-from bim2rdt.twin.progress import ScheduleProgress, merge_statuses
+from bim2rdt.twin.progress import BUILT, PartlyBuilt, ScheduleProgress, merge_statuses
 from bim2rdt.twin.progress_groups import GroupProgress, group_progress
 from bim2rdt.twin.progress_history import (CurvePoint, curve_dates, observation_times, progress_over_time,
                                            twin_statuses, twin_statuses_at)
@@ -53,7 +53,8 @@ class ProgressFiles:
 
 
 def read_structure_statuses(path: str | Path) -> dict[str, str]:
-    """``structure.json``'s judgements as {GlobalId: status}; empty when the file does not exist.
+    """``structure.json``'s judgements as {GlobalId: status}; empty when the file does not exist. A built element
+    with a ``built_share`` under 1 (partly built) is a :class:`~bim2rdt.twin.progress.PartlyBuilt` status.
 
     Args:
         path: The structure.json file (a list of objects with ``global_id`` and ``status``).
@@ -69,9 +70,17 @@ def read_structure_statuses(path: str | Path) -> dict[str, str]:
         return {}
     try:
         rows = json.loads(path.read_text(encoding="utf-8"))
-        return {str(row["global_id"]): str(row["status"]) for row in rows}
+        return {str(row["global_id"]): _state(row) for row in rows}
     except (ValueError, TypeError, KeyError) as error:
         raise TwinError(f"{path.name}: not a list of structure judgements ({error})") from None
+
+
+def _state(row: dict) -> str:
+    """One judgement's status; a :class:`PartlyBuilt` where it is built on only part of its face."""
+    status, share = str(row["status"]), row.get("built_share")
+    if share is not None and status in BUILT and float(share) < 1.0:
+        return PartlyBuilt(status, float(share))
+    return status
 
 
 def twin_progress(twin: DigitalTwin, schedule: WorkSchedule, *, ifc: ifcopenshell.file | None = None,

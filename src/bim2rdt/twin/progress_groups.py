@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 from bim2rdt.bim import BimModel, Quantities
 from bim2rdt.perception import permanent_elements
-from bim2rdt.twin.progress import BUILT, NOT_OBSERVED, PRODUCT_STATES, product_state
+from bim2rdt.twin.progress import NOT_OBSERVED, PRODUCT_STATES, built_share, product_state
 
 
 @dataclass(frozen=True)
@@ -54,6 +54,6 @@ def _group(by: str, name: str, ids: list[str], statuses: Mapping[str, str], quan
     states = [product_state(statuses.get(global_id)) for global_id in ids]
     counts = {state: states.count(state) for state in PRODUCT_STATES}
     total = quantities.total(ids)
-    built = quantities.total(g for g, state in zip(ids, states) if state in BUILT)
+    built = float(sum(quantities.values.get(g, 0.0) * built_share(state) for g, state in zip(ids, states)))
     seen = len(ids) - counts[NOT_OBSERVED]
     return GroupProgress(by, name, 100.0 * built / total if seen and total > 0 else None, counts)
