@@ -538,8 +538,7 @@ def _compiled_step(T: np.ndarray, problem: Problem, model: matching.ModelIndex, 
     (:mod:`bim2rdt.registration.kernels`: the same arithmetic in one pass, ~40 numpy calls fewer) -> (dR, dt,
     scores), or None when a restart has fewer than ``min_pairs`` pairs (RelaxIfFew: the numpy path then runs).
     Only without the normal gate (off by default)."""
-    T_body_world = invert_poses(T)
-    scene_body = _transform(T_body_world, problem.scene_pts_world[::stride])
+    scene_body = kernels.body_points(T, problem.scene_pts_world, stride)
     k, n, _ = scene_body.shape
     distance, index = model.tree.query(scene_body.reshape(-1, 3), distance_upper_bound=_pair_distance(model, cfg, delta))
     distance, index = distance.reshape(k, n), np.minimum(index, model.tree.n - 1).reshape(k, n)

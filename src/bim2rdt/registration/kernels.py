@@ -238,3 +238,19 @@ def _rodrigues(w0, w1, w2, R):  # pragma: no cover - compiled
         for j in range(3):
             KK = K[i, 0] * K[0, j] + K[i, 1] * K[1, j] + K[i, 2] * K[2, j]
             R[i, j] = (1.0 if i == j else 0.0) + a * K[i, j] + c * KK
+
+
+@njit(cache=True, nogil=True)
+def body_points(T, scene, stride):  # pragma: no cover - compiled
+    """Every ``stride``-th scene point (N, 3) in each pose's body frame: (k, n, 3) R^T (s - t) for poses T
+    (k, 4, 4) model-to-world."""
+    k = len(T)
+    n = (len(scene) + stride - 1) // stride
+    out = np.empty((k, n, 3))
+    for r in range(k):
+        for i in range(n):
+            s = i * stride
+            d0, d1, d2 = scene[s, 0] - T[r, 0, 3], scene[s, 1] - T[r, 1, 3], scene[s, 2] - T[r, 2, 3]
+            for c in range(3):
+                out[r, i, c] = T[r, 0, c] * d0 + T[r, 1, c] * d1 + T[r, 2, c] * d2
+    return out
