@@ -39,23 +39,19 @@ def pair_residuals(scene_body, distance, index, points, normals, spacing):  # pr
 
 
 @njit(cache=True, nogil=True)
-def _trim_cutoff(residual_row, trim_fraction, min_pairs, keep_within):  # pragma: no cover - compiled
-    """The largest residual a pair of one restart may have after trimming (:func:`matching.trim_pairs`)."""
+def _trim_cutoff(residual_row, trim_fraction, min_pairs, keep_within, buffer):  # pragma: no cover - compiled
+    """The largest residual a pair of one restart may have after trimming (:func:`matching.trim_pairs`);
+    ``buffer`` (N,) is scratch space."""
     count = 0
     for value in residual_row:
         if np.isfinite(value):
+            buffer[count] = value
             count += 1
     if trim_fraction <= 0.0 or count == 0:
         return np.inf
-    kept = np.empty(count)
-    m = 0
-    for value in residual_row:
-        if np.isfinite(value):
-            kept[m] = value
-            m += 1
     keep = max(math.ceil((1.0 - trim_fraction) * count), min(min_pairs, count))
-    kept.sort()
-    return max(kept[max(keep - 1, 0)], keep_within)
+    kept = buffer[:count]
+    return max(np.partition(kept, keep - 1)[keep - 1], keep_within)
 
 
 @njit(cache=True, nogil=True)
@@ -74,40 +70,45 @@ def normal_systems(scene_body, residual, index, points, normals, trim_fraction, 
     A = np.zeros((k, 6, 6))
     b = np.zeros((k, 6))
     J = np.empty(6)
+    A_r, b_r = np.empty((6, 6)), np.empty(6)  # one restart's sums, local (no aliasing with the outputs)
+    weights, buffer = np.empty(n), np.empty(n)
     for r in range(k):
-        cutoff = _trim_cutoff(residual[r], trim_fraction, min_pairs, keep_within)
+        cutoff = _trim_cutoff(residual[r], trim_fraction, min_pairs, keep_within, buffer)
         w_sum = 0.0
-        centroid = np.zeros(3)
-        weights = np.zeros(n)
+        c0 = c1 = c2 = 0.0
         for i in range(n):
             value = residual[r, i]
+            w = 0.0
             if np.isfinite(value) and value <= cutoff:
                 w = 1.0 if value <= delta else delta / max(value, 1e-12)
-                weights[i] = w
                 w_sum += w
                 j = index[r, i]
-                for c in range(3):
-                    centroid[c] += w * points[j, c]
-        for c in range(3):
-            centroid[c] /= max(w_sum, 1e-300)
+                c0 += w * points[j, 0]
+                c1 += w * points[j, 1]
+                c2 += w * points[j, 2]
+            weights[i] = w
+        total = max(w_sum, 1e-300)
+        c0, c1, c2 = c0 / total, c1 / total, c2 / total
+        A_r[:] = 0.0
+        b_r[:] = 0.0
         spread = 0.0
         for i in range(n):
             w = weights[i]
             if w == 0.0:
                 continue
             j = index[r, i]
-            s0, s1, s2 = scene_body[r, i, 0], scene_body[r, i, 1], scene_body[r, i, 2]
-            q0, q1, q2 = points[j, 0] - centroid[0], points[j, 1] - centroid[1], points[j, 2] - centroid[2]
+            q0, q1, q2 = points[j, 0] - c0, points[j, 1] - c1, points[j, 2] - c2
             spread += w * (q0 * q0 + q1 * q1 + q2 * q2)
-            _accumulate(A[r], b[r], J, w, s0, s1, s2, points[j, 0], points[j, 1], points[j, 2],
-                        normals[j, 0], normals[j, 1], normals[j, 2])
+            _accumulate(A_r, b_r, J, w, scene_body[r, i, 0], scene_body[r, i, 1], scene_body[r, i, 2],
+                        points[j, 0], points[j, 1], points[j, 2], normals[j, 0], normals[j, 1], normals[j, 2])
         if contact_weight > 0.0:
-            _accumulate(A[r], b[r], J, contact_weight * w_sum, contact_src[r, 0], contact_src[r, 1],
+            _accumulate(A_r, b_r, J, contact_weight * w_sum, contact_src[r, 0], contact_src[r, 1],
                         contact_src[r, 2], contact_dst[r, 0], contact_dst[r, 1], contact_dst[r, 2],
                         up_body[r, 0], up_body[r, 1], up_body[r, 2])
         for a in range(6):
-            for c in range(a):
-                A[r, a, c] = A[r, c, a]
+            b[r, a] = b_r[a]
+            for c in range(a, 6):
+                A[r, a, c] = A[r, c, a] = A_r[a, c]
         _add_gravity(A[r], b[r], bias_gamma[r] * spread, up_body[r], g_dst)
     return A, b
 
