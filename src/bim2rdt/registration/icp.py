@@ -12,7 +12,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from bim2rdt.frames import UP_BODY
-from bim2rdt.registration import kernels, matching
+from bim2rdt.registration import matching
 from bim2rdt.registration.config import IcpConfig
 from bim2rdt.registration.fit import report_fit
 from bim2rdt.registration.so3 import axis_angle, invert_poses, rotation_angle, tilt_angle
@@ -538,6 +538,7 @@ def _compiled_step(T: np.ndarray, problem: Problem, model: matching.ModelIndex, 
     (:mod:`bim2rdt.registration.kernels`: the same arithmetic in one pass, ~40 numpy calls fewer) -> (dR, dt,
     scores), or None when a restart has fewer than ``min_pairs`` pairs (RelaxIfFew: the numpy path then runs).
     Only without the normal gate (off by default)."""
+    from bim2rdt.registration import kernels  # numba's import (~0.5 s) waits for the first registration
     scene_body = kernels.body_points(T, problem.scene_pts_world, stride)
     k, n, _ = scene_body.shape
     distance, index = model.tree.query(scene_body.reshape(-1, 3), distance_upper_bound=_pair_distance(model, cfg, delta))
