@@ -541,10 +541,12 @@ def _compiled_step(T: np.ndarray, problem: Problem, model: matching.ModelIndex, 
     from bim2rdt.registration import kernels  # numba's import (~0.5 s) waits for the first registration
     scene_body = kernels.body_points(T, problem.scene_pts_world, stride)
     k, n, _ = scene_body.shape
-    distance, index = model.tree.query(scene_body.reshape(-1, 3), distance_upper_bound=_pair_distance(model, cfg, delta))
+    distance, index = model.tree.query(scene_body.reshape(-1, 3),
+                                       distance_upper_bound=_pair_distance(model, cfg, delta))
     distance, index = distance.reshape(k, n), np.minimum(index, model.tree.n - 1).reshape(k, n)
-    residual = kernels.pair_residuals(scene_body, distance, index, model.points, model.normals, model.spacing)
-    if np.any(np.count_nonzero(np.isfinite(distance), axis=1) < cfg.min_pairs):
+    residual, pairs, scores = kernels.pair_residuals(scene_body, distance, index, model.points, model.normals,
+                                                     model.spacing, cfg.score_distance)
+    if pairs.min() < cfg.min_pairs:
         return None
     up_body = np.einsum("kji,j->ki", T[:, :3, :3], problem.up_world)
     if problem.support_height is not None:
@@ -558,7 +560,7 @@ def _compiled_step(T: np.ndarray, problem: Problem, model: matching.ModelIndex, 
                                   np.broadcast_to(np.asarray(bias * cfg.gravity_gamma0, dtype=float), (k,)).copy(),
                                   up_body, UP_BODY, on_slab, contact, float(weight))
     dR, dt = solve_system(A, b, up_body, True) if yaw_only else kernels.solve_steps(A, b, DEGENERATE_RATIO)
-    return dR, dt, np.mean(np.minimum(residual, cfg.score_distance) ** 2, axis=1)
+    return dR, dt, scores
 
 
 def _contact(T: np.ndarray, up_body: np.ndarray, problem: Problem, hull: np.ndarray):

@@ -19,23 +19,32 @@ from numba import njit
 
 
 @njit(cache=True, nogil=True)
-def pair_residuals(scene_body, distance, index, points, normals, spacing):  # pragma: no cover - compiled
+def pair_residuals(scene_body, distance, index, points, normals, spacing, truncation):  # pragma: no cover
     """Residuals (k, N) m of the point-to-plane step, as :func:`bim2rdt.registration.matching.plane_residual`:
-    max(|n . (s - p)|, distance - spacing) of each scene point to its nearest sample, inf where unmatched."""
+    max(|n . (s - p)|, distance - spacing) of each scene point to its nearest sample, inf where unmatched; with
+    each restart's pairs (k,) and truncated score (k,) m^2 (:func:`matching.truncated_score`)."""
     k, n = distance.shape
     residual = np.empty((k, n))
+    pairs = np.zeros(k, np.int64)
+    scores = np.zeros(k)
     for r in range(k):
+        total = 0.0
         for i in range(n):
             d = distance[r, i]
             if not np.isfinite(d):
                 residual[r, i] = np.inf
+                total += truncation * truncation
                 continue
             j = index[r, i]
             along = abs(normals[j, 0] * (scene_body[r, i, 0] - points[j, 0])
                         + normals[j, 1] * (scene_body[r, i, 1] - points[j, 1])
                         + normals[j, 2] * (scene_body[r, i, 2] - points[j, 2]))
-            residual[r, i] = max(along, d - spacing)
-    return residual
+            value = max(along, d - spacing)
+            residual[r, i] = value
+            pairs[r] += 1
+            total += min(value, truncation) ** 2
+        scores[r] = total / n
+    return residual, pairs, scores
 
 
 @njit(cache=True, nogil=True)
