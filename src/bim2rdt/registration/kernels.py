@@ -1,13 +1,15 @@
-"""One ICP step's arithmetic after the k-d tree query, compiled (numba): the pairs' residuals, trimming, Huber
-weights, the gravity weight and the point-to-plane normal equations, for every restart in one call.
+"""One ICP step's arithmetic around the k-d tree query, compiled (numba): the scene in each restart's body frame,
+the pairs' residuals and score, trimming, Huber weights, the gravity weight, the point-to-plane normal equations
+and their remapped solve, for every restart in one call each.
 
 The numpy path (:func:`bim2rdt.registration.icp._weighted_pairs` and :func:`bim2rdt.registration.solvers.
 solve_point_to_plane`) costs ~40 numpy calls an iteration on arrays of a few hundred to a few thousand points,
-so its time was mostly per-call overhead (decision 0040). This kernel does the same arithmetic in one pass per
-restart and returns the 6x6 systems; the solve stays :func:`bim2rdt.registration.solvers.solve_system`. Sums
-run in another order than numpy's, so results agree with the numpy path to round-off (~1e-15 relative), not
-bit for bit (registration products are not bit-exact anyway: decision 0021). Compiled once per machine and
-cached next to this file (``cache=True``); the first import on a fresh checkout compiles for a few seconds.
+so its time is mostly per-call overhead (decision 0040). These kernels do the same arithmetic in a pass per
+restart. Sums run in another order than numpy's, so results agree with the numpy path to round-off (~1e-15
+relative), not bit for bit (registration products are not bit-exact anyway: decision 0021); the numpy path
+still runs where a restart has too few pairs (RelaxIfFew), with the normal gate, for point-to-point, and is
+what tests/registration/test_kernels.py compares them with. Compiled once per machine and cached next to this
+file (``cache=True``): the first registration on a fresh checkout compiles them, ~10-30 s of one core.
 """
 
 from __future__ import annotations
