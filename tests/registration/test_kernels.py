@@ -70,3 +70,19 @@ def test_a_registration_is_the_same_with_the_numpy_step(crate_model, cluttered_p
     assert np.allclose(compiled.pose, numpy_path.pose, atol=1e-9)
     assert compiled.total_iterations == numpy_path.total_iterations
     assert compiled.restart == numpy_path.restart
+
+
+def test_composed_steps_are_the_pose_times_the_inverse_step():
+    rng = np.random.default_rng(4)
+    from bim2rdt.registration.so3 import axis_angle, invert_poses, rotation_angle
+
+    T = np.tile(np.eye(4), (5, 1, 1))
+    T[:, :3, :3] = axis_angle(rng.normal(size=(5, 3)) / np.sqrt(3.0), rng.uniform(0.0, 3.0, 5))
+    T[:, :3, 3] = rng.normal(size=(5, 3))
+    dR = axis_angle(np.tile([0.0, 0.6, 0.8], (5, 1)), np.array([0.0, 1e-4, 0.02, 0.5, 3.0]))
+    dt = rng.normal(size=(5, 3)) * 0.01
+    step = np.tile(np.eye(4), (5, 1, 1))
+    step[:, :3, :3], step[:, :3, 3] = dR, dt
+    poses, turned, moved = kernels.compose_steps(T, dR, dt)
+    assert np.allclose(poses, T @ invert_poses(step), atol=1e-14)
+    assert np.allclose(turned, rotation_angle(dR), atol=1e-7) and np.allclose(moved, np.linalg.norm(dt, axis=1))

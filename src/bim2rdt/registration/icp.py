@@ -612,14 +612,12 @@ def _advance(restarts: _Restarts, active: np.ndarray, dR: np.ndarray, dt: np.nda
              cfg: IcpConfig, annealing: bool) -> None:
     """Apply the body-frame steps (T_new = T inv(step)), record the scores, and mark restarts done whose step
     was small or whose score settled (never while the Huber scale is still annealing)."""
-    inverse = np.zeros((len(active), 4, 4))  # inv([dR, dt]) = [dR^T, -dR^T dt], as invert_poses writes it
-    inverse[:, :3, :3] = np.swapaxes(dR, 1, 2)
-    inverse[:, :3, 3] = -np.einsum("...ij,...j->...i", np.swapaxes(dR, 1, 2), dt)
-    inverse[:, 3, 3] = 1.0
-    restarts.poses[active] = restarts.poses[active] @ inverse
+    from bim2rdt.registration import kernels  # numba's import waits for the first registration
+
+    restarts.poses[active], turned, moved = kernels.compose_steps(restarts.poses[active], dR, dt)
     restarts.iterations[active] += 1
     previous, restarts.scores[active] = restarts.scores[active], scores
-    small = (rotation_angle(dR) < cfg.convergence_rot_rad) & (np.linalg.norm(dt, axis=1) < cfg.convergence_trans)
+    small = (turned < cfg.convergence_rot_rad) & (moved < cfg.convergence_trans)
     stalled = np.abs(previous - scores) <= cfg.convergence_score_rel * scores
     if not annealing:
         restarts.done[active[small | stalled]] = True

@@ -266,3 +266,26 @@ def body_points(T, scene, stride):  # pragma: no cover - compiled
             for c in range(3):
                 out[r, i, c] = T[r, 0, c] * d0 + T[r, 1, c] * d1 + T[r, 2, c] * d2
     return out
+
+
+@njit(cache=True, nogil=True)
+def compose_steps(T, dR, dt):  # pragma: no cover - compiled
+    """The poses T (k, 4, 4) after their body-frame steps (dR (k, 3, 3), dt (k, 3)): T inv([dR, dt]), with
+    each step's rotation angle (k,) rad (:func:`bim2rdt.registration.so3.rotation_angle`) and length (k,) m."""
+    k = len(T)
+    out = np.zeros((k, 4, 4))
+    turned = np.empty(k)
+    moved = np.empty(k)
+    for r in range(k):
+        back = np.empty(3)  # -dR^T dt
+        for i in range(3):
+            back[i] = -(dR[r, 0, i] * dt[r, 0] + dR[r, 1, i] * dt[r, 1] + dR[r, 2, i] * dt[r, 2])
+        for i in range(3):
+            for j in range(3):  # (T_R dR^T)_ij
+                out[r, i, j] = T[r, i, 0] * dR[r, j, 0] + T[r, i, 1] * dR[r, j, 1] + T[r, i, 2] * dR[r, j, 2]
+            out[r, i, 3] = T[r, i, 0] * back[0] + T[r, i, 1] * back[1] + T[r, i, 2] * back[2] + T[r, i, 3]
+        out[r, 3, 3] = 1.0
+        cos = (dR[r, 0, 0] + dR[r, 1, 1] + dR[r, 2, 2] - 1.0) / 2.0
+        turned[r] = math.acos(min(max(cos, -1.0), 1.0))
+        moved[r] = math.sqrt(dt[r, 0] ** 2 + dt[r, 1] ** 2 + dt[r, 2] ** 2)
+    return out, turned, moved
