@@ -83,6 +83,13 @@ def solve_point_to_plane(src, dst, normals, w, g_src, g_dst, lam, yaw_only=False
     Jg = -skew(g_src)  # d(dR g_src)/d omega
     A[:, :3, :3] += lam[:, None, None] * np.einsum("kji,kjl->kil", Jg, Jg)
     b[:, :3] -= lam[:, None] * np.einsum("kji,kj->ki", Jg, g_src - g_dst)
+    return solve_system(A, b, g_src, yaw_only)
+
+
+def solve_system(A: np.ndarray, b: np.ndarray, g_src: np.ndarray, yaw_only: bool = False):
+    """The point-to-plane step from its normal equations A (k, 6, 6), b (k, 6) (rotation, then translation;
+    gravity term included), by solution remapping (see :func:`solve_point_to_plane`); with ``yaw_only`` only the
+    rotation about ``g_src`` (k, 3) and the translations move. Returns dR = exp(omega) (k, 3, 3), dt (k, 3)."""
     if not yaw_only:  # the full basis is the identity: solve in place (the same numbers, a third of the work)
         x = _remapped_solve(A, b, _unit_scales(_FULL_ROTATIONAL, A))
         return exp_so3(x[:, :3]), x[:, 3:]

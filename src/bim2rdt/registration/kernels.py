@@ -1,0 +1,291 @@
+"""One ICP step's arithmetic around the k-d tree query, compiled (numba): the scene in each restart's body frame,
+the pairs' residuals and score, trimming, Huber weights, the gravity weight, the point-to-plane normal equations
+and their remapped solve, for every restart in one call each.
+
+The numpy path (:func:`bim2rdt.registration.icp._weighted_pairs` and :func:`bim2rdt.registration.solvers.
+solve_point_to_plane`) costs ~40 numpy calls an iteration on arrays of a few hundred to a few thousand points,
+so its time is mostly per-call overhead (decision 0040). These kernels do the same arithmetic in a pass per
+restart. Sums run in another order than numpy's, so results agree with the numpy path to round-off (~1e-15
+relative), not bit for bit (registration products are not bit-exact anyway: decision 0021); the numpy path
+still runs where a restart has too few pairs (RelaxIfFew), with the normal gate, for point-to-point, and is
+what tests/registration/test_kernels.py compares them with. Compiled once per machine and cached next to this
+file (``cache=True``): the first registration on a fresh checkout compiles them, ~10-30 s of one core.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True, nogil=True)
+def pair_residuals(scene_body, distance, index, points, normals, spacing, truncation):  # pragma: no cover
+    """Residuals (k, N) m of the point-to-plane step, as :func:`bim2rdt.registration.matching.plane_residual`:
+    max(|n . (s - p)|, distance - spacing) of each scene point to its nearest sample, inf where unmatched; with
+    each restart's pairs (k,) and truncated score (k,) m^2 (:func:`matching.truncated_score`)."""
+    k, n = distance.shape
+    residual = np.empty((k, n))
+    pairs = np.zeros(k, np.int64)
+    scores = np.zeros(k)
+    for r in range(k):
+        total = 0.0
+        for i in range(n):
+            d = distance[r, i]
+            if not np.isfinite(d):
+                residual[r, i] = np.inf
+                total += truncation * truncation
+                continue
+            j = index[r, i]
+            along = abs(normals[j, 0] * (scene_body[r, i, 0] - points[j, 0])
+                        + normals[j, 1] * (scene_body[r, i, 1] - points[j, 1])
+                        + normals[j, 2] * (scene_body[r, i, 2] - points[j, 2]))
+            value = max(along, d - spacing)
+            residual[r, i] = value
+            pairs[r] += 1
+            total += min(value, truncation) ** 2
+        scores[r] = total / n
+    return residual, pairs, scores
+
+
+@njit(cache=True, nogil=True)
+def _trim_cutoff(residual_row, trim_fraction, min_pairs, keep_within, buffer):  # pragma: no cover - compiled
+    """The largest residual a pair of one restart may have after trimming (:func:`matching.trim_pairs`);
+    ``buffer`` (N,) is scratch space."""
+    count = 0
+    for value in residual_row:
+        if np.isfinite(value):
+            buffer[count] = value
+            count += 1
+    if trim_fraction <= 0.0 or count == 0:
+        return np.inf
+    keep = max(math.ceil((1.0 - trim_fraction) * count), min(min_pairs, count))
+    kept = buffer[:count]
+    return max(np.partition(kept, keep - 1)[keep - 1], keep_within)
+
+
+@njit(cache=True, nogil=True)
+def normal_systems(scene_body, residual, index, points, normals, trim_fraction, min_pairs, keep_within, delta,
+                   bias_gamma, up_body, g_dst, contact_src, contact_dst, contact_weight):  # pragma: no cover
+    """The point-to-plane normal equations (A (k, 6, 6), b (k, 6)) of every restart, with the gravity term.
+
+    Per restart: pairs with a finite residual (k, N) are trimmed (:func:`_trim_cutoff`), Huber-weighted at scale
+    ``delta`` (m); lambda = bias_gamma (k,) x sum w |p - p_w|^2 (:func:`solvers.gravity_weight`); when
+    ``contact_weight`` > 0 the resting-contact pair (``contact_src`` (k, 3) on the slab, ``contact_dst`` (k, 3)
+    the lowest model point, normal ``up_body``) is added with weight ``contact_weight`` x the data's total
+    weight. Then A = sum w J J^T and b = -sum w J r with r = n . (s - p), J = (s x n, n), plus the gravity
+    residual sqrt(lambda)(R g_src - g_dst), g_src = ``up_body`` (k, 3), as in
+    :func:`solvers.solve_point_to_plane`."""
+    k, n = residual.shape
+    A = np.zeros((k, 6, 6))
+    b = np.zeros((k, 6))
+    J = np.empty(6)
+    A_r, b_r = np.empty((6, 6)), np.empty(6)  # one restart's sums, local (no aliasing with the outputs)
+    weights, buffer = np.empty(n), np.empty(n)
+    for r in range(k):
+        cutoff = _trim_cutoff(residual[r], trim_fraction, min_pairs, keep_within, buffer)
+        w_sum = 0.0
+        c0 = c1 = c2 = 0.0
+        for i in range(n):
+            value = residual[r, i]
+            w = 0.0
+            if np.isfinite(value) and value <= cutoff:
+                w = 1.0 if value <= delta else delta / max(value, 1e-12)
+                w_sum += w
+                j = index[r, i]
+                c0 += w * points[j, 0]
+                c1 += w * points[j, 1]
+                c2 += w * points[j, 2]
+            weights[i] = w
+        total = max(w_sum, 1e-300)
+        c0, c1, c2 = c0 / total, c1 / total, c2 / total
+        A_r[:] = 0.0
+        b_r[:] = 0.0
+        spread = 0.0
+        for i in range(n):
+            w = weights[i]
+            if w == 0.0:
+                continue
+            j = index[r, i]
+            q0, q1, q2 = points[j, 0] - c0, points[j, 1] - c1, points[j, 2] - c2
+            spread += w * (q0 * q0 + q1 * q1 + q2 * q2)
+            _accumulate(A_r, b_r, J, w, scene_body[r, i, 0], scene_body[r, i, 1], scene_body[r, i, 2],
+                        points[j, 0], points[j, 1], points[j, 2], normals[j, 0], normals[j, 1], normals[j, 2])
+        if contact_weight > 0.0:
+            _accumulate(A_r, b_r, J, contact_weight * w_sum, contact_src[r, 0], contact_src[r, 1],
+                        contact_src[r, 2], contact_dst[r, 0], contact_dst[r, 1], contact_dst[r, 2],
+                        up_body[r, 0], up_body[r, 1], up_body[r, 2])
+        for a in range(6):
+            b[r, a] = b_r[a]
+            for c in range(a, 6):
+                A[r, a, c] = A[r, c, a] = A_r[a, c]
+        _add_gravity(A[r], b[r], bias_gamma[r] * spread, up_body[r], g_dst)
+    return A, b
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _accumulate(A, b, J, w, s0, s1, s2, p0, p1, p2, n0, n1, n2):  # pragma: no cover - compiled
+    """Add one weighted point-to-plane pair (scene s, sample p, normal n) to A's upper triangle (6, 6) and b (6,)."""
+    res = n0 * (s0 - p0) + n1 * (s1 - p1) + n2 * (s2 - p2)
+    J[0], J[1], J[2] = s1 * n2 - s2 * n1, s2 * n0 - s0 * n2, s0 * n1 - s1 * n0
+    J[3], J[4], J[5] = n0, n1, n2
+    for a in range(6):
+        wa = w * J[a]
+        b[a] -= wa * res
+        for c in range(a, 6):
+            A[a, c] += wa * J[c]
+
+
+@njit(cache=True, nogil=True)
+def _add_gravity(A, b, lam, g_src, g_dst):  # pragma: no cover - compiled
+    """A[:3, :3] += lam Jg^T Jg and b[:3] -= lam Jg^T (g_src - g_dst) with Jg = -[g_src]x."""
+    g0, g1, g2 = g_src[0], g_src[1], g_src[2]
+    Jg = np.array([[0.0, g2, -g1], [-g2, 0.0, g0], [g1, -g0, 0.0]])
+    e = np.array([g0 - g_dst[0], g1 - g_dst[1], g2 - g_dst[2]])
+    for a in range(3):
+        for c in range(3):
+            total = 0.0
+            for m in range(3):
+                total += Jg[m, a] * Jg[m, c]
+            A[a, c] += lam * total
+        total = 0.0
+        for m in range(3):
+            total += Jg[m, a] * e[m]
+        b[a] -= lam * total
+
+
+@njit(cache=True, nogil=True)
+def solve_steps(A, b, degenerate_ratio):  # pragma: no cover - compiled
+    """The full 6-DoF steps (dR (k, 3, 3), dt (k, 3)) of normal equations A (k, 6, 6), b (k, 6), as
+    :func:`bim2rdt.registration.solvers.solve_system` (not yaw_only): rotation scaled by the lever arm, a
+    direct (Cholesky) solve where A - tau I is positive definite (tau = ``degenerate_ratio`` x its trace),
+    else only along the eigen-directions with at least ``degenerate_ratio`` of the largest eigenvalue."""
+    k = len(A)
+    dR = np.empty((k, 3, 3))
+    dt = np.empty((k, 3))
+    scales = np.ones(6)
+    A_s = np.empty((6, 6))
+    L = np.empty((6, 6))
+    for r in range(k):
+        rot = A[r, 0, 0] + A[r, 1, 1] + A[r, 2, 2]
+        trans = A[r, 3, 3] + A[r, 4, 4] + A[r, 5, 5]
+        lever = math.sqrt(rot / max(trans, 1e-300))
+        for i in range(3):
+            scales[i] = 1.0 / max(lever, 1e-6)
+        trace = 0.0
+        for i in range(6):
+            for j in range(6):
+                A_s[i, j] = scales[i] * A[r, i, j] * scales[j]
+            trace += A_s[i, i]
+        tau = degenerate_ratio * trace
+        rhs = scales * b[r]
+        if tau > 0.0 and _cholesky(A_s, tau, L):
+            _cholesky(A_s, 0.0, L)
+            y = _cholesky_solve(L, rhs)
+        else:
+            values, vectors = np.linalg.eigh(A_s)
+            top = max(values[5], 1e-300)
+            y = np.zeros(6)
+            for m in range(6):
+                if values[m] > degenerate_ratio * top:
+                    along = 0.0
+                    for i in range(6):
+                        along += vectors[i, m] * rhs[i]
+                    for i in range(6):
+                        y[i] += vectors[i, m] * along / values[m]
+        x = scales * y
+        _rodrigues(x[0], x[1], x[2], dR[r])
+        dt[r, 0], dt[r, 1], dt[r, 2] = x[3], x[4], x[5]
+    return dR, dt
+
+
+@njit(cache=True, nogil=True)
+def _cholesky(A, shift, L):  # pragma: no cover - compiled
+    """Cholesky factor of A - shift I (6, 6) into L; False when it is not positive definite."""
+    n = len(A)
+    for i in range(n):
+        for j in range(i + 1):
+            total = A[i, j] - (shift if i == j else 0.0)
+            for m in range(j):
+                total -= L[i, m] * L[j, m]
+            if i == j:
+                if not total > 0.0:
+                    return False
+                L[i, i] = math.sqrt(total)
+            else:
+                L[i, j] = total / L[j, j]
+    return True
+
+
+@njit(cache=True, nogil=True)
+def _cholesky_solve(L, rhs):  # pragma: no cover - compiled
+    """x with L L^T x = rhs."""
+    n = len(rhs)
+    y = np.empty(n)
+    for i in range(n):
+        total = rhs[i]
+        for m in range(i):
+            total -= L[i, m] * y[m]
+        y[i] = total / L[i, i]
+    x = np.empty(n)
+    for i in range(n - 1, -1, -1):
+        total = y[i]
+        for m in range(i + 1, n):
+            total -= L[m, i] * x[m]
+        x[i] = total / L[i, i]
+    return x
+
+
+@njit(cache=True, nogil=True)
+def _rodrigues(w0, w1, w2, R):  # pragma: no cover - compiled
+    """R (3, 3) = exp([w]x), as :func:`bim2rdt.registration.so3.exp_so3`."""
+    theta = math.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
+    if theta < 1e-12:
+        a, c = 1.0, 0.5
+    else:
+        a, c = math.sin(theta) / theta, (1.0 - math.cos(theta)) / theta**2
+    K = np.array([[0.0, -w2, w1], [w2, 0.0, -w0], [-w1, w0, 0.0]])
+    for i in range(3):
+        for j in range(3):
+            KK = K[i, 0] * K[0, j] + K[i, 1] * K[1, j] + K[i, 2] * K[2, j]
+            R[i, j] = (1.0 if i == j else 0.0) + a * K[i, j] + c * KK
+
+
+@njit(cache=True, nogil=True)
+def body_points(T, scene, stride):  # pragma: no cover - compiled
+    """Every ``stride``-th scene point (N, 3) in each pose's body frame: (k, n, 3) R^T (s - t) for poses T
+    (k, 4, 4) model-to-world."""
+    k = len(T)
+    n = (len(scene) + stride - 1) // stride
+    out = np.empty((k, n, 3))
+    for r in range(k):
+        for i in range(n):
+            s = i * stride
+            d0, d1, d2 = scene[s, 0] - T[r, 0, 3], scene[s, 1] - T[r, 1, 3], scene[s, 2] - T[r, 2, 3]
+            for c in range(3):
+                out[r, i, c] = T[r, 0, c] * d0 + T[r, 1, c] * d1 + T[r, 2, c] * d2
+    return out
+
+
+@njit(cache=True, nogil=True)
+def compose_steps(T, dR, dt):  # pragma: no cover - compiled
+    """The poses T (k, 4, 4) after their body-frame steps (dR (k, 3, 3), dt (k, 3)): T inv([dR, dt]), with
+    each step's rotation angle (k,) rad (:func:`bim2rdt.registration.so3.rotation_angle`) and length (k,) m."""
+    k = len(T)
+    out = np.zeros((k, 4, 4))
+    turned = np.empty(k)
+    moved = np.empty(k)
+    for r in range(k):
+        back = np.empty(3)  # -dR^T dt
+        for i in range(3):
+            back[i] = -(dR[r, 0, i] * dt[r, 0] + dR[r, 1, i] * dt[r, 1] + dR[r, 2, i] * dt[r, 2])
+        for i in range(3):
+            for j in range(3):  # (T_R dR^T)_ij
+                out[r, i, j] = T[r, i, 0] * dR[r, j, 0] + T[r, i, 1] * dR[r, j, 1] + T[r, i, 2] * dR[r, j, 2]
+            out[r, i, 3] = T[r, i, 0] * back[0] + T[r, i, 1] * back[1] + T[r, i, 2] * back[2] + T[r, i, 3]
+        out[r, 3, 3] = 1.0
+        cos = (dR[r, 0, 0] + dR[r, 1, 1] + dR[r, 2, 2] - 1.0) / 2.0
+        turned[r] = math.acos(min(max(cos, -1.0), 1.0))
+        moved[r] = math.sqrt(dt[r, 0] ** 2 + dt[r, 1] ** 2 + dt[r, 2] ** 2)
+    return out, turned, moved

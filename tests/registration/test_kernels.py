@@ -1,0 +1,88 @@
+"""The compiled ICP step (decision 0040) is the numpy step: the same pairs, trimming, weights, gravity term and
+solve to round-off, and so the same registrations."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from bim2rdt.frames import UP
+from bim2rdt.registration import IcpConfig, icp, kernels, matching, register
+from bim2rdt.registration.solvers import DEGENERATE_RATIO, SOLVERS, gravity_weight, solve_system
+from bim2rdt.registration.validation import validate_problem
+
+
+def _numpy_step(T, problem, model, cfg, delta, stride, bias):
+    """:func:`icp._iterate`'s numpy path up to the step: (dR, dt, scores)."""
+    scene_body, pairs, w = icp._weighted_pairs(icp.invert_poses(T), problem, model, None, cfg, delta, stride)
+    dst, normals = pairs.samples, pairs.normals
+    up_body = np.einsum("kji,j->ki", T[:, :3, :3], problem.up_world)
+    lam = gravity_weight(dst, w, bias * cfg.gravity_gamma0)
+    if problem.support_height is not None:
+        scene_body, dst, normals, w = icp._with_contact_pair(T, up_body, problem, model.extreme_points,
+                                                             cfg.support_weight, (scene_body, dst, normals, w))
+    dR, dt = SOLVERS["point_to_plane"].step(scene_body, dst, normals, w, up_body, UP, lam, False)
+    return dR, dt, matching.truncated_score(pairs, cfg.score_distance)
+
+
+@pytest.fixture
+def cluttered_problem(crate_model, crate_view, make_pose, placed):
+    """The crate's view, 8 degrees tilted and off by 5 cm, with 60 clutter points (trimming and Huber act)."""
+    rng = np.random.default_rng(5)
+    scene = np.concatenate([placed(make_pose(0.3, 0.0, (1.0, 2.0, 0.0)), crate_view),
+                            rng.uniform((0.4, 1.4, -0.1), (1.6, 2.6, 0.8), (60, 3))])
+    init = make_pose(0.45, np.deg2rad(8.0), (1.03, 2.04, 0.02))
+    return validate_problem(*crate_model, scene, init, UP, 0.6, 0.0)
+
+
+@pytest.mark.parametrize("delta, stride", [(0.25, 2), (0.05, 2), (0.01, 1)])
+def test_the_compiled_step_is_the_numpy_step(crate_model, cluttered_problem, delta, stride):
+    cfg = IcpConfig()
+    model = matching.ModelIndex.build(*crate_model)
+    starts = icp._restart_starts(cluttered_problem, model, cfg, False)
+    bias = np.where(np.arange(len(starts)) % 2 == 0, 0.6, 0.0)  # two searches batched, as the prior-free pass
+    compiled = icp._compiled_step(starts, cluttered_problem, model, cfg, delta, stride, bias, False)
+    expected = _numpy_step(starts, cluttered_problem, model, cfg, delta, stride, bias)
+    for got, want in zip(compiled, expected):
+        assert np.allclose(got, want, rtol=1e-9, atol=1e-12)
+    assert not np.allclose(expected[1][0], expected[1][1])  # the restarts' steps differ: a real comparison
+
+
+def test_the_compiled_solve_is_the_remapped_solve_with_a_degenerate_system():
+    rng = np.random.default_rng(0)
+    J = rng.normal(size=(6, 40, 6))
+    A = np.swapaxes(J, 1, 2) @ J
+    A[2, :, 5] = A[2, 5, :] = 0.0  # a direction the data leave free (a deck seen from above)
+    A[2, 5, 5] = 1e-12
+    b = rng.normal(size=(6, 6)) * 1e-3
+    dR, dt = kernels.solve_steps(A, b, DEGENERATE_RATIO)
+    want_R, want_t = solve_system(A, b, np.tile(UP, (6, 1)), False)
+    assert np.allclose(dR, want_R, atol=1e-12) and np.allclose(dt, want_t, atol=1e-12)
+    assert dt[2, 2] == 0.0  # the free direction does not move
+
+
+def test_a_registration_is_the_same_with_the_numpy_step(crate_model, cluttered_problem, monkeypatch):
+    p = cluttered_problem
+    args = (*crate_model, p.scene_pts_world, p.T_world_model_init, UP, 0.6)
+    compiled = register(*args, support_height=0.0)
+    monkeypatch.setattr(icp, "_compiled_step", lambda *a, **k: None)  # every iteration on the numpy path
+    numpy_path = register(*args, support_height=0.0)
+    assert np.allclose(compiled.pose, numpy_path.pose, atol=1e-9)
+    assert compiled.total_iterations == numpy_path.total_iterations
+    assert compiled.restart == numpy_path.restart
+
+
+def test_composed_steps_are_the_pose_times_the_inverse_step():
+    rng = np.random.default_rng(4)
+    from bim2rdt.registration.so3 import axis_angle, invert_poses, rotation_angle
+
+    T = np.tile(np.eye(4), (5, 1, 1))
+    T[:, :3, :3] = axis_angle(rng.normal(size=(5, 3)) / np.sqrt(3.0), rng.uniform(0.0, 3.0, 5))
+    T[:, :3, 3] = rng.normal(size=(5, 3))
+    dR = axis_angle(np.tile([0.0, 0.6, 0.8], (5, 1)), np.array([0.0, 1e-4, 0.02, 0.5, 3.0]))
+    dt = rng.normal(size=(5, 3)) * 0.01
+    step = np.tile(np.eye(4), (5, 1, 1))
+    step[:, :3, :3], step[:, :3, 3] = dR, dt
+    poses, turned, moved = kernels.compose_steps(T, dR, dt)
+    assert np.allclose(poses, T @ invert_poses(step), atol=1e-14)
+    assert np.allclose(turned, rotation_angle(dR), atol=1e-7) and np.allclose(moved, np.linalg.norm(dt, axis=1))
