@@ -146,8 +146,8 @@ def check_targets(results: Sequence[ScenarioResult], peer: str = "Open3D pt-plan
     """The targets: >= 60 % RMSE cut in the two scenarios hardest for ICP; SG-ICP not worse than ICP on RMSE
     or Max anywhere, where worse means beyond the benchmark's noise (the whole 95 % paired bootstrap interval
     of the cut below zero; a point estimate below zero within the noise is shown, not failed); SG-ICP success
-    >= the peer's everywhere; median time per object <= :data:`SPEED_RATIO` x the peer's (the same restarts,
-    the same run); SG-ICP success >= :data:`S4_SUCCESS` on S4, when S4 ran."""
+    >= the peer's everywhere; median time per object <= :data:`SPEED_RATIO` x the peer's and
+    <= :data:`SMALL_GICP_RATIO` x small_gicp's (the same restarts, the same run); SG-ICP success >= :data:`S4_SUCCESS` on S4, when S4 ran."""
     by_icp = sorted(results, key=lambda r: r.stats["ICP"].rmse, reverse=True)[:2]
     cuts = {r.name: improvement(r.stats["ICP"].rmse, r.stats["SG-ICP"].rmse) for r in by_icp}
     worse, within_noise = [], []
@@ -180,7 +180,8 @@ def check_targets(results: Sequence[ScenarioResult], peer: str = "Open3D pt-plan
     for small in SMALL_GICP[:1]:
         if all(small in r.stats for r in results):
             ours, theirs = pooled_median_ms(results, "SG-ICP"), pooled_median_ms(results, small)
-            targets.append(TargetCheck(f"moonshot: median time per object <= {small}", ours <= theirs,
+            targets.append(TargetCheck(f"median time per object <= {SMALL_GICP_RATIO}x {small}",
+                                       ours <= SMALL_GICP_RATIO * theirs,
                                   f"{ours:.1f} ms vs {theirs:.1f} ms ({ours / theirs:.2f}x)"))
     targets += [TargetCheck(f"S4 SG-ICP success >= {S4_SUCCESS:.0%}", r.stats["SG-ICP"].success >= S4_SUCCESS,
                        f"{r.stats['SG-ICP'].success:.1%} (ICP {r.stats['ICP'].success:.1%})")
@@ -188,8 +189,10 @@ def check_targets(results: Sequence[ScenarioResult], peer: str = "Open3D pt-plan
     return targets
 
 
-SPEED_RATIO = 0.3
-"""SG-ICP's median time per object may be at most this fraction of the peer's."""
+SPEED_RATIO = 0.25
+"""SG-ICP's median time per object may be at most this fraction of the peer's (Open3D point-to-plane)."""
+SMALL_GICP_RATIO = 0.5
+"""SG-ICP's median time per object may be at most this fraction of small_gicp's plane ICP on one thread."""
 S4_SUCCESS = 0.85
 """SG-ICP's success rate S4 (scaffold, tripod, pallet) must reach."""
 
