@@ -56,10 +56,11 @@ def test_a_corner_seen_alike_from_several_corners_is_ambiguous_and_lists_every_c
     assert best is None and reason.startswith("ambiguous: ") and reason.endswith(" places fit")
     count = int(reason.split()[1])
     fits = [c for c in candidates if c.refined]
-    assert count >= 2 and len(fits) >= count
-    places = {tuple(np.round(c.pose[:2, 3])) for c in fits}
-    assert len(places) >= 2  # different places, not one place found twice
-    assert all(c.score >= fits[0].score - noise(fits[0].score, GlobalSearchConfig()) for c in fits[:count])
+    unchecked = [c for c in candidates if c.extra.get("unchecked")]  # beyond the fixes' budget, might tie
+    tie = fits[0].score - noise(fits[0].score, GlobalSearchConfig())
+    assert count >= 2 and count == sum(c.score >= tie for c in fits + unchecked)
+    places = {tuple(np.round(c.pose[:2, 3])) for c in fits if c.score >= tie}
+    assert len(places) >= 2  # different places, each fixed, not one place found twice
 
 
 def test_a_unique_view_is_found_within_5_cm_and_1_degree(site_model, stations):
