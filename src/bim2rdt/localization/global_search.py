@@ -4,16 +4,20 @@
    floor gives the height, so only x, y and yaw are left;
 2. a coarse correlative search over every storey's free space (:mod:`.global_map`) and every heading
    ``yaw_step_deg`` apart: the wall-facing points, turned by the heading, are scored at every cell at once (one
-   FFT correlation per heading) by how near they fall to a permanent surface, less a penalty for each sample
-   of their rays that would cross a wall before the return (a sensor cannot see through walls);
-3. the best separated peaks are refined by the 4-DoF fix (:func:`~bim2rdt.localization.localize_cloud`: the
-   BIM ray cast from the candidate with the model's other bodies occluding, yaw-only ICP, its acceptance tests),
-   first quickly (a thinner cloud, a wider basin: a peak is a guess, not a prior); when one place stands out
-   it is fixed again in full, from where the quick fix stopped;
-4. each refined candidate is scored on the cloud's sideways-facing points (the floor says nothing about where on
-   it the sensor stands): the share on the first permanent surface their ray meets from the pose, less the share
-   seen through one. When a second place scores within noise of the best (:func:`noise`), or the best cannot fix
-   a direction, the view is ambiguous: :func:`choose` takes no pose, and says how many places fit.
+   FFT correlation per heading) by how near they fall to a permanent surface, less a penalty for each 10 cm of
+   their rays that would cross the cells inside a wall before the return (a sensor cannot see through walls);
+   the best separated peaks are polished to a quarter cell and a sixth of a heading step (:func:`polish`);
+3. each peak is screened by the whole view's likelihood at its coarse pose (:mod:`.view_score`, loose
+   tolerances): every point of the cloud on the first surface its ray meets from the pose, seen through one,
+   or short of it in free space. Best screen first, they are refined by the 4-DoF fix
+   (:func:`~bim2rdt.localization.localize_cloud`: the BIM ray cast from the candidate with the model's other
+   bodies occluding, yaw-only ICP, its acceptance tests), quickly (a thinner cloud, a wider basin: a peak is a
+   guess, not a prior); a peak screened too far below the best fix to tie with it is not fixed, and at most
+   ``candidates`` are. When one place stands out it is fixed again in full, from where the quick fix stopped;
+4. each refined candidate is scored by that likelihood with the fix's tolerances; fixes of one place (within
+   their covariance, or apart along a direction neither view fixes) are merged. When a second place scores
+   within noise of the best (:func:`noise`; a place left unfixed whose screen does counts too), or the best
+   cannot fix a direction, the view is ambiguous: :func:`choose` takes no pose, and says how many places fit.
 """
 
 from __future__ import annotations
@@ -39,8 +43,9 @@ from bim2rdt.perception import Frame
 
 @dataclass(frozen=True)
 class Candidate:
-    """One place the sensor may stand. ``pose`` T_world_sensor (4, 4); ``score`` of the 4-DoF fix (the module's
-    note, step 4; the coarse score when the fix refused it); ``covariance`` (6, 6)
+    """One place the sensor may stand. ``pose`` T_world_sensor (4, 4); ``score`` the view's likelihood at the 4-DoF
+    fix (the module's note, step 4; at the coarse pose, loosely, when it was not fixed or the fix refused it:
+    ``extra["screen_score"]``; ``extra["unchecked"]`` when left unfixed for the fixes' budget); ``covariance`` (6, 6)
     of the fix (None when refused); ``degenerate`` unit world directions the view cannot fix; ``refined`` whether
     the fix accepted it (else ``reason`` says why); ``coarse_score`` the search's; ``storey``; ``gravity`` where
     up came from (``given``, ``imu`` or ``floor``); ``seconds`` the whole search's time."""
