@@ -68,13 +68,15 @@ class Candidate:
         """The candidate as localization.json lists it.
 
         Returns:
-            JSON-ready fields (pose rows, scores, storey, gravity, free directions, the fix's reason).
+            JSON-ready fields (pose rows, scores, storey, gravity, free directions, the fix's reason, the screen's
+                score at the coarse pose, whether it was left unfixed for the fixes' budget).
         """
         return {"pose": np.round(self.pose, 6).tolist(), "score": round(self.score, 4),
                 "coarse_score": round(self.coarse_score, 4), "refined": self.refined, "storey": self.storey,
                 "gravity": self.gravity, "degenerate": [np.round(d, 4).tolist() for d in self.degenerate],
                 "inliers": self.inliers, "residual": None if self.residual is None else round(self.residual, 4),
-                "reason": self.reason}
+                "reason": self.reason, "screen_score": self.extra.get("screen_score"),
+                "unchecked": bool(self.extra.get("unchecked", False))}
 
 
 def find_pose(data: object, model: BimModel, up: np.ndarray | tuple[float, float, float] | None = None,
