@@ -25,14 +25,17 @@ class GlobalSearchConfig(BaseModel):
                     "compares: walls and columns, above skirting clutter and below ceiling fittings.")
     sigma: float = Field(0.1, gt=0.0, description="Width of the coarse score's surface likelihood, m.")
     through_weight: float = Field(
-        0.5, ge=0.0,
-        description="Weight of the occlusion penalty: each sample of a sensor ray that would cross a wall before "
-                    "its return costs this much of a point on a surface.")
+        0.6, ge=0.0,
+        description="Weight of the occlusion penalty: each 10 cm of a sensor ray inside a wall before its return "
+                    "costs this much of a point on a surface (a 15 cm partition about one point).")
     clearance: float = Field(0.15, ge=0.0, description="The sensor stands at least this far from a wall, m.")
     wall_normal_z: float = Field(
         0.35, gt=0.0, le=1.0, description="A point whose normal's vertical part is below this faces sideways "
                                           "(a wall, a column): it takes part in the coarse search.")
     max_plan_points: int = Field(500, ge=20, description="At most this many plan points (an even draw) per search.")
+    judge_points: int = Field(
+        1000, ge=50, description="Refined candidates are scored on at most this many of the cloud's points (an "
+                                  "even draw): on the first surface their ray meets, seen through it, or short of it.")
     quick_points: int = Field(
         1500, ge=100, description="Every coarse peak is first fixed with at most this many of the cloud's points ...")
     quick_ray_deg: float = Field(1.0, gt=0.0, le=10.0, description="... and the BIM ray cast this far apart, deg; "
@@ -40,7 +43,20 @@ class GlobalSearchConfig(BaseModel):
     quick_basin: float = Field(
         2.0, ge=1.0, le=5.0, description="The quick fix's basin is the fix's (max_correction, max_correction_deg) "
                                          "times this: a coarse peak is a cell and a heading step away at best.")
-    candidates: int = Field(6, ge=1, le=50, description="The best coarse peaks refined by the 4-DoF fix.")
+    screened: int = Field(
+        12, ge=1, le=100, description="The best coarse peaks whose view is scored at the coarse pose (a ray cast of "
+                                      "judge_points, cheap): the fix takes them best first.")
+    screen_tolerance: float = Field(
+        0.25, gt=0.0, description="At a coarse pose, a point within this of the first surface on its ray is on it, "
+                                  "and beyond this seen through it, m: a coarse peak is a cell and a heading step "
+                                  "off (7 cm and 1.5 deg: 16 cm at 6 m).")
+    screen_slack: float = Field(
+        0.15, ge=0.0, le=1.0,
+        description="A screened peak is not fixed when its screen score is below the best fix's by more than noise "
+                    "and this: a right place's fix scored up to 0.1 above its screen on the tour.")
+    candidates: int = Field(
+        6, ge=1, le=50, description="At most this many screened peaks are refined by the 4-DoF fix; a peak whose "
+                                    "screen score is below the best fix's beyond noise is not.")
     peak_separation: float = Field(0.5, gt=0.0, description="Two coarse peaks nearer than this (m) ...")
     peak_separation_deg: float = Field(15.0, gt=0.0, description="... and this (deg) are one candidate.")
     same_place: float = Field(0.15, gt=0.0, description="Refined candidates nearer than this (m) ...")

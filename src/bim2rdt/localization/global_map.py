@@ -5,8 +5,10 @@ Per storey, on a grid of ``resolution`` m (rows along world y, columns along x):
 
 - ``likelihood``: exp(-d^2 / 2 sigma^2) of each cell's distance d to the nearest surface in the band: the
   permanent map's, and the model's other bodies' (they explain the points on them, as they occlude in the fix);
-- ``solid``: the cells a sensor ray cannot cross (permanent surfaces, grown by one cell so a sampled ray cannot
-  step over a wall);
+- ``solid``: the cells a sensor ray cannot cross: those whose centre lies inside a permanent element in the band
+  (on the inner side of the nearest sideways face). Not grown: a ray that passes a column's edge or a door's
+  jamb a few centimetres off is not a ray through it (grown by a cell, such rays cost the true place more than
+  a wrong one; issue 32's stations 6 and 16);
 - ``free``: the cells a sensor can stand in: over the storey's floor (its slabs' top faces), at least
   ``clearance`` from any surface. This is the planning grid's free space, built from the same permanent map here
   because localization sits below planning in the layers.
@@ -20,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 import trimesh
 from scipy import ndimage
+from scipy.spatial import cKDTree
 
 from bim2rdt.bim import BimModel
 from bim2rdt.localization.errors import LocalizationError
@@ -126,8 +129,8 @@ def _plan(scene, name: str, floor_z: float, resolution: float, band: tuple[float
     """The storey's rasters: its surfaces in the band are the permanent map's and the model's other bodies'
     (a built-in wardrobe in front of a wall explains the points on it, as it occludes in the fix); its floor and
     clearance are the permanent map's alone."""
-    walls = _band_samples(scene.mesh, floor_z + band[0], floor_z + band[1])
-    permanent = _band_samples(scene.permanent.mesh, floor_z + band[0], floor_z + band[1])
+    walls, _ = _band_samples(scene.mesh, floor_z + band[0], floor_z + band[1])
+    permanent, outward = _band_samples(scene.permanent.mesh, floor_z + band[0], floor_z + band[1])
     floor = _floor_samples(scene.permanent.mesh, floor_z)
     if len(walls) == 0 or len(floor) == 0:
         return None
@@ -139,17 +142,38 @@ def _plan(scene, name: str, floor_z: float, resolution: float, band: tuple[float
     structure = _raster(permanent, low, resolution, shape)
     clear = ndimage.distance_transform_edt(~structure) * resolution > clearance
     on_floor = ndimage.binary_closing(_raster(floor, low, resolution, shape), iterations=2)
-    solid = ndimage.binary_dilation(structure)
+    solid = _inside(permanent, outward, low, resolution, shape)
     return StoreyPlan(name, float(floor_z), low, resolution, np.exp(-0.5 * (distance / sigma) ** 2),
                       solid, on_floor & clear & ~solid)
 
 
-def _band_samples(mesh: trimesh.Trimesh, low: float, high: float) -> np.ndarray:
-    """Plan (x, y) samples of the faces that face sideways and reach into [low, high] m, about 4 cm apart."""
+def _band_samples(mesh: trimesh.Trimesh, low: float, high: float) -> tuple[np.ndarray, np.ndarray]:
+    """Plan (x, y) samples (N, 2) of the faces that face sideways and reach into [low, high] m, about 4 cm apart,
+    and their faces' outward normals in plan (N, 2), unit."""
     z = mesh.triangles[:, :, 2]
     faces = (np.abs(mesh.face_normals[:, 2]) < 0.3) & (z.max(axis=1) >= low) & (z.min(axis=1) <= high)
-    points = _sample(mesh, faces)
-    return points[(points[:, 2] >= low) & (points[:, 2] <= high), :2]
+    points, owner = _sample(mesh, faces, with_faces=True)
+    keep = (points[:, 2] >= low) & (points[:, 2] <= high)
+    normals = mesh.face_normals[np.nonzero(faces)[0][owner[keep]], :2] if len(owner) else np.zeros((0, 2))
+    normals = normals / np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-9)
+    return points[keep, :2], normals
+
+
+def _inside(samples: np.ndarray, outward: np.ndarray, origin: np.ndarray, resolution: float,
+            shape: tuple[int, int], reach: float = 0.5) -> np.ndarray:
+    """The cells (rows, cols) whose centre lies within ``reach`` m of a sideways face and on the inner side of
+    the nearest one: inside a wall or column in plan. Far from every face nothing is solid (a body thicker
+    than 2 x ``reach`` keeps a free core, which no ray reaches without crossing its faces first)."""
+    solid = np.zeros(shape, bool)
+    if len(samples) == 0:
+        return solid
+    rows, cols = np.nonzero(np.ones(shape, bool))
+    centres = origin + (np.stack([cols, rows], axis=1) + 0.5) * resolution
+    distance, nearest = cKDTree(samples).query(centres, distance_upper_bound=reach)
+    near = np.isfinite(distance)
+    side = np.einsum("ij,ij->i", centres[near] - samples[nearest[near]], outward[nearest[near]])
+    solid[rows[near], cols[near]] = side < 0
+    return solid
 
 
 def _floor_samples(mesh: trimesh.Trimesh, floor_z: float) -> np.ndarray:
@@ -158,13 +182,16 @@ def _floor_samples(mesh: trimesh.Trimesh, floor_z: float) -> np.ndarray:
     return _sample(mesh, faces)[:, :2]
 
 
-def _sample(mesh: trimesh.Trimesh, faces: np.ndarray) -> np.ndarray:
+def _sample(mesh: trimesh.Trimesh, faces: np.ndarray, with_faces: bool = False):
+    """Samples (N, 3) of the ``faces`` (mask) of ``mesh``, ``_SAMPLE_SPACING`` apart on average; with
+    ``with_faces`` also each sample's index among the masked faces (N,)."""
     if not faces.any():
-        return np.zeros((0, 3))
+        return (np.zeros((0, 3)), np.zeros(0, int)) if with_faces else np.zeros((0, 3))
     part = trimesh.Trimesh(mesh.vertices, mesh.faces[faces], process=False)
     count = max(1, int(part.area / _SAMPLE_SPACING**2))
-    points, _ = trimesh.sample.sample_surface(part, count, seed=0)
-    return np.asarray(points, dtype=np.float64)
+    points, owner = trimesh.sample.sample_surface(part, count, seed=0)
+    points = np.asarray(points, dtype=np.float64)
+    return (points, np.asarray(owner)) if with_faces else points
 
 
 def _raster(xy: np.ndarray, origin: np.ndarray, resolution: float, shape: tuple[int, int]) -> np.ndarray:

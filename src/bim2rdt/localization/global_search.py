@@ -4,16 +4,20 @@
    floor gives the height, so only x, y and yaw are left;
 2. a coarse correlative search over every storey's free space (:mod:`.global_map`) and every heading
    ``yaw_step_deg`` apart: the wall-facing points, turned by the heading, are scored at every cell at once (one
-   FFT correlation per heading) by how near they fall to a permanent surface, less a penalty for each sample
-   of their rays that would cross a wall before the return (a sensor cannot see through walls);
-3. the best separated peaks are refined by the 4-DoF fix (:func:`~bim2rdt.localization.localize_cloud`: the
-   BIM ray cast from the candidate with the model's other bodies occluding, yaw-only ICP, its acceptance tests),
-   first quickly (a thinner cloud, a wider basin: a peak is a guess, not a prior); when one place stands out
-   it is fixed again in full, from where the quick fix stopped;
-4. each refined candidate is scored on the cloud's sideways-facing points (the floor says nothing about where on
-   it the sensor stands): the share on the first permanent surface their ray meets from the pose, less the share
-   seen through one. When a second place scores within noise of the best (:func:`noise`), or the best cannot fix
-   a direction, the view is ambiguous: :func:`choose` takes no pose, and says how many places fit.
+   FFT correlation per heading) by how near they fall to a permanent surface, less a penalty for each 10 cm of
+   their rays that would cross the cells inside a wall before the return (a sensor cannot see through walls);
+   the best separated peaks are polished to a quarter cell and a sixth of a heading step (:func:`polish`);
+3. each peak is screened by the whole view's likelihood at its coarse pose (:mod:`.view_score`, loose
+   tolerances): every point of the cloud on the first surface its ray meets from the pose, seen through one,
+   or short of it in free space. Best screen first, they are refined by the 4-DoF fix
+   (:func:`~bim2rdt.localization.localize_cloud`: the BIM ray cast from the candidate with the model's other
+   bodies occluding, yaw-only ICP, its acceptance tests), quickly (a thinner cloud, a wider basin: a peak is a
+   guess, not a prior); a peak screened too far below the best fix to tie with it is not fixed, and at most
+   ``candidates`` are. When one place stands out it is fixed again in full, from where the quick fix stopped;
+4. each refined candidate is scored by that likelihood with the fix's tolerances; fixes of one place (within
+   their covariance, or apart along a direction neither view fixes) are merged. When a second place scores
+   within noise of the best (:func:`noise`; a place left unfixed whose screen does counts too), or the best
+   cannot fix a direction, the view is ambiguous: :func:`choose` takes no pose, and says how many places fit.
 """
 
 from __future__ import annotations
@@ -33,13 +37,15 @@ from bim2rdt.localization.global_config import GlobalSearchConfig
 from bim2rdt.localization.global_map import StoreyPlan, storey_plans
 from bim2rdt.localization.gravity import CAMERA_UP, SCANNER_UP, Levelled, level
 from bim2rdt.localization.planar import rz, wrap
+from bim2rdt.localization.view_score import ViewScore
 from bim2rdt.perception import Frame
 
 
 @dataclass(frozen=True)
 class Candidate:
-    """One place the sensor may stand. ``pose`` T_world_sensor (4, 4); ``score`` of the 4-DoF fix (the module's
-    note, step 4; the coarse score when the fix refused it); ``covariance`` (6, 6)
+    """One place the sensor may stand. ``pose`` T_world_sensor (4, 4); ``score`` the view's likelihood at the 4-DoF
+    fix (the module's note, step 4; at the coarse pose, loosely, when it was not fixed or the fix refused it:
+    ``extra["screen_score"]``; ``extra["unchecked"]`` when left unfixed for the fixes' budget); ``covariance`` (6, 6)
     of the fix (None when refused); ``degenerate`` unit world directions the view cannot fix; ``refined`` whether
     the fix accepted it (else ``reason`` says why); ``coarse_score`` the search's; ``storey``; ``gravity`` where
     up came from (``given``, ``imu`` or ``floor``); ``seconds`` the whole search's time."""
@@ -62,13 +68,15 @@ class Candidate:
         """The candidate as localization.json lists it.
 
         Returns:
-            JSON-ready fields (pose rows, scores, storey, gravity, free directions, the fix's reason).
+            JSON-ready fields (pose rows, scores, storey, gravity, free directions, the fix's reason, the screen's
+                score at the coarse pose, whether it was left unfixed for the fixes' budget).
         """
         return {"pose": np.round(self.pose, 6).tolist(), "score": round(self.score, 4),
                 "coarse_score": round(self.coarse_score, 4), "refined": self.refined, "storey": self.storey,
                 "gravity": self.gravity, "degenerate": [np.round(d, 4).tolist() for d in self.degenerate],
                 "inliers": self.inliers, "residual": None if self.residual is None else round(self.residual, 4),
-                "reason": self.reason}
+                "reason": self.reason, "screen_score": self.extra.get("screen_score"),
+                "unchecked": bool(self.extra.get("unchecked", False))}
 
 
 def find_pose(data: object, model: BimModel, up: np.ndarray | tuple[float, float, float] | None = None,
@@ -94,17 +102,19 @@ def find_pose(data: object, model: BimModel, up: np.ndarray | tuple[float, float
     cfg = config or GlobalSearchConfig()
     scan, default_up, up, gravity = _prepared(data, up, cfg)
     levelled = level(scan, up, gravity, default_up, cfg.floor_cone_deg, cfg.min_floor_points)
-    plan_points, walls = _plan_points(scan, levelled, cfg)
+    plan_points, view = _plan_points(scan, levelled, cfg)
     if len(plan_points) < 10:
         raise LocalizationError(f"only {len(plan_points)} points face sideways {cfg.band[0]}-{cfg.band[1]} m above "
                                 "the floor: no wall or column in view to search with")
     peaks = []
     for plan in storey_plans(model, storey, cfg.resolution, cfg.band, cfg.sigma, cfg.clearance):
         peaks += [(score, plan, xy, yaw) for score, xy, yaw in coarse_peaks(plan, plan_points, cfg)]
-    peaks = _separated(sorted(peaks, key=lambda p: -p[0]), cfg)[: cfg.candidates]
-    quick_scan, quick_cfg = _quick(scan, cfg)
-    judge = _ViewScore(walls, OccludedMap.of(model), cfg)
-    quick = _unique([_refine(quick_scan, model, levelled, peak, quick_cfg, judge) for peak in peaks], cfg)
+    peaks = _separated(sorted(peaks, key=lambda p: -p[0]), cfg)[: cfg.screened]
+    peaks = [(score, plan, *polish(plan, plan_points, xy, yaw, cfg)) for score, plan, xy, yaw in peaks]
+    scene = OccludedMap.of(model)
+    judge = ViewScore(view, scene, 2 * cfg.fix.inlier_distance, cfg.fix.behind_tolerance)
+    screen = ViewScore(view, scene, cfg.screen_tolerance, cfg.screen_tolerance)
+    quick = _unique(_refined_peaks(scan, model, levelled, peaks, cfg, judge, screen), cfg)
     taken, _ = choose(quick, cfg)
     if taken is None:  # no place fits, or several do already: fixing them again in full would not make one
         candidates = quick
@@ -131,7 +141,8 @@ def choose(candidates: list[Candidate], config: GlobalSearchConfig | None = None
         reasons = {c.reason for c in candidates if c.reason}
         return None, "no place on the BIM fits" + (f" (best candidate: {candidates[0].reason})" if reasons else "")
     best = fits[0]
-    close = [c for c in fits if c.score >= best.score - noise(best.score, cfg)]
+    close = [c for c in candidates if (c.refined or c.extra.get("unchecked"))
+             and c.score >= best.score - noise(best.score, cfg)]
     if len(close) > 1:
         return None, f"ambiguous: {len(close)} places fit"
     if best.degenerate:
@@ -172,9 +183,45 @@ def coarse_peaks(plan: StoreyPlan, points_xy: np.ndarray, cfg: GlobalSearchConfi
     return [(float(scores[k[o], rows[o], cols[o]]), xy[i], float(yaws[k[o]])) for i, o in enumerate(order)]
 
 
+def polish(plan: StoreyPlan, points_xy: np.ndarray, xy: np.ndarray, yaw: float, cfg: GlobalSearchConfig
+           ) -> tuple[np.ndarray, float]:
+    """A coarse peak moved to the best of the poses around it, a quarter cell and a sixth of a heading step apart
+    (within half a cell and half a step), by the mean surface likelihood at its points (read between cells):
+    the fix then starts a few centimetres and a fraction of a degree off, not a cell and a step.
+
+    Args:
+        plan: The storey's plan rasters.
+        points_xy: Levelled plan points (N, 2) in the sensor's levelled frame, m.
+        xy: The peak's world (x, y), m.
+        yaw: Its heading, rad.
+        cfg: The search's settings.
+
+    Returns:
+        The polished (x, y) and heading.
+    """
+    step = np.deg2rad(cfg.yaw_step_deg)
+    yaws = yaw + np.linspace(-step / 2, step / 2, 7)
+    shifts = np.linspace(-plan.resolution / 2, plan.resolution / 2, 5)
+    dx, dy = (g.ravel() for g in np.meshgrid(shifts, shifts))
+    best = (-np.inf, xy, yaw)
+    for candidate in yaws:
+        c, s = np.cos(candidate), np.sin(candidate)
+        turned = points_xy @ np.array([[c, s], [-s, c]]) + xy
+        cells = (turned - plan.origin) / plan.resolution - 0.5
+        rows = cells[None, :, 1] + dy[:, None] / plan.resolution
+        cols = cells[None, :, 0] + dx[:, None] / plan.resolution
+        values = ndimage.map_coordinates(plan.likelihood, [rows.ravel(), cols.ravel()], order=1, mode="nearest")
+        means = values.reshape(len(dx), -1).mean(axis=1)
+        k = int(np.argmax(means))
+        if means[k] > best[0]:
+            best = (means[k], xy + np.array([dx[k], dy[k]]), float(candidate))
+    return best[1], best[2]
+
+
 def correlate(plan: StoreyPlan, points_xy: np.ndarray, yaws: np.ndarray, through_weight: float) -> np.ndarray:
     """Score (len(yaws), rows, cols) of the sensor at every cell and heading: the mean surface likelihood at its
-    points less ``through_weight`` x the ray samples per point that fall in solid cells (FFT correlation)."""
+    points less ``through_weight`` per 10 cm of their rays that fall in solid cells, per point (FFT
+    correlation)."""
     r = plan.resolution
     reach = int(np.ceil(np.linalg.norm(points_xy, axis=1).max() / r)) + 2
     rows, cols = plan.likelihood.shape
@@ -182,10 +229,11 @@ def correlate(plan: StoreyPlan, points_xy: np.ndarray, yaws: np.ndarray, through
     hit_map = fft.rfft2(_padded(plan.likelihood, reach, shape))
     solid_map = fft.rfft2(_padded(plan.solid.astype(np.float64), reach, shape))
     rays = _ray_samples(points_xy)
+    per_sample = through_weight * RAY_STEP / 0.1
     scores = np.empty((len(yaws), rows, cols))
     for k, yaw in enumerate(yaws):
         hit = _kernel(points_xy, yaw, r, shape, 1.0 / len(points_xy))
-        through = _kernel(rays, yaw, r, shape, through_weight / len(points_xy))
+        through = _kernel(rays, yaw, r, shape, per_sample / len(points_xy))
         full = fft.irfft2(hit_map * np.conj(hit) - solid_map * np.conj(through), s=shape)
         scores[k] = full[reach: reach + rows, reach: reach + cols]
     return scores
@@ -207,7 +255,13 @@ def _kernel(points_xy: np.ndarray, yaw: float, resolution: float, shape: tuple[i
     return fft.rfft2(image.reshape(shape))
 
 
-def _ray_samples(points_xy: np.ndarray, step: float = 0.15, start: float = 0.3, short: float = 0.3) -> np.ndarray:
+RAY_STEP = 0.05
+"""Spacing of the samples along a sensor ray in the coarse search's occlusion penalty, m: half a plan cell, so a
+ray cannot step over the cells inside a 15 cm wall."""
+
+
+def _ray_samples(points_xy: np.ndarray, step: float = RAY_STEP, start: float = 0.3, short: float = 0.25
+                 ) -> np.ndarray:
     """Plan samples along each point's ray from the sensor, ``step`` m apart from ``start`` m to ``short`` m
     before the return: where the sensor saw through, so no wall may stand."""
     distance = np.linalg.norm(points_xy, axis=1)
@@ -235,7 +289,7 @@ def _prepared(data: object, up, cfg: GlobalSearchConfig) -> tuple[ScanPoints, np
 
 def _plan_points(scan: ScanPoints, levelled: Levelled, cfg: GlobalSearchConfig) -> tuple[np.ndarray, np.ndarray]:
     """(the levelled (x, y) of the points that face sideways within the band, at most ``max_plan_points``;
-    every sideways point in the sensor frame, at most ``max_plan_points``: what candidates are judged on)."""
+    the cloud's points in the sensor frame, at most ``judge_points``: what refined candidates are judged on)."""
     points = scan.points @ levelled.R_level_sensor.T
     normals = scan.normals @ levelled.R_level_sensor.T
     height = points[:, 2] + levelled.height
@@ -245,45 +299,10 @@ def _plan_points(scan: ScanPoints, levelled: Levelled, cfg: GlobalSearchConfig) 
     rng = np.random.default_rng(0)
     if len(xy) > cfg.max_plan_points:
         xy = xy[rng.choice(len(xy), cfg.max_plan_points, replace=False)]
-    walls = scan.points[sideways]
-    if len(walls) > cfg.max_plan_points:
-        walls = walls[rng.choice(len(walls), cfg.max_plan_points, replace=False)]
-    return xy, walls
-
-
-class _ViewScore:
-    """A candidate's score: of the sideways-facing points (walls, columns, furniture fronts; the floor says
-    nothing about where on it the sensor stands), the share that lies on the first permanent surface their ray
-    meets from the pose, less the share that lies behind it (seen through a wall). Points whose ray first meets
-    another body of the model (furniture) count neither way."""
-
-    def __init__(self, walls: np.ndarray, scene: OccludedMap, cfg: GlobalSearchConfig) -> None:
-        self.range = np.linalg.norm(walls, axis=1)
-        self.unit = walls / np.maximum(self.range, 1e-9)[:, None]
-        self.scene, self.on = scene, 2 * cfg.fix.inlier_distance
-        self.behind = cfg.fix.behind_tolerance
-
-    def __call__(self, pose: np.ndarray) -> float:
-        if len(self.range) == 0:
-            return 0.0
-        mesh = self.scene.mesh
-        directions = self.unit @ pose[:3, :3].T
-        origin = pose[:3, 3]
-        face = mesh.ray.intersects_first(np.broadcast_to(origin, directions.shape), directions)
-        t = np.full(len(face), np.inf)
-        hit = face >= 0
-        normals = mesh.face_normals[face[hit]]
-        corner = mesh.vertices[mesh.faces[face[hit], 0]]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t[hit] = np.einsum("ni,ni->n", normals, corner - origin) / np.einsum("ni,ni->n", normals, directions[hit])
-        owner = np.full(len(face), -1)
-        owner[hit] = self.scene.face_owner[face[hit]]
-        near = np.abs(t - self.range) < self.on
-        furniture = hit & (owner < 0) & (self.range > t - self.on)
-        on = hit & (owner >= 0) & near
-        behind = hit & (owner >= 0) & (self.range > t + self.behind)
-        counted = max(int((~furniture).sum()), 1)
-        return float((on.sum() - behind.sum()) / counted)
+    view = scan.points
+    if len(view) > cfg.judge_points:
+        view = view[rng.choice(len(view), cfg.judge_points, replace=False)]
+    return xy, view
 
 
 def _thinned(xy: np.ndarray, cell: float) -> np.ndarray:
@@ -320,20 +339,44 @@ def _quick(scan: ScanPoints, cfg: GlobalSearchConfig) -> tuple[ScanPoints, Local
     return ScanPoints(scan.points[pick], scan.normals[pick]), quick
 
 
-def _refine(scan: ScanPoints, model: BimModel, levelled: Levelled, peak, fix_cfg: LocalizationConfig,
-            judge: _ViewScore) -> Candidate:
-    """The coarse peak as a pose, fixed by the 4-DoF fix; refused peaks keep their coarse pose and score."""
+def _refined_peaks(scan: ScanPoints, model: BimModel, levelled: Levelled, peaks: list, cfg: GlobalSearchConfig,
+                   judge: ViewScore, screen: ViewScore) -> list[Candidate]:
+    """The peaks screened by their view score at the coarse pose (``screen``: loose tolerances, as a coarse pose
+    is a cell and a heading step off), then quickly fixed best screen first. A peak whose screen score is below
+    the best fix's score by more than noise and ``screen_slack`` cannot tie with it (the fix of a right place
+    scored up to 0.1 above its screen on the tour: an edge a few centimetres off hides what lies past it) and is
+    not fixed; after ``candidates`` fixes the rest are left unchecked (``extra["unchecked"]``: :func:`choose` counts those that might tie)."""
+    quick_scan, quick_cfg = _quick(scan, cfg)
+    starts = [_start(levelled, peak) for peak in peaks]
+    ranked = sorted(((screen(c.pose), c) for c in starts), key=lambda sc: -sc[0])
+    out: list[Candidate] = []
+    fixed = 0
+    for screened, start in ranked:
+        start = replace(start, score=screened, extra={"screen_score": round(screened, 4)})
+        best = max((c.score for c in out if c.refined), default=None)
+        if best is not None and screened < best - noise(best, cfg) - cfg.screen_slack:
+            out.append(replace(start, reason=f"not fixed: its view scores {screened:.2f} at the coarse pose, "
+                                             f"too far below the best fix's {best:.2f} to tie with it"))
+        elif fixed >= cfg.candidates:
+            out.append(replace(start, reason=f"not fixed: the search fixes at most {cfg.candidates} places",
+                               extra={**start.extra, "unchecked": True}))
+        else:
+            fixed += 1
+            out.append(_fixed(quick_scan, model, start, quick_cfg, judge))
+    return out
+
+
+def _start(levelled: Levelled, peak) -> Candidate:
+    """The coarse peak as an unrefined candidate: its cell and heading, levelled, at the floor's height."""
     coarse, plan, xy, yaw = peak
     start = np.eye(4)
     start[:3, :3] = rz(yaw) @ levelled.R_level_sensor
     start[:3, 3] = (xy[0], xy[1], plan.floor_z + levelled.height)
-    candidate = Candidate(start, coarse, None, [], False, coarse_score=coarse, storey=plan.name,
-                          gravity=levelled.gravity)
-    return _fixed(scan, model, candidate, fix_cfg, judge)
+    return Candidate(start, coarse, None, [], False, coarse_score=coarse, storey=plan.name, gravity=levelled.gravity)
 
 
 def _fixed(scan: ScanPoints, model: BimModel, candidate: Candidate, fix_cfg: LocalizationConfig,
-           judge: _ViewScore) -> Candidate:
+           judge: ViewScore) -> Candidate:
     """``candidate`` fixed by :func:`localize_cloud` from its pose and scored by ``judge``, or refused with the
     reason (keeping its pose and score)."""
     try:
@@ -346,17 +389,38 @@ def _fixed(scan: ScanPoints, model: BimModel, candidate: Candidate, fix_cfg: Loc
 
 
 def _unique(candidates: list[Candidate], cfg: GlobalSearchConfig) -> list[Candidate]:
-    """Accepted candidates by score, then refused ones by coarse score; of those that converged to one pose
-    (within ``same_place`` and ``same_place_deg``), the best only."""
+    """Accepted candidates by score, then refused ones by score; of those that are one place (:func:`same_place`),
+    the best only."""
     ordered = sorted(candidates, key=lambda c: (not c.refined, -c.score))
     kept: list[Candidate] = []
     for c in ordered:
-        if not any(_same(c.pose, k.pose, cfg) for k in kept if k.refined == c.refined):
+        if not any(same_place(c, k, cfg) for k in kept if k.refined == c.refined):
             kept.append(c)
     return kept
 
 
-def _same(a: np.ndarray, b: np.ndarray, cfg: GlobalSearchConfig) -> bool:
-    relative = a[:3, :3] @ b[:3, :3].T
-    turn = np.arctan2(relative[1, 0], relative[0, 0])
-    return bool(np.linalg.norm(a[:3, 3] - b[:3, 3]) < cfg.same_place and abs(turn) < np.deg2rad(cfg.same_place_deg))
+def same_place(a: Candidate, b: Candidate, cfg: GlobalSearchConfig) -> bool:
+    """Whether two candidates are one place counted twice: headings within ``same_place_deg`` and positions
+    within ``same_place`` m or three standard deviations of either fix (its covariance), whichever is more, once
+    what lies along a direction either view cannot fix is set aside (a single wall's fixes slide along it).
+
+    Args:
+        a: A candidate.
+        b: Another.
+        cfg: The search's settings.
+
+    Returns:
+        True when they are the same place.
+    """
+    relative = a.pose[:3, :3] @ b.pose[:3, :3].T
+    if abs(np.arctan2(relative[1, 0], relative[0, 0])) >= np.deg2rad(cfg.same_place_deg):
+        return False
+    offset = a.pose[:3, 3] - b.pose[:3, 3]
+    for direction in [*a.degenerate, *b.degenerate]:
+        unit = np.asarray(direction, dtype=np.float64) / max(float(np.linalg.norm(direction)), 1e-12)
+        offset = offset - unit * (offset @ unit)
+    reach = cfg.same_place
+    for c in (a, b):
+        if c.covariance is not None and not c.degenerate:
+            reach = max(reach, 3.0 * float(np.sqrt(np.linalg.eigvalsh(c.covariance[:3, :3]).max())))
+    return bool(np.linalg.norm(offset) < reach)
