@@ -8,7 +8,7 @@ Per storey, on a grid of ``resolution`` m (rows along world y, columns along x):
 - ``solid``: the cells a sensor ray cannot cross: those whose centre lies inside a permanent element in the band
   (on the inner side of the nearest sideways face). Not grown: a ray that passes a column's edge or a door's
   jamb a few centimetres off is not a ray through it (grown by a cell, such rays cost the true place more than
-  a wrong one; issue 32's stations 6 and 16);
+  a wrong one: the simulated tour's stations 6 and 16);
 - ``free``: the cells a sensor can stand in: over the storey's floor (its slabs' top faces), at least
   ``clearance`` from any surface. This is the planning grid's free space, built from the same permanent map here
   because localization sits below planning in the layers.
