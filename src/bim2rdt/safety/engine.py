@@ -147,10 +147,12 @@ class ExposureEngine:
     # --- order, gaps and clock -----------------------------------------------------------------------------
     def _note_push(self, stream: Stream, batch: AccelBatch, result: PushResult) -> list[Event]:
         stream.count("batches")
-        for name in ("duplicates", "late"):
-            if getattr(result, name):
-                stream.count(name, getattr(result, name))
-                self.count(name, getattr(result, name))
+        if result.duplicates:
+            stream.count("duplicates", result.duplicates)
+            self.count("duplicates", result.duplicates)
+        if result.late:
+            stream.count("late", result.late)
+            self.count("late", result.late)
         if result.renumberings:
             stream.count("renumbered", result.renumberings)
         if result.restarts:  # a new epoch on a reset device clock: the old lag says nothing about the new clock
