@@ -91,16 +91,20 @@ class ExposureEngine:
     # --- ingest --------------------------------------------------------------------------------------------
     def push(self, batches: Iterable[AccelBatch], now: float) -> Outcome:
         """Take batches (received at ``now`` unless stamped) from any devices in any order."""
-        outcome, ordered = Outcome(), []
-        for batch in batches:
-            batch = batch if batch.received_time is not None else batch.received_at(now)
-            stream = self.stream(batch.device)
+        outcome, ordered, streams = Outcome(), [], self.streams
+        for batch in batches:  # runs for every batch: no call or list that the common case does not need
+            if batch.received_time is None:
+                batch = batch.received_at(now)
+            stream = streams.get(batch.device) or self.stream(batch.device)
             result = stream.buffer.push(batch, now)
-            outcome.events += self._note_push(stream, batch, result)
+            events = self._note_push(stream, batch, result)
+            if events:
+                outcome.events += events
             if result.duplicates == result.late == 0:
                 outcome.accepted.append(result.renumbered or batch)
             outcome.streams[stream.device] = stream
-            ordered += [(stream, piece, new_segment) for piece, new_segment in result.pieces]
+            for piece, new_segment in result.pieces:
+                ordered.append((stream, piece, new_segment))
         outcome.events += self._process(ordered)
         return outcome
 
@@ -160,7 +164,7 @@ class ExposureEngine:
             stream.clock = DeviceClock()
         if result.duplicates == result.late == 0:
             stream.clock.observe(batch.received_time, batch.device_time + batch.duration_s)
-        return self._note_gaps(stream, result)
+        return self._note_gaps(stream, result) if result.gaps else []
 
     def _note_gaps(self, stream: Stream, result: PushResult) -> list[Event]:
         events = []

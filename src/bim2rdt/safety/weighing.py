@@ -142,9 +142,11 @@ def _weigh_group(pieces: list[Piece], fs: float, layout: _Layout, correction: Mo
     bad = replace_bad_samples(raw, possible) if has_bad_samples(stats.sums, stats.extremes, possible) else None
     if bad is not None:
         stats = block_stats(raw, starts)
-    for piece, first in zip(pieces, raw[:, 0].reshape(-1, 3).astype(np.float64)):
-        if piece.new_segment or piece.state.zi is None:
-            _settle(piece, first, correction)
+    starting = [j for j, p in enumerate(pieces) if p.new_segment or p.state.zi is None]
+    if starting:
+        firsts = raw[:, 0].reshape(-1, 3).astype(np.float64)
+        for j in starting:
+            _settle(pieces[j], firsts[j], correction)
     signal = raw
     if correction is not None:
         fir_zi = np.concatenate([p.state.fir_zi for p in pieces])
