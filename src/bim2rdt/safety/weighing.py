@@ -88,7 +88,7 @@ class Blocks:
     end: list[float] = field(default_factory=list)
     seconds: Sequence[float] = ()
     energy: list[float] = field(default_factory=list)
-    flags: list[int] = field(default_factory=list)
+    flags: Sequence[int] = ()
 
 
 @dataclass(frozen=True)
@@ -100,6 +100,8 @@ class _Layout:
     batch: np.ndarray
     end_offset_s: np.ndarray
     seconds: tuple[float, ...]
+    clean: tuple[int, ...]
+    """No flag on any block: shared by every clean piece (one object fewer per stream and round for the collector)."""
 
 
 @lru_cache(maxsize=256)
@@ -114,7 +116,7 @@ def _layout(lengths: tuple[int, ...], fs: float) -> _Layout:
         offset += n
     starts = np.concatenate(starts)
     seconds = np.diff(np.append(starts, offset)) / fs
-    return _Layout(starts, np.array(batch, dtype=np.intp), np.array(ends), tuple(seconds.tolist()))
+    return _Layout(starts, np.array(batch, dtype=np.intp), np.array(ends), tuple(seconds.tolist()), (0,) * starts.size)
 
 
 def weigh_round(pieces: list[Piece], limits: ArtefactLimits) -> list[Blocks]:
@@ -166,8 +168,8 @@ def _weigh_group(pieces: list[Piece], fs: float, layout: _Layout, correction: Mo
     first_times = np.array([[b.device_time for b in p.batches] for p in pieces])  # (m, batches of the run)
     ends = (first_times[:, layout.batch] + layout.end_offset_s).tolist()  # the same float additions, all at once
     flagged = flags.any(axis=1).tolist()
-    return [_blocks(p, layout, t, e, f, x) for p, t, e, f, x in zip(pieces, ends, energy.tolist(), flags.tolist(),
-                                                                     flagged)]
+    return [_blocks(p, layout, t, e, flags[j].tolist() if x else layout.clean, x)
+            for j, (p, t, e, x) in enumerate(zip(pieces, ends, energy.tolist(), flagged))]
 
 
 def _stack(pieces: list[Piece]) -> np.ndarray:
@@ -182,7 +184,7 @@ def _stack(pieces: list[Piece]) -> np.ndarray:
     return raw
 
 
-def _blocks(piece: Piece, layout: _Layout, ends: list[float], energy: list[float], flags: list[int],
+def _blocks(piece: Piece, layout: _Layout, ends: list[float], energy: list[float], flags: Sequence[int],
             flagged: bool) -> Blocks:
     """Attach device times (``ends``), and flag the block after each rejected one as settling."""
     if not piece.state.settle and not flagged:
