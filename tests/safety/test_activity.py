@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from bim2rdt.safety.activity import E_EAV, ActivityState, ActivityTracker, DayState
+from bim2rdt.safety.activity import E_EAV, E_ELV, ActivityState, ActivityTracker, DayState
 from bim2rdt.safety.config import Trigger
 
 from hav_helpers import DAY, feed, plan_batches
@@ -50,3 +50,18 @@ def test_a_run_with_a_dip_under_the_stop_threshold_is_left_to_block_by_block():
     tracker = _running(day, 0.0)
     assert not tracker.count_run([0.5, 0.5], [50.0, 0.01], lambda _: day)  # a_hv 0.14 m/s^2 in the second
     assert day.energy == 0.0
+
+
+def test_a_run_that_would_cross_the_limit_value_is_left_to_block_by_block():
+    day = DayState(eav_at=1.0)  # EAV reached earlier today: no prediction is due either
+    tracker = _running(day, E_ELV - 10.0)
+    assert not tracker.count_run([0.5, 0.5], [8.0, 8.0], lambda _: day)  # ELV is crossed inside
+    assert day.energy == E_ELV - 10.0 and tracker.state.energy == 0.0
+    assert tracker.count_run([0.5], [8.0], lambda _: day)
+
+
+def test_a_limit_already_reached_does_not_stop_a_run_from_being_counted_in_one_step():
+    day = DayState(eav_at=1.0, elv_at=2.0)  # both limits reached before (a restored day)
+    tracker = _running(day, E_ELV - 10.0)
+    assert tracker.count_run([0.5, 0.5], [8.0, 8.0], lambda _: day)
+    assert day.energy == E_ELV + 6.0 and tracker.state.seconds == 1.0

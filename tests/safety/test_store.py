@@ -101,3 +101,22 @@ def test_the_monitor_refuses_a_batch_longer_than_the_bus_allows(make_monitor):
     with pytest.raises(HavError, match="60.01 s of samples: at most 60 s"):
         monitor.ingest_many([too_long])
     assert monitor.store.raw_count() == 0
+
+
+def test_stream_states_are_saved_as_the_json_that_json_dumps_writes_and_read_back_equal(tmp_path):
+    import json
+
+    from bim2rdt.safety.store import ExposureStore, _dumps
+
+    states = {"w1": [[3, 5000.0, T0 + 3.0, [[4, 6]], None, 0, [], "böot \"7\"", False, [[1.0, 2.0, 3]]],
+                     ["w1@1.000", "2026-12-06", T0, 327.4354438224406, 3.0, 0.0, 0.0, None, 0.0, 0.0, 0.5],
+                     0.019999980926513672, {"batches": 3, "gap_s": 1e-300}],
+              "w2": [[None, 0.0, None, [], None, 0, [], None, True, []], [None, "", 0.0] + [0.0] * 8, None, {}]}
+    assert all(_dumps(state) == json.dumps(state) for state in states.values())
+    store = ExposureStore(tmp_path / "hav.sqlite")
+    with store.transaction():
+        store.save_streams((device, state, bytes([i])) for i, (device, state) in enumerate(states.items()))
+    texts = dict(store._writer.exec_driver_sql("SELECT device, state FROM streams").fetchall())
+    assert texts == {device: json.dumps(state) for device, state in states.items()}
+    assert store.streams() == {device: (state, bytes([i])) for i, (device, state) in enumerate(states.items())}
+    store.close()

@@ -174,8 +174,8 @@ class ActivityTracker:
             act_energy, act_seconds = act_energy + energy, act_seconds + block_s
             hand_energy, hand_seconds = hand_energy + energy, hand_seconds + block_s
         before, after = day.energy, max(day.energy, hand_energy)
-        if any(before < limit <= after and getattr(day, attr) is None for _, limit, attr, _ in _LIMITS):
-            return False
+        if (before < E_EAV <= after and day.eav_at is None) or (before < E_ELV <= after and day.elv_at is None):
+            return False  # a limit crossed (the two of _LIMITS, spelled out: this runs for every stream and round)
         last = act.predicted_at_s
         if day.eav_at is None and (last is None or act_seconds - last >= self.trigger.predict_every_s):
             return False

@@ -12,6 +12,9 @@ filter rings down.
 
 from __future__ import annotations
 
+from functools import lru_cache
+from typing import NamedTuple
+
 import numpy as np
 
 from bim2rdt.safety.config import ArtefactLimits
@@ -36,8 +39,27 @@ def block_sums(values: np.ndarray, starts: np.ndarray, square: bool = False) -> 
     n = values.shape[1]
     if _equal_blocks(n, starts):
         view = values.reshape(values.shape[0], starts.size, n // starts.size)
-        return np.einsum("rkb,rkb->rk", view, view) if square else view.sum(axis=-1)
+        return _row_dots(view, view if square else _ones(view.shape[-1], view.dtype))
     return np.add.reduceat(values * values if square else values, starts, axis=1)
+
+
+def _row_dots(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Dot products along the last axis: ``np.vecdot`` (BLAS dot kernels, numpy >= 2) reads the data once at
+    2-3x the speed of ``einsum``'s or ``sum``'s loops, and sums about as accurately (several partial sums)."""
+    if _VECDOT is None:
+        return np.einsum("...b,...b->...", a, b)
+    return _VECDOT(a, b)
+
+
+_VECDOT = getattr(np, "vecdot", None)
+
+
+@lru_cache(maxsize=16)
+def _ones(n: int, dtype: np.dtype) -> np.ndarray:
+    """A read-only vector of ``n`` ones: a block sum as a dot product."""
+    ones = np.ones(n, dtype=dtype)
+    ones.flags.writeable = False
+    return ones
 
 
 def _equal_blocks(n: int, starts: np.ndarray) -> bool:
@@ -54,14 +76,31 @@ def block_extremes(values: np.ndarray, starts: np.ndarray) -> tuple[np.ndarray, 
     return np.maximum.reduceat(values, starts, axis=1), np.minimum.reduceat(values, starts, axis=1)
 
 
-def block_flags(raw: np.ndarray, starts: np.ndarray, sums: np.ndarray, extremes: tuple[np.ndarray, np.ndarray],
-                full_scale: np.ndarray, limits: ArtefactLimits) -> np.ndarray:
-    """Saturation and shock flags (m, k) of ``raw`` (3m, n) samples of m streams cut at ``starts``, given their
-    per-block ``sums`` and ``extremes`` (3m, k) each; ``full_scale`` (m,) is each stream's sensor range in m/s^2
+def block_stats(raw: np.ndarray, starts: np.ndarray) -> BlockStats:
+    """Per-block sums, sums of squares and extremes of ``raw`` (rows, n) cut at ``starts``, read while the samples
+    are still in cache (right after they were stacked, before the filter evicts them). Squares of impossible
+    samples may overflow float32 to inf: such samples fail :func:`has_bad_samples` and the stats are taken again
+    after :func:`replace_bad_samples`."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        return BlockStats(block_sums(raw, starts), block_sums(raw, starts, square=True), block_extremes(raw, starts))
+
+
+class BlockStats(NamedTuple):
+    """Per-block ``sums``, ``squares`` (sums of squares) and ``extremes`` (maxima, minima), each (rows, k)."""
+
+    sums: np.ndarray
+    squares: np.ndarray
+    extremes: tuple[np.ndarray, np.ndarray]
+
+
+def block_flags(n: int, starts: np.ndarray, stats: BlockStats, full_scale: np.ndarray,
+                limits: ArtefactLimits) -> np.ndarray:
+    """Saturation and shock flags (m, k) of m streams' (3m, ``n``) samples cut at ``starts``, given their per-block
+    ``stats`` (:func:`block_stats`, (3m, k) each); ``full_scale`` (m,) is each stream's sensor range in m/s^2
     (inf if unknown)."""
-    lengths = np.diff(np.append(starts, raw.shape[1]))
-    top, bottom = extremes
-    mean, square = sums / lengths, block_sums(raw, starts, square=True) / lengths
+    lengths = np.diff(np.append(starts, n))
+    top, bottom = stats.extremes
+    mean, square = stats.sums / lengths, stats.squares / lengths
     per_stream = (-1, 3, starts.size)
     peak = np.maximum(top, -bottom).reshape(per_stream).max(axis=1)
     flags = np.where(peak >= limits.saturation_ratio * full_scale[:, None], SATURATION, 0)

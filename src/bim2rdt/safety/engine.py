@@ -91,16 +91,20 @@ class ExposureEngine:
     # --- ingest --------------------------------------------------------------------------------------------
     def push(self, batches: Iterable[AccelBatch], now: float) -> Outcome:
         """Take batches (received at ``now`` unless stamped) from any devices in any order."""
-        outcome, ordered = Outcome(), []
-        for batch in batches:
-            batch = batch if batch.received_time is not None else batch.received_at(now)
-            stream = self.stream(batch.device)
+        outcome, ordered, streams = Outcome(), [], self.streams
+        for batch in batches:  # runs for every batch: no call or list that the common case does not need
+            if batch.received_time is None:
+                batch = batch.received_at(now)
+            stream = streams.get(batch.device) or self.stream(batch.device)
             result = stream.buffer.push(batch, now)
-            outcome.events += self._note_push(stream, batch, result)
+            events = self._note_push(stream, batch, result)
+            if events:
+                outcome.events += events
             if result.duplicates == result.late == 0:
                 outcome.accepted.append(result.renumbered or batch)
             outcome.streams[stream.device] = stream
-            ordered += [(stream, piece, new_segment) for piece, new_segment in result.pieces]
+            for piece, new_segment in result.pieces:
+                ordered.append((stream, piece, new_segment))
         outcome.events += self._process(ordered)
         return outcome
 
@@ -147,10 +151,12 @@ class ExposureEngine:
     # --- order, gaps and clock -----------------------------------------------------------------------------
     def _note_push(self, stream: Stream, batch: AccelBatch, result: PushResult) -> list[Event]:
         stream.count("batches")
-        for name in ("duplicates", "late"):
-            if getattr(result, name):
-                stream.count(name, getattr(result, name))
-                self.count(name, getattr(result, name))
+        if result.duplicates:
+            stream.count("duplicates", result.duplicates)
+            self.count("duplicates", result.duplicates)
+        if result.late:
+            stream.count("late", result.late)
+            self.count("late", result.late)
         if result.renumberings:
             stream.count("renumbered", result.renumberings)
         if result.restarts:  # a new epoch on a reset device clock: the old lag says nothing about the new clock
@@ -158,7 +164,7 @@ class ExposureEngine:
             stream.clock = DeviceClock()
         if result.duplicates == result.late == 0:
             stream.clock.observe(batch.received_time, batch.device_time + batch.duration_s)
-        return self._note_gaps(stream, result)
+        return self._note_gaps(stream, result) if result.gaps else []
 
     def _note_gaps(self, stream: Stream, result: PushResult) -> list[Event]:
         events = []

@@ -130,8 +130,11 @@ class MonitorJournal:
 
     def _save_days(self, engine: ExposureEngine) -> None:
         """This monitor's share of the touched worker-days: what memory holds minus the other shares."""
-        rows = [(subject, day, _minus(engine.days[(subject, day)], self._others.get((subject, day))))
-                for subject, day in engine.touched_days]
+        days, others = engine.days, self._others
+        if others:
+            rows = [(*key, _minus(days[key], others.get(key))) for key in engine.touched_days]
+        else:  # no other shares (one monitor per store): memory is this monitor's share
+            rows = [(*key, days[key]) for key in engine.touched_days]
         if self.part:
             self.store.save_day_parts(self.part, rows)
         else:

@@ -22,7 +22,7 @@ import scipy.signal
 
 from bim2rdt.bus import AccelBatch
 from bim2rdt.safety.blocks import (IMPOSSIBLE, NAN, REJECTED_BEFORE_SETTLING, SETTLING, ArtefactLimits,
-                                   block_extremes, block_flags, block_starts, block_sums, has_bad_samples,
+                                   block_flags, block_starts, block_stats, block_sums, has_bad_samples,
                                    replace_bad_samples, sample_limits)
 from bim2rdt.safety.filters import design_weighting
 from bim2rdt.safety.mounting import MountingCorrection
@@ -70,7 +70,7 @@ class Piece:
 
     @property
     def lengths(self) -> tuple[int, ...]:
-        return tuple(b.xyz.shape[0] for b in self.batches)
+        return tuple([b.xyz.shape[0] for b in self.batches])
 
     @property
     def fs(self) -> float:
@@ -88,7 +88,7 @@ class Blocks:
     end: list[float] = field(default_factory=list)
     seconds: Sequence[float] = ()
     energy: list[float] = field(default_factory=list)
-    flags: list[int] = field(default_factory=list)
+    flags: Sequence[int] = ()
 
 
 @dataclass(frozen=True)
@@ -97,9 +97,11 @@ class _Layout:
     run, the batch each block belongs to, and each block's end (s) after its batch's first sample."""
 
     starts: np.ndarray
-    batch: tuple[int, ...]
-    end_offset_s: tuple[float, ...]
+    batch: np.ndarray
+    end_offset_s: np.ndarray
     seconds: tuple[float, ...]
+    clean: tuple[int, ...]
+    """No flag on any block: shared by every clean piece (one object fewer per stream and round for the collector)."""
 
 
 @lru_cache(maxsize=256)
@@ -114,7 +116,7 @@ def _layout(lengths: tuple[int, ...], fs: float) -> _Layout:
         offset += n
     starts = np.concatenate(starts)
     seconds = np.diff(np.append(starts, offset)) / fs
-    return _Layout(starts, tuple(batch), tuple(ends), tuple(seconds.tolist()))
+    return _Layout(starts, np.array(batch, dtype=np.intp), np.array(ends), tuple(seconds.tolist()), (0,) * starts.size)
 
 
 def weigh_round(pieces: list[Piece], limits: ArtefactLimits) -> list[Blocks]:
@@ -136,16 +138,17 @@ def _weigh_group(pieces: list[Piece], fs: float, layout: _Layout, correction: Mo
                  limits: ArtefactLimits) -> list[Blocks]:
     raw = _stack(pieces)  # (3m, n)
     starts = layout.starts
-    sums = block_sums(raw, starts)
+    stats = block_stats(raw, starts)
     full_scale = np.array([p.full_scale for p in pieces])
     possible = sample_limits(full_scale, limits.physical_limit)
-    extremes = block_extremes(raw, starts)
-    bad = replace_bad_samples(raw, possible) if has_bad_samples(sums, extremes, possible) else None
+    bad = replace_bad_samples(raw, possible) if has_bad_samples(stats.sums, stats.extremes, possible) else None
     if bad is not None:
-        sums, extremes = block_sums(raw, starts), block_extremes(raw, starts)
-    for piece, first in zip(pieces, raw[:, 0].reshape(-1, 3).astype(np.float64)):
-        if piece.new_segment or piece.state.zi is None:
-            _settle(piece, first, correction)
+        stats = block_stats(raw, starts)
+    starting = [j for j, p in enumerate(pieces) if p.new_segment or p.state.zi is None]
+    if starting:
+        firsts = raw[:, 0].reshape(-1, 3).astype(np.float64)
+        for j in starting:
+            _settle(pieces[j], firsts[j], correction)
     signal = raw
     if correction is not None:
         fir_zi = np.concatenate([p.state.fir_zi for p in pieces])
@@ -153,15 +156,20 @@ def _weigh_group(pieces: list[Piece], fs: float, layout: _Layout, correction: Mo
     zi = np.concatenate([p.state.zi for p in pieces], axis=1)
     weighted, zf = scipy.signal.sosfilt(design_weighting(fs).sos, signal, axis=-1, zi=zi)
     energy = block_sums(weighted, starts, square=True).reshape(len(pieces), 3, -1).sum(axis=1) / fs
-    flags = block_flags(raw, starts, sums, extremes, full_scale, limits)
+    flags = block_flags(raw.shape[1], starts, stats, full_scale, limits)
     if bad is not None:
         flags |= np.where(np.logical_or.reduceat(bad[0], starts, axis=1), NAN, 0)
         flags |= np.where(np.logical_or.reduceat(bad[1], starts, axis=1), IMPOSSIBLE, 0)
-    for j, piece in enumerate(pieces):
-        piece.state.zi = zf[:, 3 * j:3 * j + 3]
+    own = zf.reshape(zf.shape[0], len(pieces), 3, 2).transpose(1, 0, 2, 3)  # each stream's (k, 3, 2), one copy
+    for j, (piece, zi_j) in enumerate(zip(pieces, np.ascontiguousarray(own))):
+        piece.state.zi = zi_j
         if correction is not None:
             piece.state.fir_zi = fir_zf[3 * j:3 * j + 3]
-    return [_blocks(p, layout, e, f) for p, e, f in zip(pieces, energy.tolist(), flags.tolist())]
+    first_times = np.array([[b.device_time for b in p.batches] for p in pieces])  # (m, batches of the run)
+    ends = (first_times[:, layout.batch] + layout.end_offset_s).tolist()  # the same float additions, all at once
+    flagged = flags.any(axis=1).tolist()
+    return [_blocks(p, layout, t, e, flags[j].tolist() if x else layout.clean, x)
+            for j, (p, t, e, x) in enumerate(zip(pieces, ends, energy.tolist(), flagged))]
 
 
 def _stack(pieces: list[Piece]) -> np.ndarray:
@@ -176,11 +184,10 @@ def _stack(pieces: list[Piece]) -> np.ndarray:
     return raw
 
 
-def _blocks(piece: Piece, layout: _Layout, energy: list[float], flags: list[int]) -> Blocks:
-    """Attach device times, and flag the block after each rejected one as settling."""
-    t0 = [b.device_time for b in piece.batches]
-    ends = [t0[i] + offset for i, offset in zip(layout.batch, layout.end_offset_s)]
-    if not piece.state.settle and not any(flags):
+def _blocks(piece: Piece, layout: _Layout, ends: list[float], energy: list[float], flags: Sequence[int],
+            flagged: bool) -> Blocks:
+    """Attach device times (``ends``), and flag the block after each rejected one as settling."""
+    if not piece.state.settle and not flagged:
         return Blocks(ends, layout.seconds, energy, flags)
     marked = []
     for flag in flags:
