@@ -4,6 +4,7 @@ paper's Hausdorff alignment metric. Plain robust ICP is ``register(..., upright_
 from bim2rdt.registration.config import IcpConfig
 from bim2rdt.registration.errors import RegistrationError
 from bim2rdt.registration.icp import RegistrationResult, register
+from bim2rdt.registration.matching import SampleTree
 from bim2rdt.registration.metrics import HausdorffStats, hausdorff
 from bim2rdt.registration.sampling import sample_model
 from bim2rdt.registration.so3 import invert_poses
@@ -11,4 +12,4 @@ from bim2rdt.registration.uncertainty import POSE_PARAMETERS, PoseUncertainty
 from bim2rdt.registration.validation import MIN_SCENE_POINTS, unit_up
 
 __all__ = ["MIN_SCENE_POINTS", "POSE_PARAMETERS", "HausdorffStats", "IcpConfig", "PoseUncertainty", "RegistrationError",
-           "RegistrationResult", "hausdorff", "invert_poses", "register", "sample_model", "unit_up"]
+           "RegistrationResult", "SampleTree", "hausdorff", "invert_poses", "register", "sample_model", "unit_up"]

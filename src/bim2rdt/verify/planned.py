@@ -38,8 +38,7 @@ from scipy.spatial import cKDTree
 from bim2rdt.bim import BimElement, BimModel
 from bim2rdt.localization import voxel_means
 from bim2rdt.perception import FitRules, Observation, element_body_mesh, fit_detection, movable_elements
-from bim2rdt.registration import IcpConfig, RegistrationError, register, sample_model
-from bim2rdt.registration.matching import SampleTree
+from bim2rdt.registration import IcpConfig, RegistrationError, SampleTree, register, sample_model
 from bim2rdt.semantics import UprightPrior
 from bim2rdt.twin import ElementStatus, FitEvidence, JudgeConfig, PlaceEvidence, judge_evidence
 from bim2rdt.verify.fusion import ElementLook

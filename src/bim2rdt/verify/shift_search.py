@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from bim2rdt.registration.matching import SampleTree
+from bim2rdt.registration import SampleTree
 
 BATCH = 8
 """Candidates scored per k-d tree query (one query for several poses; the stop is tested between batches)."""
