@@ -28,7 +28,6 @@ the scan near where the BIM says it stands. So, for the located points the perma
 
 from __future__ import annotations
 
-from collections import OrderedDict
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
 
@@ -38,10 +37,11 @@ from scipy.spatial import cKDTree
 
 from bim2rdt.bim import BimElement, BimModel
 from bim2rdt.localization import voxel_means
-from bim2rdt.perception import FitRules, Observation, element_body_mesh, fit_detection, movable_elements
-from bim2rdt.registration import IcpConfig, RegistrationError, SampleTree, register, sample_model
+from bim2rdt.perception import FitRules, Observation, fit_detection, movable_elements
+from bim2rdt.registration import IcpConfig, RegistrationError, SampleTree, register
 from bim2rdt.semantics import UprightPrior
 from bim2rdt.twin import ElementStatus, FitEvidence, JudgeConfig, PlaceEvidence, judge_evidence
+from bim2rdt.verify.bodies import body_samples
 from bim2rdt.verify.fusion import ElementLook
 from bim2rdt.verify.shift_search import Located, best_shift
 
@@ -198,27 +198,10 @@ def place_evidence(body, T_world_model: np.ndarray, sensor_world: np.ndarray, be
     return PlaceEvidence(int(facing.sum()), int(np.sum(seen >= 0)), int(np.sum(seen > 0)), int(np.sum(seen < 0)))
 
 
-BODY_CACHE_SIZE = 64
-"""Bodies kept by :func:`_body` (3,000 samples and normals each, ~0.15 MB)."""
-_BODIES: OrderedDict[tuple, tuple[np.ndarray, np.ndarray]] = OrderedDict()
-
-
 def _body(model: BimModel, element: BimElement, config: PlannedConfig):
-    """The element's body samples and normals (body frame, read-only), sampled once per model, element, sample
-    count and seed: every frame that sees an element checked it, judged it and gave its points an owner, each
-    sampling it afresh (~3 ms each)."""
-    key = (id(model), model.digest, element.global_id, config.samples, config.icp.seed)
-    if key in _BODIES:
-        _BODIES.move_to_end(key)
-        return _BODIES[key]
-    samples, normals = sample_model(element_body_mesh(model, element.global_id), config.samples,
-                                    seed=config.icp.seed, drop_resting_face=False)
-    samples.flags.writeable = False
-    normals.flags.writeable = False
-    _BODIES[key] = (samples, normals)
-    if len(_BODIES) > BODY_CACHE_SIZE:
-        _BODIES.popitem(last=False)
-    return samples, normals
+    return body_samples(model, element.global_id, config.samples, config.icp.seed)
+
+
 
 
 def search_shift(body, placement: np.ndarray, sensor_world: np.ndarray, located: Located,
