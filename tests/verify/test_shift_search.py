@@ -91,3 +91,17 @@ def test_a_later_shift_with_a_higher_bound_does_not_win_a_tie(batch, monkeypatch
     want_pose, want_share = full_scan(face, np.eye(4), [0.0], steps, points, 0.04)
     assert np.array_equal(pose, want_pose) and share == want_share == 0.5
     assert np.allclose(pose[:2, 3], [0.0, 0.0])
+
+
+def test_uneven_steps_are_scored_in_full():
+    """Steps not evenly spaced move samples by no whole number of cells: no bound, every shift scored."""
+    face, start, points = scene(3)
+    steps = np.array([-0.3, -0.1, 0.0, 0.05, 0.25])
+    pose, share = best_shift(face, start, [0.0, 4.0], steps, Located(points), 0.04)
+    want_pose, want_share = full_scan(face, start, [0.0, 4.0], steps, points, 0.04)
+    assert np.array_equal(pose, want_pose) and share == want_share
+    shifts = np.array([(x, y) for x in steps for y in steps])
+    placed = (face + start[:3, 3])[None]
+    assert shift_search._within_reach(points, placed, shifts, steps, 0.04) is None
+    even = np.arange(-0.3, 0.3 + 1e-9, 0.05)
+    assert shift_search._within_reach(points, placed, shifts, even, 0.04) is not None

@@ -124,6 +124,8 @@ def _within_reach(points: np.ndarray, placed: np.ndarray, shifts: np.ndarray, st
     if len(points) == 0 or len(steps) < 2:
         return None
     step = float(steps[1] - steps[0])
+    if step <= 0 or not np.allclose(np.diff(steps), step, rtol=0.0, atol=1e-9 * step):
+        return None  # uneven steps do not move a sample by whole cells
     cell = step / max(1, round(2 * step / support))  # about half the support: a bound ~1.6 x its reach
     grow = int(np.floor(support / cell + 1e-6)) + 1
     base = np.floor((placed - placed.min(axis=(0, 1))) / cell).astype(np.int64)  # (Y, n, 3)
