@@ -72,7 +72,7 @@ class SampleTree:
 
         Returns:
             (distances, indices): shape (N,) for k = 1, (N, k) otherwise; beyond ``distance_upper_bound``, or
-            past the n-th sample, distance inf and index ``n``.
+                past the n-th sample, distance inf and index ``n``.
         """
         found = min(k, self.n)  # pykdtree answers garbage (2^32 - 1, 1e154) for neighbours past the n-th
         distance, index = self._tree.query(np.ascontiguousarray(points, dtype=np.float64), k=found,

@@ -29,7 +29,7 @@ def body_samples(model: BimModel, global_id: str, count: int, seed: int) -> tupl
 
     Returns:
         (samples (count, 3), normals (count, 3)), metres, as :func:`~bim2rdt.registration.sample_model` gives
-        them with ``drop_resting_face=False``.
+            them with ``drop_resting_face=False``.
     """
     key = (id(model), model.digest, global_id, count, seed)
     if key in _BODIES:
