@@ -4,10 +4,14 @@ timed."""
 
 from __future__ import annotations
 
+import multiprocessing
+from pathlib import Path
+
 import numpy as np
+import pytest
 
 from bim2rdt.bench.verify import (FRAME_STAGES, RUN_STAGES, CaseRun, _rate, _Repeated, memory_flat, office_cases,
-                                  run_case, summarise)
+                                  peak_memory_mb, run_case, summarise)
 from bim2rdt.verify.timing import listening, stage
 
 
@@ -75,3 +79,25 @@ def test_no_points_make_no_voxel_means():
 
     assert voxel_means(np.zeros((0, 3)), 0.05).shape == (0, 3)
     assert voxel_means(np.array([[0.01, 0.0, 0.0], [0.02, 0.0, 0.0], [1.0, 0.0, 0.0]]), 0.05).shape == (2, 3)
+
+
+def _child_peak(queue) -> None:
+    from bim2rdt.bench.verify import peak_memory_mb
+
+    queue.put(peak_memory_mb())
+
+
+@pytest.mark.skipif(not Path("/proc/self/status").exists(), reason="VmHWM is Linux's")
+def test_a_spawned_case_does_not_inherit_the_parents_peak_memory():
+    """A parent holding ~300 MB (the bench that made the demo's bag first held ~1 GB) spawns a case: the case's peak
+    is its own (ru_maxrss would carry the parent's resident size at the fork into it)."""
+    ballast = np.ones(300 * 2**20 // 8)  # written, so resident
+    parent = peak_memory_mb()
+    context = multiprocessing.get_context("spawn")
+    queue = context.Queue()
+    child = context.Process(target=_child_peak, args=(queue,))
+    child.start()
+    peak = queue.get(timeout=120)
+    child.join()
+    assert parent > 300 and peak < parent - 200, (parent, peak)
+    del ballast

@@ -18,6 +18,7 @@ needs that a camera frame does not:
 from __future__ import annotations
 
 from collections import OrderedDict
+from functools import lru_cache
 from dataclasses import dataclass
 
 import numpy as np
@@ -29,6 +30,7 @@ from bim2rdt.localization.config import LocalizationConfig
 from bim2rdt.localization.core import Localization, behind_fraction, checked_up, fix_pose, rigid_prior
 from bim2rdt.localization.errors import LocalizationError, Refusal
 from bim2rdt.localization.surfaces import GRAZING_COS, PermanentMap, SurfaceSamples, permanent_map
+from bim2rdt.registration import SampleTree
 
 _CACHE_SIZE = 4
 
@@ -187,8 +189,9 @@ def voxel_means(points: np.ndarray, voxel: float) -> np.ndarray:
     size = cells.max(axis=0) + 1
     keys = (cells[:, 0] * size[1] + cells[:, 1]) * size[2] + cells[:, 2]  # one integer per cube: a 1-D unique
     _, inverse, counts = np.unique(keys, return_inverse=True, return_counts=True)
-    sums = np.zeros((len(counts), 3))
-    np.add.at(sums, inverse.reshape(-1), points)
+    inverse = inverse.reshape(-1)  # bincount sums in the points' order, as np.add.at did: the same means, 3x faster
+    sums = np.stack([np.bincount(inverse, weights=points[:, axis], minlength=len(counts)) for axis in range(3)],
+                    axis=1)
     return sums / counts[:, None]
 
 
@@ -271,7 +274,7 @@ class OccludedMap:
             World samples, their normals (towards the sensor) and elements.
         """
         origin = T_world_sensor[:3, 3]
-        directions = covered(sphere_directions(ray_deg), directions_sensor @ T_world_sensor[:3, :3].T, margin_deg)
+        directions = covered(_sphere(ray_deg), directions_sensor @ T_world_sensor[:3, :3].T, margin_deg)
         if len(directions) == 0:
             return SurfaceSamples(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0, int))
         face = self.mesh.ray.intersects_first(np.broadcast_to(origin, directions.shape), directions)
@@ -303,7 +306,7 @@ class OccludedMap:
             GlobalId -> rays that first hit it (occluders hit by none are left out).
         """
         origin = T_world_sensor[:3, 3]
-        directions = covered(sphere_directions(ray_deg), directions_sensor @ T_world_sensor[:3, :3].T, ray_deg)
+        directions = covered(_sphere(ray_deg), directions_sensor @ T_world_sensor[:3, :3].T, ray_deg)
         if len(directions) == 0:
             return {}
         locations, rays, faces = self.mesh.ray.intersects_location(np.broadcast_to(origin, directions.shape),
@@ -339,8 +342,29 @@ def sphere_directions(step_deg: float) -> np.ndarray:
     return np.stack([ring * np.cos(azimuth), ring * np.sin(azimuth), z], axis=1)
 
 
+@lru_cache(maxsize=8)
+def _sphere(step_deg: float) -> np.ndarray:
+    """:func:`sphere_directions`, computed once per step (read-only): every fix casts over the same lattice."""
+    directions = sphere_directions(step_deg)
+    directions.flags.writeable = False
+    return directions
+
+
 def covered(directions: np.ndarray, seen: np.ndarray, margin_deg: float) -> np.ndarray:
-    """The ``directions`` (unit) within ``margin_deg`` of any of ``seen`` (unit): where the sensor looked."""
-    chord = 2 * np.sin(np.deg2rad(margin_deg) / 2)
-    gap, _ = cKDTree(seen).query(directions, distance_upper_bound=chord)
+    """The ``directions`` (unit) within ``margin_deg`` of any of ``seen`` (unit): where the sensor looked.
+
+    A camera's view is a cap of the sphere: only the directions within the cap's radius plus the margin of its
+    centre are asked (a direction nearer than the margin to a seen one is nearer than that to the centre), on
+    pykdtree (:class:`~bim2rdt.registration.SampleTree`, cKDTree's answers): a Kinect frame asks a tenth
+    of the 165,000 directions of a 0.5-degree lattice."""
+    margin = np.deg2rad(margin_deg)
+    chord = 2 * np.sin(margin / 2)
+    centre = seen.sum(axis=0)
+    length = float(np.linalg.norm(centre))
+    if length > 1e-9:
+        centre = centre / length
+        radius = float(np.arccos(np.clip(seen @ centre, -1.0, 1.0)).max())
+        if radius + margin + 1e-6 < np.pi:
+            directions = directions[directions @ centre >= np.cos(radius + margin + 1e-6)]
+    gap, _ = SampleTree(seen).query(directions, distance_upper_bound=chord)
     return directions[np.isfinite(gap)]

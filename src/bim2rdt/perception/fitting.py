@@ -76,9 +76,14 @@ def fit_detection(model_pts: np.ndarray, model_normals: np.ndarray, points_world
     yaw_only = prior.yaw_only if prior else False
     local = rules.icp.model_copy(update={"restarts": 1, "yaw_jitter_deg": 0.0})
 
+    done: dict[tuple[bytes, int], RegistrationResult] = {}
+
     def fit_from(T: np.ndarray, cfg: IcpConfig) -> RegistrationResult:
-        return register(model_pts, model_normals, points_world, init=T, up=UP, upright_bias=bias, yaw_only=yaw_only,
-                        config=cfg, support_height=slab_height if resting else None)
+        key = (np.asarray(T, dtype=float).tobytes(), id(cfg))  # a start given twice (verify's kept pose is both
+        if key not in done:  # the BIM's and the detector's) is registered once: registration is deterministic
+            done[key] = register(model_pts, model_normals, points_world, init=T, up=UP, upright_bias=bias,
+                                 yaw_only=yaw_only, config=cfg, support_height=slab_height if resting else None)
+        return done[key]
 
     refine = rules.refine_detector_pose and len(detector_poses) > 0
     starts = start_poses(model_pts, points_world, bim_pose, detector_poses, slab_height, refine)

@@ -4,6 +4,7 @@ paper's Hausdorff alignment metric. Plain robust ICP is ``register(..., upright_
 from bim2rdt.registration.config import IcpConfig
 from bim2rdt.registration.errors import RegistrationError
 from bim2rdt.registration.icp import RegistrationResult, register
+from bim2rdt.registration.matching import SampleTree
 from bim2rdt.registration.metrics import HausdorffStats, hausdorff
 from bim2rdt.registration.sampling import sample_model
 from bim2rdt.registration.so3 import invert_poses
@@ -13,4 +14,4 @@ from bim2rdt.registration.validation import MIN_SCENE_POINTS, unit_up
 
 __all__ = ["closest_equivalent", "hausdorff", "HausdorffStats", "IcpConfig", "invert_poses", "MIN_SCENE_POINTS",
            "POSE_PARAMETERS", "PoseUncertainty", "register", "RegistrationError", "RegistrationResult", "sample_model",
-           "unit_up"]
+           "SampleTree", "unit_up"]

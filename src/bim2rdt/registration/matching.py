@@ -52,15 +52,28 @@ class SampleTree:
     """Exact nearest model samples with scipy's ``cKDTree.query`` semantics (misses at distance inf, index
     ``n``) on pykdtree's k-d tree: the same neighbours and distances, 2.5-4x faster per query (a registration's
     matching was 40-47 % of its time; ``taskset -c 0`` on an S1 model of 10,000 samples: 0.13 against 0.34 ms
-    for 16 restarts x 73 points with a bound, 0.35 against 1.5 ms without)."""
+    for 16 restarts x 73 points with a bound, 0.35 against 1.5 ms without).
+
+    Args:
+        points: (n, 3) the points to search, metres.
+    """
 
     def __init__(self, points: np.ndarray):
         self.n = len(points)
         self._tree = KDTree(np.ascontiguousarray(points, dtype=np.float64))
 
     def query(self, points: np.ndarray, k: int = 1, distance_upper_bound: float = np.inf):
-        """(distances, indices) of the ``k`` nearest samples to ``points`` (N, 3): shape (N,) for k = 1, (N, k)
-        otherwise; beyond ``distance_upper_bound``, or past the n-th sample, distance inf and index ``n``."""
+        """The ``k`` nearest samples to each of ``points``.
+
+        Args:
+            points: (N, 3) query points, metres.
+            k: How many neighbours.
+            distance_upper_bound: Neighbours this far or farther are misses, metres.
+
+        Returns:
+            (distances, indices): shape (N,) for k = 1, (N, k) otherwise; beyond ``distance_upper_bound``, or
+                past the n-th sample, distance inf and index ``n``.
+        """
         found = min(k, self.n)  # pykdtree answers garbage (2^32 - 1, 1e154) for neighbours past the n-th
         distance, index = self._tree.query(np.ascontiguousarray(points, dtype=np.float64), k=found,
                                            distance_upper_bound=distance_upper_bound)

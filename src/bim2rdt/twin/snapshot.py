@@ -1,6 +1,8 @@
 """A snapshot from a camera pose: the BIM around an element, its BIM pose and where the robot found it, drawn as
-shaded triangles (painter's algorithm) with matplotlib. It is what a BCF viewpoint shows, rendered without a BIM
-viewer, so a coordinator sees the issue before opening the model.
+shaded triangles (painter's algorithm) with Pillow's polygon fill, alpha-blended. It is what a BCF viewpoint
+shows, rendered without a BIM viewer, so a coordinator sees the issue before opening the model. (A matplotlib
+figure per topic cost ~0.1 s of CPU before a triangle was drawn; Pillow draws a 640 x 480 snapshot of 20,000
+triangles in a few tens of milliseconds.)
 
 The camera is a pinhole in OpenCV's convention (x right, y down, z forward), T_world_camera, metres.
 """
@@ -10,12 +12,9 @@ from __future__ import annotations
 import io
 from dataclasses import dataclass
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.collections import PolyCollection  # noqa: E402
+import numpy as np
+from matplotlib.colors import to_rgb
+from PIL import Image, ImageDraw
 
 from bim2rdt.perception import Intrinsics
 
@@ -53,27 +52,27 @@ def render_snapshot(T_world_camera: np.ndarray, layers: list[Layer], intrinsics:
     """A PNG (intrinsics.width x height pixels) of ``layers`` seen from ``T_world_camera``."""
     polygons, colours, edges, depths = [], [], [], []
     for layer in layers:
+        edge = None if layer.edges is None else _rgba(to_rgb(layer.edges), 1.0)
         for polygon, shade, depth in _project(layer, T_world_camera, intrinsics):
             polygons.append(polygon)
-            colours.append(_shaded(layer.colour, shade, layer.alpha))
-            edges.append(layer.edges or "none")
+            colours.append(_rgba(_shaded(layer.colour, shade), layer.alpha))
+            edges.append(edge)
             depths.append(depth)
-    order = np.argsort(depths)[::-1]  # far first
-    dpi = 100
-    fig = plt.figure(figsize=(intrinsics.width / dpi, intrinsics.height / dpi), dpi=dpi)
-    ax = fig.add_axes((0, 0, 1, 1))
-    ax.set_facecolor((0.92, 0.95, 0.98))
-    if polygons:
-        ax.add_collection(PolyCollection([polygons[i] for i in order], facecolors=[colours[i] for i in order],
-                                         edgecolors=[edges[i] for i in order], linewidths=0.4))
-    ax.set(xlim=(0, intrinsics.width), ylim=(intrinsics.height, 0))
-    ax.axis("off")
+    image = Image.new("RGB", (intrinsics.width, intrinsics.height), _rgba(BACKGROUND, 1.0)[:3])
+    draw = ImageDraw.Draw(image, "RGBA")  # RGBA fills blend with what is drawn already
+    for i in np.argsort(depths, kind="stable")[::-1]:  # far first
+        draw.polygon([tuple(p) for p in polygons[i].tolist()], fill=colours[i], outline=edges[i])
     if title:
-        ax.text(8, 20, title, fontsize=9, color="black", backgroundcolor=(1, 1, 1, 0.7))
+        box = draw.textbbox((8, 8), title)
+        draw.rectangle((box[0] - 2, box[1] - 2, box[2] + 2, box[3] + 2), fill=(255, 255, 255, 178))
+        draw.text((8, 8), title, fill=(0, 0, 0, 255))
     buffer = io.BytesIO()
-    fig.savefig(buffer, format="png", dpi=dpi)
-    plt.close(fig)
+    image.save(buffer, format="PNG", compress_level=1)
     return buffer.getvalue()
+
+
+BACKGROUND = (0.92, 0.95, 0.98)
+"""The sky behind the BIM (RGB, 0-1)."""
 
 
 def _project(layer: Layer, T_world_camera: np.ndarray, intrinsics: Intrinsics):
@@ -97,6 +96,10 @@ def _project(layer: Layer, T_world_camera: np.ndarray, intrinsics: Intrinsics):
     return [(np.stack([u[k], v[k]], axis=1), shade[k], depth[k]) for k in range(len(triangles))]
 
 
-def _shaded(colour, shade: float, alpha: float) -> tuple[float, float, float, float]:
-    r, g, b = matplotlib.colors.to_rgb(colour)
-    return (r * shade, g * shade, b * shade, alpha)
+def _shaded(colour, shade: float) -> tuple[float, float, float]:
+    r, g, b = to_rgb(colour)
+    return (r * shade, g * shade, b * shade)
+
+
+def _rgba(rgb: tuple[float, float, float], alpha: float) -> tuple[int, int, int, int]:
+    return (*(int(round(255 * c)) for c in rgb), int(round(255 * alpha)))

@@ -255,7 +255,7 @@ def verify_frames(frames: Iterable, model: BimModel, prior: np.ndarray | None = 
                   config: VerifyConfig = VerifyConfig(),
                   progress: Callable[[FrameResult], None] | None = None,
                   priors: Mapping[str, UprightPrior] | None = None,
-                  look: Callable[[object, FrameResult], None] | None = None, storey: str | None = None
+                  look: Callable[[object, FrameResult, np.ndarray], None] | None = None, storey: str | None = None
                   ) -> VerifyResult:
     """Each frame of ``frames`` localized on ``model`` and checked (see the module's note). An item is a
     :class:`Frame` or a scan (anything with ``.points`` (N, 3) in the sensor frame, and ``.path``: a
@@ -286,8 +286,8 @@ def verify_frames(frames: Iterable, model: BimModel, prior: np.ndarray | None = 
         progress: Called with each frame's result as it is done.
         priors: Family -> upright prior, to fit each planned object as the mission fits it (default:
             :func:`family_priors` of ``model``).
-        look: Called with each frame (or scan) and its result while the frame is at hand (the structure judge
-            and the deviation maps, :mod:`.structure_run`).
+        look: Called with each frame (or scan), its result and its :func:`sensor_points` while the frame is at
+            hand (the structure judge and the deviation maps, :mod:`.structure_run`).
         storey: The storey (name or GlobalId) a global search looks in; None searches every storey.
 
     Returns:
@@ -331,7 +331,7 @@ def verify_frames(frames: Iterable, model: BimModel, prior: np.ndarray | None = 
             anchor = (own, anchor[1])  # the user's prior is where the sensor was at its first pose
         results.append(result)
         if look is not None:
-            look(frame, result)
+            look(frame, result, points_sensor)
         if progress is not None:
             progress(result)
     dropped = list(recording.dropped)

@@ -18,8 +18,8 @@ from scipy.spatial import cKDTree
 
 from bim2rdt.bim import BimModel
 from bim2rdt.localization import voxel_means
-from bim2rdt.perception import Observation, UNKNOWN_FAMILY, element_body_mesh
-from bim2rdt.registration import sample_model
+from bim2rdt.perception import Observation, UNKNOWN_FAMILY
+from bim2rdt.verify.bodies import body_samples
 
 
 class NewObjectConfig(BaseModel):
@@ -77,7 +77,7 @@ def new_clusters(points_world: np.ndarray, kept: list[tuple[str, np.ndarray]], m
     for global_id, pose in kept:
         if len(points) == 0:
             break
-        body, _ = sample_model(element_body_mesh(model, global_id), 3000, drop_resting_face=False)
+        body, _ = body_samples(model, global_id, 3000, 0)
         gap, _ = cKDTree(body @ pose[:3, :3].T + pose[:3, 3]).query(points, distance_upper_bound=config.on_planned)
         points = points[~np.isfinite(gap)]
     if len(points) < config.min_points:

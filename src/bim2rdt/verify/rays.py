@@ -6,7 +6,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import cKDTree
+
+from bim2rdt.registration import SampleTree
 
 
 @dataclass(frozen=True)
@@ -14,7 +15,7 @@ class RangeLookup:
     """The sensor's returns as (unit direction, range) in the world frame, from ``origin`` (3,)."""
 
     origin: np.ndarray
-    tree: cKDTree
+    tree: SampleTree
     ranges: np.ndarray
     max_angle: float
 
@@ -24,7 +25,7 @@ class RangeLookup:
         ``max_angle_deg`` from every return has no measurement."""
         ranges = np.linalg.norm(points_sensor, axis=1)
         directions = (points_sensor / ranges[:, None]) @ T_world_sensor[:3, :3].T
-        return cls(T_world_sensor[:3, 3].copy(), cKDTree(directions), ranges, np.deg2rad(max_angle_deg))
+        return cls(T_world_sensor[:3, 3].copy(), SampleTree(directions), ranges, np.deg2rad(max_angle_deg))
 
     def compare(self, points_world: np.ndarray, margin: float) -> np.ndarray:
         """(K,) per point: 1 the sensor measured past it by more than ``margin`` (seen through), -1 nearer by

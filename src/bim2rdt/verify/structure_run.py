@@ -35,16 +35,18 @@ class StructureRun:
         self.seen: dict[int, tuple[float, np.ndarray]] = {}
         self.ply: Path | None = None
 
-    def look(self, frame: object, result: FrameResult) -> None:
+    def look(self, frame: object, result: FrameResult, points: np.ndarray | None = None) -> None:
         """Take one frame's evidence (skipped when its fix was refused or its depth looks miscalibrated).
 
         Args:
             frame: The :class:`Frame` or scan verify read.
             result: Its result (the fixed pose).
+            points: Its :func:`~bim2rdt.verify.chain.sensor_points`, when the caller has them (verify does: a
+                frame's backprojection is not repeated).
         """
         if not result.accepted or (result.depth is not None and result.depth.miscalibrated):
             return
-        points = sensor_points(frame)
+        points = sensor_points(frame) if points is None else points
         self.survey.add(StructureView(result.index, points, result.pose))
         self.maps.add(result.index, frame, points, result.pose)
         self.seen[result.index] = (result.time if result.time is not None else float(result.index), result.pose)
