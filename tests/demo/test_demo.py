@@ -19,12 +19,10 @@ from bim2rdt.twin import ElementStatus
 
 
 @pytest.fixture(scope="module")
-def demo_out(tmp_path_factory):
-    out = tmp_path_factory.mktemp("demo")
-    result = subprocess.run([sys.executable, "-m", "bim2rdt", "demo", "--out", str(out), "--trials", "1",
-                             "--workers", "1", "--minutes", "40"], capture_output=True, text=True, timeout=600)
-    assert result.returncode == 0, result.stderr
-    return out, result.stdout
+def demo_out(demo_run):
+    """The session's `demo --trials 1 --workers 1 --minutes 40` (tests/conftest.py): its folder and what it
+    printed."""
+    return demo_run.out, demo_run.stdout
 
 
 def test_demo_writes_the_twin_report_plots_and_resolved_config(demo_out):
