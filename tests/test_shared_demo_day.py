@@ -3,12 +3,24 @@
 
 from __future__ import annotations
 
+import importlib.util
 from pathlib import Path
 from types import SimpleNamespace
 
-from conftest import DEMO_DAY_MODULES, SERIAL_MODULES, pytest_xdist_make_scheduler
-
 ROOT = Path(__file__).resolve().parents[1]
+
+
+def _root_conftest():
+    """tests/conftest.py by its path (``import conftest`` gets whichever conftest pytest imported last)."""
+    spec = importlib.util.spec_from_file_location("root_conftest", ROOT / "tests" / "conftest.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+_CONFTEST = _root_conftest()
+DEMO_DAY_MODULES, SERIAL_MODULES = _CONFTEST.DEMO_DAY_MODULES, _CONFTEST.SERIAL_MODULES
+pytest_xdist_make_scheduler = _CONFTEST.pytest_xdist_make_scheduler
 
 
 def _config(dist: str) -> SimpleNamespace:
