@@ -34,6 +34,31 @@ SERIAL_MODULES = (
 machine is not shared with the other worker."""
 
 
+DEMO_DAY_MODULES = (
+    "tests/demo/test_demo.py",  # what the demo writes and prints
+    "tests/demo/test_demo_route.py",  # the robot's walk on the demo's day
+)
+"""Test files that take the demo's day from the session's one run (the ``demo_run`` fixture). `make test` sends
+them to one xdist worker as one unit (``pytest_xdist_make_scheduler`` below), so the day runs once there."""
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_xdist_make_scheduler(config, log):
+    """``--dist loadfile`` with the files of :data:`DEMO_DAY_MODULES` as one unit of work: one worker runs them
+    all, so the session's ``demo_run`` (an in-process day, kept in memory) is computed once for all of them. Any
+    other ``--dist`` mode: xdist's own scheduler."""
+    if config.getvalue("dist") != "loadfile":
+        return None
+    from xdist.scheduler import LoadFileScheduling
+
+    class SharedDemoDay(LoadFileScheduling):
+        def _split_scope(self, nodeid: str) -> str:
+            scope = super()._split_scope(nodeid)
+            return DEMO_DAY_MODULES[0] if scope in DEMO_DAY_MODULES else scope
+
+    return SharedDemoDay(config, log)
+
+
 def pytest_collection_modifyitems(config, items) -> None:
     root = Path(__file__).resolve().parents[1]
     for item in items:
@@ -98,6 +123,41 @@ def site_model(site_ifc, tmp_path_factory):
     from bim2rdt.bim import load_ifc
 
     return load_ifc(site_ifc, cache_dir=tmp_path_factory.mktemp("site-cache"))
+
+
+@pytest.fixture(scope="session")
+def demo_run(tmp_path_factory):
+    """`bim2rdt demo --trials 1 --workers 1 --minutes 40`, run in this process once per session (the command
+    itself, through typer's runner): ``out`` (its folder), ``stdout`` (what it printed) and ``result`` (the
+    :class:`~bim2rdt.demo.run.DemoResult` it made; ``day`` is its site day, whose twin the run has closed). Shared
+    by the files of :data:`DEMO_DAY_MODULES`: read-only, copy a file before changing it."""
+    from types import SimpleNamespace
+
+    from typer.testing import CliRunner
+
+    import bim2rdt.demo.run
+    from bim2rdt.cli import app
+    from bim2rdt.config import get_settings
+
+    out, made = tmp_path_factory.mktemp("demo"), []
+    run_demo = bim2rdt.demo.run.run_demo
+
+    def kept(*args, **kwargs):
+        made.append(run_demo(*args, **kwargs))
+        return made[-1]
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setenv("BIM2RDT_CACHE_DIR", str(tmp_path_factory.mktemp("demo-cache")))
+        patch.setenv("YOLO_CONFIG_DIR", str(tmp_path_factory.mktemp("demo-yolo")))
+        patch.setattr(bim2rdt.demo.run, "run_demo", kept)  # the command imports it when it runs
+        get_settings.cache_clear()
+        try:
+            result = CliRunner().invoke(app, ["demo", "--out", str(out), "--trials", "1", "--workers", "1",
+                                              "--minutes", "40"])
+        finally:
+            get_settings.cache_clear()
+    assert result.exit_code == 0 and len(made) == 1, (result.output, result.exception)
+    return SimpleNamespace(out=out, stdout=result.stdout, result=made[0], day=made[0].site_day)
 
 
 @pytest.fixture(autouse=True)

@@ -19,12 +19,10 @@ from bim2rdt.twin import ElementStatus
 
 
 @pytest.fixture(scope="module")
-def demo_out(tmp_path_factory):
-    out = tmp_path_factory.mktemp("demo")
-    result = subprocess.run([sys.executable, "-m", "bim2rdt", "demo", "--out", str(out), "--trials", "1",
-                             "--workers", "1", "--minutes", "40"], capture_output=True, text=True, timeout=600)
-    assert result.returncode == 0, result.stderr
-    return out, result.stdout
+def demo_out(demo_run):
+    """The session's `demo --trials 1 --workers 1 --minutes 40` (tests/conftest.py): its folder and what it
+    printed."""
+    return demo_run.out, demo_run.stdout
 
 
 def test_demo_writes_the_twin_report_plots_and_resolved_config(demo_out):
@@ -47,10 +45,12 @@ def test_demo_writes_the_twin_report_plots_and_resolved_config(demo_out):
 
 def test_a_setting_changed_through_the_environment_is_what_runs_and_what_config_json_shows(tmp_path):
     """BIM2RDT_MISSION__MIN_POINTS=100000: no detection has that many points, so the robot sees nothing. (It was
-    MIN_FITNESS=0.99 until the geometric detector's clean, building-free points made fitness 1.00 common.)"""
+    MIN_FITNESS=0.99 until the geometric detector's clean, building-free points made fitness 1.00 common.) One
+    station (``--targets 1``) is enough: with the default minimum it sees the drum and two cones there."""
     env = {**os.environ, "BIM2RDT_MISSION__MIN_POINTS": "100000", "BIM2RDT_HAV__RAW_RETENTION_S": "3600"}
     result = subprocess.run([sys.executable, "-m", "bim2rdt", "demo", "--out", str(tmp_path), "--trials", "1",
-                             "--workers", "1", "--minutes", "1"], capture_output=True, text=True, timeout=600, env=env)
+                             "--workers", "1", "--minutes", "1", "--targets", "1"], capture_output=True, text=True,
+                            timeout=600, env=env)
     assert result.returncode == 0, result.stderr
     settings = json.loads((tmp_path / "config.json").read_text())["settings"]
     assert settings["mission"]["min_points"] == 100000

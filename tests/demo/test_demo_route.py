@@ -7,7 +7,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from bim2rdt.demo.site_day import run_site_day
 from bim2rdt.planning import OccupancyGrid, line_of_sight
 from bim2rdt.planning.zones import WORKER_LIVE_RADIUS
 
@@ -17,8 +16,9 @@ ROBOT_RADIUS = 0.35
 
 
 @pytest.fixture(scope="module")
-def day(tmp_path_factory):
-    return run_site_day(tmp_path_factory.mktemp("route-day"), workers=2, minutes=3.0)
+def day(demo_run):
+    """The site day of the session's demo run (tests/conftest.py: one worker, 40 minutes of tool work)."""
+    return demo_run.day
 
 
 def legs(day):
@@ -84,16 +84,17 @@ def _along(path, fractions):
     return np.stack([np.interp(at, lengths, path[:, 0]), np.interp(at, lengths, path[:, 1])], axis=1)
 
 
-def test_the_report_gets_the_plan_map_and_a_nav2_map_with_what_the_twin_found(day, tmp_path):
-    from bim2rdt.demo.routes import write_route_files
+def test_the_report_gets_the_plan_map_and_a_nav2_map_with_what_the_twin_found(day, demo_run):
+    """The demo's report wrote them (``write_route_files``, with the day's twin open) into its folder."""
     from nav2_maps import read_pgm
 
-    written = write_route_files(day, tmp_path)
-    assert written["plan_map"] == tmp_path / "plan_map.png" and written["plan_map"].stat().st_size > 10_000
-    occupied = read_pgm(tmp_path / "nav2" / "site.pgm")[::-1] == 0
+    out, written = demo_run.out, demo_run.result.report
+    assert written["plan_map"] == out / "plan_map.png" and written["plan_map"].stat().st_size > 10_000
+    assert written["nav2_image"] == out / "nav2" / "site.pgm"
+    occupied = read_pgm(out / "nav2" / "site.pgm")[::-1] == 0
     grid = day.route.grid
     drum = next(t.T_world_model[:2, 3] for t in day.reality.truth if t.change == "unplanned")
     assert occupied[grid.frame.cell_of(drum)]                 # the twin's new drum is on the map
     assert not (day.route.grid.occupied[grid.frame.cell_of(drum)])   # the BIM alone did not have it
-    keepout = read_pgm(tmp_path / "nav2" / "site_keepout.pgm")[::-1] == 0
+    keepout = read_pgm(out / "nav2" / "site_keepout.pgm")[::-1] == 0
     assert keepout[grid.frame.cell_of((16.5, 3.0))] and not keepout[grid.frame.cell_of((9.0, 8.0))]

@@ -1,0 +1,45 @@
+"""The demo's day runs once per `make test`: under ``--dist loadfile`` the files that take it from the session's
+``demo_run`` fixture are one unit of work for one xdist worker; every other file stays a unit of its own."""
+
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+from types import SimpleNamespace
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _root_conftest():
+    """tests/conftest.py by its path (``import conftest`` gets whichever conftest pytest imported last)."""
+    spec = importlib.util.spec_from_file_location("root_conftest", ROOT / "tests" / "conftest.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+_CONFTEST = _root_conftest()
+DEMO_DAY_MODULES, SERIAL_MODULES = _CONFTEST.DEMO_DAY_MODULES, _CONFTEST.SERIAL_MODULES
+pytest_xdist_make_scheduler = _CONFTEST.pytest_xdist_make_scheduler
+
+
+def _config(dist: str) -> SimpleNamespace:
+    return SimpleNamespace(getvalue={"dist": dist, "tx": ["2*popen"]}.get)
+
+
+def test_the_demo_day_files_are_one_unit_and_the_others_one_each():
+    schedule = pytest_xdist_make_scheduler(_config("loadfile"), None)
+    assert {schedule._split_scope(f"{name}::test_x") for name in DEMO_DAY_MODULES} == {DEMO_DAY_MODULES[0]}
+    other = "tests/demo/test_record_round_trip.py"
+    assert schedule._split_scope(f"{other}::test_y") == other
+    assert schedule._split_scope("tests/bench/test_perception_office.py::test_z[a::b]") == \
+        "tests/bench/test_perception_office.py"
+
+
+def test_other_dist_modes_keep_xdists_scheduler():
+    assert pytest_xdist_make_scheduler(_config("load"), None) is None
+
+
+def test_each_listed_file_exists_and_runs_in_the_parallel_part():
+    assert all((ROOT / name).is_file() for name in DEMO_DAY_MODULES)  # a renamed file would leave the unit
+    assert not set(DEMO_DAY_MODULES) & set(SERIAL_MODULES)
