@@ -29,6 +29,11 @@ class FitReport:
     uncertainty: PoseUncertainty
 
 
+SIGMA_FLOOR = 1e-6
+"""Smallest residual spread, m: a scene that lies exactly on the model's samples (synthetic points, a model
+registered to its own surface) has none, and the information is scaled by 1/sigma^2."""
+
+
 def report_fit(pose: np.ndarray, problem: Problem, model: matching.ModelIndex, cfg: IcpConfig,
                upright_bias: float, yaw_only: bool = False) -> FitReport:
     """The fit of ``pose`` (T_world_model) to the scene and its uncertainty.
@@ -46,7 +51,7 @@ def report_fit(pose: np.ndarray, problem: Problem, model: matching.ModelIndex, c
     if n <= 6:
         return FitReport(rmse, float(inliers.mean()), unconstrained())
     distance, sample = patches.distance[inliers], patches.sample[inliers]
-    sigma = float(np.sqrt(np.sum(distance**2) / (n - 6)))
+    sigma = max(float(np.sqrt(np.sum(distance**2) / (n - 6))), SIGMA_FLOOR)
     weights = np.minimum(1.0, cfg.huber_delta / np.maximum(distance, 1e-12))
     on_edge = patches.other_face[inliers] - distance < 2.0 * sigma
     R = pose[:3, :3]
