@@ -51,7 +51,8 @@ def write_report(result, states: Mapping[str, ElementState], model: BimModel, fo
                       frame_pictures(result.frames, states, model, views, residuals, heat), topics,
                       result.warnings + result.source_warnings, structure, progress,
                       _read(folder / "progress_structure.png"), heat,
-                      new_object_sizes(states, result.frames, views, residuals))
+                      new_object_sizes(states, result.frames, views, residuals),
+                      {el.global_id: el.name or "" for el in model.elements})
     return write_bytes_atomic(folder / "report.html", report_page(data).encode("utf-8"))
 
 

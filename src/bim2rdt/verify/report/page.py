@@ -69,6 +69,8 @@ class ReportData:
     extra_heat: Mapping[str, bytes] = field(default_factory=dict)
     sizes: Mapping[str, tuple[int, np.ndarray]] = field(default_factory=dict)
     """New objects' (frame index, size x, y, z in metres) as a frame measured them (:mod:`.sizes`)."""
+    names: Mapping[str, str] = field(default_factory=dict)
+    """The BIM's element names by GlobalId (the structure table names what it judged, seen or not)."""
 
 
 def report_page(data: ReportData) -> str:
@@ -81,7 +83,7 @@ def report_page(data: ReportData) -> str:
         The HTML text.
     """
     sections = [_summary(data), _plan(data), _elements(data), _new_objects(data), _topics(data), _frames(data),
-                _structure(data.structure), _schedule(data.progress, data.progress_png), _extra_heat(data.extra_heat)]
+                _structure(data.structure, data.names), _schedule(data.progress, data.progress_png), _extra_heat(data.extra_heat)]
     return (f"<!doctype html><html><head><meta charset='utf-8'><title>{_e(data.title)}</title>"
             f"<style>{STYLE}</style></head><body><h1>{_e(data.title)}</h1>{''.join(sections)}</body></html>")
 
@@ -255,19 +257,27 @@ def _frame_card(f, pictures: FramePictures) -> str:
             f"<div class='pics'>{images}</div></div>")
 
 
-def _structure(structure: list | None) -> str:
+def _structure(structure: list | None, names: Mapping[str, str]) -> str:
     if not structure:
         return ""
     rows = "".join(
-        f"<tr><td class='l'>{_e(str(e.get('global_id', '')))}</td><td class='l'>{_e(str(e.get('ifc_class', '')))}"
+        f"<tr><td class='l'>{_e(names.get(str(e.get('global_id')), '') or '-')}<br><span class='small'>"
+        f"{_e(str(e.get('global_id', '')))}</span></td><td class='l'>{_e(str(e.get('ifc_class', '')))}"
         f"</td><td class='l'>{_e(str(e.get('status', '')))}</td><td>{_num(e.get('coverage'), 100, '%')}</td>"
         f"<td>{_num(e.get('median_mm'), 1, '')}</td><td>{_num(e.get('p95_mm'), 1, '')}</td>"
-        f"<td>{_num(e.get('offset_m'), 100, '')}</td><td>{_num(e.get('rotation_deg'), 1, '')}</td>"
+        f"<td>{_num(_length(e.get('offset_m')), 100, '')}</td><td>{_num(e.get('rotation_deg'), 1, '')}</td>"
         f"<td>{_e(', '.join(map(str, e.get('frames') or [])))}</td><td class='l'>{_e(str(e.get('reason') or ''))}"
         "</td></tr>" for e in structure if isinstance(e, dict))
-    return ("<h2>Structure</h2><table id='structure'><tr><th class='l'>GlobalId</th><th class='l'>class</th>"
+    return ("<h2>Structure</h2><table id='structure'><tr><th class='l'>name</th><th class='l'>class</th>"
             "<th class='l'>status</th><th>coverage</th><th>median mm</th><th>p95 mm</th><th>offset cm</th>"
             f"<th>rotation °</th><th>frames</th><th class='l'>why</th></tr>{rows}</table>")
+
+
+def _length(offset) -> float | None:
+    """The length (m) of an element's (x, y, z) offset; None where no face pinned it."""
+    if not isinstance(offset, list | tuple) or len(offset) != 3:
+        return None
+    return float(np.linalg.norm(np.asarray(offset, dtype=float)))
 
 
 PROGRESS_COLOURS = {"complete": "#2ca02c", "on schedule": "#2ca02c", "ahead": "#1f77b4", "behind": "#d62728",
