@@ -32,7 +32,7 @@ MAX_FRAME_CARDS = 60
 """Frames drawn with pictures (the first ones, and every frame with a finding); the rest are in the table only."""
 STYLE = ("body{font-family:system-ui,sans-serif;margin:1.5em;color:#222;max-width:1400px}h2{margin-top:1.6em}"
          "table{border-collapse:collapse;font-size:13px}td,th{padding:3px 8px;border-bottom:1px solid #ddd;"
-         "text-align:right;vertical-align:top}td.l,th.l{text-align:left}.warn{color:#b00}"
+         "text-align:right;vertical-align:top}td.l,th.l{text-align:left}td.l{overflow-wrap:anywhere;min-width:6em}.warn{color:#b00}"
          ".badge{display:inline-block;padding:1px 6px;border-radius:3px;color:#fff}"
          ".card{display:inline-block;vertical-align:top;margin:0 1em 1.2em 0;max-width:680px}"
          ".card img,.topic img{max-width:100%;display:block}.pics{display:flex;gap:8px}.pics figure{margin:0;flex:0 0 320px}"
