@@ -18,7 +18,7 @@ from typer.testing import CliRunner
 from bim2rdt.cli import app
 
 runner = CliRunner()
-PRIOR, CORRECTION = "1.30,-4.55,1.38,82", "0.0605,0.0071,-0.0041"  # the truth's prior 20 cm, 5 degrees off
+PRIOR, CORRECTION = "1.30,-4.55,1.38,82", "0.0605,0.0071,-0.0041"  # office1_verified's, rounded
 BACK, LEFT, RIGHT, SLAB = ("2JZZFQ24DR6AR9VzB73DuV", "02UJOuQsPO7ufQ6Ge1Zyhz", "1ihtWmC1LPFgWT4P_fhWHu",
                            "340zJlvXHM4e3iHRiiwmVj")
 
