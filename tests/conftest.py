@@ -25,7 +25,6 @@ SERIAL_MODULES = (
     "tests/bus/test_monitor_acks.py",  # a monitor killed within its 10 s group-commit delay
     "tests/bus/test_nats_last_delivery.py",  # monitor lives of an ack wait of 1 s each
     "tests/server/test_connections.py",  # answers within 2 s under 1,000 connections
-    "tests/server/test_server_clock.py",  # the served day's clock against the wall clock
     "tests/safety/test_outbox.py",  # a feed within 5 s
     "tests/cli/test_interrupt.py",  # Ctrl-C at a given moment of a run
     "tests/cli/test_verify_progress.py",  # the live bar's time-left estimate
