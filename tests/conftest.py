@@ -25,7 +25,6 @@ SERIAL_MODULES = (
     "tests/bus/test_monitor_acks.py",  # a monitor killed within its 10 s group-commit delay
     "tests/bus/test_nats_last_delivery.py",  # monitor lives of an ack wait of 1 s each
     "tests/server/test_connections.py",  # answers within 2 s under 1,000 connections
-    "tests/server/test_server_clock.py",  # the served day's clock against the wall clock
     "tests/safety/test_outbox.py",  # a feed within 5 s
     "tests/cli/test_interrupt.py",  # Ctrl-C at a given moment of a run
     "tests/cli/test_verify_progress.py",  # the live bar's time-left estimate
@@ -41,12 +40,23 @@ DEMO_DAY_MODULES = (
 """Test files that take the demo's day from the session's one run (the ``demo_run`` fixture). `make test` sends
 them to one xdist worker as one unit (``pytest_xdist_make_scheduler`` below), so the day runs once there."""
 
+OFFICE1_VERIFY_MODULES = (
+    "tests/cli/test_verify.py",  # the pose, the furniture's verdicts
+    "tests/cli/test_verify_structure.py",  # the walls' and the slab's judgements
+    "tests/cli/test_verify_bag.py",  # the frame as a bag verifies as the frame does
+)
+"""Test files that take office1's corrected verify from the session's one run (the ``office1_verified`` fixture),
+sent to one xdist worker as one unit as :data:`DEMO_DAY_MODULES` are."""
+
+SHARED_RUN_UNITS = (DEMO_DAY_MODULES, OFFICE1_VERIFY_MODULES)
+"""Groups of test files that share a session fixture's run: each group is one unit of work under ``loadfile``."""
+
 
 @pytest.hookimpl(optionalhook=True)
 def pytest_xdist_make_scheduler(config, log):
-    """``--dist loadfile`` with the files of :data:`DEMO_DAY_MODULES` as one unit of work: one worker runs them
-    all, so the session's ``demo_run`` (an in-process day, kept in memory) is computed once for all of them. Any
-    other ``--dist`` mode: xdist's own scheduler."""
+    """``--dist loadfile`` with the files of each group of :data:`SHARED_RUN_UNITS` as one unit of work: one
+    worker runs them all, so the session's ``demo_run`` (an in-process day, kept in memory) or
+    ``office1_verified`` is computed once for all of them. Any other ``--dist`` mode: xdist's own scheduler."""
     if config.getvalue("dist") != "loadfile":
         return None
     from xdist.scheduler import LoadFileScheduling
@@ -54,7 +64,7 @@ def pytest_xdist_make_scheduler(config, log):
     class SharedDemoDay(LoadFileScheduling):
         def _split_scope(self, nodeid: str) -> str:
             scope = super()._split_scope(nodeid)
-            return DEMO_DAY_MODULES[0] if scope in DEMO_DAY_MODULES else scope
+            return next((unit[0] for unit in SHARED_RUN_UNITS if scope in unit), scope)
 
     return SharedDemoDay(config, log)
 
@@ -107,6 +117,47 @@ def office1(sensors):
     frame.depth.flags.writeable = False
     return SimpleNamespace(model=load_ifc(folder / "office1.ifc"), frame=frame, truth=truth,
                            T_world_camera=np.array(truth["T_world_camera"]))
+
+
+def office1_prior(truth: dict) -> str:
+    """``--prior`` X,Y,Z,YAW_DEG (m, deg) of office1's truth camera moved 20 cm (14 cm along x and y) and turned
+    5 degrees."""
+    import math
+
+    T = truth["T_world_camera"]
+    yaw = math.degrees(math.atan2(T[1][2], T[0][2])) + 5.0
+    return f"{T[0][3] + 0.14},{T[1][3] + 0.14},{T[2][3]},{yaw}"
+
+
+@pytest.fixture(scope="session")
+def office1_verified(sensors, tmp_path_factory):
+    """`bim2rdt verify office1.ifc office1.pcd --json --prior P --depth-correction G` (P: :func:`office1_prior`,
+    G: the truth file's correction), run in this process once per session: ``truth`` (dict), ``out`` (its
+    folder), ``summary`` (its --json output, parsed) and ``prior``, ``g`` (the options given). Shared by the
+    files of :data:`OFFICE1_VERIFY_MODULES`: read-only, copy a file before changing it."""
+    import json
+    from types import SimpleNamespace
+
+    from typer.testing import CliRunner
+
+    from bim2rdt.cli import app
+    from bim2rdt.config import get_settings
+
+    folder = sensors / "pcl"
+    truth = json.loads((folder / "office1_truth.json").read_text())
+    prior, g = office1_prior(truth), ",".join(str(v) for v in truth["depth_correction"]["g"])
+    out = tmp_path_factory.mktemp("office1-verify")
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setenv("BIM2RDT_CACHE_DIR", str(tmp_path_factory.mktemp("office1-cache")))
+        get_settings.cache_clear()
+        try:
+            result = CliRunner().invoke(app, ["verify", str(folder / "office1.ifc"), str(folder / "office1.pcd"),
+                                              "--out", str(out), "--json", "--prior", prior,
+                                              "--depth-correction", g])
+        finally:
+            get_settings.cache_clear()
+    assert result.exit_code == 0, (result.output, result.exception)
+    return SimpleNamespace(truth=truth, out=out, summary=json.loads(result.output), prior=prior, g=g)
 
 
 @pytest.fixture(scope="session")

@@ -20,6 +20,7 @@ def _root_conftest():
 
 _CONFTEST = _root_conftest()
 DEMO_DAY_MODULES, SERIAL_MODULES = _CONFTEST.DEMO_DAY_MODULES, _CONFTEST.SERIAL_MODULES
+OFFICE1_VERIFY_MODULES = _CONFTEST.OFFICE1_VERIFY_MODULES
 pytest_xdist_make_scheduler = _CONFTEST.pytest_xdist_make_scheduler
 
 
@@ -36,10 +37,19 @@ def test_the_demo_day_files_are_one_unit_and_the_others_one_each():
         "tests/bench/test_perception_office.py"
 
 
+def test_the_office1_verify_files_are_one_unit_apart_from_the_demo_days():
+    schedule = pytest_xdist_make_scheduler(_config("loadfile"), None)
+    scopes = {schedule._split_scope(f"{name}::test_x[a::b]") for name in OFFICE1_VERIFY_MODULES}
+    assert scopes == {OFFICE1_VERIFY_MODULES[0]} != {DEMO_DAY_MODULES[0]}
+    other = "tests/verify/test_office1_judge.py"
+    assert schedule._split_scope(f"{other}::test_y") == other
+
+
 def test_other_dist_modes_keep_xdists_scheduler():
     assert pytest_xdist_make_scheduler(_config("load"), None) is None
 
 
 def test_each_listed_file_exists_and_runs_in_the_parallel_part():
-    assert all((ROOT / name).is_file() for name in DEMO_DAY_MODULES)  # a renamed file would leave the unit
-    assert not set(DEMO_DAY_MODULES) & set(SERIAL_MODULES)
+    listed = DEMO_DAY_MODULES + OFFICE1_VERIFY_MODULES
+    assert all((ROOT / name).is_file() for name in listed)  # a renamed file would leave the unit
+    assert not set(listed) & set(SERIAL_MODULES) and len(set(listed)) == len(listed)

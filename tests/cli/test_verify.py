@@ -43,13 +43,11 @@ def _correction(truth) -> str:
 
 
 @pytest.fixture(scope="module")
-def corrected(sensors, tmp_path_factory):
-    truth = _truth(sensors)
-    out = tmp_path_factory.mktemp("verify")
-    result = _run(sensors / "pcl" / "office1.ifc", sensors / "pcl" / "office1.pcd", out, "--prior", _prior(truth),
-                  "--depth-correction", _correction(truth))
-    assert result.exit_code == 0, result.output
-    return truth, out, json.loads(result.output)
+def corrected(office1_verified):
+    """The session's one corrected run (``office1_verified``: the prior of :func:`_prior`, the truth's correction)."""
+    assert office1_verified.prior == _prior(office1_verified.truth)
+    assert office1_verified.g == _correction(office1_verified.truth)
+    return office1_verified.truth, office1_verified.out, office1_verified.summary
 
 
 def test_verify_localizes_office1_within_3_cm_and_1_degree_of_the_truth(corrected):

@@ -38,17 +38,16 @@ def _statuses(twin) -> dict:
     return {e["global_id"]: e["status"] for e in elements}
 
 
-def test_office1_as_a_bag_verifies_as_the_frame_does(sensors, tmp_path):
-    truth = json.loads((sensors / "pcl" / "office1_truth.json").read_text())
+def test_office1_as_a_bag_verifies_as_the_frame_does(sensors, tmp_path, office1_verified):
+    truth, g = office1_verified.truth, office1_verified.g  # the frame: the session's run, from the same prior
     T = np.array(truth["T_world_camera"])
     yaw = np.degrees(np.arctan2(T[1, 2], T[0, 2])) + 5.0
-    prior = f"{T[0, 3] + 0.14},{T[1, 3] + 0.14},{T[2, 3]},{yaw}"
-    g = ",".join(str(v) for v in truth["depth_correction"]["g"])
+    assert office1_verified.prior == f"{T[0, 3] + 0.14},{T[1, 3] + 0.14},{T[2, 3]},{yaw}"
     frame = next(iter(open_source(sensors / "pcl" / "office1.pcd")))
     _bag_of(frame, tmp_path / "office1.mcap", prior_pose((T[0, 3] + 0.14, T[1, 3] + 0.14, T[2, 3]), yaw, None))
     ifc = sensors / "pcl" / "office1.ifc"
-    direct = _verify(ifc, sensors / "pcl" / "office1.pcd", tmp_path / "direct", "--prior", prior,
-                     "--depth-correction", g)
+    out = office1_verified.out
+    direct = json.loads((out / "localization.json").read_text())["frames"], json.loads((out / "twin.json").read_text())
     bagged = _verify(ifc, tmp_path / "office1", tmp_path / "bag", "--depth-correction", g)
     assert bagged[0][0]["accepted"] and direct[0][0]["accepted"]
     assert np.allclose(bagged[0][0]["pose"], direct[0][0]["pose"], atol=2e-3)  # millimetre depth in the bag

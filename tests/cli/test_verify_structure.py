@@ -1,4 +1,4 @@
-"""`bim2rdt verify` judges office1's structure (the README's quick start: its prior and depth correction): the walls
+"""`bim2rdt verify` judges office1's structure (its prior 20 cm and 5 degrees off, its depth correction): the walls
 and the slab it sees as planned with their coverage and signed distances, the wall behind the wardrobe not observed;
 an IFC with the back wall moved 4 cm into the room makes it deviating by about that much; a wall added across the
 clear floor is not built. Each run writes structure.json, a deviation PNG per frame and deviation.ply."""
@@ -18,7 +18,7 @@ from typer.testing import CliRunner
 from bim2rdt.cli import app
 
 runner = CliRunner()
-PRIOR, CORRECTION = "1.30,-4.55,1.38,82", "0.0605,0.0071,-0.0041"  # README's quick start
+PRIOR, CORRECTION = "1.30,-4.55,1.38,82", "0.0605,0.0071,-0.0041"  # office1_verified's, rounded
 BACK, LEFT, RIGHT, SLAB = ("2JZZFQ24DR6AR9VzB73DuV", "02UJOuQsPO7ufQ6Ge1Zyhz", "1ihtWmC1LPFgWT4P_fhWHu",
                            "340zJlvXHM4e3iHRiiwmVj")
 
@@ -32,9 +32,11 @@ def _verify(ifc, sensors, out):
 
 
 @pytest.fixture(scope="module")
-def office1(sensors, tmp_path_factory):
-    out = tmp_path_factory.mktemp("verify")
-    return (out, *_verify(sensors / "pcl" / "office1.ifc", sensors, out))
+def office1(office1_verified):
+    """The session's one run of office1.ifc (``office1_verified``: PRIOR and CORRECTION unrounded, from the truth)."""
+    out = office1_verified.out
+    structure = {j["global_id"]: j for j in json.loads((out / "structure.json").read_text())}
+    return out, office1_verified.summary, structure
 
 
 def test_office1s_walls_and_slab_are_judged_as_planned_with_coverage_and_deviation(office1):

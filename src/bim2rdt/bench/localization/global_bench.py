@@ -40,12 +40,24 @@ def run_global(out_dir: Path, seed: int = 0, distance: float = 100.0, config: Gl
     prior, and the peer on the same frames (JSON-able); with ``look_around``, each station also as the robot
     sees it turning 70 degrees either way (three frames as one cloud, placed by its odometry and IMU)."""
     cfg = config or GlobalSearchConfig()
-    model = load_ifc(build_site_ifc(Path(out_dir) / "site.ifc"), cache_dir=Path(out_dir) / "cache")
+    stations = _tour_stations(Path(out_dir), seed, distance, cfg, peer, tick, look_around) if tour else []
+    record = {"tolerance": {"position_m": POSITION_M, "yaw_deg": YAW_DEG}, "stations": stations,
+              "summary": _summary(stations, peer)}
+    if sensors is not None and (sensors / "pcl" / "office1.pcd").is_file():
+        record["office"] = _office(sensors, cfg, peer, Path(out_dir) / "cache")
+    return record
+
+
+def _tour_stations(out_dir: Path, seed: int, distance: float, cfg: GlobalSearchConfig, peer: bool, tick,
+                   look_around: bool) -> list[dict]:
+    """Each station of a ``distance`` m tour of the embedded site (built in ``out_dir``) searched without a prior,
+    by ours and (with ``peer``) by FPFH + RANSAC on the same frame."""
+    model = load_ifc(build_site_ifc(out_dir / "site.ifc"), cache_dir=out_dir / "cache")
     scene = tour_scene(model, seed=seed).scene
     rng = np.random.default_rng(seed)
     ransac = _FpfhRansac(model, seed) if peer else None
     stations = []
-    for index, T_true in enumerate(tour_poses(distance) if tour else []):
+    for index, T_true in enumerate(tour_poses(distance)):
         frame = replace(render_frame(scene, T_true, rng), T_world_camera=None)
         up = T_true[:3, :3].T @ np.array([0.0, 0.0, 1.0])  # the IMU's up, in the camera frame
         entry = {"index": index, **_ours(frame, model, up, cfg, T_true, YAW_DEG)}
@@ -56,11 +68,7 @@ def run_global(out_dir: Path, seed: int = 0, distance: float = 100.0, config: Gl
             entry["peer"] = ransac.score(frame, T_true, YAW_DEG)
         stations.append(entry)
         tick()
-    record = {"tolerance": {"position_m": POSITION_M, "yaw_deg": YAW_DEG}, "stations": stations,
-              "summary": _summary(stations, peer)}
-    if sensors is not None and (sensors / "pcl" / "office1.pcd").is_file():
-        record["office"] = _office(sensors, cfg, peer, Path(out_dir) / "cache")
-    return record
+    return stations
 
 
 def _ours(frame, model: BimModel, up, cfg: GlobalSearchConfig, T_true: np.ndarray, yaw_tol: float) -> dict:
