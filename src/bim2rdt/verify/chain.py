@@ -24,6 +24,7 @@ from bim2rdt.bim import BimModel
 from bim2rdt.localization import (GlobalSearchConfig, LocalizationConfig, LocalizationError, OccludedMap, Refusal,
                                   depth_points, localize_cloud, scan_points)
 from bim2rdt.perception import Frame, Observation, explained, movable_elements, structure_for
+from bim2rdt.registration import load_kernels
 from bim2rdt.semantics import KnowledgeBasePriors, UprightPrior
 from bim2rdt.sources import as_recording
 from bim2rdt.twin import ElementStatus, JudgeConfig, TwinConfig
@@ -299,6 +300,7 @@ def verify_frames(frames: Iterable, model: BimModel, prior: np.ndarray | None = 
     try:
         with stage("setup"):
             scene = OccludedMap.of(model)
+            load_kernels()  # numba's import and machine code (~0.4 s once), here and not in the first frame
     except LocalizationError as error:
         raise VerifyError(str(error)) from None
     priors = family_priors(model) if priors is None else priors
