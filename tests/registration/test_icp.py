@@ -100,6 +100,21 @@ def test_result_reports_fit_and_iterations_of_the_restart_it_kept(crate_model, c
     assert 1 <= result.iterations < result.total_iterations
 
 
+def test_without_a_report_the_pose_and_score_are_the_same_and_the_fit_is_left_out(crate_model, crate_view,
+                                                                                    make_pose, placed):
+    """report=False (the callers that read only the pose) keeps the pose, score and restart bit for bit, under
+    a prior with its release too; only rmse, fitness (NaN) and the uncertainty (None) are left out."""
+    start = make_pose(np.deg2rad(8.0), 0.05, (0.04, -0.03, 0.0))
+    scene = placed(make_pose(0.0, 0.0, (0.0, 0.0, 0.0)), crate_view)
+    for bias in (0.0, 0.5):
+        full = register(*crate_model, scene, start, upright_bias=bias, config=IcpConfig(restarts=3))
+        bare = register(*crate_model, scene, start, upright_bias=bias, config=IcpConfig(restarts=3), report=False)
+        assert np.array_equal(bare.pose, full.pose)
+        assert (bare.score, bare.restart, bare.released) == (full.score, full.restart, full.released)
+        assert np.isnan(bare.rmse) and np.isnan(bare.fitness) and bare.uncertainty is None
+        assert np.isfinite(full.rmse) and full.uncertainty is not None
+
+
 @pytest.mark.parametrize(
     "change, message",
     [

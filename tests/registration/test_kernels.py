@@ -86,3 +86,26 @@ def test_composed_steps_are_the_pose_times_the_inverse_step():
     poses, turned, moved = kernels.compose_steps(T, dR, dt)
     assert np.allclose(poses, T @ invert_poses(step), atol=1e-14)
     assert np.allclose(turned, rotation_angle(dR), atol=1e-7) and np.allclose(moved, np.linalg.norm(dt, axis=1))
+
+
+def test_verify_imports_without_numba_and_load_kernels_brings_its_machine_code_in():
+    """``import bim2rdt.verify`` leaves numba out (its import is ~0.2 s); :func:`load_kernels` (verify's setup)
+    loads it and each kernel's machine code for both of verify's paths, so a later registration compiles or
+    loads nothing: the dispatchers' signatures do not grow."""
+    import subprocess
+    import sys
+
+    code = ("import sys, numpy as np, bim2rdt.verify\n"
+            "assert 'numba' not in sys.modules\n"
+            "from bim2rdt.registration import load_kernels, register, kernels\n"
+            "load_kernels()\n"
+            "names = ('body_points', 'pair_residuals', 'normal_systems', 'solve_steps', 'compose_steps')\n"
+            "loaded = {n: len(getattr(kernels, n).signatures) for n in names}\n"
+            "assert all(loaded.values()), loaded\n"
+            "rng = np.random.default_rng(1)\n"
+            "p = rng.uniform(-0.5, 0.5, (400, 3)); n = p / np.linalg.norm(p, axis=1)[:, None]\n"
+            "register(p, n, p[:250] + 0.01, yaw_only=True, support_height=-0.5)\n"
+            "register(p, n, p[:250] + 0.01, upright_bias=0.5)\n"
+            "assert loaded == {n: len(getattr(kernels, n).signatures) for n in names}\n")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr[-2000:]

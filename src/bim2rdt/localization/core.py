@@ -117,7 +117,7 @@ def _fit(view: SensorView, start: np.ndarray, icp: IcpConfig, up_world: np.ndarr
     centre[:3, 3] = start[:3, 3]  # the BIM's body frame sits at the sensor: yaw turns about it, not far away
     try:
         fit = register(visible.points - centre[:3, 3], visible.normals, placed[near], init=centre, up=up_world,
-                       upright_bias=0.0, yaw_only=True, config=icp)
+                       upright_bias=0.0, yaw_only=True, config=icp, report=False)  # only the pose is read
     except RegistrationError as error:
         raise LocalizationError(f"registration failed: {error}", Refusal.REGISTRATION) from None
     return centre @ invert_poses(fit.pose) @ start, int(near.sum())

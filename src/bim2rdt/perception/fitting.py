@@ -50,7 +50,8 @@ class FitRules:
 
 def fit_detection(model_pts: np.ndarray, model_normals: np.ndarray, points_world: np.ndarray,
                   bim_pose: np.ndarray | None, detector_poses: Sequence[np.ndarray], prior: UprightPrior | None,
-                  slab_height: float, rules: FitRules, plausible: Plausible = lambda fit: True) -> RegistrationResult:
+                  slab_height: float, rules: FitRules, plausible: Plausible = lambda fit: True, *,
+                  report: bool = True) -> RegistrationResult:
     """The kept registration of a model (``model_pts``/``model_normals`` (N, 3), body frame) to one object's
     ``points_world`` (M, 3), from the matched element's ``bim_pose`` (T_world_model, None for an object the BIM
     lacks) and the detector's own ``detector_poses``, under the family's upright ``prior``, on the slab at
@@ -66,6 +67,8 @@ def fit_detection(model_pts: np.ndarray, model_normals: np.ndarray, points_world
         slab_height: World z of the slab under the object, metres.
         rules: The fitting rules (ICP, tie ratio, slab contact).
         plausible: Whether a fit may be kept (free space, ...).
+        report: Report each fit (``rmse``, ``fitness``, ``uncertainty``); False for a caller that reads only the
+            kept pose and score (see :func:`~bim2rdt.registration.register`): the same fit is kept either way.
 
     Returns:
         The kept registration.
@@ -82,7 +85,8 @@ def fit_detection(model_pts: np.ndarray, model_normals: np.ndarray, points_world
         key = (np.asarray(T, dtype=float).tobytes(), id(cfg))  # a start given twice (verify's kept pose is both
         if key not in done:  # the BIM's and the detector's) is registered once: registration is deterministic
             done[key] = register(model_pts, model_normals, points_world, init=T, up=UP, upright_bias=bias,
-                                 yaw_only=yaw_only, config=cfg, support_height=slab_height if resting else None)
+                                 yaw_only=yaw_only, config=cfg, support_height=slab_height if resting else None,
+                                 report=report)
         return done[key]
 
     refine = rules.refine_detector_pose and len(detector_poses) > 0

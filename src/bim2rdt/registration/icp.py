@@ -25,7 +25,9 @@ class RegistrationResult:
     """The best restart's pose and its fit. ``rmse`` (m) and ``fitness`` (0-1) are over scene points within
     ``IcpConfig.score_distance`` of the posed model's SURFACE; ``score`` is the truncated mean squared
     residual (m^2, plus the upright penalty under a bias) that chose the restart; ``uncertainty`` the pose
-    covariance and what the view leaves unconstrained (see :mod:`bim2rdt.registration.uncertainty`)."""
+    covariance and what the view leaves unconstrained (see :mod:`bim2rdt.registration.uncertainty`). A
+    registration asked for no report (``register(..., report=False)``) leaves ``rmse`` and ``fitness`` NaN and
+    ``uncertainty`` None."""
 
     pose: np.ndarray  # T_world_model (4, 4)
     rmse: float
@@ -90,7 +92,7 @@ class _Restarts:
 def register(model_points: np.ndarray, model_normals: np.ndarray, scene_points: np.ndarray,
              init: np.ndarray = np.eye(4), up: np.ndarray | tuple[float, float, float] = (0.0, 0.0, 1.0),
              upright_bias: float = 0.0, yaw_only: bool = False, config: IcpConfig | None = None,
-             support_height: float | None = None) -> RegistrationResult:
+             support_height: float | None = None, *, report: bool = True) -> RegistrationResult:
     """Align a model (body-frame surface samples with normals, upright along +z) to scene points (world frame).
 
     SG-ICP: yaw restarts and hops around the best, with the gravity prior pulling the model's up axis onto the
@@ -107,10 +109,13 @@ def register(model_points: np.ndarray, model_normals: np.ndarray, scene_points: 
         config: The search's settings; None uses :class:`IcpConfig`'s defaults.
         support_height: Height (metres along ``up``) of the slab the object rests on; its lowest point is pulled
             onto it (a body at rest touches its support). None leaves height free.
+        report: Report the fit on the final pose (``rmse``, ``fitness``, ``uncertainty``: ~30 % of a
+            registration's time). False, for a caller that reads only the pose and the score, leaves ``rmse``
+            and ``fitness`` NaN and ``uncertainty`` None; the pose and the score are the same either way.
 
     Returns:
         The fit: ``pose`` (``T_world_model``, 4x4), ``fitness`` (0-1), ``rmse`` (metres), the ``score`` that
-            chose the restart and the pose ``uncertainty``.
+            chose the restart and the pose ``uncertainty`` (see ``report``).
 
     Raises:
         RegistrationError: Bad input (shapes, non-finite values, too few points, a non-rigid ``init``, an
@@ -127,7 +132,26 @@ def register(model_points: np.ndarray, model_normals: np.ndarray, scene_points: 
         best = _restarts_and_hops(problem, model, normals_world, cfg, yaw_only)
     if 0.0 < problem.upright_bias < 1.0 and not yaw_only and cfg.release_iterations > 0:
         best = _release_if_leaning(best, problem, model, normals_world, cfg)
+    if not report:
+        return best
     return _with_fit(best, problem, model, cfg, yaw_only)  # (no prior, a certain one, or yaw_only: no release)
+
+
+def load_kernels() -> None:
+    """Load the compiled ICP step (:mod:`bim2rdt.registration.kernels`) now: numba's import and each kernel's
+    cached machine code cost ~0.4 s of one core once per process, which the first registration would otherwise
+    pay. A long run (``verify``) calls this in its setup so its first frame costs what the others do. Two small
+    registrations of a box's corner do it, yaw-only on a support and under an upright prior (the paths verify
+    takes); no result is kept."""
+    grid = np.linspace(0.0, 0.4, 8)
+    u, v = (a.ravel() for a in np.meshgrid(grid, grid))
+    zero = np.zeros_like(u)
+    faces = [np.c_[u, v, zero], np.c_[u, zero, v], np.c_[zero, u, v]]
+    points = np.concatenate(faces)
+    normals = np.repeat(np.array([[0.0, 0.0, -1.0], [0.0, -1.0, 0.0], [-1.0, 0.0, 0.0]]), len(u), axis=0)
+    scene = points + np.array([0.01, -0.01, 0.0])
+    register(points, normals, scene, yaw_only=True, support_height=0.0, report=False)
+    register(points, normals, scene, upright_bias=0.5, report=False)
 
 
 RIVAL_DEGREES = 3.0

@@ -107,7 +107,8 @@ def check_planned(points_world: np.ndarray, elements: list[BimElement], model: B
     surface points a wall hides; ``seen_through(points (K, 3), margin) -> (K,) bool`` which ones the sensor saw
     past by more than ``margin`` (its ray measured farther). The kept poses, fitted under each family's upright
     prior (``priors``: family -> prior; none: the default bias), as observations (``detector`` "bim", ``frames``
-    (frame_index,))."""
+    (frame_index,)); an observation's ``fit`` is the plan search's registration, its pose and score (no fit
+    report: the observation's own ``rmse`` and ``fitness`` are the agreement at the kept pose)."""
     if not elements or len(points_world) == 0:
         return []
     bodies = {el.global_id: _body(model, el, config) for el in elements}
@@ -154,7 +155,7 @@ def fitted(body, points: np.ndarray, kept: np.ndarray, prior: UprightPrior | Non
     samples, normals = body
     rules = FitRules(config.icp, slab_contact=config.slab_contact, refine_detector_pose=True)
     try:  # the kept pose is also the "detector's": the result of the plan search, refined, not searched again
-        return fit_detection(samples, normals, points, kept, [kept], prior, slab, rules).pose
+        return fit_detection(samples, normals, points, kept, [kept], prior, slab, rules, report=False).pose
     except RegistrationError:
         return kept
 
@@ -296,6 +297,6 @@ def _register(element: BimElement, body, points: np.ndarray, slab: float, start:
     support = slab if abs(lowest - slab) <= config.slab_contact else None
     try:
         return register(samples, normals, points, init=start, up=(0.0, 0.0, 1.0), upright_bias=0.0,
-                        yaw_only=True, config=config.icp, support_height=support)
+                        yaw_only=True, config=config.icp, support_height=support, report=False)  # pose read
     except RegistrationError:
         return None
