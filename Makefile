@@ -4,15 +4,30 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test bench setup clean web docs
+# The set-up's one pip install: bim2rdt with its extras, plus SETUP_EXTRAS (comma-separated) and SETUP_PACKAGES,
+# with SETUP_PIP_OPTIONS. `.ci/run` adds the yoloe extra and torch to the same install (one resolve instead of
+# two); `make demo` and `make test` need none of them. The venv is set up again when these change.
+SETUP_EXTRAS ?=
+SETUP_PACKAGES ?=
+SETUP_PIP_OPTIONS ?=
+comma := ,
+INSTALL_ARGS := -e ".[llm,bench,sensors,nats,ros,dev,docs$(addprefix $(comma),$(SETUP_EXTRAS))]" $(SETUP_PACKAGES)
+ARGS := $(VENV)/.install-args
 
-$(STAMP): pyproject.toml
-	@echo "make: creating the virtual environment $(VENV) (once; again when pyproject.toml changes)"
+.PHONY: demo test bench setup clean web docs FORCE
+
+# The install's arguments, rewritten only when they differ from the last set-up's.
+$(ARGS): FORCE
+	@mkdir -p $(VENV)
+	@echo '$(SETUP_PIP_OPTIONS) $(INSTALL_ARGS)' | cmp -s - $@ || echo '$(SETUP_PIP_OPTIONS) $(INSTALL_ARGS)' > $@
+
+$(STAMP): pyproject.toml $(ARGS)
+	@echo "make: creating the virtual environment $(VENV) (once; again when pyproject.toml or the SETUP_ options change)"
 	$(PYTHON) -m venv $(VENV)
 	@echo "make: updating pip"
 	$(PY) -m pip install -q --upgrade pip
 	@echo "make: installing bim2rdt and its dependencies (ifcopenshell, open3d, ...: a few minutes the first time)"
-	$(PY) -m pip install -q -e ".[llm,bench,sensors,nats,ros,dev,docs]"
+	$(PY) -m pip install -q $(SETUP_PIP_OPTIONS) $(INSTALL_ARGS)
 	@echo "make: $(VENV) is ready"
 	touch $(STAMP)
 
