@@ -4,9 +4,9 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 
-# The set-up's one pip install: bim2rdt with its extras, plus SETUP_EXTRAS (comma-separated) and SETUP_PACKAGES,
-# with SETUP_PIP_OPTIONS. `.ci/run` adds the yoloe extra and torch to the same install (one resolve instead of
-# two); `make demo` and `make test` need none of them. The venv is set up again when these change.
+# The set-up installs in one pip run: bim2rdt with its extras, plus SETUP_EXTRAS (comma-separated) and
+# SETUP_PACKAGES, with pip's SETUP_PIP_OPTIONS. `.ci/run` adds the yoloe extra and torch to that run (one resolve
+# instead of two); `make demo` and `make test` need none of them. The venv is set up again when these change.
 SETUP_EXTRAS ?=
 SETUP_PACKAGES ?=
 SETUP_PIP_OPTIONS ?=
