@@ -74,7 +74,8 @@ def test_the_robot_sees_the_house_through_the_embedded_days_camera_and_detector_
 
 def test_the_ifc_day_takes_the_embedded_days_detectors(samples, tmp_path):
     with pytest.raises(ValueError, match="unknown detector 'oracle'; choose one of geometric, yoloe, ideal"):
-        run_ifc_day(samples / "AC20-FZK-Haus.ifc", tmp_path, workers=1, minutes=1.0, detector="oracle")
+        run_ifc_day(samples / "AC20-FZK-Haus.ifc", tmp_path / "out", workers=1, minutes=1.0, detector="oracle")
+    assert not (tmp_path / "out").exists()  # refused before the day began
 
 
 def test_an_ifc2x3_building_runs_without_ifc_write_back_and_says_why(samples, tmp_path):

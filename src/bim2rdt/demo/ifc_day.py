@@ -26,6 +26,7 @@ from bim2rdt.demo.site_day import SiteDay, _hav_day, _model_cache, _shift_start
 from bim2rdt.demo.site_twin import export_day_twin, ifc_records, open_day_twin, record_mission
 from bim2rdt.localization import LocalizationConfig
 from bim2rdt.perception import PerceptionConfig
+from bim2rdt.perception.detectors import check_detector
 from bim2rdt.mission import MissionConfig, MissionContext, building_surfaces, run_mission
 from bim2rdt.planning import OccupancyGrid, PlanningError
 from bim2rdt.registration import IcpConfig
@@ -50,7 +51,9 @@ def run_ifc_day(ifc_path: Path, out_dir: Path, seed: int = 0, workers: int = 1, 
     the day's twin and its exports (``site_twin.ifc`` only for IFC4), and the monitor's state under ``state/``.
     Up to ``objects`` site objects are placed (fewer: fewer stations, a quicker look at the same loop).
     The mission's standoff is capped at ``IFC_DAY_STANDOFF``. The robot's camera sees the building and reads
-    its frames with ``detector``, as on the embedded day (:mod:`bim2rdt.demo.perceivers`)."""
+    its frames with ``detector``, as on the embedded day (:mod:`bim2rdt.demo.perceivers`); an unknown one, or
+    ``yoloe`` without its files, is refused before anything is read or written."""
+    check_detector(detector, yoloe)
     out_dir.mkdir(parents=True, exist_ok=True)
     source = load_ifc(ifc_path, cache_dir=_model_cache())
     tick("bim")
