@@ -1,12 +1,8 @@
 """`bim2rdt demo --ifc FILE`: the loop on real buildings. The FZK house (IFC4): site objects placed in its rooms,
-the robot walks room to room through the doors, never through a wall, and the twin is written back. Duplex
-(IFC2X3) runs too, without IFC write-back, and says so."""
+the robot walks room to room through the doors, never through a wall, and the twin is written back. (Duplex,
+IFC2X3, without IFC write-back, and a building with no floor: test_demo_every_ifc.py, on its runs.)"""
 
 from __future__ import annotations
-
-import json
-import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -17,10 +13,6 @@ from bim2rdt.planning.raster import mesh_cells
 from path_checks import segments_through, wall_mesh
 
 pytestmark = pytest.mark.samples
-
-
-def run_cli(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "bim2rdt", *args], capture_output=True, text=True, timeout=600)
 
 
 @pytest.fixture(scope="module")
@@ -76,24 +68,6 @@ def test_the_ifc_day_takes_the_embedded_days_detectors(samples, tmp_path):
     with pytest.raises(ValueError, match="unknown detector 'oracle'; choose one of geometric, yoloe, ideal"):
         run_ifc_day(samples / "AC20-FZK-Haus.ifc", tmp_path / "out", workers=1, minutes=1.0, detector="oracle")
     assert not (tmp_path / "out").exists()  # refused before the day began
-
-
-def test_an_ifc2x3_building_runs_without_ifc_write_back_and_says_why(samples, tmp_path):
-    result = run_cli("demo", "--ifc", str(samples / "Duplex_A_20110907.ifc"), "--out", str(tmp_path),
-                     "--workers", "1", "--minutes", "2")
-    assert result.returncode == 0, result.stderr
-    assert "not written back (IFC2X3: IFC write-back needs IFC4)" in result.stdout
-    assert not (tmp_path / "site_twin.ifc").exists() and (tmp_path / "site.ifc").is_file()
-    assert "IFC write-back needs IFC4" in (tmp_path / "report.md").read_text()
-    assert json.loads((tmp_path / "config.json").read_text())["detector"] == "geometric"
-
-
-def test_a_building_with_no_floor_to_stand_on_is_a_one_line_error(samples, tmp_path):
-    """The spec's 4D example has a wall but no slab or space on any storey: nowhere to put the robot."""
-    result = run_cli("demo", "--ifc", str(samples / "construction_scheduling_task.ifc"), "--out", str(tmp_path))
-    assert result.returncode == 1 and "Traceback" not in result.stderr
-    assert result.stderr.strip() == ("error: construction_scheduling_task.ifc: no storey has a slab (or a space) to "
-                                     "take its floor from")
 
 
 def _inside(grid, model, room, xy) -> bool:
