@@ -51,12 +51,42 @@ sent to one xdist worker as one unit as :data:`DEMO_DAY_MODULES` are."""
 SHARED_RUN_UNITS = (DEMO_DAY_MODULES, OFFICE1_VERIFY_MODULES)
 """Groups of test files that share a session fixture's run: each group is one unit of work under ``loadfile``."""
 
+LONG_UNITS = (
+    DEMO_DAY_MODULES[0],
+    "tests/demo/test_demo_every_ifc.py",
+    "tests/safety/test_cli_hav.py",
+    "tests/cli/test_bench_registration.py",
+    "tests/cli/test_bench_localization.py",
+    "tests/demo/test_record_round_trip.py",
+    "tests/server/test_cli_server.py",
+    "tests/cli/test_bench_perception.py",
+    "tests/safety/test_weighting.py",
+    OFFICE1_VERIFY_MODULES[0],
+    "tests/twin/test_twin.py",
+    "tests/cli/test_verify_outputs.py",
+    "tests/semantics/test_cli_priors.py",
+    "tests/planning/test_cli_planning.py",
+    "tests/bim/test_cli_info.py",
+    "tests/demo/test_demo_determinism.py",
+    "tests/demo/test_demo_localization.py",
+    "tests/bim/test_map_classes.py",
+    "tests/twin/test_text.py",
+    "tests/semantics/test_knowledge.py",
+    "tests/bim/test_integrity.py",
+    "tests/demo/test_demo_ifc.py",
+)
+"""The longest units of work (a group by its first file), longest first: every unit of about 25 s or more in CI
+(decision 0048's timed run). Under ``loadfile`` they are handed out before the others, so the parallel part does
+not end on one worker still busy with one of them while the others have nothing left: xdist's own order is by
+number of tests, and a long file of one or two tests (the FZK determinism, bench perception) started last."""
+
 
 @pytest.hookimpl(optionalhook=True)
 def pytest_xdist_make_scheduler(config, log):
     """``--dist loadfile`` with the files of each group of :data:`SHARED_RUN_UNITS` as one unit of work: one
     worker runs them all, so the session's ``demo_run`` (an in-process day, kept in memory) or
-    ``office1_verified`` is computed once for all of them. Any other ``--dist`` mode: xdist's own scheduler."""
+    ``office1_verified`` is computed once for all of them; the units of :data:`LONG_UNITS` are handed out first.
+    Any other ``--dist`` mode: xdist's own scheduler."""
     if config.getvalue("dist") != "loadfile":
         return None
     from xdist.scheduler import LoadFileScheduling
@@ -65,6 +95,12 @@ def pytest_xdist_make_scheduler(config, log):
         def _split_scope(self, nodeid: str) -> str:
             scope = super()._split_scope(nodeid)
             return next((unit[0] for unit in SHARED_RUN_UNITS if scope in unit), scope)
+
+        def _assign_work_unit(self, node) -> None:
+            for scope in reversed(LONG_UNITS):  # the queue's next unit is the longest one still waiting
+                if scope in self.workqueue:
+                    self.workqueue.move_to_end(scope, last=False)
+            super()._assign_work_unit(node)
 
     return SharedDemoDay(config, log)
 

@@ -20,7 +20,7 @@ def _root_conftest():
 
 _CONFTEST = _root_conftest()
 DEMO_DAY_MODULES, SERIAL_MODULES = _CONFTEST.DEMO_DAY_MODULES, _CONFTEST.SERIAL_MODULES
-OFFICE1_VERIFY_MODULES = _CONFTEST.OFFICE1_VERIFY_MODULES
+OFFICE1_VERIFY_MODULES, LONG_UNITS = _CONFTEST.OFFICE1_VERIFY_MODULES, _CONFTEST.LONG_UNITS
 pytest_xdist_make_scheduler = _CONFTEST.pytest_xdist_make_scheduler
 
 
@@ -45,6 +45,26 @@ def test_the_office1_verify_files_are_one_unit_apart_from_the_demo_days():
     assert schedule._split_scope(f"{other}::test_y") == other
 
 
+class _Node:
+    """A worker as the scheduler sees it: it is sent the indexes of the tests to run."""
+
+    def send_runtest_some(self, indexes) -> None:
+        pass
+
+
+def test_the_long_units_are_handed_out_first_in_their_order_and_the_rest_in_xdists():
+    schedule = pytest_xdist_make_scheduler(_config("loadfile"), None)
+    rest = ["tests/a/test_many.py", "tests/a/test_some.py"]  # xdist's order: by number of tests
+    for scope in [*rest[:1], *reversed(LONG_UNITS), *rest[1:]]:
+        schedule.workqueue[scope] = {f"{scope}::test_x": False}
+    sent, node = [], _Node()
+    schedule.registered_collections[node] = [nodeid for unit in schedule.workqueue.values() for nodeid in unit]
+    while schedule.workqueue:
+        schedule._assign_work_unit(node)
+        sent += list(schedule.assigned_work[node])[len(sent):]
+    assert sent == [*LONG_UNITS, *rest]
+
+
 def test_other_dist_modes_keep_xdists_scheduler():
     assert pytest_xdist_make_scheduler(_config("load"), None) is None
 
@@ -53,3 +73,6 @@ def test_each_listed_file_exists_and_runs_in_the_parallel_part():
     listed = DEMO_DAY_MODULES + OFFICE1_VERIFY_MODULES
     assert all((ROOT / name).is_file() for name in listed)  # a renamed file would leave the unit
     assert not set(listed) & set(SERIAL_MODULES) and len(set(listed)) == len(listed)
+    shared = [name for unit in _CONFTEST.SHARED_RUN_UNITS for name in unit[1:]]
+    assert all((ROOT / name).is_file() for name in LONG_UNITS) and len(set(LONG_UNITS)) == len(LONG_UNITS)
+    assert not set(LONG_UNITS) & (set(SERIAL_MODULES) | set(shared))  # a group is named by its first file
