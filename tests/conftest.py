@@ -77,8 +77,9 @@ LONG_UNITS = (
 )
 """The longest units of work (a group by its first file), longest first: every unit of about 25 s or more in CI
 (decision 0048's timed run). Under ``loadfile`` they are handed out before the others, so the parallel part does
-not end on one worker still busy with one of them while the others have nothing left: xdist's own order is by
-number of tests, and a long file of one or two tests (the FZK determinism, bench perception) started last."""
+not end on one worker still busy with one of them while the others have nothing left. (xdist's own order is by
+number of tests: a long file of one or two tests, as the FZK determinism or bench perception, would start among
+the last.)"""
 
 
 @pytest.hookimpl(optionalhook=True)
