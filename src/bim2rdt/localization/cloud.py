@@ -188,11 +188,29 @@ def voxel_means(points: np.ndarray, voxel: float) -> np.ndarray:
     cells -= cells.min(axis=0)
     size = cells.max(axis=0) + 1
     keys = (cells[:, 0] * size[1] + cells[:, 1]) * size[2] + cells[:, 2]  # one integer per cube: a 1-D unique
-    _, inverse, counts = np.unique(keys, return_inverse=True, return_counts=True)
-    inverse = inverse.reshape(-1)  # bincount sums in the points' order, as np.add.at did: the same means, 3x faster
+    inverse, counts = _cube_index(keys, int(np.prod(size)))
+    # bincount sums in the points' order, as np.add.at did: the same means, 3x faster
     sums = np.stack([np.bincount(inverse, weights=points[:, axis], minlength=len(counts)) for axis in range(3)],
                     axis=1)
     return sums / counts[:, None]
+
+
+DENSE_CUBES = 2_000_000
+"""Up to this many cubes in the points' box, :func:`voxel_means` numbers the occupied ones with a table over the
+box (a count per cube) instead of sorting the keys: the same numbering, half the time on a frame's 254,000 points."""
+
+
+def _cube_index(keys: np.ndarray, cubes: int) -> tuple[np.ndarray, np.ndarray]:
+    """Each key's rank among the distinct keys (ascending) and each distinct key's count: ``np.unique``'s inverse
+    and counts. Keys lie in [0, ``cubes``)."""
+    if cubes > DENSE_CUBES:
+        _, inverse, counts = np.unique(keys, return_inverse=True, return_counts=True)
+        return inverse.reshape(-1), counts
+    every = np.bincount(keys, minlength=cubes)
+    occupied = np.flatnonzero(every)
+    rank = np.empty(cubes, dtype=np.intp)
+    rank[occupied] = np.arange(len(occupied))
+    return rank[keys], every[occupied]
 
 
 def pca_normals(points: np.ndarray, neighbours: int) -> np.ndarray:
