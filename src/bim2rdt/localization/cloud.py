@@ -217,10 +217,12 @@ def pca_normals(points: np.ndarray, neighbours: int) -> np.ndarray:
     """Unit normals (N, 3) from each point's ``neighbours`` nearest (the smallest principal axis), turned towards
     the sensor at the origin; NaN where the neighbourhood is not a plane (its smallest spread is more than a
     third of the middle one: an edge, a corner, clutter)."""
+    from bim2rdt.registration.kernels import neighbour_scatter  # numba: imported by the first scan, not the module
+
     k = min(neighbours, len(points))
+    points = np.ascontiguousarray(points, dtype=np.float64)
     _, index = cKDTree(points).query(points, k=k)
-    local = points[index] - points[index].mean(axis=1, keepdims=True)
-    values, vectors = np.linalg.eigh(np.einsum("nki,nkj->nij", local, local))
+    values, vectors = np.linalg.eigh(neighbour_scatter(points, index.reshape(len(points), k)))  # numpy's sums, compiled
     normals = vectors[:, :, 0]
     normals = np.where((np.einsum("ni,ni->n", normals, points) > 0)[:, None], -normals, normals)
     flat = values[:, 0] <= values[:, 1] / 9.0

@@ -329,10 +329,12 @@ def annealed_delta(iteration: int, start: float, final: float, iterations: int) 
 
 def scene_normals(scene_pts: np.ndarray, neighbours: int) -> np.ndarray:
     """Unsigned unit normals of scene points from PCA of their nearest neighbours (smallest eigenvector)."""
+    from bim2rdt.registration.kernels import neighbour_scatter  # numba's import waits for the first registration
+
     k = min(neighbours, len(scene_pts))
-    _, index = cKDTree(scene_pts).query(scene_pts, k=k)
-    local = scene_pts[index] - scene_pts[index].mean(axis=1, keepdims=True)
-    _, vectors = np.linalg.eigh(np.einsum("nki,nkj->nij", local, local))
+    points = np.ascontiguousarray(scene_pts, dtype=np.float64)
+    _, index = cKDTree(points).query(points, k=k)
+    _, vectors = np.linalg.eigh(neighbour_scatter(points, index.reshape(len(points), k)))
     return vectors[:, :, 0]
 
 
