@@ -100,7 +100,7 @@ def test_verify_imports_without_numba_and_load_kernels_brings_its_machine_code_i
             "from bim2rdt.registration import load_kernels, register, kernels\n"
             "load_kernels()\n"
             "names = ('body_points', 'pair_residuals', 'normal_systems', 'solve_steps', 'compose_steps',\n"
-            "         'neighbour_scatter')\n"
+            "         'neighbour_scatter', 'any_within')\n"
             "loaded = {n: len(getattr(kernels, n).signatures) for n in names}\n"
             "assert all(loaded.values()), loaded\n"
             "rng = np.random.default_rng(1)\n"
@@ -125,3 +125,25 @@ def test_neighbour_scatter_is_numpys_mean_and_einsum_bit_for_bit(k):
     want = np.einsum("nki,nkj->nij", local, local)
     got = kernels.neighbour_scatter(points, index)
     assert got.shape == (800, 3, 3) and np.array_equal(got, want)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_any_within_is_the_bounded_k_d_query_bit_for_bit(seed, monkeypatch):
+    """Compiled over a grid and through the tree (a box over the grid's limit) alike: pykdtree's answer, on unit
+    directions (the localizer's view), with a query exactly at the radius from a point (no hit), one a hair
+    inside it (a hit), and one far outside the points' box."""
+    from bim2rdt.registration import SampleTree
+
+    rng = np.random.default_rng(seed)
+    points = rng.normal(0.0, 1.0, (3000, 3))
+    points = np.concatenate([points / np.linalg.norm(points, axis=1)[:, None], [[0.5, 0.25, 0.125]]])
+    radius = 0.03125  # dyadic: 0.5 + radius - 0.5 is radius exactly
+    tie = [0.5 + radius, 0.25, 0.125]
+    inside = [np.nextafter(0.5 + radius, 0.0), 0.25, 0.125]
+    queries = np.concatenate([rng.normal(0.0, 1.0, (5000, 3)) * 0.7, [tie, inside, [40.0, -3.0, 9.0]]])
+    gap, _ = SampleTree(points).query(queries, distance_upper_bound=radius)
+    want = np.isfinite(gap)
+    assert 0 < want.sum() < len(want) and want[-3:].tolist() == [False, True, False]
+    assert np.array_equal(matching.any_within(points, queries, radius), want)
+    monkeypatch.setattr(matching, "WITHIN_CUBES", 0)
+    assert np.array_equal(matching.any_within(points, queries, radius), want)

@@ -30,7 +30,7 @@ from bim2rdt.localization.config import LocalizationConfig
 from bim2rdt.localization.core import Localization, behind_fraction, checked_up, fix_pose, rigid_prior
 from bim2rdt.localization.errors import LocalizationError, Refusal
 from bim2rdt.localization.surfaces import GRAZING_COS, PermanentMap, SurfaceSamples, permanent_map
-from bim2rdt.registration import SampleTree
+from bim2rdt.registration.matching import any_within
 
 _CACHE_SIZE = 4
 
@@ -374,9 +374,9 @@ def covered(directions: np.ndarray, seen: np.ndarray, margin_deg: float) -> np.n
     """The ``directions`` (unit) within ``margin_deg`` of any of ``seen`` (unit): where the sensor looked.
 
     A camera's view is a cap of the sphere: only the directions within the cap's radius plus the margin of its
-    centre are asked (a direction nearer than the margin to a seen one is nearer than that to the centre), on
-    pykdtree (:class:`~bim2rdt.registration.SampleTree`, cKDTree's answers): a Kinect frame asks a tenth
-    of the 165,000 directions of a 0.5-degree lattice."""
+    centre are asked (a direction nearer than the margin to a seen one is nearer than that to the centre), each
+    by :func:`~bim2rdt.registration.matching.any_within` (pykdtree's answers, compiled over a grid of cubes): a
+    Kinect frame asks a tenth of the 165,000 directions of a 0.5-degree lattice."""
     margin = np.deg2rad(margin_deg)
     chord = 2 * np.sin(margin / 2)
     centre = seen.sum(axis=0)
@@ -386,5 +386,4 @@ def covered(directions: np.ndarray, seen: np.ndarray, margin_deg: float) -> np.n
         radius = float(np.arccos(np.clip(seen @ centre, -1.0, 1.0)).max())
         if radius + margin + 1e-6 < np.pi:
             directions = directions[directions @ centre >= np.cos(radius + margin + 1e-6)]
-    gap, _ = SampleTree(seen).query(directions, distance_upper_bound=chord)
-    return directions[np.isfinite(gap)]
+    return directions[any_within(seen, directions, chord)]

@@ -85,6 +85,36 @@ class SampleTree:
         return distance, index
 
 
+WITHIN_CUBES = 4_000_000
+""":func:`any_within` grids the points' box in cubes of the radius up to this many; beyond, it asks the k-d tree."""
+
+
+def any_within(points: np.ndarray, queries: np.ndarray, radius: float) -> np.ndarray:
+    """Whether any of ``points`` lies nearer than ``radius`` to each of ``queries``: ``np.isfinite`` of
+    :class:`SampleTree`'s bounded query, bit for bit (the same distance test, compiled over a grid of cubes:
+    :func:`bim2rdt.registration.kernels.any_within`; a box of more than :data:`WITHIN_CUBES` cubes asks the tree).
+
+    Args:
+        points: (P, 3) points, metres.
+        queries: (Q, 3) query points, metres.
+        radius: A point this near or farther is no hit, metres.
+
+    Returns:
+        (Q,) bool.
+    """
+    points = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
+    queries = np.ascontiguousarray(queries, dtype=np.float64).reshape(-1, 3)
+    if len(points) == 0 or len(queries) == 0:
+        return np.zeros(len(queries), dtype=bool)
+    span = np.floor((points.max(axis=0) - points.min(axis=0)) / (radius * (1.0 + 1e-6))) + 1
+    if not (np.isfinite(radius) and radius > 0 and np.all(np.isfinite(span)) and np.prod(span) <= WITHIN_CUBES):
+        gap, _ = SampleTree(points).query(queries, distance_upper_bound=radius)
+        return np.isfinite(gap)
+    from bim2rdt.registration.kernels import any_within as compiled  # numba's import waits for the first call
+
+    return compiled(points, queries, float(radius), float(radius) * float(radius))
+
+
 @dataclass(frozen=True)
 class ModelIndex:
     """The model's surface samples (body frame) with normals, a k-d tree over them, their spacing (m: median
