@@ -90,9 +90,16 @@ def read_organised(path: Path) -> tuple[np.ndarray, np.ndarray | None]:
     if meta.height <= 1:
         raise SourceError(path, f"{NOT_ORGANISED} (height {meta.height}, width {meta.width})")
     shape = (meta.height, meta.width)
-    xyz = np.stack([data[name].astype(np.float64) for name in ("x", "y", "z")], axis=-1).reshape(*shape, 3)
-    xyz[~np.all(np.isfinite(xyz), axis=-1)] = np.nan
-    return xyz, packed_rgb(data, shape)
+    xyz = np.empty((len(data), 3))
+    for axis, name in enumerate(("x", "y", "z")):
+        xyz[:, axis] = data[name]  # float32 -> float64 in place, exact
+    xyz[~_finite_rows(xyz)] = np.nan
+    return xyz.reshape(*shape, 3), packed_rgb(data, shape)
+
+
+def _finite_rows(points: np.ndarray) -> np.ndarray:
+    """(N,) whether every coordinate of each of ``points`` (N, 3) is finite (a column at a time: no (N, 3) mask)."""
+    return np.isfinite(points[:, 0]) & np.isfinite(points[:, 1]) & np.isfinite(points[:, 2])
 
 
 MAX_PCD_HEADER_BYTES = 64 * 1024
@@ -171,7 +178,7 @@ def fit_intrinsics(path, xyz: np.ndarray) -> Intrinsics:
     """The pinhole that projects the organised cloud's points onto their own pixels (least squares)."""
     height, width = xyz.shape[:2]
     flat = xyz.reshape(-1, 3)
-    index = np.flatnonzero(np.isfinite(flat).all(axis=1) & (flat[:, 2] > 0))  # row-major: pixel (v, u) = divmod
+    index = np.flatnonzero(_finite_rows(flat) & (flat[:, 2] > 0))  # row-major: pixel (v, u) = divmod
     if len(index) < 100:
         raise SourceError(path, f"only {len(index)} valid points: too few to fit the camera's intrinsics; "
                                 "give them (intrinsics=...; bim2rdt verify --intrinsics FILE.json)")

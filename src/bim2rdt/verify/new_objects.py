@@ -86,9 +86,10 @@ def new_clusters(points_world: np.ndarray, kept: list[tuple[str, np.ndarray]], m
     graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(len(points), len(points)))
     count, labels = connected_components(graph, directed=False)
     out = []
-    for label in range(count):
+    sizes = np.bincount(labels, minlength=count)
+    for label in np.flatnonzero(sizes >= config.min_points):  # a frame's leftovers make hundreds of tiny components
         members = points[labels == label]
-        if len(members) < config.min_points or members[:, 2].max() - slab < config.min_height:
+        if members[:, 2].max() - slab < config.min_height:
             continue
         low, high = members.min(axis=0), members.max(axis=0)
         pose = np.eye(4)
