@@ -132,6 +132,8 @@ def test_any_within_is_the_bounded_k_d_query_bit_for_bit(seed, monkeypatch):
     """Compiled over a grid and through the tree (a box over the grid's limit) alike: pykdtree's answer, on unit
     directions (the localizer's view), with a query exactly at the radius from a point (no hit), one a hair
     inside it (a hit), and one far outside the points' box."""
+    from scipy.spatial import cKDTree
+
     from bim2rdt.registration import SampleTree
 
     rng = np.random.default_rng(seed)
@@ -144,6 +146,8 @@ def test_any_within_is_the_bounded_k_d_query_bit_for_bit(seed, monkeypatch):
     gap, _ = SampleTree(points).query(queries, distance_upper_bound=radius)
     want = np.isfinite(gap)
     assert 0 < want.sum() < len(want) and want[-3:].tolist() == [False, True, False]
+    scipy_gap, _ = cKDTree(points).query(queries, distance_upper_bound=radius)
+    assert np.array_equal(np.isfinite(scipy_gap), want)  # scipy's bounded query too (new clusters asked it)
     assert np.array_equal(matching.any_within(points, queries, radius), want)
     monkeypatch.setattr(matching, "WITHIN_CUBES", 0)
     assert np.array_equal(matching.any_within(points, queries, radius), want)

@@ -30,7 +30,7 @@ from bim2rdt.localization.config import LocalizationConfig
 from bim2rdt.localization.core import Localization, behind_fraction, checked_up, fix_pose, rigid_prior
 from bim2rdt.localization.errors import LocalizationError, Refusal
 from bim2rdt.localization.surfaces import GRAZING_COS, PermanentMap, SurfaceSamples, permanent_map
-from bim2rdt.registration.matching import any_within
+from bim2rdt.registration import any_within
 
 _CACHE_SIZE = 4
 

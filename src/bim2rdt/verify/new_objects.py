@@ -19,6 +19,7 @@ from scipy.spatial import cKDTree
 from bim2rdt.bim import BimModel
 from bim2rdt.localization import voxel_means
 from bim2rdt.perception import Observation, UNKNOWN_FAMILY
+from bim2rdt.registration import any_within
 from bim2rdt.verify.bodies import body_samples
 
 
@@ -78,8 +79,7 @@ def new_clusters(points_world: np.ndarray, kept: list[tuple[str, np.ndarray]], m
         if len(points) == 0:
             break
         body, _ = body_samples(model, global_id, 3000, 0)
-        gap, _ = cKDTree(body @ pose[:3, :3].T + pose[:3, 3]).query(points, distance_upper_bound=config.on_planned)
-        points = points[~np.isfinite(gap)]
+        points = points[~any_within(body @ pose[:3, :3].T + pose[:3, 3], points, config.on_planned)]
     if len(points) < config.min_points:
         return []
     pairs = cKDTree(points).query_pairs(config.link, output_type="ndarray")

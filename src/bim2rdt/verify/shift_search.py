@@ -5,7 +5,7 @@ The full scan poses the object's sensor-facing samples at every turn and every s
 each pose, the samples with a located point within ``support`` (441 shifts x ~350 samples on the coarse grid, 5
 turns x 81 shifts on the fine one). A k-d tree query per posed sample, even pruned by an occupancy bound (decision
 0039), cost ~0.15 s of an office1 frame; :func:`bim2rdt.verify.kernels.shift_counts` counts every candidate in
-~0.004 s a scan (decision 0046), with pykdtree's own distance test. numba is imported by the first scan (verify's
+~0.003 s a scan (decision 0046), with pykdtree's own distance test. numba is imported by the first scan (verify's
 setup: :func:`load_kernels`), not by importing this module.
 """
 
