@@ -30,7 +30,7 @@ from bim2rdt.localization.config import LocalizationConfig
 from bim2rdt.localization.core import Localization, behind_fraction, checked_up, fix_pose, rigid_prior
 from bim2rdt.localization.errors import LocalizationError, Refusal
 from bim2rdt.localization.surfaces import GRAZING_COS, PermanentMap, SurfaceSamples, permanent_map
-from bim2rdt.registration import any_within
+from bim2rdt.registration import any_within, neighbour_scatter
 
 _CACHE_SIZE = 4
 
@@ -217,8 +217,6 @@ def pca_normals(points: np.ndarray, neighbours: int) -> np.ndarray:
     """Unit normals (N, 3) from each point's ``neighbours`` nearest (the smallest principal axis), turned towards
     the sensor at the origin; NaN where the neighbourhood is not a plane (its smallest spread is more than a
     third of the middle one: an edge, a corner, clutter)."""
-    from bim2rdt.registration.kernels import neighbour_scatter  # numba: imported by the first scan, not the module
-
     k = min(neighbours, len(points))
     points = np.ascontiguousarray(points, dtype=np.float64)
     _, index = cKDTree(points).query(points, k=k)

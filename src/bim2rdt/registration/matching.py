@@ -85,6 +85,24 @@ class SampleTree:
         return distance, index
 
 
+def neighbour_scatter(points: np.ndarray, index: np.ndarray) -> np.ndarray:
+    """Each point's neighbourhood scatter, compiled (:func:`bim2rdt.registration.kernels.neighbour_scatter`): bit
+    for bit ``local = points[index] - points[index].mean(axis=1, keepdims=True)`` and
+    ``np.einsum("nki,nkj->nij", local, local)``.
+
+    Args:
+        points: (N, 3) points, metres.
+        index: (n, k) each row's neighbours, indices into ``points``.
+
+    Returns:
+        (n, 3, 3) scatter matrices, m^2.
+    """
+    from bim2rdt.registration.kernels import neighbour_scatter as compiled  # numba's import waits for the first call
+
+    index = np.asarray(index)
+    return compiled(np.ascontiguousarray(points, dtype=np.float64), index.reshape(len(index), -1))
+
+
 WITHIN_CUBES = 4_000_000
 """:func:`any_within` grids the points' box in cubes of the radius up to this many; beyond, it asks the k-d tree."""
 
@@ -359,12 +377,10 @@ def annealed_delta(iteration: int, start: float, final: float, iterations: int) 
 
 def scene_normals(scene_pts: np.ndarray, neighbours: int) -> np.ndarray:
     """Unsigned unit normals of scene points from PCA of their nearest neighbours (smallest eigenvector)."""
-    from bim2rdt.registration.kernels import neighbour_scatter  # numba's import waits for the first registration
-
     k = min(neighbours, len(scene_pts))
     points = np.ascontiguousarray(scene_pts, dtype=np.float64)
     _, index = cKDTree(points).query(points, k=k)
-    _, vectors = np.linalg.eigh(neighbour_scatter(points, index.reshape(len(points), k)))
+    _, vectors = np.linalg.eigh(neighbour_scatter(points, index.reshape(len(points), k)))  # numpy's sums, compiled
     return vectors[:, :, 0]
 
 
