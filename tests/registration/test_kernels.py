@@ -151,3 +151,22 @@ def test_any_within_is_the_bounded_k_d_query_bit_for_bit(seed, monkeypatch):
     assert np.array_equal(matching.any_within(points, queries, radius), want)
     monkeypatch.setattr(matching, "WITHIN_CUBES", 0)
     assert np.array_equal(matching.any_within(points, queries, radius), want)
+
+
+@pytest.mark.parametrize("k", [1, 12, 16])
+def test_nearest_neighbours_are_scipys(k):
+    """On pykdtree where no exact tie can order them otherwise, on scipy where one can (a grid: every point has
+    neighbours at equal distances): scipy's lists either way, and the grid does take scipy's path."""
+    from scipy.spatial import cKDTree
+
+    rng = np.random.default_rng(k)
+    scattered = rng.normal(0.0, 1.0, (2000, 3)) * [2.0, 1.0, 0.05]
+    grid = np.stack(np.meshgrid(*[np.arange(8.0)] * 3, indexing="ij"), axis=-1).reshape(-1, 3)
+    for points in (scattered, grid):
+        _, want = cKDTree(points).query(points, k=k)
+        assert np.array_equal(matching.nearest_neighbours(points, k), np.asarray(want).reshape(len(points), k))
+    if k > 1:  # the grid's ties are real: the fallback was needed (with k = 1 each point's nearest is itself)
+        from pykdtree.kdtree import KDTree
+
+        squared, _ = KDTree(grid).query(grid, k=k + 1, sqr_dists=True)
+        assert np.any(squared[:, 1:] == squared[:, :-1])

@@ -85,6 +85,29 @@ class SampleTree:
         return distance, index
 
 
+def nearest_neighbours(points: np.ndarray, k: int) -> np.ndarray:
+    """Each point's ``k`` nearest among ``points`` (itself first), nearest first: scipy's ``cKDTree.query(points,
+    k=k)`` indices, found on pykdtree (~30 % faster) where that is provably the same answer: both trees sum the same
+    squared distances in the same order, so without an exact tie among a row's k + 1 nearest the lists are equal;
+    a call with any such tie asks scipy.
+
+    Args:
+        points: (N, 3) points, metres.
+        k: Neighbours per point (at most N).
+
+    Returns:
+        (N, k) indices into ``points``.
+    """
+    points = np.ascontiguousarray(points, dtype=np.float64)
+    asked = min(k + 1, len(points))
+    squared, index = KDTree(points).query(points, k=asked, sqr_dists=True)
+    squared, index = squared.reshape(len(points), asked), index.reshape(len(points), asked)
+    if asked > 1 and np.any(squared[:, 1:] == squared[:, :-1]):
+        _, index = cKDTree(points).query(points, k=k)
+        return np.asarray(index, dtype=np.intp).reshape(len(points), k)
+    return index[:, :k].astype(np.intp)
+
+
 def neighbour_scatter(points: np.ndarray, index: np.ndarray) -> np.ndarray:
     """Each point's neighbourhood scatter, compiled (:func:`bim2rdt.registration.kernels.neighbour_scatter`): bit
     for bit ``local = points[index] - points[index].mean(axis=1, keepdims=True)`` and
@@ -379,8 +402,7 @@ def scene_normals(scene_pts: np.ndarray, neighbours: int) -> np.ndarray:
     """Unsigned unit normals of scene points from PCA of their nearest neighbours (smallest eigenvector)."""
     k = min(neighbours, len(scene_pts))
     points = np.ascontiguousarray(scene_pts, dtype=np.float64)
-    _, index = cKDTree(points).query(points, k=k)
-    _, vectors = np.linalg.eigh(neighbour_scatter(points, index.reshape(len(points), k)))  # numpy's sums, compiled
+    _, vectors = np.linalg.eigh(neighbour_scatter(points, nearest_neighbours(points, k)))  # numpy's sums, compiled
     return vectors[:, :, 0]
 
 
