@@ -86,7 +86,7 @@ class SampleTree:
 
 
 def nearest_neighbours(points: np.ndarray, k: int) -> np.ndarray:
-    """Each point's ``k`` nearest among ``points`` (itself first), nearest first: scipy's ``cKDTree.query(points,
+    """Each point's ``k`` nearest among ``points`` (itself included), nearest first: scipy's ``cKDTree.query(points,
     k=k)`` indices, found on pykdtree (~30 % faster) where that is provably the same answer: both trees sum the same
     squared distances in the same order, so without an exact tie among a row's k + 1 nearest the lists are equal;
     a call with any such tie asks scipy.
