@@ -99,7 +99,8 @@ def test_verify_imports_without_numba_and_load_kernels_brings_its_machine_code_i
             "assert 'numba' not in sys.modules\n"
             "from bim2rdt.registration import load_kernels, register, kernels\n"
             "load_kernels()\n"
-            "names = ('body_points', 'pair_residuals', 'normal_systems', 'solve_steps', 'compose_steps')\n"
+            "names = ('body_points', 'pair_residuals', 'normal_systems', 'solve_steps', 'compose_steps',\n"
+            "         'neighbour_scatter', 'any_within')\n"
             "loaded = {n: len(getattr(kernels, n).signatures) for n in names}\n"
             "assert all(loaded.values()), loaded\n"
             "rng = np.random.default_rng(1)\n"
@@ -109,3 +110,63 @@ def test_verify_imports_without_numba_and_load_kernels_brings_its_machine_code_i
             "assert loaded == {n: len(getattr(kernels, n).signatures) for n in names}\n")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr[-2000:]
+
+
+@pytest.mark.parametrize("k", [3, 8, 12, 16, 21])
+def test_neighbour_scatter_is_numpys_mean_and_einsum_bit_for_bit(k):
+    """The scene and scan normals' scatter: compiled, the same floats as the numpy expression it replaced (so the
+    normals, and every pose that reads them, are unchanged)."""
+    from scipy.spatial import cKDTree
+
+    rng = np.random.default_rng(k)
+    points = np.concatenate([rng.normal(0.0, 1.0, (700, 3)) * [2.0, 1.0, 0.05], rng.uniform(-3, 3, (100, 3))])
+    _, index = cKDTree(points).query(points, k=k)
+    local = points[index] - points[index].mean(axis=1, keepdims=True)
+    want = np.einsum("nki,nkj->nij", local, local)
+    got = kernels.neighbour_scatter(points, index)
+    assert got.shape == (800, 3, 3) and np.array_equal(got, want)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_any_within_is_the_bounded_k_d_query_bit_for_bit(seed, monkeypatch):
+    """Compiled over a grid and through the tree (a box over the grid's limit) alike: pykdtree's answer, on unit
+    directions (the localizer's view), with a query exactly at the radius from a point (no hit), one a hair
+    inside it (a hit), and one far outside the points' box."""
+    from scipy.spatial import cKDTree
+
+    from bim2rdt.registration import SampleTree
+
+    rng = np.random.default_rng(seed)
+    points = rng.normal(0.0, 1.0, (3000, 3))
+    points = np.concatenate([points / np.linalg.norm(points, axis=1)[:, None], [[0.5, 0.25, 0.125]]])
+    radius = 0.03125  # dyadic: 0.5 + radius - 0.5 is radius exactly
+    tie = [0.5 + radius, 0.25, 0.125]
+    inside = [np.nextafter(0.5 + radius, 0.0), 0.25, 0.125]
+    queries = np.concatenate([rng.normal(0.0, 1.0, (5000, 3)) * 0.7, [tie, inside, [40.0, -3.0, 9.0]]])
+    gap, _ = SampleTree(points).query(queries, distance_upper_bound=radius)
+    want = np.isfinite(gap)
+    assert 0 < want.sum() < len(want) and want[-3:].tolist() == [False, True, False]
+    scipy_gap, _ = cKDTree(points).query(queries, distance_upper_bound=radius)
+    assert np.array_equal(np.isfinite(scipy_gap), want)  # scipy's bounded query too (new clusters asked it)
+    assert np.array_equal(matching.any_within(points, queries, radius), want)
+    monkeypatch.setattr(matching, "WITHIN_CUBES", 0)
+    assert np.array_equal(matching.any_within(points, queries, radius), want)
+
+
+@pytest.mark.parametrize("k", [1, 12, 16])
+def test_nearest_neighbours_are_scipys(k):
+    """On pykdtree where no exact tie can order them otherwise, on scipy where one can (a grid: every point has
+    neighbours at equal distances): scipy's lists either way, and the grid does take scipy's path."""
+    from scipy.spatial import cKDTree
+
+    rng = np.random.default_rng(k)
+    scattered = rng.normal(0.0, 1.0, (2000, 3)) * [2.0, 1.0, 0.05]
+    grid = np.stack(np.meshgrid(*[np.arange(8.0)] * 3, indexing="ij"), axis=-1).reshape(-1, 3)
+    for points in (scattered, grid):
+        _, want = cKDTree(points).query(points, k=k)
+        assert np.array_equal(matching.nearest_neighbours(points, k), np.asarray(want).reshape(len(points), k))
+    if k > 1:  # the grid's ties are real: the fallback was needed (with k = 1 each point's nearest is itself)
+        from pykdtree.kdtree import KDTree
+
+        squared, _ = KDTree(grid).query(grid, k=k + 1, sqr_dists=True)
+        assert np.any(squared[:, 1:] == squared[:, :-1])

@@ -1,4 +1,5 @@
-"""The plan search's pruned scan gives the full scan's answer: the same pose and count, ties broken alike."""
+"""The plan search's compiled count gives the full scan's answer: the same pose and count, ties broken alike, every
+candidate's count equal to a k-d tree query's (pykdtree's, through SampleTree, and scipy's), at the bound too."""
 
 from __future__ import annotations
 
@@ -6,7 +7,7 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
-from bim2rdt.verify import shift_search
+from bim2rdt.registration import SampleTree
 from bim2rdt.verify.shift_search import Located, best_shift
 
 
@@ -56,11 +57,8 @@ def test_coarse_and_fine_scans_match_the_full_scan(seed):
     assert np.allclose(found[:2, 3], start[:2, 3] + [0.25, -0.1])  # the grid's nearest to the true offset
 
 
-@pytest.mark.parametrize("batch", [1, 8])
-def test_ties_keep_the_first_in_scan_order(batch, monkeypatch):
-    """Points on a grid a whole number of shifts wide: many shifts cover equally; the first one wins (scored one
-    candidate at a time too, where the stop is tested after each)."""
-    monkeypatch.setattr(shift_search, "BATCH", batch)
+def test_ties_keep_the_first_in_scan_order():
+    """Points on a grid a whole number of shifts wide: many shifts cover equally; the first one wins."""
     face = np.array([[0.0, 0.0, 0.0]])
     points = np.array([[x, y, 0.0] for x in (-0.2, 0.0, 0.2) for y in (-0.2, 0.0, 0.2)])
     steps = np.arange(-0.3, 0.3 + 1e-9, 0.05)
@@ -78,12 +76,9 @@ def test_nothing_located_keeps_the_start():
     assert np.array_equal(pose, want_pose) and share == want_share == 0.0
 
 
-@pytest.mark.parametrize("batch", [1, 8])
-def test_a_later_shift_with_a_higher_bound_does_not_win_a_tie(batch, monkeypatch):
-    """Shift (0.1, 0) covers as many samples as (0, 0) but has more within the grid's reach (a point 5 cm from its
-    second sample): it is scored first, and the scoring goes on to the earlier (0, 0), kept as the full scan keeps
-    it."""
-    monkeypatch.setattr(shift_search, "BATCH", batch)
+def test_a_later_shift_near_more_points_does_not_win_a_tie():
+    """Shift (0.1, 0) covers as many samples as (0, 0) and lies near more points (one 5 cm from its second
+    sample): the earlier (0, 0) is kept, as the full scan keeps it."""
     face = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
     points = np.array([[0.0, 0.0, 0.0], [0.1, 0.0, 0.0], [1.15, 0.0, 0.0]])
     steps = np.array([0.0, 0.05, 0.1])
@@ -93,15 +88,50 @@ def test_a_later_shift_with_a_higher_bound_does_not_win_a_tie(batch, monkeypatch
     assert np.allclose(pose[:2, 3], [0.0, 0.0])
 
 
-def test_uneven_steps_are_scored_in_full():
-    """Steps not evenly spaced move samples by no whole number of cells: no bound, every shift scored."""
+def test_uneven_and_unsorted_steps_match_the_full_scan():
+    """Uneven steps, and steps that do not ascend (every shift then tested for every point near in height)."""
     face, start, points = scene(3)
-    steps = np.array([-0.3, -0.1, 0.0, 0.05, 0.25])
-    pose, share = best_shift(face, start, [0.0, 4.0], steps, Located(points), 0.04)
-    want_pose, want_share = full_scan(face, start, [0.0, 4.0], steps, points, 0.04)
-    assert np.array_equal(pose, want_pose) and share == want_share
+    for steps in (np.array([-0.3, -0.1, 0.0, 0.05, 0.25]), np.array([0.25, -0.3, 0.05, 0.0, -0.1])):
+        pose, share = best_shift(face, start, [0.0, 4.0], steps, Located(points), 0.04)
+        want_pose, want_share = full_scan(face, start, [0.0, 4.0], steps, points, 0.04)
+        assert np.array_equal(pose, want_pose) and share == want_share
+
+
+def tree_counts(placed, steps, points, support):
+    """Every candidate's count with pykdtree's query (SampleTree), turn-major, shifts x-major."""
     shifts = np.array([(x, y) for x in steps for y in steps])
-    placed = (face + start[:3, 3])[None]
-    assert shift_search._within_reach(points, placed, shifts, steps, 0.04) is None
-    even = np.arange(-0.3, 0.3 + 1e-9, 0.05)
-    assert shift_search._within_reach(points, placed, shifts, even, 0.04) is not None
+    moved = placed[:, None, :, :] + np.c_[shifts, np.zeros(len(shifts))][None, :, None, :]
+    gap, _ = SampleTree(points).query(moved.reshape(-1, 3), distance_upper_bound=support)
+    return np.isfinite(gap).reshape(-1, placed.shape[1]).sum(axis=1)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_every_count_equals_the_k_d_tree_query(seed):
+    """Not only the winner: each turn's and shift's count, on noisy points around random samples."""
+    from bim2rdt.verify.kernels import shift_counts
+
+    rng = np.random.default_rng(seed)
+    placed = rng.uniform(0.0, 0.6, (3, 80, 3))
+    points = np.concatenate([placed[0] + rng.normal(0.0, 0.03, (80, 3)), rng.uniform(-0.2, 0.8, (300, 3))])
+    steps = np.arange(-0.04, 0.04 + 1e-9, 0.01)
+    support = float(rng.uniform(0.02, 0.06))
+    located = Located(points)
+    counts = shift_counts(placed, steps, True, located.by_height, np.ascontiguousarray(located.by_height[:, 2]),
+                          support, support * support)
+    want = tree_counts(placed, steps, points, support)
+    assert np.array_equal(counts, want) and want.max() > want.min()
+
+
+def test_a_point_exactly_at_the_bound_is_no_hit():
+    """A point exactly ``support`` from a shifted sample is a miss for the k-d trees (distance < bound only), and
+    for the count; a hair nearer it is a hit."""
+    from bim2rdt.verify.kernels import shift_counts
+
+    steps = np.array([-0.01, 0.0, 0.01])
+    placed = np.zeros((1, 1, 3))
+    for x, hits in ((0.04, [0, 0, 0, 0, 0, 0, 1, 1, 1]), (np.nextafter(0.04, 0.0), [0, 0, 0, 0, 1, 0, 1, 1, 1])):
+        points = np.array([[x, 0.0, 0.0]])
+        counts = shift_counts(placed, steps, True, points, points[:, 2].copy(), 0.04, 0.04 * 0.04)
+        assert counts.tolist() == hits == tree_counts(placed, steps, points, 0.04).tolist()
+        gap, _ = cKDTree(points).query(placed[0] + [[0.0, 0.0, 0.0]], distance_upper_bound=0.04)
+        assert np.isfinite(gap).tolist() == [bool(hits[4])]

@@ -15,8 +15,9 @@ pinning):
   whether memory stays flat as the run grows).
 
 Stages per frame: ``read`` (the source's next frame), ``localize``, ``depth check``, ``objects`` (planned and
-new, :mod:`bim2rdt.verify.timing` hooks); per run: ``setup`` (the occlusion map and the compiled ICP kernels'
-one-off load, :func:`bim2rdt.registration.load_kernels`), ``twin`` (recording the twin) and ``outputs``
+new, :mod:`bim2rdt.verify.timing` hooks); per run: ``setup`` (the occlusion map and the compiled kernels'
+one-off load: :func:`bim2rdt.registration.load_kernels`, the plan search's), ``twin`` (recording the twin) and
+``outputs``
 (twin.json, IFC, BCF, report), shown divided by the frames. Wall and process CPU seconds are
 both kept; on a shared machine the targets are judged on CPU seconds (the time this process ran, not the time
 others held the core).

@@ -289,3 +289,99 @@ def compose_steps(T, dR, dt):  # pragma: no cover - compiled
         turned[r] = math.acos(min(max(cos, -1.0), 1.0))
         moved[r] = math.sqrt(dt[r, 0] ** 2 + dt[r, 1] ** 2 + dt[r, 2] ** 2)
     return out, turned, moved
+
+
+@njit(cache=True, nogil=True)
+def neighbour_scatter(points, index):  # pragma: no cover - compiled
+    """Each point's neighbourhood scatter (n, 3, 3): with ``q_j = points[index[r, j]]`` (``index`` (n, k), the
+    k nearest) and their mean m, sum_j (q_j - m)(q_j - m)^T. Bit for bit numpy's ``local = points[index] -
+    points[index].mean(axis=1, keepdims=True)`` and ``einsum("nki,nkj->nij", local, local)``: the mean and each
+    entry summed over j in order from 0, the mean divided by k (tests/registration/test_kernels.py compares
+    them); where numpy's gather, mean and einsum made (n, k, 3) temporaries three times, ~15x faster on 6,000
+    points x 12."""
+    n, k = index.shape
+    out = np.empty((n, 3, 3))
+    local = np.empty((k, 3))
+    for r in range(n):
+        m0, m1, m2 = 0.0, 0.0, 0.0
+        for j in range(k):
+            p = index[r, j]
+            m0 += points[p, 0]
+            m1 += points[p, 1]
+            m2 += points[p, 2]
+        m0, m1, m2 = m0 / k, m1 / k, m2 / k
+        for j in range(k):
+            p = index[r, j]
+            local[j, 0] = points[p, 0] - m0
+            local[j, 1] = points[p, 1] - m1
+            local[j, 2] = points[p, 2] - m2
+        for a in range(3):
+            for b in range(3):
+                total = 0.0
+                for j in range(k):
+                    total += local[j, a] * local[j, b]
+                out[r, a, b] = total
+    return out
+
+
+@njit(cache=True, nogil=True)
+def any_within(points, queries, radius, bound):  # pragma: no cover - compiled
+    """(Q,) bool: whether any of ``points`` (P, 3) lies nearer than ``radius`` to each of ``queries`` (Q, 3): a
+    grid of cubes a hair wider than ``radius`` over the points' box, each query tested against the points of the
+    27 cubes around its own. The test is pykdtree's bounded query's, operation for operation (the squared distance
+    summed x, y, z from 0 as ``(query - point)`` squared, a hit below ``bound``, Python's ``radius * radius``), so
+    the answer is ``np.isfinite(SampleTree(points).query(queries, distance_upper_bound=radius)[0])`` bit for bit."""
+    found = np.zeros(len(queries), np.bool_)
+    if len(points) == 0 or not radius > 0.0:
+        return found
+    cube = radius * (1.0 + 1e-6)  # a point nearer than radius lies at most one cube away on each axis
+    lo = np.empty(3)
+    span = np.empty(3, np.int64)
+    for c in range(3):
+        lo[c] = points[:, c].min()
+        span[c] = int(math.floor((points[:, c].max() - lo[c]) / cube)) + 1
+    cubes = span[0] * span[1] * span[2]
+    key = np.empty(len(points), np.int64)
+    for i in range(len(points)):
+        ix = int(math.floor((points[i, 0] - lo[0]) / cube))
+        iy = int(math.floor((points[i, 1] - lo[1]) / cube))
+        iz = int(math.floor((points[i, 2] - lo[2]) / cube))
+        key[i] = (min(ix, span[0] - 1) * span[1] + min(iy, span[1] - 1)) * span[2] + min(iz, span[2] - 1)
+    order = np.argsort(key, kind="mergesort")
+    start = np.zeros(cubes + 1, np.int64)
+    for i in range(len(points)):
+        start[key[i] + 1] += 1
+    for k in range(cubes):
+        start[k + 1] += start[k]
+    for q in range(len(queries)):
+        x, y, z = queries[q, 0], queries[q, 1], queries[q, 2]
+        cx = int(math.floor((x - lo[0]) / cube))
+        cy = int(math.floor((y - lo[1]) / cube))
+        cz = int(math.floor((z - lo[2]) / cube))
+        if cx < -1 or cy < -1 or cz < -1 or cx > span[0] or cy > span[1] or cz > span[2]:
+            continue
+        hit = False
+        for ix in range(max(cx - 1, 0), min(cx + 2, span[0])):
+            for iy in range(max(cy - 1, 0), min(cy + 2, span[1])):
+                for iz in range(max(cz - 1, 0), min(cz + 2, span[2])):
+                    k = (ix * span[1] + iy) * span[2] + iz
+                    for j in range(start[k], start[k + 1]):
+                        p = order[j]
+                        d0 = x - points[p, 0]
+                        d1 = y - points[p, 1]
+                        d2 = z - points[p, 2]
+                        distance = 0.0
+                        distance += d0 * d0
+                        distance += d1 * d1
+                        distance += d2 * d2
+                        if distance < bound:
+                            hit = True
+                            break
+                    if hit:
+                        break
+                if hit:
+                    break
+            if hit:
+                break
+        found[q] = hit
+    return found

@@ -39,6 +39,7 @@ from bim2rdt.verify.planned import PlannedConfig, check_planned, look_at, owned_
 from bim2rdt.verify.priors import heading_deg, levelled
 from bim2rdt.verify.transient import RECENT_FRAMES, TransientConfig, mark_transient
 from bim2rdt.verify.rays import RangeLookup
+from bim2rdt.verify import shift_search
 from bim2rdt.verify.timing import stage
 from bim2rdt.verify.tracking import Tracker
 
@@ -302,6 +303,7 @@ def verify_frames(frames: Iterable, model: BimModel, prior: np.ndarray | None = 
         with stage("setup"):
             scene = OccludedMap.of(model)
             load_kernels()  # numba's import and machine code (~0.4 s once), here and not in the first frame
+            shift_search.load_kernels()  # the plan search's count, likewise
     except LocalizationError as error:
         raise VerifyError(str(error)) from None
     priors = family_priors(model) if priors is None else priors

@@ -19,6 +19,7 @@ from scipy.spatial import cKDTree
 from bim2rdt.bim import BimModel
 from bim2rdt.localization import voxel_means
 from bim2rdt.perception import Observation, UNKNOWN_FAMILY
+from bim2rdt.registration import any_within
 from bim2rdt.verify.bodies import body_samples
 
 
@@ -78,17 +79,17 @@ def new_clusters(points_world: np.ndarray, kept: list[tuple[str, np.ndarray]], m
         if len(points) == 0:
             break
         body, _ = body_samples(model, global_id, 3000, 0)
-        gap, _ = cKDTree(body @ pose[:3, :3].T + pose[:3, 3]).query(points, distance_upper_bound=config.on_planned)
-        points = points[~np.isfinite(gap)]
+        points = points[~any_within(body @ pose[:3, :3].T + pose[:3, 3], points, config.on_planned)]
     if len(points) < config.min_points:
         return []
     pairs = cKDTree(points).query_pairs(config.link, output_type="ndarray")
     graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(len(points), len(points)))
     count, labels = connected_components(graph, directed=False)
     out = []
-    for label in range(count):
+    sizes = np.bincount(labels, minlength=count)
+    for label in np.flatnonzero(sizes >= config.min_points):  # a frame's leftovers make hundreds of tiny components
         members = points[labels == label]
-        if len(members) < config.min_points or members[:, 2].max() - slab < config.min_height:
+        if members[:, 2].max() - slab < config.min_height:
             continue
         low, high = members.min(axis=0), members.max(axis=0)
         pose = np.eye(4)

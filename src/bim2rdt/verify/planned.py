@@ -33,7 +33,6 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
-from scipy.spatial import cKDTree
 
 from bim2rdt.bim import BimElement, BimModel
 from bim2rdt.localization import voxel_means
@@ -229,7 +228,7 @@ def _agreement(body, pose: np.ndarray, points: np.ndarray, distance: float) -> t
     within 3 x ``distance``): the kept pose's rmse and fitness. Only the object's neighbourhood counts: the
     points nearest its planned surface reach half a metre out, over the clutter around it."""
     samples, _ = body
-    gap, _ = cKDTree(samples @ pose[:3, :3].T + pose[:3, 3]).query(points, distance_upper_bound=3 * distance)
+    gap, _ = SampleTree(samples @ pose[:3, :3].T + pose[:3, 3]).query(points, distance_upper_bound=3 * distance)
     gap = gap[np.isfinite(gap)]
     near = gap <= distance
     if len(gap) == 0:
