@@ -307,19 +307,11 @@ def stop_if_agreed(restarts: _Restarts, centroid_body: np.ndarray, cfg: IcpConfi
     ``stop_margin`` (never while the Huber scale anneals, nor before ``prune_after``)."""
     if cfg.stop_when_agreed <= 0 or iteration + 1 < max(cfg.prune_after, cfg.huber_anneal_iterations):
         return
-    part = restarts.part(group)
-    running = ~part.done & ~part.pruned
-    if not running.any():
-        return
-    alive = np.flatnonzero(~part.pruned)
-    best = alive[np.argmin(part.scores[alive])]
-    if not part.done[best]:
-        return
-    settled = np.flatnonzero(part.done & ~part.pruned)
-    if np.count_nonzero(near(part.poses[settled], part.poses[best], centroid_body)) < cfg.stop_when_agreed:
-        return
-    if np.all(part.scores[running] > cfg.stop_margin * part.scores[best]):
-        part.pruned[running] = True
+    from bim2rdt.registration import kernels  # numba's import waits for the first registration
+
+    start, stop, _ = group.indices(len(restarts.poses))
+    kernels.stop_agreed(restarts.poses, restarts.scores, restarts.done, restarts.pruned, start, stop,
+                        np.asarray(centroid_body, dtype=float), cfg.stop_when_agreed, cfg.stop_margin)
 
 
 def prune_keep(iteration: int, cfg: IcpConfig, hopping: bool) -> int | None:
@@ -350,7 +342,8 @@ def _search_together(problems: list[Problem], model: matching.ModelIndex, normal
         active = restarts.active()
         if len(active) == 0:
             break
-        running = [g for g in groups if np.any(~restarts.done[g] & ~restarts.pruned[g])]
+        counts = np.diff(np.searchsorted(active, edges))  # each group's active restarts
+        running = [g for g, count in zip(groups, counts) if count]
         _iterate(restarts, active, problems[0], model, normals_world, cfg, iteration, False, bias[active])
         keep = prune_keep(iteration, cfg, hopping)
         if keep is not None:
@@ -567,11 +560,28 @@ def _compiled_step(T: np.ndarray, problem: Problem, model: matching.ModelIndex, 
     k, n, _ = scene_body.shape
     distance, index = model.tree.query(scene_body.reshape(-1, 3),
                                        distance_upper_bound=_pair_distance(model, cfg, delta))
-    distance, index = distance.reshape(k, n), np.minimum(index, model.tree.n - 1).reshape(k, n)
+    distance, index = distance.reshape(k, n), index.reshape(k, n)  # a miss's index (tree.n) is never read
     residual, pairs, scores = kernels.pair_residuals(scene_body, distance, index, model.points, model.normals,
                                                      model.spacing, cfg.score_distance)
     if pairs.min() < cfg.min_pairs:
         return None
+    bias_gamma = np.full(k, bias * cfg.gravity_gamma0) if np.ndim(bias) == 0 else bias * cfg.gravity_gamma0
+    if yaw_only:
+        return (*_yaw_only_step(T, scene_body, residual, index, problem, model, cfg, delta, bias_gamma), scores)
+    support = np.nan if problem.support_height is None else problem.support_height
+    dR, dt = kernels.plane_steps(T, scene_body, residual, index, model.points, model.normals, model.extreme_points,
+                                 cfg.trim_fraction, cfg.min_pairs, cfg.trim_floor_per_delta * delta, delta, bias_gamma,
+                                 problem.up_world, UP_BODY, support, cfg.support_weight, DEGENERATE_RATIO)
+    return dR, dt, scores
+
+
+def _yaw_only_step(T: np.ndarray, scene_body: np.ndarray, residual: np.ndarray, index: np.ndarray, problem: Problem,
+                   model: matching.ModelIndex, cfg: IcpConfig, delta: float, bias_gamma: np.ndarray):
+    """yaw_only's step from the compiled pairs (:func:`_compiled_step`): the normal equations compiled, the
+    solve projected onto yaw and position by :func:`solve_system` -> (dR, dt)."""
+    from bim2rdt.registration import kernels
+
+    k = len(T)
     up_body = np.einsum("kji,j->ki", T[:, :3, :3], problem.up_world)
     if problem.support_height is not None:
         contact, on_slab = _contact(T, up_body, problem, model.extreme_points)
@@ -580,11 +590,9 @@ def _compiled_step(T: np.ndarray, problem: Problem, model: matching.ModelIndex, 
         contact = on_slab = np.zeros((k, 3))
         weight = 0.0
     A, b = kernels.normal_systems(scene_body, residual, index, model.points, model.normals, cfg.trim_fraction,
-                                  cfg.min_pairs, cfg.trim_floor_per_delta * delta, delta,
-                                  np.broadcast_to(np.asarray(bias * cfg.gravity_gamma0, dtype=float), (k,)).copy(),
-                                  up_body, UP_BODY, on_slab, contact, float(weight))
-    dR, dt = solve_system(A, b, up_body, True) if yaw_only else kernels.solve_steps(A, b, DEGENERATE_RATIO)
-    return dR, dt, scores
+                                  cfg.min_pairs, cfg.trim_floor_per_delta * delta, delta, bias_gamma, up_body,
+                                  UP_BODY, on_slab, contact, float(weight))
+    return solve_system(A, b, up_body, True)
 
 
 def _contact(T: np.ndarray, up_body: np.ndarray, problem: Problem, hull: np.ndarray):
@@ -638,13 +646,9 @@ def _advance(restarts: _Restarts, active: np.ndarray, dR: np.ndarray, dt: np.nda
     was small or whose score settled (never while the Huber scale is still annealing)."""
     from bim2rdt.registration import kernels  # numba's import waits for the first registration
 
-    restarts.poses[active], turned, moved = kernels.compose_steps(restarts.poses[active], dR, dt)
-    restarts.iterations[active] += 1
-    previous, restarts.scores[active] = restarts.scores[active], scores
-    small = (turned < cfg.convergence_rot_rad) & (moved < cfg.convergence_trans)
-    stalled = np.abs(previous - scores) <= cfg.convergence_score_rel * scores
-    if not annealing:
-        restarts.done[active[small | stalled]] = True
+    kernels.settle_steps(restarts.poses, restarts.iterations, restarts.scores, restarts.done, active, dR, dt,
+                         np.asarray(scores, dtype=float), cfg.convergence_rot_rad, cfg.convergence_trans,
+                         cfg.convergence_score_rel, annealing)
 
 
 def _transform(T: np.ndarray, points: np.ndarray) -> np.ndarray:

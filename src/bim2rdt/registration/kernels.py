@@ -289,3 +289,112 @@ def compose_steps(T, dR, dt):  # pragma: no cover - compiled
         turned[r] = math.acos(min(max(cos, -1.0), 1.0))
         moved[r] = math.sqrt(dt[r, 0] ** 2 + dt[r, 1] ** 2 + dt[r, 2] ** 2)
     return out, turned, moved
+
+
+@njit(cache=True, nogil=True)
+def plane_steps(T, scene_body, residual, index, points, normals, hull, trim_fraction, min_pairs, keep_within,
+                delta, bias_gamma, up_world, g_dst, support_height, support_weight,
+                degenerate_ratio):  # pragma: no cover - compiled
+    """The point-to-plane steps (dR (k, 3, 3), dt (k, 3)) of restarts at poses T (k, 4, 4) in one call: each
+    restart's world up in its body frame (R^T ``up_world``), its resting contact when ``support_height`` (m along
+    ``up_world``) is finite (the lowest of the ``hull`` points along that up, dropped onto the slab, as
+    :func:`bim2rdt.registration.icp._contact`), then :func:`normal_systems` and :func:`solve_steps` (decision
+    0045: the ~10 numpy calls between them were a tenth of an iteration)."""
+    k = len(T)
+    up_body = np.empty((k, 3))
+    contact = np.zeros((k, 3))
+    on_slab = np.zeros((k, 3))
+    for r in range(k):
+        for i in range(3):
+            up_body[r, i] = T[r, 0, i] * up_world[0] + T[r, 1, i] * up_world[1] + T[r, 2, i] * up_world[2]
+    weight = 0.0
+    if np.isfinite(support_height):
+        weight = support_weight
+        for r in range(k):
+            lowest, height = 0, np.inf
+            for h in range(len(hull)):
+                value = hull[h, 0] * up_body[r, 0] + hull[h, 1] * up_body[r, 1] + hull[h, 2] * up_body[r, 2]
+                if value < height:
+                    lowest, height = h, value
+            slab = support_height - (T[r, 0, 3] * up_world[0] + T[r, 1, 3] * up_world[1] + T[r, 2, 3] * up_world[2])
+            gap = (up_body[r, 0] * hull[lowest, 0] + up_body[r, 1] * hull[lowest, 1]
+                   + up_body[r, 2] * hull[lowest, 2]) - slab
+            for i in range(3):
+                contact[r, i] = hull[lowest, i]
+                on_slab[r, i] = hull[lowest, i] - gap * up_body[r, i]
+    A, b = normal_systems(scene_body, residual, index, points, normals, trim_fraction, min_pairs, keep_within, delta,
+                          bias_gamma, up_body, g_dst, on_slab, contact, weight)
+    return solve_steps(A, b, degenerate_ratio)
+
+
+@njit(cache=True, nogil=True)
+def settle_steps(poses, iterations, scores, done, active, dR, dt, new_scores, rot_rad, trans, score_rel,
+                 annealing):  # pragma: no cover - compiled
+    """Apply the body-frame steps (dR (k, 3, 3), dt (k, 3)) of the ``active`` restarts (k,) to their poses
+    (K, 4, 4), in place, as :func:`compose_steps`; count their iterations, record their scores and, unless
+    ``annealing``, mark done (K,) those whose step turned less than ``rot_rad`` and moved less than ``trans``
+    (m), or whose score changed by at most ``score_rel`` of it (:func:`bim2rdt.registration.icp._advance`)."""
+    composed, turned, moved = compose_steps(poses[active], dR, dt)
+    for m in range(len(active)):
+        r = active[m]
+        poses[r] = composed[m]
+        iterations[r] += 1
+        previous = scores[r]
+        scores[r] = new_scores[m]
+        small = turned[m] < rot_rad and moved[m] < trans
+        stalled = abs(previous - new_scores[m]) <= score_rel * new_scores[m]
+        if not annealing and (small or stalled):
+            done[r] = True
+
+
+@njit(cache=True, nogil=True)
+def count_near(poses, keep, pose, centroid, distance, degrees):  # pragma: no cover - compiled
+    """How many of ``poses`` (K, 4, 4) with ``keep`` (K,) put the model's ``centroid`` (body frame) within
+    ``distance`` (m) of where ``pose`` (4, 4) puts it and are turned by less than ``degrees`` from it, as
+    :func:`bim2rdt.registration.icp.near`."""
+    limit = np.deg2rad(degrees)
+    count = 0
+    for r in range(len(poses)):
+        if not keep[r]:
+            continue
+        shift = 0.0
+        for i in range(3):
+            along = (poses[r, i, 3] - pose[i, 3]
+                     + (poses[r, i, 0] - pose[i, 0]) * centroid[0] + (poses[r, i, 1] - pose[i, 1]) * centroid[1]
+                     + (poses[r, i, 2] - pose[i, 2]) * centroid[2])
+            shift += along * along
+        trace = 0.0
+        for i in range(3):
+            trace += poses[r, i, 0] * pose[i, 0] + poses[r, i, 1] * pose[i, 1] + poses[r, i, 2] * pose[i, 2]
+        turn = math.acos(min(max((trace - 1.0) / 2.0, -1.0), 1.0))
+        if math.sqrt(shift) < distance and turn < limit:
+            count += 1
+    return count
+
+
+@njit(cache=True, nogil=True)
+def stop_agreed(poses, scores, done, pruned, start, stop, centroid, agreed, margin):  # pragma: no cover
+    """:func:`bim2rdt.registration.icp.stop_if_agreed` on restarts ``start``..``stop`` (in place on ``pruned``):
+    drop the running ones once ``agreed`` converged restarts ended within 1 cm and 1 degree of the
+    lowest-scoring one, itself converged, and every running one scores worse than ``margin`` x its score."""
+    best, lowest, running = -1, np.inf, 0
+    for r in range(start, stop):
+        if pruned[r]:
+            continue
+        if not done[r]:
+            running += 1
+        if scores[r] < lowest or best < 0:
+            best, lowest = r, scores[r]
+    if running == 0 or not done[best]:
+        return
+    settled = np.zeros(stop - start, np.bool_)
+    for r in range(start, stop):
+        settled[r - start] = done[r] and not pruned[r]
+    if count_near(poses[start:stop], settled, poses[best], centroid, 0.01, 1.0) < agreed:
+        return
+    for r in range(start, stop):
+        if not done[r] and not pruned[r] and not scores[r] > margin * lowest:
+            return
+    for r in range(start, stop):
+        if not done[r] and not pruned[r]:
+            pruned[r] = True
