@@ -7,6 +7,7 @@ converge stop; restarts far behind the best after ``prune_after`` iterations are
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -510,16 +511,26 @@ def yaw_restarts(T_init: np.ndarray, centroid_body: np.ndarray, up_world: np.nda
     """Initial poses (K, 4, 4): ``T_init`` turned about the world up, through the model's centroid, by evenly
     spaced yaws plus seeded jitter (restart 0 is ``T_init`` itself). A gravity prior cannot fix yaw; restarts can.
     Public so that peers in a benchmark can be given exactly the same starts."""
-    rng = np.random.default_rng(cfg.seed)
     k = cfg.restarts
-    jitter = np.deg2rad(rng.uniform(-cfg.yaw_jitter_deg, cfg.yaw_jitter_deg, k))
-    yaws = 2 * np.pi * np.arange(k) / k + np.where(np.arange(k) == 0, 0.0, jitter)
+    yaws = restart_yaws(k, cfg.yaw_jitter_deg, cfg.seed)
     T0 = T_init
     centre = T0[:3, :3] @ centroid_body + T0[:3, 3]
     turns = np.tile(np.eye(4), (k, 1, 1))
     turns[:, :3, :3] = axis_angle(np.broadcast_to(up_world, (k, 3)), yaws)
     turns[:, :3, 3] = centre - np.einsum("kij,j->ki", turns[:, :3, :3], centre)
     return turns @ T0
+
+
+@functools.lru_cache(maxsize=64)
+def restart_yaws(restarts: int, jitter_deg: float, seed: int) -> np.ndarray:
+    """The restarts' yaws (K,), rad: evenly spaced over a turn, each but the first jittered by a seeded uniform
+    draw within +-``jitter_deg``. The same for every registration of one config, so drawn once (a generator's
+    construction cost ~50 us, twice a registration); read-only."""
+    rng = np.random.default_rng(seed)
+    jitter = np.deg2rad(rng.uniform(-jitter_deg, jitter_deg, restarts))
+    yaws = 2 * np.pi * np.arange(restarts) / restarts + np.where(np.arange(restarts) == 0, 0.0, jitter)
+    yaws.flags.writeable = False
+    return yaws
 
 
 def _iterate(restarts: _Restarts, active: np.ndarray, problem: Problem, model: matching.ModelIndex,
@@ -662,11 +673,11 @@ def score_poses(model: matching.ModelIndex, poses: np.ndarray, scene_pts_world: 
     truncation (it is at least the distance less the spacing), so the search stops there (+1 um against
     round-off): their residuals are inf, not some value past the truncation, and every truncated use is the same."""
     bound = min(cfg.max_pair_distance, cfg.score_distance + model.spacing + 1e-6)
-    pairs = matching.match_pairs(model, _transform(invert_poses(poses), scene_pts_world), bound)
+    pairs = matching.scored_residuals(model, _transform(invert_poses(poses), scene_pts_world), bound)
     return matching.truncated_score(pairs, cfg.score_distance), pairs
 
 
-def upright_penalty(poses: np.ndarray, pairs: matching.Pairs, problem: Problem, cfg: IcpConfig) -> np.ndarray:
+def upright_penalty(poses: np.ndarray, pairs: matching.Residuals, problem: Problem, cfg: IcpConfig) -> np.ndarray:
     """The gravity term of the loop's cost, per scene point, in the score's units (m^2), so restarts are compared
     on the objective the loop minimises: lambda |R g_m - g_w|^2 / N with lambda = beta gamma0 sum |p~|^2 over the
     pose's inlier pairs (as in the loop, not over the whole model: a thin tripod seen among ground points has

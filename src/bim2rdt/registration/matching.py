@@ -21,16 +21,22 @@ from bim2rdt import exact
 
 
 @dataclass
-class Pairs:
-    """For each restart k and scene point n: the nearest model sample, the point-to-sample distance (m), the
-    residual the ICP step works with (m, see :func:`plane_residual`), and a validity mask; ``samples`` and
-    ``normals`` are the matched samples' points and normals (body frame), gathered once for the residual and
-    the step."""
+class Residuals:
+    """For each pose k and scene point n: the nearest model sample, the point-to-sample distance (m), the
+    residual the ICP step works with (m, see :func:`plane_residual`), and a validity mask: what scoring a pose
+    needs (:func:`scored_residuals`)."""
 
     model_index: np.ndarray  # (k, N) int
     distance: np.ndarray  # (k, N) float, inf when beyond the pair distance
     residual: np.ndarray  # (k, N) float, inf when beyond the pair distance
     valid: np.ndarray  # (k, N) bool
+
+
+@dataclass
+class Pairs(Residuals):
+    """:class:`Residuals` with ``samples`` and ``normals``, the matched samples' points and normals (body frame),
+    gathered once for the residual and the step."""
+
     samples: np.ndarray  # (k, N, 3) model.points[model_index]
     normals: np.ndarray  # (k, N, 3) model.normals[model_index]
 
@@ -159,6 +165,21 @@ def match_pairs(model: ModelIndex, scene_body: np.ndarray, max_distance: float) 
     samples, normals = np.take(model.points, index, axis=0), np.take(model.normals, index, axis=0)  # ~3x fancy
     residual = plane_residual(model, scene_body, samples, normals, distance)
     return Pairs(index, distance, residual, np.isfinite(distance), samples, normals)
+
+
+def scored_residuals(model: ModelIndex, scene_body: np.ndarray, max_distance: float) -> Residuals:
+    """:func:`match_pairs`' residuals without gathering the matched samples: the compiled
+    :func:`bim2rdt.registration.kernels.pair_residuals` (the same formula as :func:`plane_residual`, the same
+    values), for callers that score poses and need no step."""
+    from bim2rdt.registration import kernels  # numba's import waits for the first registration
+
+    k, n, _ = scene_body.shape
+    distance, index = model.tree.query(scene_body.reshape(-1, 3), distance_upper_bound=max_distance)
+    index = np.minimum(index, model.tree.n - 1).reshape(k, n)  # misses come back as tree.n; invalid anyway
+    distance = distance.reshape(k, n)
+    residual, _, _ = kernels.pair_residuals(scene_body, distance, index, model.points, model.normals, model.spacing,
+                                            np.inf)
+    return Residuals(index, distance, residual, np.isfinite(distance))
 
 
 def plane_residual(model: ModelIndex, scene_body: np.ndarray, samples: np.ndarray, normals: np.ndarray,
@@ -336,7 +357,7 @@ def scene_normals(scene_pts: np.ndarray, neighbours: int) -> np.ndarray:
     return vectors[:, :, 0]
 
 
-def truncated_score(pairs: Pairs, truncation: float) -> np.ndarray:
+def truncated_score(pairs: Residuals, truncation: float) -> np.ndarray:
     """Restart score (lower is better): mean over ALL scene points of min(r, truncation)^2 of the surface
     residual r, m^2. Unmatched points count as the truncation, so a pose that explains fewer points loses."""
     return np.mean(np.minimum(pairs.residual, truncation) ** 2, axis=1)
