@@ -99,7 +99,8 @@ def test_verify_imports_without_numba_and_load_kernels_brings_its_machine_code_i
             "assert 'numba' not in sys.modules\n"
             "from bim2rdt.registration import load_kernels, register, kernels\n"
             "load_kernels()\n"
-            "names = ('body_points', 'pair_residuals', 'normal_systems', 'plane_steps', 'settle_steps', 'stop_agreed')\n"
+            "names = ('body_points', 'pair_residuals', 'normal_systems', 'plane_steps', 'settle_steps', 'stop_agreed',\n"
+            "         'warm_nearest', 'remember_nearest')\n"
             "loaded = {n: len(getattr(kernels, n).signatures) for n in names}\n"
             "assert all(loaded.values()), loaded\n"
             "rng = np.random.default_rng(1)\n"
@@ -109,3 +110,45 @@ def test_verify_imports_without_numba_and_load_kernels_brings_its_machine_code_i
             "assert loaded == {n: len(getattr(kernels, n).signatures) for n in names}\n")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr[-2000:]
+
+
+def test_the_warm_started_nearest_samples_are_the_trees(crate_model):
+    """A point near its last nearest sample is answered from that sample's listed neighbours (decision 0045):
+    the same sample and distance as the k-d tree, misses beyond the bound included; points it cannot prove
+    (no last sample, or too far from it) go to the tree."""
+    model = matching.ModelIndex.build(*crate_model)
+    rng = np.random.default_rng(3)
+    near = model.points[rng.integers(0, len(model.points), 600)] + rng.normal(0.0, 0.004, (600, 3))
+    far = rng.uniform(-1.5, 1.5, (200, 3))
+    scene = np.concatenate([near, far])[None].repeat(2, axis=0)
+    scene[1] += rng.normal(0.0, 0.01, scene[1].shape)  # a second restart, a centimetre further
+    nearest = np.full((3, len(scene[0])), -1, np.int64)
+    _, first = model.tree.query(scene[0] + rng.normal(0.0, 0.003, scene[0].shape))  # last iteration's answer
+    nearest[0] = nearest[2] = first
+    nearest[2, ::7] = -1
+    active = np.array([0, 2])
+    bound = 0.005  # many a proved point is a miss
+    distance, index, cold = kernels.warm_nearest(scene, nearest, active, 1, model.points, model.near_ids,
+                                                 model.near_radius, bound)
+    want_d, want_i = model.tree.query(scene.reshape(-1, 3), distance_upper_bound=bound)
+    proved = np.setdiff1d(np.arange(scene.shape[0] * scene.shape[1]), cold)
+    assert len(proved) > 0.5 * len(near) * 2 and np.isin(np.flatnonzero(nearest[active].reshape(-1) < 0), cold).all()
+    assert np.array_equal(index.reshape(-1)[proved], want_i[proved])
+    assert np.array_equal(distance.reshape(-1)[proved], want_d[proved])
+    assert np.isinf(distance.reshape(-1)[proved]).any()  # some proved answers are misses beyond the bound
+    found, which = icp._nearest_samples(scene, model, bound, 1, (nearest, active))
+    assert np.array_equal(which, want_i.reshape(2, -1)) and np.array_equal(found, want_d.reshape(2, -1))
+    assert (nearest[active] == np.where(want_i.reshape(2, -1) < model.tree.n, want_i.reshape(2, -1),
+                                        nearest[active])).all()  # remembered where found
+
+
+def test_a_registration_is_the_same_without_warm_starts(crate_model, cluttered_problem, monkeypatch):
+    p = cluttered_problem
+    args = (*crate_model, p.scene_pts_world, p.T_world_model_init, UP, 0.6)
+    warm = register(*args, support_height=0.0)
+    cold = icp._nearest_samples
+    monkeypatch.setattr(icp, "_nearest_samples", lambda scene, model, bound, stride, _: cold(scene, model, bound,
+                                                                                            stride, None))
+    tree_only = register(*args, support_height=0.0)
+    assert np.array_equal(warm.pose, tree_only.pose)
+    assert warm.total_iterations == tree_only.total_iterations

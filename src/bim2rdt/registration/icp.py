@@ -65,6 +65,7 @@ class _Restarts:
     scores: np.ndarray  # (K,) latest truncated score
     done: np.ndarray  # (K,) converged
     pruned: np.ndarray  # (K,) dropped as losing
+    nearest: np.ndarray | None = None  # (K, N) each scene point's last nearest sample, -1 none (warm starts)
 
     @classmethod
     def start(cls, poses: np.ndarray) -> _Restarts:
@@ -87,7 +88,7 @@ class _Restarts:
     def part(self, group: slice) -> _Restarts:
         """The restarts of ``group``, as their own state."""
         return _Restarts(self.poses[group], self.iterations[group], self.scores[group], self.done[group],
-                         self.pruned[group])
+                         self.pruned[group], None if self.nearest is None else self.nearest[group])
 
 
 def register(model_points: np.ndarray, model_normals: np.ndarray, scene_points: np.ndarray,
@@ -545,7 +546,9 @@ def _iterate(restarts: _Restarts, active: np.ndarray, problem: Problem, model: m
     stride = max(1, cfg.coarse_stride) if annealing else 1  # coarse-to-fine: the wide-scale steps need few points
     bias = problem.upright_bias if bias is None else bias
     if cfg.method == "point_to_plane" and normals_world is None:
-        step = _compiled_step(T, problem, model, cfg, delta, stride, bias, yaw_only)
+        if restarts.nearest is None:
+            restarts.nearest = np.full((len(restarts.poses), len(problem.scene_pts_world)), -1, np.int64)
+        step = _compiled_step(T, problem, model, cfg, delta, stride, bias, yaw_only, (restarts.nearest, active))
         if step is not None:
             _advance(restarts, active, *step, cfg, annealing)
             return
@@ -561,17 +564,16 @@ def _iterate(restarts: _Restarts, active: np.ndarray, problem: Problem, model: m
 
 
 def _compiled_step(T: np.ndarray, problem: Problem, model: matching.ModelIndex, cfg: IcpConfig, delta: float,
-                   stride: int, bias: float | np.ndarray, yaw_only: bool):
+                   stride: int, bias: float | np.ndarray, yaw_only: bool, warm: tuple | None = None):
     """:func:`_iterate`'s match, trim, weigh and point-to-plane solve by the compiled kernels
     (:mod:`bim2rdt.registration.kernels`: the same arithmetic in one pass, ~40 numpy calls fewer) -> (dR, dt,
     scores), or None when a restart has fewer than ``min_pairs`` pairs (RelaxIfFew: the numpy path then runs).
-    Only without the normal gate (off by default)."""
+    Only without the normal gate (off by default). ``warm``: the restarts' last nearest samples (K, N) and
+    which of them ``T`` are (k,), to start the search from (:func:`_nearest_samples`)."""
     from bim2rdt.registration import kernels  # numba's import (~0.5 s) waits for the first registration
     scene_body = kernels.body_points(T, problem.scene_pts_world, stride)
     k, n, _ = scene_body.shape
-    distance, index = model.tree.query(scene_body.reshape(-1, 3),
-                                       distance_upper_bound=_pair_distance(model, cfg, delta))
-    distance, index = distance.reshape(k, n), index.reshape(k, n)  # a miss's index (tree.n) is never read
+    distance, index = _nearest_samples(scene_body, model, _pair_distance(model, cfg, delta), stride, warm)
     residual, pairs, scores = kernels.pair_residuals(scene_body, distance, index, model.points, model.normals,
                                                      model.spacing, cfg.score_distance)
     if pairs.min() < cfg.min_pairs:
@@ -584,6 +586,30 @@ def _compiled_step(T: np.ndarray, problem: Problem, model: matching.ModelIndex, 
                                  cfg.trim_fraction, cfg.min_pairs, cfg.trim_floor_per_delta * delta, delta, bias_gamma,
                                  problem.up_world, UP_BODY, support, cfg.support_weight, DEGENERATE_RATIO)
     return dR, dt, scores
+
+
+def _nearest_samples(scene_body: np.ndarray, model: matching.ModelIndex, bound: float, stride: int,
+                     warm: tuple | None) -> tuple[np.ndarray, np.ndarray]:
+    """The nearest sample (index (k, n); ``tree.n`` for a miss) of each point of ``scene_body`` (k, n, 3) and
+    its distance (k, n) m (inf beyond ``bound``), the k-d tree's answer. With ``warm`` (the restarts' last
+    nearest samples (K, N), updated here, and which restarts these are (k,)), the points whose last nearest
+    sample proves the answer among its listed neighbours are answered so
+    (:func:`bim2rdt.registration.kernels.warm_nearest`: the same samples, ~3x cheaper a point near the
+    surface), the rest by the tree."""
+    from bim2rdt.registration import kernels
+
+    k, n, _ = scene_body.shape
+    if warm is None:
+        distance, index = model.tree.query(scene_body.reshape(-1, 3), distance_upper_bound=bound)
+        return distance.reshape(k, n), index.reshape(k, n)
+    nearest, active = warm
+    distance, index, cold = kernels.warm_nearest(scene_body, nearest, active, stride, model.points, model.near_ids,
+                                                 model.near_radius, bound)
+    if len(cold):
+        far, which = model.tree.query(scene_body.reshape(-1, 3)[cold], distance_upper_bound=bound)
+        distance.reshape(-1)[cold], index.reshape(-1)[cold] = far, which
+    kernels.remember_nearest(nearest, active, stride, index, model.tree.n)
+    return distance, index
 
 
 def _yaw_only_step(T: np.ndarray, scene_body: np.ndarray, residual: np.ndarray, index: np.ndarray, problem: Problem,

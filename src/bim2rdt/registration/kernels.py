@@ -398,3 +398,60 @@ def stop_agreed(poses, scores, done, pruned, start, stop, centroid, agreed, marg
     for r in range(start, stop):
         if not done[r] and not pruned[r]:
             pruned[r] = True
+
+
+@njit(cache=True, nogil=True)
+def warm_nearest(scene_body, nearest, active, stride, points, near_ids, near_radius, bound):  # pragma: no cover
+    """The exact nearest samples of scene points in restarts' body frames (``scene_body`` (k, n, 3), every
+    ``stride``-th scene point of the ``active`` restarts) where a previous nearest sample proves it, as the k-d
+    tree would answer them: (distance (k, n) m, inf beyond ``bound``; index (k, n), ``len(points)`` for a miss;
+    the flat indices of the points it could not prove, for the tree).
+
+    ``nearest`` (K, N) holds each restart's last nearest sample of each scene point (-1: none). If s is that
+    sample and d' the point's distance to it, the true nearest s* is within d' of the point, so within 2 d' of
+    s; when 2 d' is below ``near_radius[s]`` (the distance of s's farthest listed neighbour; every sample
+    nearer s is listed in ``near_ids[s]``), s* is among s's neighbours and the nearest of them is exact. A
+    point far from its last sample (a restart that moved, a first iteration) is left to the tree."""
+    k, n, _ = scene_body.shape
+    distance = np.full((k, n), np.inf)
+    index = np.full((k, n), len(points), np.int64)
+    cold = np.empty(k * n, np.int64)
+    count = 0
+    limit = bound * bound
+    for m in range(k):
+        row = active[m]
+        for i in range(n):
+            s = nearest[row, i * stride]
+            proved = False
+            if s >= 0:
+                p0, p1, p2 = scene_body[m, i, 0], scene_body[m, i, 1], scene_body[m, i, 2]
+                d0, d1, d2 = p0 - points[s, 0], p1 - points[s, 1], p2 - points[s, 2]
+                reach = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+                if 2.0 * reach * (1.0 + 1e-9) + 1e-12 < near_radius[s]:
+                    proved = True
+                    best, best_sq = -1, np.inf
+                    for c in range(near_ids.shape[1]):
+                        j = near_ids[s, c]
+                        e0, e1, e2 = p0 - points[j, 0], p1 - points[j, 1], p2 - points[j, 2]
+                        sq = e0 * e0 + e1 * e1 + e2 * e2
+                        if sq < best_sq:
+                            best, best_sq = j, sq
+                    if best_sq < limit:
+                        distance[m, i] = math.sqrt(best_sq)
+                        index[m, i] = best
+            if not proved:
+                cold[count] = m * n + i
+                count += 1
+    return distance, index, cold[:count]
+
+
+@njit(cache=True, nogil=True)
+def remember_nearest(nearest, active, stride, index, size):  # pragma: no cover - compiled
+    """Record the nearest samples ``index`` (k, n) of the ``active`` restarts' every ``stride``-th scene point in
+    ``nearest`` (K, N), where one was found (an index below ``size``, the sample count)."""
+    k, n = index.shape
+    for m in range(k):
+        row = active[m]
+        for i in range(n):
+            if index[m, i] < size:
+                nearest[row, i * stride] = index[m, i]

@@ -107,6 +107,8 @@ class ModelIndex:
     extremes: np.ndarray  # indices of the samples on the convex hull (all of them when the samples are flat)
     extreme_points: np.ndarray  # points[extremes]
     centroid: np.ndarray  # points.mean(axis=0)
+    near_ids: np.ndarray  # (n, NEAR_SAMPLES) each sample's nearest samples, itself first
+    near_radius: np.ndarray  # (n,) m: every sample nearer than this to a sample is in its near_ids
 
     @classmethod
     def cached(cls, points: np.ndarray, normals: np.ndarray) -> ModelIndex:
@@ -134,8 +136,25 @@ class ModelIndex:
         spacing, _ = tree.query(points[:: max(1, len(points) // 256)], k=2)
         spacing = float(np.median(spacing[:, 1]))
         extremes = hull_vertices(points)
+        near_ids, near_radius = near_samples(tree, points)
         return cls(points, normals, tree, spacing, surfel_radius * spacing, extremes, points[extremes],
-                   points.mean(axis=0))
+                   points.mean(axis=0), near_ids, near_radius)
+
+
+NEAR_SAMPLES = 16
+"""Neighbours listed per sample (itself included) for the loop's warm-started nearest-sample search
+(:func:`bim2rdt.registration.kernels.warm_nearest`, decision 0045)."""
+
+
+def near_samples(tree: SampleTree, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each sample's :data:`NEAR_SAMPLES` nearest samples (n, k), itself first, and the radius (n,) m within
+    which the list is complete: its farthest listed neighbour's distance (a sample exactly that far may be
+    missing), inf when the list holds every sample."""
+    k = min(NEAR_SAMPLES, len(points))
+    distance, index = tree.query(points, k=k)
+    distance, index = distance.reshape(len(points), k), index.reshape(len(points), k)
+    radius = np.full(len(points), np.inf) if k == len(points) else distance[:, -1].copy()
+    return np.ascontiguousarray(index, dtype=np.int64), radius
 
 
 def _checksum(values: np.ndarray) -> int:
