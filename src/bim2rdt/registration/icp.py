@@ -604,7 +604,7 @@ def _nearest_samples(scene_body: np.ndarray, model: matching.ModelIndex, bound: 
         return distance.reshape(k, n), index.reshape(k, n)
     nearest, active = warm
     distance, index, cold = kernels.warm_nearest(scene_body, nearest, active, stride, model.points, model.near_ids,
-                                                 model.near_radius, bound)
+                                                 model.near_radius, model.low, model.high, bound)
     if len(cold):
         far, which = model.tree.query(scene_body.reshape(-1, 3)[cold], distance_upper_bound=bound)
         distance.reshape(-1)[cold], index.reshape(-1)[cold] = far, which

@@ -401,17 +401,19 @@ def stop_agreed(poses, scores, done, pruned, start, stop, centroid, agreed, marg
 
 
 @njit(cache=True, nogil=True)
-def warm_nearest(scene_body, nearest, active, stride, points, near_ids, near_radius, bound):  # pragma: no cover
+def warm_nearest(scene_body, nearest, active, stride, points, near_ids, near_radius, low, high,
+                 bound):  # pragma: no cover - compiled
     """The exact nearest samples of scene points in restarts' body frames (``scene_body`` (k, n, 3), every
-    ``stride``-th scene point of the ``active`` restarts) where a previous nearest sample proves it, as the k-d
-    tree would answer them: (distance (k, n) m, inf beyond ``bound``; index (k, n), ``len(points)`` for a miss;
-    the flat indices of the points it could not prove, for the tree).
+    ``stride``-th scene point of the ``active`` restarts) where the answer can be proved, as the k-d tree would
+    give them: (distance (k, n) m, inf beyond ``bound``; index (k, n), ``len(points)`` for a miss; the flat
+    indices of the points it could not prove, for the tree).
 
-    ``nearest`` (K, N) holds each restart's last nearest sample of each scene point (-1: none). If s is that
-    sample and d' the point's distance to it, the true nearest s* is within d' of the point, so within 2 d' of
-    s; when 2 d' is below ``near_radius[s]`` (the distance of s's farthest listed neighbour; every sample
-    nearer s is listed in ``near_ids[s]``), s* is among s's neighbours and the nearest of them is exact. A
-    point far from its last sample (a restart that moved, a first iteration) is left to the tree."""
+    A point at least ``bound`` from the samples' bounding box (``low``, ``high``) is a miss. Otherwise, with s
+    the point's last nearest sample in ``nearest`` (K, N) (-1: none; then the previous scene point's, a pixel
+    next to it) and d' the point's distance to it, the true nearest s* is within d' of the point, so within
+    2 d' of s: when 2 d' is below ``near_radius[s]`` (every sample nearer s is listed in ``near_ids[s]``), s*
+    is the nearest of s's neighbours. A point far from its last sample (a restart that moved, a first
+    iteration) is left to the tree."""
     k, n, _ = scene_body.shape
     distance = np.full((k, n), np.inf)
     index = np.full((k, n), len(points), np.int64)
@@ -421,10 +423,17 @@ def warm_nearest(scene_body, nearest, active, stride, points, near_ids, near_rad
     for m in range(k):
         row = active[m]
         for i in range(n):
+            p0, p1, p2 = scene_body[m, i, 0], scene_body[m, i, 1], scene_body[m, i, 2]
+            out0 = max(low[0] - p0, p0 - high[0], 0.0)
+            out1 = max(low[1] - p1, p1 - high[1], 0.0)
+            out2 = max(low[2] - p2, p2 - high[2], 0.0)
+            if out0 * out0 + out1 * out1 + out2 * out2 > limit * (1.0 + 1e-9) + 1e-18:
+                continue  # no sample within the bound: a miss
             s = nearest[row, i * stride]
+            if s < 0 and i > 0:
+                s = nearest[row, (i - 1) * stride]
             proved = False
             if s >= 0:
-                p0, p1, p2 = scene_body[m, i, 0], scene_body[m, i, 1], scene_body[m, i, 2]
                 d0, d1, d2 = p0 - points[s, 0], p1 - points[s, 1], p2 - points[s, 2]
                 reach = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
                 if 2.0 * reach * (1.0 + 1e-9) + 1e-12 < near_radius[s]:

@@ -109,6 +109,8 @@ class ModelIndex:
     centroid: np.ndarray  # points.mean(axis=0)
     near_ids: np.ndarray  # (n, NEAR_SAMPLES) each sample's nearest samples, itself first
     near_radius: np.ndarray  # (n,) m: every sample nearer than this to a sample is in its near_ids
+    low: np.ndarray  # (3,) m, the samples' bounding box: least coordinates ...
+    high: np.ndarray  # (3,) m ... and greatest
 
     @classmethod
     def cached(cls, points: np.ndarray, normals: np.ndarray) -> ModelIndex:
@@ -138,7 +140,7 @@ class ModelIndex:
         extremes = hull_vertices(points)
         near_ids, near_radius = near_samples(tree, points)
         return cls(points, normals, tree, spacing, surfel_radius * spacing, extremes, points[extremes],
-                   points.mean(axis=0), near_ids, near_radius)
+                   points.mean(axis=0), near_ids, near_radius, points.min(axis=0), points.max(axis=0))
 
 
 NEAR_SAMPLES = 16
