@@ -138,7 +138,7 @@ def test_the_warm_started_nearest_samples_are_the_trees(crate_model):
     assert np.array_equal(index.reshape(-1)[proved], want_i[proved])
     assert np.array_equal(distance.reshape(-1)[proved], want_d[proved])
     assert np.isinf(distance.reshape(-1)[proved]).any()  # some proved answers are misses beyond the bound
-    found, which = icp._nearest_samples(scene, model, bound, 1, (nearest, active))
+    found, which = matching.nearest_samples(model, scene, bound, 1, (nearest, active))
     assert np.array_equal(which, want_i.reshape(2, -1)) and np.array_equal(found, want_d.reshape(2, -1))
     assert (nearest[active] == np.where(want_i.reshape(2, -1) < model.tree.n, want_i.reshape(2, -1),
                                         nearest[active])).all()  # remembered where found
@@ -148,9 +148,9 @@ def test_a_registration_is_the_same_without_warm_starts(crate_model, cluttered_p
     p = cluttered_problem
     args = (*crate_model, p.scene_pts_world, p.T_world_model_init, UP, 0.6)
     warm = register(*args, support_height=0.0)
-    cold = icp._nearest_samples
-    monkeypatch.setattr(icp, "_nearest_samples", lambda scene, model, bound, stride, _: cold(scene, model, bound,
-                                                                                            stride, None))
+    cold = matching.nearest_samples
+    monkeypatch.setattr(matching, "nearest_samples", lambda model, scene, bound, stride=1, _=None: cold(
+        model, scene, bound, stride, None))
     tree_only = register(*args, support_height=0.0)
     assert np.array_equal(warm.pose, tree_only.pose)
     assert warm.total_iterations == tree_only.total_iterations

@@ -569,11 +569,11 @@ def _compiled_step(T: np.ndarray, problem: Problem, model: matching.ModelIndex, 
     (:mod:`bim2rdt.registration.kernels`: the same arithmetic in one pass, ~40 numpy calls fewer) -> (dR, dt,
     scores), or None when a restart has fewer than ``min_pairs`` pairs (RelaxIfFew: the numpy path then runs).
     Only without the normal gate (off by default). ``warm``: the restarts' last nearest samples (K, N) and
-    which of them ``T`` are (k,), to start the search from (:func:`_nearest_samples`)."""
+    which of them ``T`` are (k,), to start the search from (:func:`matching.nearest_samples`)."""
     from bim2rdt.registration import kernels  # numba's import (~0.5 s) waits for the first registration
     scene_body = kernels.body_points(T, problem.scene_pts_world, stride)
     k, n, _ = scene_body.shape
-    distance, index = _nearest_samples(scene_body, model, _pair_distance(model, cfg, delta), stride, warm)
+    distance, index = matching.nearest_samples(model, scene_body, _pair_distance(model, cfg, delta), stride, warm)
     residual, pairs, scores = kernels.pair_residuals(scene_body, distance, index, model.points, model.normals,
                                                      model.spacing, cfg.score_distance)
     if pairs.min() < cfg.min_pairs:
@@ -586,30 +586,6 @@ def _compiled_step(T: np.ndarray, problem: Problem, model: matching.ModelIndex, 
                                  cfg.trim_fraction, cfg.min_pairs, cfg.trim_floor_per_delta * delta, delta, bias_gamma,
                                  problem.up_world, UP_BODY, support, cfg.support_weight, DEGENERATE_RATIO)
     return dR, dt, scores
-
-
-def _nearest_samples(scene_body: np.ndarray, model: matching.ModelIndex, bound: float, stride: int,
-                     warm: tuple | None) -> tuple[np.ndarray, np.ndarray]:
-    """The nearest sample (index (k, n); ``tree.n`` for a miss) of each point of ``scene_body`` (k, n, 3) and
-    its distance (k, n) m (inf beyond ``bound``), the k-d tree's answer. With ``warm`` (the restarts' last
-    nearest samples (K, N), updated here, and which restarts these are (k,)), the points whose last nearest
-    sample proves the answer among its listed neighbours are answered so
-    (:func:`bim2rdt.registration.kernels.warm_nearest`: the same samples, ~3x cheaper a point near the
-    surface), the rest by the tree."""
-    from bim2rdt.registration import kernels
-
-    k, n, _ = scene_body.shape
-    if warm is None:
-        distance, index = model.tree.query(scene_body.reshape(-1, 3), distance_upper_bound=bound)
-        return distance.reshape(k, n), index.reshape(k, n)
-    nearest, active = warm
-    distance, index, cold = kernels.warm_nearest(scene_body, nearest, active, stride, model.points, model.near_ids,
-                                                 model.near_radius, model.low, model.high, bound)
-    if len(cold):
-        far, which = model.tree.query(scene_body.reshape(-1, 3)[cold], distance_upper_bound=bound)
-        distance.reshape(-1)[cold], index.reshape(-1)[cold] = far, which
-    kernels.remember_nearest(nearest, active, stride, index, model.tree.n)
-    return distance, index
 
 
 def _yaw_only_step(T: np.ndarray, scene_body: np.ndarray, residual: np.ndarray, index: np.ndarray, problem: Problem,
@@ -693,13 +669,16 @@ def _transform(T: np.ndarray, points: np.ndarray) -> np.ndarray:
     return points @ np.swapaxes(T[:, :3, :3], 1, 2) + T[:, None, :3, 3]
 
 
-def score_poses(model: matching.ModelIndex, poses: np.ndarray, scene_pts_world: np.ndarray, cfg: IcpConfig):
+def score_poses(model: matching.ModelIndex, poses: np.ndarray, scene_pts_world: np.ndarray, cfg: IcpConfig,
+                warm: tuple | None = None):
     """Truncated surface-residual score of candidate poses (K, 4, 4) -> (scores (K,), pairs). Lower is better.
     Points farther than ``score_distance`` + a sample spacing from every sample have a residual beyond the
     truncation (it is at least the distance less the spacing), so the search stops there (+1 um against
-    round-off): their residuals are inf, not some value past the truncation, and every truncated use is the same."""
+    round-off): their residuals are inf, not some value past the truncation, and every truncated use is the same.
+    ``warm``: the poses' restarts' last nearest samples, as :func:`matching.nearest_samples` takes them (the same
+    answers, fewer tree queries)."""
     bound = min(cfg.max_pair_distance, cfg.score_distance + model.spacing + 1e-6)
-    pairs = matching.scored_residuals(model, _transform(invert_poses(poses), scene_pts_world), bound)
+    pairs = matching.scored_residuals(model, _transform(invert_poses(poses), scene_pts_world), bound, warm)
     return matching.truncated_score(pairs, cfg.score_distance), pairs
 
 
@@ -779,7 +758,8 @@ def _keep_best(restarts: _Restarts, problem: Problem, model: matching.ModelIndex
     :func:`pick_restart` (the data decide, the upright penalty only breaks their ties)."""
     alive = np.flatnonzero(~restarts.pruned)
     poses = restarts.poses[alive]
-    scores, pairs = score_poses(model, poses, problem.scene_pts_world, cfg)
+    warm = None if restarts.nearest is None else (restarts.nearest, alive)
+    scores, pairs = score_poses(model, poses, problem.scene_pts_world, cfg, warm)
     penalties = upright_penalty(poses, pairs, problem, cfg)
     per_point = np.minimum(pairs.residual, cfg.score_distance) ** 2
     best = pick_restart(per_point, penalties, poses, problem, cfg, model.centroid)

@@ -188,19 +188,42 @@ def match_pairs(model: ModelIndex, scene_body: np.ndarray, max_distance: float) 
     return Pairs(index, distance, residual, np.isfinite(distance), samples, normals)
 
 
-def scored_residuals(model: ModelIndex, scene_body: np.ndarray, max_distance: float) -> Residuals:
+def scored_residuals(model: ModelIndex, scene_body: np.ndarray, max_distance: float, warm: tuple | None = None
+                     ) -> Residuals:
     """:func:`match_pairs`' residuals without gathering the matched samples: the compiled
-    :func:`bim2rdt.registration.kernels.pair_residuals` (the same formula as :func:`plane_residual`, the same
-    values), for callers that score poses and need no step."""
+    :func:`bim2rdt.registration.kernels.pair_residuals` (the same formula as :func:`plane_residual`, to
+    round-off), for callers that score poses and need no step; ``warm`` as :func:`nearest_samples` takes it."""
     from bim2rdt.registration import kernels  # numba's import waits for the first registration
 
-    k, n, _ = scene_body.shape
-    distance, index = model.tree.query(scene_body.reshape(-1, 3), distance_upper_bound=max_distance)
-    index = np.minimum(index, model.tree.n - 1).reshape(k, n)  # misses come back as tree.n; invalid anyway
-    distance = distance.reshape(k, n)
+    distance, index = nearest_samples(model, scene_body, max_distance, 1, warm)
+    index = np.minimum(index, model.tree.n - 1)  # misses come back as tree.n; invalid anyway
     residual, _, _ = kernels.pair_residuals(scene_body, distance, index, model.points, model.normals, model.spacing,
                                             np.inf)
     return Residuals(index, distance, residual, np.isfinite(distance))
+
+
+def nearest_samples(model: ModelIndex, scene_body: np.ndarray, bound: float, stride: int = 1,
+                    warm: tuple | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """The nearest sample (index (k, n); ``tree.n`` for a miss) of each point of ``scene_body`` (k, n, 3) and
+    its distance (k, n) m (inf beyond ``bound``), the k-d tree's answer. With ``warm`` (the restarts' last
+    nearest samples (K, N), updated here, and which restarts these are (k,)), the points whose last nearest
+    sample proves the answer among its listed neighbours are answered so
+    (:func:`bim2rdt.registration.kernels.warm_nearest`: the same samples, ~3x cheaper a point near the
+    surface), the rest by the tree."""
+    from bim2rdt.registration import kernels  # numba's import waits for the first registration
+
+    k, n, _ = scene_body.shape
+    if warm is None:
+        distance, index = model.tree.query(scene_body.reshape(-1, 3), distance_upper_bound=bound)
+        return distance.reshape(k, n), index.reshape(k, n)
+    nearest, active = warm
+    distance, index, cold = kernels.warm_nearest(scene_body, nearest, active, stride, model.points, model.near_ids,
+                                                 model.near_radius, model.low, model.high, bound)
+    if len(cold):
+        far, which = model.tree.query(scene_body.reshape(-1, 3)[cold], distance_upper_bound=bound)
+        distance.reshape(-1)[cold], index.reshape(-1)[cold] = far, which
+    kernels.remember_nearest(nearest, active, stride, index, model.tree.n)
+    return distance, index
 
 
 def plane_residual(model: ModelIndex, scene_body: np.ndarray, samples: np.ndarray, normals: np.ndarray,
