@@ -100,7 +100,7 @@ def test_verify_imports_without_numba_and_load_kernels_brings_its_machine_code_i
             "from bim2rdt.registration import load_kernels, register, kernels\n"
             "load_kernels()\n"
             "names = ('body_points', 'pair_residuals', 'normal_systems', 'plane_steps', 'settle_steps', 'stop_agreed',\n"
-            "         'warm_nearest', 'remember_nearest')\n"
+            "         'warm_nearest', 'remember_nearest', 'nearest_patches')\n"
             "loaded = {n: len(getattr(kernels, n).signatures) for n in names}\n"
             "assert all(loaded.values()), loaded\n"
             "rng = np.random.default_rng(1)\n"
@@ -154,3 +154,19 @@ def test_a_registration_is_the_same_without_warm_starts(crate_model, cluttered_p
     tree_only = register(*args, support_height=0.0)
     assert np.array_equal(warm.pose, tree_only.pose)
     assert warm.total_iterations == tree_only.total_iterations
+
+
+def test_the_compiled_patches_are_the_numpy_patches(crate_model):
+    """The fit's surface patches (decision 0045): the compiled distances, samples and other-face distances are
+    numpy's to round-off, at edges and corners, off the surface and beyond every candidate."""
+    model = matching.ModelIndex.build(*crate_model)
+    rng = np.random.default_rng(8)
+    points = np.concatenate([model.points[rng.integers(0, len(model.points), 500)] + rng.normal(0.0, 0.01, (500, 3)),
+                             rng.uniform(model.low - 0.05, model.high + 0.05, (300, 3))])
+    distance, index = model.tree.query(points, k=matching.SURFEL_CANDIDATES, distance_upper_bound=0.03)
+    got = matching.nearest_patches_of(model, points, distance, index)
+    want = matching.nearest_patches_numpy(model, points, distance, index)
+    assert np.isinf(want.distance).any() and np.isfinite(want.other_face).sum() > 20  # misses and edges are in it
+    assert np.allclose(got.distance, want.distance, rtol=1e-12, atol=1e-15, equal_nan=False)
+    assert np.allclose(got.other_face, want.other_face, rtol=1e-12, atol=1e-15)
+    assert np.mean(got.sample == want.sample) > 0.99  # a tie within 1 nm may pick its other member

@@ -464,3 +464,67 @@ def remember_nearest(nearest, active, stride, index, size):  # pragma: no cover 
         for i in range(n):
             if index[m, i] < size:
                 nearest[row, i * stride] = index[m, i]
+
+
+@njit(cache=True, nogil=True)
+def nearest_patches(points, distance, index, samples, normals, radius, cos_edge, cos_other,
+                    tie):  # pragma: no cover - compiled
+    """Where points (N, 3) lie on the model surface, from their nearest candidate samples ``index`` (N, c)
+    ``distance`` (N, c) m away (inf = none), as :func:`bim2rdt.registration.matching.nearest_patches_of`
+    computes it with numpy (``surfel_distances``, ``exact.first_smallest``): the distance (N,) m to the
+    nearest sample patch (discs of ``radius`` m cut where the surface turns away convexly, normals more than
+    acos(``cos_edge``) apart), that patch's sample (N,), and the distance (N,) m to the nearest patch whose
+    normal is more than acos(``cos_other``) from its (inf if none). Among patches within ``tie`` m of the
+    nearest, the first candidate."""
+    n, c = distance.shape
+    size = len(samples)
+    out_distance = np.empty(n)
+    out_sample = np.empty(n, np.int64)
+    out_other = np.empty(n)
+    height = np.empty(c)
+    to_patch = np.empty(c)
+    cand = np.empty(c, np.int64)
+    for r in range(n):
+        for j in range(c):
+            cand[j] = min(index[r, j], size - 1)
+            s = cand[j]
+            o0, o1, o2 = points[r, 0] - samples[s, 0], points[r, 1] - samples[s, 1], points[r, 2] - samples[s, 2]
+            height[j] = o0 * normals[s, 0] + o1 * normals[s, 1] + o2 * normals[s, 2]
+        for j in range(c):
+            if not np.isfinite(distance[r, j]):
+                to_patch[j] = np.inf
+                continue
+            s = cand[j]
+            o0, o1, o2 = points[r, 0] - samples[s, 0], points[r, 1] - samples[s, 1], points[r, 2] - samples[s, 2]
+            tangential = math.sqrt(max(o0 * o0 + o1 * o1 + o2 * o2 - height[j] ** 2, 0.0))
+            clip = -np.inf
+            for m in range(c):
+                if not np.isfinite(distance[r, m]):
+                    continue
+                t = cand[m]
+                cos = normals[s, 0] * normals[t, 0] + normals[s, 1] * normals[t, 1] + normals[s, 2] * normals[t, 2]
+                behind = (samples[s, 0] * normals[t, 0] + samples[s, 1] * normals[t, 1] + samples[s, 2] * normals[t, 2]
+                          - (normals[t, 0] * samples[t, 0] + normals[t, 1] * samples[t, 1]
+                             + normals[t, 2] * samples[t, 2]))
+                if cos < cos_edge and behind < 0.0:
+                    sin = math.sqrt(max(1.0 - cos * cos, 1e-12))
+                    clip = max(clip, (height[m] - height[j] * cos) / sin)
+            excess = max(max(tangential - radius, clip), 0.0)
+            to_patch[j] = math.hypot(height[j], excess)
+        lowest = np.inf
+        for j in range(c):
+            lowest = min(lowest, to_patch[j])
+        nearest = 0
+        for j in range(c):
+            if to_patch[j] <= lowest + tie:
+                nearest = j
+                break
+        s = cand[nearest]
+        other = np.inf
+        for j in range(c):
+            t = cand[j]
+            cos = normals[t, 0] * normals[s, 0] + normals[t, 1] * normals[s, 1] + normals[t, 2] * normals[s, 2]
+            if cos < cos_other:
+                other = min(other, to_patch[j])
+        out_distance[r], out_sample[r], out_other[r] = to_patch[nearest], s, other
+    return out_distance, out_sample, out_other

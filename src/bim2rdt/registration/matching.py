@@ -275,7 +275,22 @@ def nearest_patches(model: ModelIndex, points: np.ndarray, max_distance: float =
 
 def nearest_patches_of(model: ModelIndex, points: np.ndarray, distance: np.ndarray, index: np.ndarray) -> Patches:
     """:func:`nearest_patches` from the points' (N, 3) nearest candidate samples ``index`` (N, c), ``distance``
-    (N, c) m away (inf = none), as the k-d tree gave them."""
+    (N, c) m away (inf = none), as the k-d tree gave them: compiled
+    (:func:`bim2rdt.registration.kernels.nearest_patches`, decision 0045), :func:`nearest_patches_numpy`'s
+    answer to round-off."""
+    from bim2rdt.registration import kernels  # numba's import waits for the first registration
+
+    distance_to, sample, other = kernels.nearest_patches(
+        np.ascontiguousarray(points, dtype=np.float64), distance, index, model.points, model.normals,
+        model.surfel_radius, np.cos(np.deg2rad(EDGE_ANGLE_DEG)), np.cos(np.deg2rad(OTHER_FACE_DEG)) - 1e-9,
+        exact.TIE_TOLERANCE)
+    return Patches(distance_to, sample, other)
+
+
+def nearest_patches_numpy(model: ModelIndex, points: np.ndarray, distance: np.ndarray, index: np.ndarray
+                          ) -> Patches:
+    """:func:`nearest_patches_of` in numpy (:func:`surfel_distances`): the reference the compiled one is tested
+    against."""
     to_patch, candidates = surfel_distances(model, points, index, distance)
     rows = np.arange(len(points))
     nearest = exact.first_smallest(to_patch, axis=1)  # past an edge, both faces' patches tie: the nearer sample
