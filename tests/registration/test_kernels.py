@@ -100,7 +100,8 @@ def test_verify_imports_without_numba_and_load_kernels_brings_its_machine_code_i
             "from bim2rdt.registration import load_kernels, register, kernels\n"
             "load_kernels()\n"
             "names = ('body_points', 'pair_residuals', 'normal_systems', 'solve_steps', 'compose_steps',\n"
-            "         'neighbour_scatter', 'any_within')\n"
+            "         'neighbour_scatter', 'any_within', 'plane_steps', 'settle_steps', 'stop_agreed',\n"
+            "         'warm_nearest', 'remember_nearest', 'nearest_patches')\n"
             "loaded = {n: len(getattr(kernels, n).signatures) for n in names}\n"
             "assert all(loaded.values()), loaded\n"
             "rng = np.random.default_rng(1)\n"
@@ -170,3 +171,63 @@ def test_nearest_neighbours_are_scipys(k):
 
         squared, _ = KDTree(grid).query(grid, k=k + 1, sqr_dists=True)
         assert np.any(squared[:, 1:] == squared[:, :-1])
+
+
+def test_the_warm_started_nearest_samples_are_the_trees(crate_model):
+    """A point near its last nearest sample (or its scan neighbour's) is answered from that sample's listed
+    neighbours, a point far outside the samples' box is a miss (decision 0045): the same sample and distance
+    as the k-d tree, misses beyond the bound included; points it cannot prove go to the tree."""
+    model = matching.ModelIndex.build(*crate_model)
+    rng = np.random.default_rng(3)
+    near = model.points[rng.integers(0, len(model.points), 600)] + rng.normal(0.0, 0.004, (600, 3))
+    far = rng.uniform(-1.5, 1.5, (200, 3))
+    scene = np.concatenate([near, far])[None].repeat(2, axis=0)
+    scene[1] += rng.normal(0.0, 0.01, scene[1].shape)  # a second restart, a centimetre further
+    nearest = np.full((3, len(scene[0])), -1, np.int64)
+    _, first = model.tree.query(scene[0] + rng.normal(0.0, 0.003, scene[0].shape))  # last iteration's answer
+    nearest[0] = nearest[2] = first
+    nearest[2, ::7] = -1
+    active = np.array([0, 2])
+    bound = 0.005  # many a proved point is a miss
+    distance, index, cold = kernels.warm_nearest(scene, nearest, active, 1, model.points, model.near_ids,
+                                                 model.near_radius, model.low, model.high, bound)
+    want_d, want_i = model.tree.query(scene.reshape(-1, 3), distance_upper_bound=bound)
+    proved = np.setdiff1d(np.arange(scene.shape[0] * scene.shape[1]), cold)
+    assert len(proved) > 0.5 * len(near) * 2
+    outside = np.any((scene < model.low - bound) | (scene > model.high + bound), axis=2).reshape(-1)
+    assert outside.sum() > 100 and not np.isin(np.flatnonzero(outside), cold).any()  # misses by the box alone
+    assert np.array_equal(index.reshape(-1)[proved], want_i[proved])
+    assert np.array_equal(distance.reshape(-1)[proved], want_d[proved])
+    assert np.isinf(distance.reshape(-1)[proved]).any()  # some proved answers are misses beyond the bound
+    found, which = matching.nearest_samples(model, scene, bound, 1, (nearest, active))
+    assert np.array_equal(which, want_i.reshape(2, -1)) and np.array_equal(found, want_d.reshape(2, -1))
+    assert (nearest[active] == np.where(want_i.reshape(2, -1) < model.tree.n, want_i.reshape(2, -1),
+                                        nearest[active])).all()  # remembered where found
+
+
+def test_a_registration_is_the_same_without_warm_starts(crate_model, cluttered_problem, monkeypatch):
+    p = cluttered_problem
+    args = (*crate_model, p.scene_pts_world, p.T_world_model_init, UP, 0.6)
+    warm = register(*args, support_height=0.0)
+    cold = matching.nearest_samples
+    monkeypatch.setattr(matching, "nearest_samples", lambda model, scene, bound, stride=1, _=None: cold(
+        model, scene, bound, stride, None))
+    tree_only = register(*args, support_height=0.0)
+    assert np.array_equal(warm.pose, tree_only.pose)
+    assert warm.total_iterations == tree_only.total_iterations
+
+
+def test_the_compiled_patches_are_the_numpy_patches(crate_model):
+    """The fit's surface patches (decision 0045): the compiled distances, samples and other-face distances are
+    numpy's to round-off, at edges and corners, off the surface and beyond every candidate."""
+    model = matching.ModelIndex.build(*crate_model)
+    rng = np.random.default_rng(8)
+    points = np.concatenate([model.points[rng.integers(0, len(model.points), 500)] + rng.normal(0.0, 0.01, (500, 3)),
+                             rng.uniform(model.low - 0.05, model.high + 0.05, (300, 3))])
+    distance, index = model.tree.query(points, k=matching.SURFEL_CANDIDATES, distance_upper_bound=0.03)
+    got = matching.nearest_patches_of(model, points, distance, index)
+    want = matching.nearest_patches_numpy(model, points, distance, index)
+    assert np.isinf(want.distance).any() and np.isfinite(want.other_face).sum() > 20  # misses and edges are in it
+    assert np.allclose(got.distance, want.distance, rtol=1e-12, atol=1e-15, equal_nan=False)
+    assert np.allclose(got.other_face, want.other_face, rtol=1e-12, atol=1e-15)
+    assert np.mean(got.sample == want.sample) > 0.99  # a tie within 1 nm may pick its other member

@@ -7,6 +7,7 @@ converge stop; restarts far behind the best after ``prune_after`` iterations are
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -64,6 +65,7 @@ class _Restarts:
     scores: np.ndarray  # (K,) latest truncated score
     done: np.ndarray  # (K,) converged
     pruned: np.ndarray  # (K,) dropped as losing
+    nearest: np.ndarray | None = None  # (K, N) each scene point's last nearest sample, -1 none (warm starts)
 
     @classmethod
     def start(cls, poses: np.ndarray) -> _Restarts:
@@ -86,7 +88,7 @@ class _Restarts:
     def part(self, group: slice) -> _Restarts:
         """The restarts of ``group``, as their own state."""
         return _Restarts(self.poses[group], self.iterations[group], self.scores[group], self.done[group],
-                         self.pruned[group])
+                         self.pruned[group], None if self.nearest is None else self.nearest[group])
 
 
 def register(model_points: np.ndarray, model_normals: np.ndarray, scene_points: np.ndarray,
@@ -142,7 +144,8 @@ def load_kernels() -> None:
     cached machine code cost ~0.4 s of one core once per process, which the first registration would otherwise
     pay. A long run (``verify``) calls this in its setup so its first frame costs what the others do. Two small
     registrations of a box's corner do it, yaw-only on a support and under an upright prior (the paths verify
-    takes), the scene normals' scatter and the bounded any-point test; no result is kept."""
+    takes, the second with its fit report), the scene normals' scatter and the bounded any-point test; no result
+    is kept."""
     grid = np.linspace(0.0, 0.4, 8)
     u, v = (a.ravel() for a in np.meshgrid(grid, grid))
     zero = np.zeros_like(u)
@@ -151,7 +154,7 @@ def load_kernels() -> None:
     normals = np.repeat(np.array([[0.0, 0.0, -1.0], [0.0, -1.0, 0.0], [-1.0, 0.0, 0.0]]), len(u), axis=0)
     scene = points + np.array([0.01, -0.01, 0.0])
     register(points, normals, scene, yaw_only=True, support_height=0.0, report=False)
-    register(points, normals, scene, upright_bias=0.5, report=False)
+    register(points, normals, scene, upright_bias=0.5)  # with the fit report (its surface patches' kernel)
     matching.scene_normals(scene, 8)  # the normals' scatter kernel (the localizer's scan and gated pairs use it)
     matching.any_within(points, scene, 0.05)  # which lattice directions a view covers (the localizer's)
 
@@ -309,19 +312,11 @@ def stop_if_agreed(restarts: _Restarts, centroid_body: np.ndarray, cfg: IcpConfi
     ``stop_margin`` (never while the Huber scale anneals, nor before ``prune_after``)."""
     if cfg.stop_when_agreed <= 0 or iteration + 1 < max(cfg.prune_after, cfg.huber_anneal_iterations):
         return
-    part = restarts.part(group)
-    running = ~part.done & ~part.pruned
-    if not running.any():
-        return
-    alive = np.flatnonzero(~part.pruned)
-    best = alive[np.argmin(part.scores[alive])]
-    if not part.done[best]:
-        return
-    settled = np.flatnonzero(part.done & ~part.pruned)
-    if np.count_nonzero(near(part.poses[settled], part.poses[best], centroid_body)) < cfg.stop_when_agreed:
-        return
-    if np.all(part.scores[running] > cfg.stop_margin * part.scores[best]):
-        part.pruned[running] = True
+    from bim2rdt.registration import kernels  # numba's import waits for the first registration
+
+    start, stop, _ = group.indices(len(restarts.poses))
+    kernels.stop_agreed(restarts.poses, restarts.scores, restarts.done, restarts.pruned, start, stop,
+                        np.asarray(centroid_body, dtype=float), cfg.stop_when_agreed, cfg.stop_margin)
 
 
 def prune_keep(iteration: int, cfg: IcpConfig, hopping: bool) -> int | None:
@@ -352,7 +347,8 @@ def _search_together(problems: list[Problem], model: matching.ModelIndex, normal
         active = restarts.active()
         if len(active) == 0:
             break
-        running = [g for g in groups if np.any(~restarts.done[g] & ~restarts.pruned[g])]
+        counts = np.diff(np.searchsorted(active, edges))  # each group's active restarts
+        running = [g for g, count in zip(groups, counts) if count]
         _iterate(restarts, active, problems[0], model, normals_world, cfg, iteration, False, bias[active])
         keep = prune_keep(iteration, cfg, hopping)
         if keep is not None:
@@ -519,16 +515,26 @@ def yaw_restarts(T_init: np.ndarray, centroid_body: np.ndarray, up_world: np.nda
     """Initial poses (K, 4, 4): ``T_init`` turned about the world up, through the model's centroid, by evenly
     spaced yaws plus seeded jitter (restart 0 is ``T_init`` itself). A gravity prior cannot fix yaw; restarts can.
     Public so that peers in a benchmark can be given exactly the same starts."""
-    rng = np.random.default_rng(cfg.seed)
     k = cfg.restarts
-    jitter = np.deg2rad(rng.uniform(-cfg.yaw_jitter_deg, cfg.yaw_jitter_deg, k))
-    yaws = 2 * np.pi * np.arange(k) / k + np.where(np.arange(k) == 0, 0.0, jitter)
+    yaws = restart_yaws(k, cfg.yaw_jitter_deg, cfg.seed)
     T0 = T_init
     centre = T0[:3, :3] @ centroid_body + T0[:3, 3]
     turns = np.tile(np.eye(4), (k, 1, 1))
     turns[:, :3, :3] = axis_angle(np.broadcast_to(up_world, (k, 3)), yaws)
     turns[:, :3, 3] = centre - np.einsum("kij,j->ki", turns[:, :3, :3], centre)
     return turns @ T0
+
+
+@functools.lru_cache(maxsize=64)
+def restart_yaws(restarts: int, jitter_deg: float, seed: int) -> np.ndarray:
+    """The restarts' yaws (K,), rad: evenly spaced over a turn, each but the first jittered by a seeded uniform
+    draw within +-``jitter_deg``. The same for every registration of one config, so drawn once (a generator's
+    construction cost ~50 us, twice a registration); read-only."""
+    rng = np.random.default_rng(seed)
+    jitter = np.deg2rad(rng.uniform(-jitter_deg, jitter_deg, restarts))
+    yaws = 2 * np.pi * np.arange(restarts) / restarts + np.where(np.arange(restarts) == 0, 0.0, jitter)
+    yaws.flags.writeable = False
+    return yaws
 
 
 def _iterate(restarts: _Restarts, active: np.ndarray, problem: Problem, model: matching.ModelIndex,
@@ -543,7 +549,9 @@ def _iterate(restarts: _Restarts, active: np.ndarray, problem: Problem, model: m
     stride = max(1, cfg.coarse_stride) if annealing else 1  # coarse-to-fine: the wide-scale steps need few points
     bias = problem.upright_bias if bias is None else bias
     if cfg.method == "point_to_plane" and normals_world is None:
-        step = _compiled_step(T, problem, model, cfg, delta, stride, bias, yaw_only)
+        if restarts.nearest is None:
+            restarts.nearest = np.full((len(restarts.poses), len(problem.scene_pts_world)), -1, np.int64)
+        step = _compiled_step(T, problem, model, cfg, delta, stride, bias, yaw_only, (restarts.nearest, active))
         if step is not None:
             _advance(restarts, active, *step, cfg, annealing)
             return
@@ -559,21 +567,37 @@ def _iterate(restarts: _Restarts, active: np.ndarray, problem: Problem, model: m
 
 
 def _compiled_step(T: np.ndarray, problem: Problem, model: matching.ModelIndex, cfg: IcpConfig, delta: float,
-                   stride: int, bias: float | np.ndarray, yaw_only: bool):
+                   stride: int, bias: float | np.ndarray, yaw_only: bool, warm: tuple | None = None):
     """:func:`_iterate`'s match, trim, weigh and point-to-plane solve by the compiled kernels
     (:mod:`bim2rdt.registration.kernels`: the same arithmetic in one pass, ~40 numpy calls fewer) -> (dR, dt,
     scores), or None when a restart has fewer than ``min_pairs`` pairs (RelaxIfFew: the numpy path then runs).
-    Only without the normal gate (off by default)."""
+    Only without the normal gate (off by default). ``warm``: the restarts' last nearest samples (K, N) and
+    which of them ``T`` are (k,), to start the search from (:func:`matching.nearest_samples`)."""
     from bim2rdt.registration import kernels  # numba's import (~0.5 s) waits for the first registration
     scene_body = kernels.body_points(T, problem.scene_pts_world, stride)
     k, n, _ = scene_body.shape
-    distance, index = model.tree.query(scene_body.reshape(-1, 3),
-                                       distance_upper_bound=_pair_distance(model, cfg, delta))
-    distance, index = distance.reshape(k, n), np.minimum(index, model.tree.n - 1).reshape(k, n)
+    distance, index = matching.nearest_samples(model, scene_body, _pair_distance(model, cfg, delta), stride, warm)
     residual, pairs, scores = kernels.pair_residuals(scene_body, distance, index, model.points, model.normals,
                                                      model.spacing, cfg.score_distance)
     if pairs.min() < cfg.min_pairs:
         return None
+    bias_gamma = np.full(k, bias * cfg.gravity_gamma0) if np.ndim(bias) == 0 else bias * cfg.gravity_gamma0
+    if yaw_only:
+        return (*_yaw_only_step(T, scene_body, residual, index, problem, model, cfg, delta, bias_gamma), scores)
+    support = np.nan if problem.support_height is None else problem.support_height
+    dR, dt = kernels.plane_steps(T, scene_body, residual, index, model.points, model.normals, model.extreme_points,
+                                 cfg.trim_fraction, cfg.min_pairs, cfg.trim_floor_per_delta * delta, delta, bias_gamma,
+                                 problem.up_world, UP_BODY, support, cfg.support_weight, DEGENERATE_RATIO)
+    return dR, dt, scores
+
+
+def _yaw_only_step(T: np.ndarray, scene_body: np.ndarray, residual: np.ndarray, index: np.ndarray, problem: Problem,
+                   model: matching.ModelIndex, cfg: IcpConfig, delta: float, bias_gamma: np.ndarray):
+    """yaw_only's step from the compiled pairs (:func:`_compiled_step`): the normal equations compiled, the
+    solve projected onto yaw and position by :func:`solve_system` -> (dR, dt)."""
+    from bim2rdt.registration import kernels
+
+    k = len(T)
     up_body = np.einsum("kji,j->ki", T[:, :3, :3], problem.up_world)
     if problem.support_height is not None:
         contact, on_slab = _contact(T, up_body, problem, model.extreme_points)
@@ -582,11 +606,9 @@ def _compiled_step(T: np.ndarray, problem: Problem, model: matching.ModelIndex, 
         contact = on_slab = np.zeros((k, 3))
         weight = 0.0
     A, b = kernels.normal_systems(scene_body, residual, index, model.points, model.normals, cfg.trim_fraction,
-                                  cfg.min_pairs, cfg.trim_floor_per_delta * delta, delta,
-                                  np.broadcast_to(np.asarray(bias * cfg.gravity_gamma0, dtype=float), (k,)).copy(),
-                                  up_body, UP_BODY, on_slab, contact, float(weight))
-    dR, dt = solve_system(A, b, up_body, True) if yaw_only else kernels.solve_steps(A, b, DEGENERATE_RATIO)
-    return dR, dt, scores
+                                  cfg.min_pairs, cfg.trim_floor_per_delta * delta, delta, bias_gamma, up_body,
+                                  UP_BODY, on_slab, contact, float(weight))
+    return solve_system(A, b, up_body, True)
 
 
 def _contact(T: np.ndarray, up_body: np.ndarray, problem: Problem, hull: np.ndarray):
@@ -640,13 +662,9 @@ def _advance(restarts: _Restarts, active: np.ndarray, dR: np.ndarray, dt: np.nda
     was small or whose score settled (never while the Huber scale is still annealing)."""
     from bim2rdt.registration import kernels  # numba's import waits for the first registration
 
-    restarts.poses[active], turned, moved = kernels.compose_steps(restarts.poses[active], dR, dt)
-    restarts.iterations[active] += 1
-    previous, restarts.scores[active] = restarts.scores[active], scores
-    small = (turned < cfg.convergence_rot_rad) & (moved < cfg.convergence_trans)
-    stalled = np.abs(previous - scores) <= cfg.convergence_score_rel * scores
-    if not annealing:
-        restarts.done[active[small | stalled]] = True
+    kernels.settle_steps(restarts.poses, restarts.iterations, restarts.scores, restarts.done, active, dR, dt,
+                         np.asarray(scores, dtype=float), cfg.convergence_rot_rad, cfg.convergence_trans,
+                         cfg.convergence_score_rel, annealing)
 
 
 def _transform(T: np.ndarray, points: np.ndarray) -> np.ndarray:
@@ -654,17 +672,20 @@ def _transform(T: np.ndarray, points: np.ndarray) -> np.ndarray:
     return points @ np.swapaxes(T[:, :3, :3], 1, 2) + T[:, None, :3, 3]
 
 
-def score_poses(model: matching.ModelIndex, poses: np.ndarray, scene_pts_world: np.ndarray, cfg: IcpConfig):
+def score_poses(model: matching.ModelIndex, poses: np.ndarray, scene_pts_world: np.ndarray, cfg: IcpConfig,
+                warm: tuple | None = None):
     """Truncated surface-residual score of candidate poses (K, 4, 4) -> (scores (K,), pairs). Lower is better.
     Points farther than ``score_distance`` + a sample spacing from every sample have a residual beyond the
     truncation (it is at least the distance less the spacing), so the search stops there (+1 um against
-    round-off): their residuals are inf, not some value past the truncation, and every truncated use is the same."""
+    round-off): their residuals are inf, not some value past the truncation, and every truncated use is the same.
+    ``warm``: the poses' restarts' last nearest samples, as :func:`matching.nearest_samples` takes them (the same
+    answers, fewer tree queries)."""
     bound = min(cfg.max_pair_distance, cfg.score_distance + model.spacing + 1e-6)
-    pairs = matching.match_pairs(model, _transform(invert_poses(poses), scene_pts_world), bound)
+    pairs = matching.scored_residuals(model, _transform(invert_poses(poses), scene_pts_world), bound, warm)
     return matching.truncated_score(pairs, cfg.score_distance), pairs
 
 
-def upright_penalty(poses: np.ndarray, pairs: matching.Pairs, problem: Problem, cfg: IcpConfig) -> np.ndarray:
+def upright_penalty(poses: np.ndarray, pairs: matching.Residuals, problem: Problem, cfg: IcpConfig) -> np.ndarray:
     """The gravity term of the loop's cost, per scene point, in the score's units (m^2), so restarts are compared
     on the objective the loop minimises: lambda |R g_m - g_w|^2 / N with lambda = beta gamma0 sum |p~|^2 over the
     pose's inlier pairs (as in the loop, not over the whole model: a thin tripod seen among ground points has
@@ -740,7 +761,8 @@ def _keep_best(restarts: _Restarts, problem: Problem, model: matching.ModelIndex
     :func:`pick_restart` (the data decide, the upright penalty only breaks their ties)."""
     alive = np.flatnonzero(~restarts.pruned)
     poses = restarts.poses[alive]
-    scores, pairs = score_poses(model, poses, problem.scene_pts_world, cfg)
+    warm = None if restarts.nearest is None else (restarts.nearest, alive)
+    scores, pairs = score_poses(model, poses, problem.scene_pts_world, cfg, warm)
     penalties = upright_penalty(poses, pairs, problem, cfg)
     per_point = np.minimum(pairs.residual, cfg.score_distance) ** 2
     best = pick_restart(per_point, penalties, poses, problem, cfg, model.centroid)

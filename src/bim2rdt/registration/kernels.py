@@ -385,3 +385,242 @@ def any_within(points, queries, radius, bound):  # pragma: no cover - compiled
                 break
         found[q] = hit
     return found
+
+
+@njit(cache=True, nogil=True)
+def plane_steps(T, scene_body, residual, index, points, normals, hull, trim_fraction, min_pairs, keep_within,
+                delta, bias_gamma, up_world, g_dst, support_height, support_weight,
+                degenerate_ratio):  # pragma: no cover - compiled
+    """The point-to-plane steps (dR (k, 3, 3), dt (k, 3)) of restarts at poses T (k, 4, 4) in one call: each
+    restart's world up in its body frame (R^T ``up_world``), its resting contact when ``support_height`` (m along
+    ``up_world``) is finite (the lowest of the ``hull`` points along that up, dropped onto the slab, as
+    :func:`bim2rdt.registration.icp._contact`), then :func:`normal_systems` and :func:`solve_steps` (decision
+    0045: the ~10 numpy calls between them were a tenth of an iteration)."""
+    k = len(T)
+    up_body = np.empty((k, 3))
+    contact = np.zeros((k, 3))
+    on_slab = np.zeros((k, 3))
+    for r in range(k):
+        for i in range(3):
+            up_body[r, i] = T[r, 0, i] * up_world[0] + T[r, 1, i] * up_world[1] + T[r, 2, i] * up_world[2]
+    weight = 0.0
+    if np.isfinite(support_height):
+        weight = support_weight
+        for r in range(k):
+            lowest, height = 0, np.inf
+            for h in range(len(hull)):
+                value = hull[h, 0] * up_body[r, 0] + hull[h, 1] * up_body[r, 1] + hull[h, 2] * up_body[r, 2]
+                if value < height:
+                    lowest, height = h, value
+            slab = support_height - (T[r, 0, 3] * up_world[0] + T[r, 1, 3] * up_world[1] + T[r, 2, 3] * up_world[2])
+            gap = (up_body[r, 0] * hull[lowest, 0] + up_body[r, 1] * hull[lowest, 1]
+                   + up_body[r, 2] * hull[lowest, 2]) - slab
+            for i in range(3):
+                contact[r, i] = hull[lowest, i]
+                on_slab[r, i] = hull[lowest, i] - gap * up_body[r, i]
+    A, b = normal_systems(scene_body, residual, index, points, normals, trim_fraction, min_pairs, keep_within, delta,
+                          bias_gamma, up_body, g_dst, on_slab, contact, weight)
+    return solve_steps(A, b, degenerate_ratio)
+
+
+@njit(cache=True, nogil=True)
+def settle_steps(poses, iterations, scores, done, active, dR, dt, new_scores, rot_rad, trans, score_rel,
+                 annealing):  # pragma: no cover - compiled
+    """Apply the body-frame steps (dR (k, 3, 3), dt (k, 3)) of the ``active`` restarts (k,) to their poses
+    (K, 4, 4), in place, as :func:`compose_steps`; count their iterations, record their scores and, unless
+    ``annealing``, mark done (K,) those whose step turned less than ``rot_rad`` and moved less than ``trans``
+    (m), or whose score changed by at most ``score_rel`` of it (:func:`bim2rdt.registration.icp._advance`)."""
+    composed, turned, moved = compose_steps(poses[active], dR, dt)
+    for m in range(len(active)):
+        r = active[m]
+        poses[r] = composed[m]
+        iterations[r] += 1
+        previous = scores[r]
+        scores[r] = new_scores[m]
+        small = turned[m] < rot_rad and moved[m] < trans
+        stalled = abs(previous - new_scores[m]) <= score_rel * new_scores[m]
+        if not annealing and (small or stalled):
+            done[r] = True
+
+
+@njit(cache=True, nogil=True)
+def count_near(poses, keep, pose, centroid, distance, degrees):  # pragma: no cover - compiled
+    """How many of ``poses`` (K, 4, 4) with ``keep`` (K,) put the model's ``centroid`` (body frame) within
+    ``distance`` (m) of where ``pose`` (4, 4) puts it and are turned by less than ``degrees`` from it, as
+    :func:`bim2rdt.registration.icp.near`."""
+    limit = np.deg2rad(degrees)
+    count = 0
+    for r in range(len(poses)):
+        if not keep[r]:
+            continue
+        shift = 0.0
+        for i in range(3):
+            along = (poses[r, i, 3] - pose[i, 3]
+                     + (poses[r, i, 0] - pose[i, 0]) * centroid[0] + (poses[r, i, 1] - pose[i, 1]) * centroid[1]
+                     + (poses[r, i, 2] - pose[i, 2]) * centroid[2])
+            shift += along * along
+        trace = 0.0
+        for i in range(3):
+            trace += poses[r, i, 0] * pose[i, 0] + poses[r, i, 1] * pose[i, 1] + poses[r, i, 2] * pose[i, 2]
+        turn = math.acos(min(max((trace - 1.0) / 2.0, -1.0), 1.0))
+        if math.sqrt(shift) < distance and turn < limit:
+            count += 1
+    return count
+
+
+@njit(cache=True, nogil=True)
+def stop_agreed(poses, scores, done, pruned, start, stop, centroid, agreed, margin):  # pragma: no cover
+    """:func:`bim2rdt.registration.icp.stop_if_agreed` on restarts ``start``..``stop`` (in place on ``pruned``):
+    drop the running ones once ``agreed`` converged restarts ended within 1 cm and 1 degree of the
+    lowest-scoring one, itself converged, and every running one scores worse than ``margin`` x its score."""
+    best, lowest, running = -1, np.inf, 0
+    for r in range(start, stop):
+        if pruned[r]:
+            continue
+        if not done[r]:
+            running += 1
+        if scores[r] < lowest or best < 0:
+            best, lowest = r, scores[r]
+    if running == 0 or not done[best]:
+        return
+    settled = np.zeros(stop - start, np.bool_)
+    for r in range(start, stop):
+        settled[r - start] = done[r] and not pruned[r]
+    if count_near(poses[start:stop], settled, poses[best], centroid, 0.01, 1.0) < agreed:
+        return
+    for r in range(start, stop):
+        if not done[r] and not pruned[r] and not scores[r] > margin * lowest:
+            return
+    for r in range(start, stop):
+        if not done[r] and not pruned[r]:
+            pruned[r] = True
+
+
+@njit(cache=True, nogil=True)
+def warm_nearest(scene_body, nearest, active, stride, points, near_ids, near_radius, low, high,
+                 bound):  # pragma: no cover - compiled
+    """The exact nearest samples of scene points in restarts' body frames (``scene_body`` (k, n, 3), every
+    ``stride``-th scene point of the ``active`` restarts) where the answer can be proved, as the k-d tree would
+    give them: (distance (k, n) m, inf beyond ``bound``; index (k, n), ``len(points)`` for a miss; the flat
+    indices of the points it could not prove, for the tree).
+
+    A point at least ``bound`` from the samples' bounding box (``low``, ``high``) is a miss. Otherwise, with s
+    the point's last nearest sample in ``nearest`` (K, N) (-1: none; then the previous scene point's, a pixel
+    next to it) and d' the point's distance to it, the true nearest s* is within d' of the point, so within
+    2 d' of s: when 2 d' is below ``near_radius[s]`` (every sample nearer s is listed in ``near_ids[s]``), s*
+    is the nearest of s's neighbours. A point far from its last sample (a restart that moved, a first
+    iteration) is left to the tree."""
+    k, n, _ = scene_body.shape
+    distance = np.full((k, n), np.inf)
+    index = np.full((k, n), len(points), np.int64)
+    cold = np.empty(k * n, np.int64)
+    count = 0
+    limit = bound * bound
+    for m in range(k):
+        row = active[m]
+        for i in range(n):
+            p0, p1, p2 = scene_body[m, i, 0], scene_body[m, i, 1], scene_body[m, i, 2]
+            out0 = max(low[0] - p0, p0 - high[0], 0.0)
+            out1 = max(low[1] - p1, p1 - high[1], 0.0)
+            out2 = max(low[2] - p2, p2 - high[2], 0.0)
+            if out0 * out0 + out1 * out1 + out2 * out2 > limit * (1.0 + 1e-9) + 1e-18:
+                continue  # no sample within the bound: a miss
+            s = nearest[row, i * stride]
+            if s < 0 and i > 0:
+                s = nearest[row, (i - 1) * stride]
+            proved = False
+            if s >= 0:
+                d0, d1, d2 = p0 - points[s, 0], p1 - points[s, 1], p2 - points[s, 2]
+                reach = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+                if 2.0 * reach * (1.0 + 1e-9) + 1e-12 < near_radius[s]:
+                    proved = True
+                    best, best_sq = -1, np.inf
+                    for c in range(near_ids.shape[1]):
+                        j = near_ids[s, c]
+                        e0, e1, e2 = p0 - points[j, 0], p1 - points[j, 1], p2 - points[j, 2]
+                        sq = e0 * e0 + e1 * e1 + e2 * e2
+                        if sq < best_sq:
+                            best, best_sq = j, sq
+                    if best_sq < limit:
+                        distance[m, i] = math.sqrt(best_sq)
+                        index[m, i] = best
+            if not proved:
+                cold[count] = m * n + i
+                count += 1
+    return distance, index, cold[:count]
+
+
+@njit(cache=True, nogil=True)
+def remember_nearest(nearest, active, stride, index, size):  # pragma: no cover - compiled
+    """Record the nearest samples ``index`` (k, n) of the ``active`` restarts' every ``stride``-th scene point in
+    ``nearest`` (K, N), where one was found (an index below ``size``, the sample count)."""
+    k, n = index.shape
+    for m in range(k):
+        row = active[m]
+        for i in range(n):
+            if index[m, i] < size:
+                nearest[row, i * stride] = index[m, i]
+
+
+@njit(cache=True, nogil=True)
+def nearest_patches(points, distance, index, samples, normals, radius, cos_edge, cos_other,
+                    tie):  # pragma: no cover - compiled
+    """Where points (N, 3) lie on the model surface, from their nearest candidate samples ``index`` (N, c)
+    ``distance`` (N, c) m away (inf = none), as :func:`bim2rdt.registration.matching.nearest_patches_of`
+    computes it with numpy (``surfel_distances``, ``exact.first_smallest``): the distance (N,) m to the
+    nearest sample patch (discs of ``radius`` m cut where the surface turns away convexly, normals more than
+    acos(``cos_edge``) apart), that patch's sample (N,), and the distance (N,) m to the nearest patch whose
+    normal is more than acos(``cos_other``) from its (inf if none). Among patches within ``tie`` m of the
+    nearest, the first candidate."""
+    n, c = distance.shape
+    size = len(samples)
+    out_distance = np.empty(n)
+    out_sample = np.empty(n, np.int64)
+    out_other = np.empty(n)
+    height = np.empty(c)
+    to_patch = np.empty(c)
+    cand = np.empty(c, np.int64)
+    for r in range(n):
+        for j in range(c):
+            cand[j] = min(index[r, j], size - 1)
+            s = cand[j]
+            o0, o1, o2 = points[r, 0] - samples[s, 0], points[r, 1] - samples[s, 1], points[r, 2] - samples[s, 2]
+            height[j] = o0 * normals[s, 0] + o1 * normals[s, 1] + o2 * normals[s, 2]
+        for j in range(c):
+            if not np.isfinite(distance[r, j]):
+                to_patch[j] = np.inf
+                continue
+            s = cand[j]
+            o0, o1, o2 = points[r, 0] - samples[s, 0], points[r, 1] - samples[s, 1], points[r, 2] - samples[s, 2]
+            tangential = math.sqrt(max(o0 * o0 + o1 * o1 + o2 * o2 - height[j] ** 2, 0.0))
+            clip = -np.inf
+            for m in range(c):
+                if not np.isfinite(distance[r, m]):
+                    continue
+                t = cand[m]
+                cos = normals[s, 0] * normals[t, 0] + normals[s, 1] * normals[t, 1] + normals[s, 2] * normals[t, 2]
+                behind = (samples[s, 0] * normals[t, 0] + samples[s, 1] * normals[t, 1] + samples[s, 2] * normals[t, 2]
+                          - (normals[t, 0] * samples[t, 0] + normals[t, 1] * samples[t, 1]
+                             + normals[t, 2] * samples[t, 2]))
+                if cos < cos_edge and behind < 0.0:
+                    sin = math.sqrt(max(1.0 - cos * cos, 1e-12))
+                    clip = max(clip, (height[m] - height[j] * cos) / sin)
+            excess = max(max(tangential - radius, clip), 0.0)
+            to_patch[j] = math.hypot(height[j], excess)
+        lowest = np.inf
+        for j in range(c):
+            lowest = min(lowest, to_patch[j])
+        nearest = 0
+        for j in range(c):
+            if to_patch[j] <= lowest + tie:
+                nearest = j
+                break
+        s = cand[nearest]
+        other = np.inf
+        for j in range(c):
+            t = cand[j]
+            cos = normals[t, 0] * normals[s, 0] + normals[t, 1] * normals[s, 1] + normals[t, 2] * normals[s, 2]
+            if cos < cos_other:
+                other = min(other, to_patch[j])
+        out_distance[r], out_sample[r], out_other[r] = to_patch[nearest], s, other
+    return out_distance, out_sample, out_other

@@ -21,16 +21,22 @@ from bim2rdt import exact
 
 
 @dataclass
-class Pairs:
-    """For each restart k and scene point n: the nearest model sample, the point-to-sample distance (m), the
-    residual the ICP step works with (m, see :func:`plane_residual`), and a validity mask; ``samples`` and
-    ``normals`` are the matched samples' points and normals (body frame), gathered once for the residual and
-    the step."""
+class Residuals:
+    """For each pose k and scene point n: the nearest model sample, the point-to-sample distance (m), the
+    residual the ICP step works with (m, see :func:`plane_residual`), and a validity mask: what scoring a pose
+    needs (:func:`scored_residuals`)."""
 
     model_index: np.ndarray  # (k, N) int
     distance: np.ndarray  # (k, N) float, inf when beyond the pair distance
     residual: np.ndarray  # (k, N) float, inf when beyond the pair distance
     valid: np.ndarray  # (k, N) bool
+
+
+@dataclass
+class Pairs(Residuals):
+    """:class:`Residuals` with ``samples`` and ``normals``, the matched samples' points and normals (body frame),
+    gathered once for the residual and the step."""
+
     samples: np.ndarray  # (k, N, 3) model.points[model_index]
     normals: np.ndarray  # (k, N, 3) model.normals[model_index]
 
@@ -172,6 +178,10 @@ class ModelIndex:
     extremes: np.ndarray  # indices of the samples on the convex hull (all of them when the samples are flat)
     extreme_points: np.ndarray  # points[extremes]
     centroid: np.ndarray  # points.mean(axis=0)
+    near_ids: np.ndarray  # (n, NEAR_SAMPLES) each sample's nearest samples, itself first
+    near_radius: np.ndarray  # (n,) m: every sample nearer than this to a sample is in its near_ids
+    low: np.ndarray  # (3,) m, the samples' bounding box: least coordinates ...
+    high: np.ndarray  # (3,) m ... and greatest
 
     @classmethod
     def cached(cls, points: np.ndarray, normals: np.ndarray) -> ModelIndex:
@@ -199,8 +209,25 @@ class ModelIndex:
         spacing, _ = tree.query(points[:: max(1, len(points) // 256)], k=2)
         spacing = float(np.median(spacing[:, 1]))
         extremes = hull_vertices(points)
+        near_ids, near_radius = near_samples(tree, points)
         return cls(points, normals, tree, spacing, surfel_radius * spacing, extremes, points[extremes],
-                   points.mean(axis=0))
+                   points.mean(axis=0), near_ids, near_radius, points.min(axis=0), points.max(axis=0))
+
+
+NEAR_SAMPLES = 16
+"""Neighbours listed per sample (itself included) for the loop's warm-started nearest-sample search
+(:func:`bim2rdt.registration.kernels.warm_nearest`, decision 0045)."""
+
+
+def near_samples(tree: SampleTree, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each sample's :data:`NEAR_SAMPLES` nearest samples (n, k), itself first, and the radius (n,) m within
+    which the list is complete: its farthest listed neighbour's distance (a sample exactly that far may be
+    missing), inf when the list holds every sample."""
+    k = min(NEAR_SAMPLES, len(points))
+    distance, index = tree.query(points, k=k)
+    distance, index = distance.reshape(len(points), k), index.reshape(len(points), k)
+    radius = np.full(len(points), np.inf) if k == len(points) else distance[:, -1].copy()
+    return np.ascontiguousarray(index, dtype=np.int64), radius
 
 
 def _checksum(values: np.ndarray) -> int:
@@ -230,6 +257,44 @@ def match_pairs(model: ModelIndex, scene_body: np.ndarray, max_distance: float) 
     samples, normals = np.take(model.points, index, axis=0), np.take(model.normals, index, axis=0)  # ~3x fancy
     residual = plane_residual(model, scene_body, samples, normals, distance)
     return Pairs(index, distance, residual, np.isfinite(distance), samples, normals)
+
+
+def scored_residuals(model: ModelIndex, scene_body: np.ndarray, max_distance: float, warm: tuple | None = None
+                     ) -> Residuals:
+    """:func:`match_pairs`' residuals without gathering the matched samples: the compiled
+    :func:`bim2rdt.registration.kernels.pair_residuals` (the same formula as :func:`plane_residual`, to
+    round-off), for callers that score poses and need no step; ``warm`` as :func:`nearest_samples` takes it."""
+    from bim2rdt.registration import kernels  # numba's import waits for the first registration
+
+    distance, index = nearest_samples(model, scene_body, max_distance, 1, warm)
+    index = np.minimum(index, model.tree.n - 1)  # misses come back as tree.n; invalid anyway
+    residual, _, _ = kernels.pair_residuals(scene_body, distance, index, model.points, model.normals, model.spacing,
+                                            np.inf)
+    return Residuals(index, distance, residual, np.isfinite(distance))
+
+
+def nearest_samples(model: ModelIndex, scene_body: np.ndarray, bound: float, stride: int = 1,
+                    warm: tuple | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """The nearest sample (index (k, n); ``tree.n`` for a miss) of each point of ``scene_body`` (k, n, 3) and
+    its distance (k, n) m (inf beyond ``bound``), the k-d tree's answer. With ``warm`` (the restarts' last
+    nearest samples (K, N), updated here, and which restarts these are (k,)), the points whose last nearest
+    sample proves the answer among its listed neighbours are answered so
+    (:func:`bim2rdt.registration.kernels.warm_nearest`: the same samples, ~3x cheaper a point near the
+    surface), the rest by the tree."""
+    from bim2rdt.registration import kernels  # numba's import waits for the first registration
+
+    k, n, _ = scene_body.shape
+    if warm is None:
+        distance, index = model.tree.query(scene_body.reshape(-1, 3), distance_upper_bound=bound)
+        return distance.reshape(k, n), index.reshape(k, n)
+    nearest, active = warm
+    distance, index, cold = kernels.warm_nearest(scene_body, nearest, active, stride, model.points, model.near_ids,
+                                                 model.near_radius, model.low, model.high, bound)
+    if len(cold):
+        far, which = model.tree.query(scene_body.reshape(-1, 3)[cold], distance_upper_bound=bound)
+        distance.reshape(-1)[cold], index.reshape(-1)[cold] = far, which
+    kernels.remember_nearest(nearest, active, stride, index, model.tree.n)
+    return distance, index
 
 
 def plane_residual(model: ModelIndex, scene_body: np.ndarray, samples: np.ndarray, normals: np.ndarray,
@@ -281,7 +346,22 @@ def nearest_patches(model: ModelIndex, points: np.ndarray, max_distance: float =
 
 def nearest_patches_of(model: ModelIndex, points: np.ndarray, distance: np.ndarray, index: np.ndarray) -> Patches:
     """:func:`nearest_patches` from the points' (N, 3) nearest candidate samples ``index`` (N, c), ``distance``
-    (N, c) m away (inf = none), as the k-d tree gave them."""
+    (N, c) m away (inf = none), as the k-d tree gave them: compiled
+    (:func:`bim2rdt.registration.kernels.nearest_patches`, decision 0045), :func:`nearest_patches_numpy`'s
+    answer to round-off."""
+    from bim2rdt.registration import kernels  # numba's import waits for the first registration
+
+    distance_to, sample, other = kernels.nearest_patches(
+        np.ascontiguousarray(points, dtype=np.float64), distance, index, model.points, model.normals,
+        model.surfel_radius, np.cos(np.deg2rad(EDGE_ANGLE_DEG)), np.cos(np.deg2rad(OTHER_FACE_DEG)) - 1e-9,
+        exact.TIE_TOLERANCE)
+    return Patches(distance_to, sample, other)
+
+
+def nearest_patches_numpy(model: ModelIndex, points: np.ndarray, distance: np.ndarray, index: np.ndarray
+                          ) -> Patches:
+    """:func:`nearest_patches_of` in numpy (:func:`surfel_distances`): the reference the compiled one is tested
+    against."""
     to_patch, candidates = surfel_distances(model, points, index, distance)
     rows = np.arange(len(points))
     nearest = exact.first_smallest(to_patch, axis=1)  # past an edge, both faces' patches tie: the nearer sample
@@ -406,7 +486,7 @@ def scene_normals(scene_pts: np.ndarray, neighbours: int) -> np.ndarray:
     return vectors[:, :, 0]
 
 
-def truncated_score(pairs: Pairs, truncation: float) -> np.ndarray:
+def truncated_score(pairs: Residuals, truncation: float) -> np.ndarray:
     """Restart score (lower is better): mean over ALL scene points of min(r, truncation)^2 of the surface
     residual r, m^2. Unmatched points count as the truncation, so a pose that explains fewer points loses."""
     return np.mean(np.minimum(pairs.residual, truncation) ** 2, axis=1)
