@@ -99,7 +99,7 @@ def test_verify_imports_without_numba_and_load_kernels_brings_its_machine_code_i
             "assert 'numba' not in sys.modules\n"
             "from bim2rdt.registration import load_kernels, register, kernels\n"
             "load_kernels()\n"
-            "names = ('body_points', 'pair_residuals', 'normal_systems', 'solve_steps', 'compose_steps',\n"
+            "names = ('body_points', 'pair_residuals', 'normal_systems',\n"
             "         'neighbour_scatter', 'any_within', 'plane_steps', 'settle_steps', 'stop_agreed',\n"
             "         'warm_nearest', 'remember_nearest', 'nearest_patches')\n"
             "loaded = {n: len(getattr(kernels, n).signatures) for n in names}\n"
