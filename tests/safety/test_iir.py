@@ -1,5 +1,5 @@
-"""The compiled weighting pass (safety.iir.sosfilt_rows) is scipy's sosfilt bit for bit, on float32 and float64
-rows, with carried state, and leaves its inputs alone."""
+"""The compiled weighting pass (safety.iir) is scipy's sosfilt bit for bit, on float32 and float64 rows, with
+carried state, leaves its inputs alone, and takes numpy's block extremes on its way."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import pytest
 import scipy.signal
 
 from bim2rdt.safety.filters import design_weighting
-from bim2rdt.safety.iir import sosfilt_rows
+from bim2rdt.safety.iir import sosfilt_rows, weigh_rows
 
 
 @pytest.mark.parametrize("dtype", [np.float32, np.float64])
@@ -33,3 +33,18 @@ def test_another_rate_and_section_count_also_match():
     x = np.random.default_rng(8).normal(0.0, 10.0, (3, 800)).astype(np.float32)
     zi = np.zeros((sos.shape[0], 3, 2))
     assert np.array_equal(sosfilt_rows(sos, x, zi)[0], scipy.signal.sosfilt(sos, x, axis=-1, zi=zi)[0])
+
+
+@pytest.mark.parametrize("starts", [np.array([0, 2500]), np.array([0, 1700, 3100])])
+def test_the_pass_takes_numpys_block_extremes_on_its_way_nan_included(starts):
+    sos = design_weighting(5000.0).sos
+    x = np.random.default_rng(9).normal(0.0, 30.0, (6, 5000)).astype(np.float32)
+    x[1, 10], x[4, 4999], x[5, 0] = np.nan, np.nan, np.nan  # inside a block, at the last and at the first sample
+    zi = np.zeros((sos.shape[0], 6, 2))
+    out, zf, (top, bottom) = weigh_rows(sos, x, zi, starts)
+    reference = sosfilt_rows(sos, x, zi)
+    assert np.array_equal(out, reference[0], equal_nan=True) and np.array_equal(zf, reference[1], equal_nan=True)
+    assert top.dtype == bottom.dtype == np.float32
+    assert np.array_equal(top, np.maximum.reduceat(x, starts, axis=1), equal_nan=True)
+    assert np.array_equal(bottom, np.minimum.reduceat(x, starts, axis=1), equal_nan=True)
+    assert np.isnan(top[1, 0]) and not np.isnan(top[1, -1]) and np.isnan(bottom[4, -1]) and np.isnan(top[5, 0])
