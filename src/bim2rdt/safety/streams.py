@@ -92,6 +92,16 @@ class StreamBuffer:
         self.restart_expected = False
         """The device announced a new boot: its next batch whose seq goes back starts a new epoch."""
 
+    @property
+    def skipped(self) -> deque[tuple[int, int]]:
+        """The seq ranges [from, to) declared missing lately (the buffer's own deque: read it, do not change it)."""
+        return self._skipped
+
+    @property
+    def runs(self) -> deque[list[float]]:
+        """The runs [first ms, last ms, count] of first-sample times taken (the buffer's own: read, do not change)."""
+        return self._runs
+
     def announce_boot(self, boot: str) -> bool:
         """The device's status names its boot; True (and a restart expected) when it differs from the last one."""
         changed = self.boot is not None and boot != self.boot
