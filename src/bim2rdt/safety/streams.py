@@ -129,6 +129,10 @@ class StreamBuffer:
                     return result
                 self.restart_expected = False
             else:
+                if seq == self.next_seq and not self.pending:  # the usual case: the next batch, nothing waiting
+                    self.restart_expected = False
+                    self._take(batch if seq == batch.seq else self._renumber(batch, seq, result), result)
+                    return result
                 if seq > self.next_seq and self._continues(batch):
                     seq, result.renumberings = self.next_seq, 1  # a wrong number on a batch continuing the segment
                 self.restart_expected = False  # the numbering went on: the announced boot did not restart it
@@ -138,11 +142,21 @@ class StreamBuffer:
         self._drain(result, now)
         return result
 
+    @staticmethod
+    def _renumber(batch: AccelBatch, seq: int, result: PushResult) -> AccelBatch:
+        """``batch`` under its effective seq (kept in ``result``: the store keeps this one)."""
+        result.renumbered = replace(batch, seq=seq)
+        return result.renumbered
+
     def _seen(self, batch: AccelBatch) -> bool:
         """Whether a batch starting at ``batch``'s time was taken, or waits."""
         ms = batch.device_time * 1000.0
-        return any(abs(b.device_time * 1000.0 - ms) <= MATCH_MS for b in self.pending.values()) or any(
-            _in_run(run, ms) for run in self._runs)
+        if self.pending and any(abs(b.device_time * 1000.0 - ms) <= MATCH_MS for b in self.pending.values()):
+            return True
+        for run in self._runs:  # a loop, not any(): this runs for every batch
+            if _in_run(run, ms):
+                return True
+        return False
 
     def _restarted(self, batch: AccelBatch, seq: int) -> bool:
         """Whether ``batch`` (its seq gone back, its samples before what was seen) opens a new epoch: the device
