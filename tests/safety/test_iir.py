@@ -48,3 +48,23 @@ def test_the_pass_takes_numpys_block_extremes_on_its_way_nan_included(starts):
     assert np.array_equal(top, np.maximum.reduceat(x, starts, axis=1), equal_nan=True)
     assert np.array_equal(bottom, np.minimum.reduceat(x, starts, axis=1), equal_nan=True)
     assert np.isnan(top[1, 0]) and not np.isnan(top[1, -1]) and np.isnan(bottom[4, -1]) and np.isnan(top[5, 0])
+
+
+def test_a_chunk_weighed_again_settles_its_streams_on_the_replaced_first_sample():
+    """A stream with no filter state yet (restored without one) whose first sample is NaN: the chunk is weighed
+    again after the replacement, and the filter starts from the replaced sample, as if it had come that way."""
+    from bim2rdt.bus import AccelBatch
+    from bim2rdt.safety.config import ArtefactLimits
+    from bim2rdt.safety.weighing import FilterState, Piece, weigh_round
+
+    x = (np.random.default_rng(10).normal(0.0, 20.0, (2500, 3)) + 9.81).astype(np.float32)
+    bad = x.copy()
+    bad[0, 1] = np.nan
+    row = np.ascontiguousarray(bad[:, 1])
+    fixed = x.copy()
+    fixed[0, 1] = row[1:].mean()  # what replace_bad_samples puts there: the row's mean of its good samples
+    pieces = [Piece(FilterState(), [AccelBatch("w", 0, 1.7e9, 5000.0, samples)], False) for samples in (bad, fixed)]
+    blocks = weigh_round(pieces, ArtefactLimits())
+    assert blocks[0].flags[0] and not blocks[1].flags[0]  # the NaN block is flagged, the fixed one is not
+    assert np.isfinite(pieces[0].state.zi).all() and np.array_equal(pieces[0].state.zi, pieces[1].state.zi)
+    assert blocks[0].energy == blocks[1].energy

@@ -8,7 +8,8 @@ arithmetic bit for bit, reading the float32 samples once instead of through ``so
 The fitted Wh IIR (:mod:`bim2rdt.safety.filters`) keeps its state across batches, so a block's weighted energy
 does not depend on how the stream was cut. NaN samples are replaced by the axis mean before filtering (their
 blocks are rejected), and so are impossible ones (beyond the sensor's full scale or 5000 m/s^2), so the filter
-never carries them on; a mounting correction runs first as a linear-phase FIR. A new segment (after a gap) restarts the filters settled on its first sample.
+never carries them on; a mounting correction runs first as a linear-phase FIR. A new segment (after a gap)
+restarts the filters settled on its first sample.
 """
 
 from __future__ import annotations
@@ -143,12 +144,13 @@ def _weigh_group(pieces: list[Piece], fs: float, layout: _Layout, correction: Mo
     full_scale = np.array([p.full_scale for p in pieces])
     possible = sample_limits(full_scale, limits.physical_limit)
     sums, squares = block_moments(raw, starts)  # while the samples are in cache; the extremes come with the filter
-    weighted, zf, fir_zf, extremes = _filter(pieces, raw, fs, starts, correction)
+    starting = [j for j, p in enumerate(pieces) if p.new_segment or p.state.zi is None]  # settled on their first
+    weighted, zf, fir_zf, extremes = _filter(pieces, raw, fs, starts, correction, starting)
     stats, bad = BlockStats(sums, squares, extremes), None
     if has_bad_samples(sums, extremes, possible):  # rare: replace them, and weigh the chunk again without them
         bad = replace_bad_samples(raw, possible)
         stats = block_stats(raw, starts)
-        weighted, zf, fir_zf, _ = _filter(pieces, raw, fs, starts, correction)
+        weighted, zf, fir_zf, _ = _filter(pieces, raw, fs, starts, correction, starting)
     energy = block_sums(weighted, starts, square=True).reshape(len(pieces), 3, -1).sum(axis=1) / fs
     flags = block_flags(raw.shape[1], starts, stats, full_scale, limits)
     if bad is not None:
@@ -166,12 +168,12 @@ def _weigh_group(pieces: list[Piece], fs: float, layout: _Layout, correction: Mo
             for j, (p, t, e, x) in enumerate(zip(pieces, ends, energy.tolist(), flagged))]
 
 
-def _filter(pieces: list[Piece], raw: np.ndarray, fs: float, starts: np.ndarray, correction: MountingCorrection | None
-            ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, tuple[np.ndarray, np.ndarray]]:
+def _filter(pieces: list[Piece], raw: np.ndarray, fs: float, starts: np.ndarray, correction: MountingCorrection | None,
+            starting: list[int]) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, tuple[np.ndarray, np.ndarray]]:
     """The chunk's weighted signal (3m, n), final IIR and FIR states (None without a correction) and the blocks'
-    raw extremes (3m, k) each; segments that start here are settled on their first sample first. The pieces' own
-    states are the caller's to set from the returned ones, so a chunk can be weighed again."""
-    starting = [j for j, p in enumerate(pieces) if p.new_segment or p.state.zi is None]
+    raw extremes (3m, k) each; the pieces at ``starting`` (segments that start here) are settled on their first
+    sample first. The pieces' running states are the caller's to set from the returned ones, so a chunk can be
+    weighed again (after its bad samples were replaced: the same pieces settled again on the new first samples)."""
     if starting:
         firsts = raw[:, 0].reshape(-1, 3).astype(np.float64)
         for j in starting:
