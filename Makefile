@@ -39,8 +39,10 @@ demo: $(STAMP)
 # The suite on three workers over the two cores (pytest-xdist; many tests wait on brokers, databases and
 # subprocesses, and a third worker fills that time: 824 s against 868 s with two; a test file stays on one worker,
 # so its module fixtures are built once), then the timing-sensitive tests (marked serial in tests/conftest.py) alone.
+# The compiled kernels (numba) are compiled once first, so no test with a deadline pays their first compile.
 test: $(STAMP)
 	$(VENV)/bin/lint-imports --no-logo
+	$(PY) scripts/compile_kernels.py
 	$(PY) -m pytest -q -n 3 --dist loadfile -m "not serial"
 	$(PY) -m pytest -q -m serial
 

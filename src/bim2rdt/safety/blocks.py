@@ -81,8 +81,15 @@ def block_stats(raw: np.ndarray, starts: np.ndarray) -> BlockStats:
     are still in cache (right after they were stacked, before the filter evicts them). Squares of impossible
     samples may overflow float32 to inf: such samples fail :func:`has_bad_samples` and the stats are taken again
     after :func:`replace_bad_samples`."""
+    return BlockStats(*block_moments(raw, starts), block_extremes(raw, starts))
+
+
+def block_moments(raw: np.ndarray, starts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per-block sums and sums of squares (rows, k) of ``raw`` (rows, n) cut at ``starts`` (the sums of
+    :func:`block_stats`, whose extremes the weighting pass takes on its way, :func:`~bim2rdt.safety.iir.weigh_rows`).
+    Squares of impossible samples may overflow float32 to inf, without a warning (see :func:`block_stats`)."""
     with np.errstate(over="ignore", invalid="ignore"):
-        return BlockStats(block_sums(raw, starts), block_sums(raw, starts, square=True), block_extremes(raw, starts))
+        return block_sums(raw, starts), block_sums(raw, starts, square=True)
 
 
 class BlockStats(NamedTuple):

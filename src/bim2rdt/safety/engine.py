@@ -185,12 +185,20 @@ class ExposureEngine:
         """Weigh in-order batches, each stream's consecutive ones as one run, in rounds (one run per stream per
         round); then track every stream's blocks in device-time order."""
         runs: dict[str, list[Piece]] = {}
+        rounds = 1
         for stream, batch, new_segment in ordered:
-            queue = runs.setdefault(stream.device, [])
-            if queue and not new_segment and _continues(queue[-1], batch):
+            queue = runs.get(stream.device)
+            if queue is None:
+                runs[stream.device] = [Piece(stream.filter, [batch], new_segment,
+                                             self.sessions.correction(stream.session))]
+            elif not new_segment and _continues(queue[-1], batch):
                 queue[-1].batches.append(batch)
             else:
                 queue.append(Piece(stream.filter, [batch], new_segment, self.sessions.correction(stream.session)))
+                rounds = max(rounds, len(queue))
+        if rounds == 1:  # the usual case: one run per stream, so one round
+            pieces = [queue[0] for queue in runs.values()]
+            return self._track(dict(zip(runs, [[blocks] for blocks in weigh_round(pieces, self.config.artefacts)])))
         weighed: dict[str, list[Blocks]] = {device: [] for device in runs}
         for r in range(max((len(q) for q in runs.values()), default=0)):
             devices = [d for d, q in runs.items() if len(q) > r]

@@ -27,6 +27,7 @@ from bim2rdt.safety.engine import ExposureEngine, Stream
 from bim2rdt.safety.mounting import MountingCorrection
 from bim2rdt.safety.retention import RawRetention
 from bim2rdt.safety.sessions import Session
+from bim2rdt.safety.statecodec import encode_state
 from bim2rdt.safety.store import ExposureStore
 from bim2rdt.safety.weighing import FilterState
 
@@ -196,9 +197,10 @@ def _offsets(engine: ExposureEngine, events: list[Event]) -> dict[str, float]:
             for device, s in streams.items()}
 
 
-def _stream_state(stream: Stream) -> list:
-    """[buffer, activity, clock offset, counters]: a flat JSON list, saved for every touched stream."""
-    return [stream.buffer.to_list(), stream.tracker.state.to_list(), stream.clock.offset_s, stream.counters]
+def _stream_state(stream: Stream) -> str:
+    """[buffer, activity, clock offset, counters] as stored text, packed (:mod:`~bim2rdt.safety.statecodec`); saved
+    for every touched stream."""
+    return encode_state(stream.buffer, stream.tracker.state, stream.clock.offset_s, stream.counters)
 
 
 def _open_activity(stream: Stream) -> tuple[str, str, str, dict]:

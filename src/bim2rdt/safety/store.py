@@ -31,6 +31,7 @@ from bim2rdt import sqlstore
 from bim2rdt.bus import Event
 from bim2rdt.bus import MAX_BATCH_S, AccelBatch
 from bim2rdt.safety.errors import AlreadyApplied, StoreError
+from bim2rdt.safety.statecodec import decode_state
 
 PAGE_SIZE = 16384
 """Bytes per SQLite page. A 0.5 s int16 batch at 5 kHz is 15 kB: on 4 kB pages it spans an overflow chain of
@@ -319,13 +320,16 @@ class ExposureStore:
 
     # JSON state rows -----------------------------------------------------------------------------------
     def save_streams(self, states: Iterable[tuple[str, Any, bytes]]) -> None:
-        """(device, JSON-able state, filter-state blob) rows."""
-        rows = [{"device": device, "state": _dumps(state), "filter": blob} for device, state, blob in states]
+        """(device, state, filter-state blob) rows: the state as the text of
+        :func:`~bim2rdt.safety.statecodec.encode_state`, or a JSON-able value (written as ``json.dumps`` would)."""
+        rows = [{"device": device, "state": state if state.__class__ is str else _dumps(state), "filter": blob}
+                for device, state, blob in states]
         self._upsert(streams_table, rows, ("device",))
 
     def streams(self) -> dict[str, tuple[Any, bytes]]:
+        """{device: (state, filter-state blob)}, the state as ``json.loads`` gives its JSON form (packed or not)."""
         rows = self._read(sa.select(streams_table))
-        return {device: (json.loads(state), bytes(blob)) for device, state, blob in rows}
+        return {device: (decode_state(state), bytes(blob)) for device, state, blob in rows}
 
     def save_days(self, rows: Iterable[tuple[str, str, Any]]) -> None:
         """(subject, day, DayState) rows: the day's energy (m^2/s^3) and trigger seconds of the greater hand,

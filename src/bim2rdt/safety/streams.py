@@ -92,6 +92,16 @@ class StreamBuffer:
         self.restart_expected = False
         """The device announced a new boot: its next batch whose seq goes back starts a new epoch."""
 
+    @property
+    def skipped(self) -> deque[tuple[int, int]]:
+        """The seq ranges [from, to) declared missing lately (the buffer's own deque: read it, do not change it)."""
+        return self._skipped
+
+    @property
+    def runs(self) -> deque[list[float]]:
+        """The runs [first ms, last ms, count] of first-sample times taken (the buffer's own: read, do not change)."""
+        return self._runs
+
     def announce_boot(self, boot: str) -> bool:
         """The device's status names its boot; True (and a restart expected) when it differs from the last one."""
         changed = self.boot is not None and boot != self.boot
@@ -119,6 +129,10 @@ class StreamBuffer:
                     return result
                 self.restart_expected = False
             else:
+                if seq == self.next_seq and not self.pending:  # the usual case: the next batch, nothing waiting
+                    self.restart_expected = False
+                    self._take(batch if seq == batch.seq else self._renumber(batch, seq, result), result)
+                    return result
                 if seq > self.next_seq and self._continues(batch):
                     seq, result.renumberings = self.next_seq, 1  # a wrong number on a batch continuing the segment
                 self.restart_expected = False  # the numbering went on: the announced boot did not restart it
@@ -128,11 +142,21 @@ class StreamBuffer:
         self._drain(result, now)
         return result
 
+    @staticmethod
+    def _renumber(batch: AccelBatch, seq: int, result: PushResult) -> AccelBatch:
+        """``batch`` under its effective seq (kept in ``result``: the store keeps this one)."""
+        result.renumbered = replace(batch, seq=seq)
+        return result.renumbered
+
     def _seen(self, batch: AccelBatch) -> bool:
         """Whether a batch starting at ``batch``'s time was taken, or waits."""
         ms = batch.device_time * 1000.0
-        return any(abs(b.device_time * 1000.0 - ms) <= MATCH_MS for b in self.pending.values()) or any(
-            _in_run(run, ms) for run in self._runs)
+        if self.pending and any(abs(b.device_time * 1000.0 - ms) <= MATCH_MS for b in self.pending.values()):
+            return True
+        for run in self._runs:  # a loop, not any(): this runs for every batch
+            if _in_run(run, ms):
+                return True
+        return False
 
     def _restarted(self, batch: AccelBatch, seq: int) -> bool:
         """Whether ``batch`` (its seq gone back, its samples before what was seen) opens a new epoch: the device

@@ -1,13 +1,15 @@
-"""Weigh many streams' new samples at once: one ``sosfilt`` call per (rate, batch length, correction) group.
+"""Weigh many streams' new samples at once: one filtering pass per (rate, batch length, correction) group and chunk.
 
 Each stream contributes at most one *run* of consecutive batches per *round* (its filter state comes from its
 previous run), so a round of N devices' runs is a single (3N, n) filtering pass plus a few block reductions:
 close to the cost of the bare ``sosfilt`` floor, whether N is large (many wearables) or the runs are long (a
-group commit of one wearable's batches). The fitted Wh IIR (:mod:`bim2rdt.safety.filters`) keeps its state across
-batches, so a block's weighted energy does not depend on how the stream was cut. NaN samples are replaced by
-the axis mean before filtering (their blocks are rejected), and so are impossible ones (beyond the sensor's
-full scale or 5000 m/s^2), so the filter never carries them on; a mounting correction runs first as a
-linear-phase FIR. A new segment (after a gap) restarts the filters settled on its first sample.
+group commit of one wearable's batches). The pass is :func:`~bim2rdt.safety.iir.sosfilt_rows`: ``sosfilt``'s
+arithmetic bit for bit, reading the float32 samples once instead of through ``sosfilt``'s float64 copy.
+The fitted Wh IIR (:mod:`bim2rdt.safety.filters`) keeps its state across batches, so a block's weighted energy
+does not depend on how the stream was cut. NaN samples are replaced by the axis mean before filtering (their
+blocks are rejected), and so are impossible ones (beyond the sensor's full scale or 5000 m/s^2), so the filter
+never carries them on; a mounting correction runs first as a linear-phase FIR. A new segment (after a gap)
+restarts the filters settled on its first sample.
 """
 
 from __future__ import annotations
@@ -21,16 +23,17 @@ import numpy as np
 import scipy.signal
 
 from bim2rdt.bus import AccelBatch
-from bim2rdt.safety.blocks import (IMPOSSIBLE, NAN, REJECTED_BEFORE_SETTLING, SETTLING, ArtefactLimits,
-                                   block_flags, block_starts, block_stats, block_sums, has_bad_samples,
-                                   replace_bad_samples, sample_limits)
+from bim2rdt.safety.blocks import (IMPOSSIBLE, NAN, REJECTED_BEFORE_SETTLING, SETTLING, ArtefactLimits, BlockStats,
+                                   block_extremes, block_flags, block_moments, block_starts, block_stats, block_sums,
+                                   has_bad_samples, replace_bad_samples, sample_limits)
 from bim2rdt.safety.filters import design_weighting
+from bim2rdt.safety.iir import sosfilt_rows, weigh_rows
 from bim2rdt.safety.mounting import MountingCorrection
 
 
 CHUNK = 128
-"""Streams filtered per sosfilt call: the block passes re-read data still in cache, and sosfilt's per-call
-overhead (about 0.4 ms) stays small."""
+"""Streams filtered per pass: the block passes re-read data still in cache, and the per-call overhead stays
+small."""
 
 
 @dataclass(slots=True)
@@ -138,23 +141,16 @@ def _weigh_group(pieces: list[Piece], fs: float, layout: _Layout, correction: Mo
                  limits: ArtefactLimits) -> list[Blocks]:
     raw = _stack(pieces)  # (3m, n)
     starts = layout.starts
-    stats = block_stats(raw, starts)
     full_scale = np.array([p.full_scale for p in pieces])
     possible = sample_limits(full_scale, limits.physical_limit)
-    bad = replace_bad_samples(raw, possible) if has_bad_samples(stats.sums, stats.extremes, possible) else None
-    if bad is not None:
+    sums, squares = block_moments(raw, starts)  # while the samples are in cache; the extremes come with the filter
+    starting = [j for j, p in enumerate(pieces) if p.new_segment or p.state.zi is None]  # settled on their first
+    weighted, zf, fir_zf, extremes = _filter(pieces, raw, fs, starts, correction, starting)
+    stats, bad = BlockStats(sums, squares, extremes), None
+    if has_bad_samples(sums, extremes, possible):  # rare: replace them, and weigh the chunk again without them
+        bad = replace_bad_samples(raw, possible)
         stats = block_stats(raw, starts)
-    starting = [j for j, p in enumerate(pieces) if p.new_segment or p.state.zi is None]
-    if starting:
-        firsts = raw[:, 0].reshape(-1, 3).astype(np.float64)
-        for j in starting:
-            _settle(pieces[j], firsts[j], correction)
-    signal = raw
-    if correction is not None:
-        fir_zi = np.concatenate([p.state.fir_zi for p in pieces])
-        signal, fir_zf = scipy.signal.lfilter(_fir(correction, fs), [1.0], raw, axis=-1, zi=fir_zi)
-    zi = np.concatenate([p.state.zi for p in pieces], axis=1)
-    weighted, zf = scipy.signal.sosfilt(design_weighting(fs).sos, signal, axis=-1, zi=zi)
+        weighted, zf, fir_zf, _ = _filter(pieces, raw, fs, starts, correction, starting)
     energy = block_sums(weighted, starts, square=True).reshape(len(pieces), 3, -1).sum(axis=1) / fs
     flags = block_flags(raw.shape[1], starts, stats, full_scale, limits)
     if bad is not None:
@@ -163,13 +159,34 @@ def _weigh_group(pieces: list[Piece], fs: float, layout: _Layout, correction: Mo
     own = zf.reshape(zf.shape[0], len(pieces), 3, 2).transpose(1, 0, 2, 3)  # each stream's (k, 3, 2), one copy
     for j, (piece, zi_j) in enumerate(zip(pieces, np.ascontiguousarray(own))):
         piece.state.zi = zi_j
-        if correction is not None:
+        if fir_zf is not None:
             piece.state.fir_zi = fir_zf[3 * j:3 * j + 3]
     first_times = np.array([[b.device_time for b in p.batches] for p in pieces])  # (m, batches of the run)
     ends = (first_times[:, layout.batch] + layout.end_offset_s).tolist()  # the same float additions, all at once
     flagged = flags.any(axis=1).tolist()
     return [_blocks(p, layout, t, e, flags[j].tolist() if x else layout.clean, x)
             for j, (p, t, e, x) in enumerate(zip(pieces, ends, energy.tolist(), flagged))]
+
+
+def _filter(pieces: list[Piece], raw: np.ndarray, fs: float, starts: np.ndarray, correction: MountingCorrection | None,
+            starting: list[int]) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, tuple[np.ndarray, np.ndarray]]:
+    """The chunk's weighted signal (3m, n), final IIR and FIR states (None without a correction) and the blocks'
+    raw extremes (3m, k) each; the pieces at ``starting`` (segments that start here) are settled on their first
+    sample first. The pieces' running states are the caller's to set from the returned ones, so a chunk can be
+    weighed again (after its bad samples were replaced: the same pieces settled again on the new first samples)."""
+    if starting:
+        firsts = raw[:, 0].reshape(-1, 3).astype(np.float64)
+        for j in starting:
+            _settle(pieces[j], firsts[j], correction)
+    zi = np.concatenate([p.state.zi for p in pieces], axis=1)
+    sos = design_weighting(fs).sos
+    if correction is None:
+        weighted, zf, extremes = weigh_rows(sos, raw, zi, starts)  # sosfilt's, without its copy; extremes on the way
+        return weighted, zf, None, extremes
+    fir_zi = np.concatenate([p.state.fir_zi for p in pieces])
+    signal, fir_zf = scipy.signal.lfilter(_fir(correction, fs), [1.0], raw, axis=-1, zi=fir_zi)
+    weighted, zf = sosfilt_rows(sos, signal, zi)
+    return weighted, zf, fir_zf, block_extremes(raw, starts)
 
 
 def _stack(pieces: list[Piece]) -> np.ndarray:
