@@ -123,7 +123,8 @@ def _weigh(sos, x, zi, out, starts, top, bottom):  # pragma: no cover - compiled
 
 def compile_kernels() -> None:
     """Compile (or load from the cache) the kernels for the monitor's float32 chunks and float64 corrected
-    signals: ``make test`` calls it before the tests (``scripts/compile_kernels.py``), so no test with a deadline pays the first compile."""
+    signals: ``make test`` calls it before the tests (``scripts/compile_kernels.py``), so no test with a deadline
+    pays the first compile."""
     sos = np.array([[1.0, 0.0, 0.0, 1.0, 0.0, 0.0]])
     for dtype in (np.float32, np.float64):
         x = np.zeros((3, 4), dtype)
