@@ -7,11 +7,14 @@ from __future__ import annotations
 import json
 import os
 import signal
+import sqlite3
 import subprocess
 import sys
 import threading
 import time
+from contextlib import closing
 from datetime import datetime, timezone
+from pathlib import Path
 
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -120,7 +123,8 @@ def test_a_live_listener_through_mosquitto_survives_thousands_of_hostile_message
         w5.publish(accel, encode_accel(batch), qos=1)
     w5.publish(status, b'{"online": false}', qos=1, wait=True)
     w5.close()
-    time.sleep(2.0)  # the last group commit (0.25 s) and the offline status
+    _wait_for_refused(tmp_path / "hav" / "hav.sqlite", device, sent["poison"])  # a loaded listener lags the broker
+    time.sleep(2.0)  # the good batches after the poison, the last group commit (0.25 s) and the offline status
     listener.send_signal(signal.SIGINT)  # a clean stop: flush, summary, exit 0
     assert listener.wait(timeout=60) == 0
     text = "".join(out)
@@ -142,6 +146,21 @@ def test_a_live_listener_through_mosquitto_survives_thousands_of_hostile_message
 def _as(payload: bytes, device: str) -> bytes:
     """The w1-based poison, for ``device``'s topic (same length, so the framing stays as hostile)."""
     return payload.replace(b'"w1"', b'"' + device.encode() + b'"')
+
+
+def _wait_for_refused(store: Path, device: str, count: int, timeout: float = 60.0) -> None:
+    """Until the listener's store (SQLite in WAL mode, read here read-only beside it) has committed ``count``
+    refused messages of ``device``, or ``timeout`` s pass; the test's own assertion then reads the count."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        try:
+            with closing(sqlite3.connect(f"file:{store}?mode=ro", uri=True, timeout=1.0)) as db:
+                row = db.execute("SELECT count FROM malformed WHERE device = ?", (device,)).fetchone()
+        except sqlite3.OperationalError:  # not created yet, or busy at a checkpoint
+            row = None
+        if row is not None and row[0] >= count:
+            return
+        time.sleep(0.25)
 
 
 def _follow(process: subprocess.Popen, text: str, timeout: float = 30.0) -> list[str]:
