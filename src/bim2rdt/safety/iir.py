@@ -61,6 +61,18 @@ def weigh_rows(sos: np.ndarray, x: np.ndarray, zi: np.ndarray,
     return out, zf, (top, bottom)
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _cascade(sos, z, x_cur):  # pragma: no cover - compiled
+    """One sample through the second-order sections, scipy's ``_sosfilt`` arithmetic operation for operation; the
+    sections' states ``z`` (sections, 2) advance in place. Returns the filtered sample."""
+    for s in range(sos.shape[0]):
+        x_new = sos[s, 0] * x_cur + z[s, 0]
+        z[s, 0] = sos[s, 1] * x_cur - sos[s, 4] * x_new + z[s, 1]
+        z[s, 1] = sos[s, 2] * x_cur - sos[s, 5] * x_new
+        x_cur = x_new
+    return x_cur
+
+
 @njit(cache=True, nogil=True)
 def _sosfilt(sos, x, zi, out):  # pragma: no cover - compiled
     """scipy's ``_sosfilt`` loop with ``x`` read once and the result written to ``out``; ``zi`` (k, rows, 2)
@@ -73,13 +85,7 @@ def _sosfilt(sos, x, zi, out):  # pragma: no cover - compiled
             z[s, 0] = zi[s, i, 0]
             z[s, 1] = zi[s, i, 1]
         for j in range(n):
-            x_cur = np.float64(x[i, j])
-            for s in range(sections):
-                x_new = sos[s, 0] * x_cur + z[s, 0]
-                z[s, 0] = sos[s, 1] * x_cur - sos[s, 4] * x_new + z[s, 1]
-                z[s, 1] = sos[s, 2] * x_cur - sos[s, 5] * x_new
-                x_cur = x_new
-            out[i, j] = x_cur
+            out[i, j] = _cascade(sos, z, np.float64(x[i, j]))
         for s in range(sections):
             zi[s, i, 0] = z[s, 0]
             zi[s, i, 1] = z[s, 1]
@@ -107,13 +113,7 @@ def _weigh(sos, x, zi, out, starts, top, bottom):  # pragma: no cover - compiled
                 if value < low or value != value:
                     if low == low:
                         low = value
-                x_cur = np.float64(value)
-                for s in range(sections):
-                    x_new = sos[s, 0] * x_cur + z[s, 0]
-                    z[s, 0] = sos[s, 1] * x_cur - sos[s, 4] * x_new + z[s, 1]
-                    z[s, 1] = sos[s, 2] * x_cur - sos[s, 5] * x_new
-                    x_cur = x_new
-                out[i, j] = x_cur
+                out[i, j] = _cascade(sos, z, np.float64(value))
             top[i, b] = high
             bottom[i, b] = low
         for s in range(sections):
