@@ -68,3 +68,19 @@ def test_bench_registration_rejects_zero_trials(tmp_path):
     result = run_cli("bench", "registration", "--trials", "0", "--out", str(tmp_path))
     assert result.returncode == 2 and "Traceback" not in result.stderr
     assert "'--trials'" in result.stderr and not list(tmp_path.iterdir())
+
+
+def test_bench_registration_runs_only_the_scenarios_asked_for(tmp_path):
+    result = run_cli("bench", "registration", "--trials", "1", "--no-peers", "--no-families", "--json",
+                     "--scenario", "S2", "--out", str(tmp_path))
+    assert result.returncode == 0, result.stderr
+    report = json.loads(result.stdout)
+    assert set(report["scenarios"]) == {"S2"}
+    assert sorted(p.name for p in tmp_path.glob("*.png")) == ["registration_S2.png"]
+
+
+def test_bench_registration_rejects_an_unknown_scenario(tmp_path):
+    out = tmp_path / "run"
+    result = run_cli("bench", "registration", "--scenario", "S9", "--out", str(out))
+    assert result.returncode == 2 and "Traceback" not in result.stderr
+    assert "unknown scenario S9" in result.stderr and not out.exists()

@@ -176,3 +176,58 @@ def test_register_runs_plain_icp_beside_the_prior_and_can_be_told_not_to(crate_m
     register(*crate_model, scene, truth, upright_bias=0.0)
     register(*crate_model, scene, truth, upright_bias=0.9, config=IcpConfig(prior_free_pass=False))
     assert biases == [0.0, 0.9]
+
+
+def test_on_a_tie_a_pose_beyond_the_loops_reach_of_the_guess_loses():
+    """A tie on the data (~0.4 standard errors): the prior's pose is kept when ICP's polished pose carried the
+    object beyond the loop's reach of the guess and the prior's did not; not when both are within reach, nor
+    when the prior's is the far one, nor when ICP's leads beyond the noise (on the objective, or as found)."""
+    rng = np.random.default_rng(2)
+    prior = rng.uniform(0.0, 1e-4, 400)
+    polished = prior + rng.normal(-2e-6, 1e-4, 400)  # a hair lower: a tie
+    per_point = np.stack([prior, polished, polished])
+    zero = np.zeros(3)
+    assert not prior_kept(per_point, zero, 2.0)  # the data alone keep ICP's basin
+    assert icp.guess_decides(per_point, zero, np.array([False, True]), 2.0)
+    assert not icp.guess_decides(per_point, zero, np.array([False, False]), 2.0)
+    assert not icp.guess_decides(per_point, zero, np.array([True, True]), 2.0)
+    assert not icp.guess_decides(per_point, zero, np.array([True, False]), 2.0)
+    leading = np.stack([prior, prior - 2e-5, prior - 2e-5])  # ICP's lower at every point
+    assert not icp.guess_decides(leading, zero, np.array([False, True]), 2.0)
+    assert not icp.guess_decides(np.stack([prior, polished, prior - 2e-5]), zero, np.array([False, True]), 2.0)
+    assert not icp.guess_decides(per_point, np.array([0.0, -1e-4, 0.0]), np.array([False, True]), 2.0)
+
+
+def test_beyond_reach_measures_the_models_centroid_from_where_the_guess_put_it(crate_model, make_pose):
+    guess = make_pose(0.3, 0.0, (0.2, 0.1, 0.0))
+    problem = validate_problem(*crate_model, np.zeros((10, 3)) + np.arange(10)[:, None] * 0.01, guess,
+                               (0.0, 0.0, 1.0), 0.9, None)
+    centroid = crate_model[0].mean(axis=0)
+    turned = make_pose(np.pi + 0.3, 0.0)  # the centroid turned about the vertical through the body origin
+    turned[:3, 3] = _centroid(guess, crate_model[0]) - turned[:3, :3] @ centroid  # ... and put back
+    far = guess.copy()
+    far[:3, 3] += (0.2, 0.2, 0.0)  # 28 cm away
+    assert icp.beyond_reach(np.stack([guess, turned, far]), problem, centroid, 0.25).tolist() == [False, False,
+                                                                                                  True]
+
+
+def test_a_lid_patch_slid_beyond_reach_of_the_guess_keeps_the_priors_pose(crate_model, make_pose, placed):
+    """A patch of the crate's lid fits anywhere on the lid: ICP's result slid 30 cm along it ties with the
+    prior's at the guess, and the guess decides (the prior's pose is kept). Guessed at the slid pose instead,
+    the prior's is the far one and ICP's (polished: on a flat patch the polish slides it a few cm) is kept."""
+    from bim2rdt.registration import sample_model
+    from bim2rdt.sim.meshes import wooden_crate
+
+    points, normals = sample_model(wooden_crate(), 20000, seed=7)
+    patch = points[(normals[:, 2] > 0.9) & (np.abs(points[:, 0]) < 0.12) & (np.abs(points[:, 1]) < 0.12)]
+    patch = patch + np.random.default_rng(5).normal(0.0, 0.001, patch.shape)
+    truth = make_pose(0.3, 0.0, (0.2, 0.1, 0.0))
+    slid = truth.copy()
+    slid[:3, 3] += slid[:3, :3] @ np.array([0.3, 0.0, 0.0])
+    scene = placed(truth, patch)
+    model = ModelIndex.cached(*crate_model)
+    for guess, expected, other in ((truth, truth, slid), (slid, slid, truth)):
+        problem = validate_problem(*crate_model, scene, guess, (0.0, 0.0, 1.0), 0.9, None)
+        kept = keep_data_choice(_result(truth), _result(slid), problem, model, None, IcpConfig())
+        assert np.linalg.norm(_centroid(kept.pose, crate_model[0]) - _centroid(expected, crate_model[0])) < 0.1
+        assert np.linalg.norm(_centroid(kept.pose, crate_model[0]) - _centroid(other, crate_model[0])) > 0.2

@@ -32,21 +32,29 @@ def bench_registration(
                                   help="Also run the scene families F1-F11 (sparse half-occluded single views "
                                        "built outside S1-S4; F10-F11 are sparse yaw-alias views from two "
                                        "generators)."),
+    scenarios: list[str] | None = typer.Option(
+        None, "--scenario", help="Run only this scenario (S1-S4; repeat for more). Default: all four."),
     as_json: bool = typer.Option(False, "--json", help="Print JSON instead of tables."),
 ) -> None:
     """Run S1-S4 with ICP, SG-ICP (priors from the knowledge base), Open3D and small_gicp, then the scene
     families F1-F11; print the tables and targets."""
     from bim2rdt.evaluation.runs import FAMILY_NAMES, run_registration_scenarios, run_record, save_run
     from bim2rdt.config import get_settings, settings_record
+    from bim2rdt.sim.scenarios import SCENARIOS
 
+    chosen = tuple(dict.fromkeys(scenarios)) if scenarios else tuple(SCENARIOS)
+    unknown = [name for name in chosen if name not in SCENARIOS]
+    if unknown:
+        raise typer.BadParameter(f"unknown scenario {', '.join(unknown)}; choose from {', '.join(SCENARIOS)}",
+                                 param_hint="'--scenario'")
     if one_core and hasattr(os, "sched_setaffinity"):
         os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
     use_peers = _open3d_available() if peers is None else peers
     settings = get_settings()
     names = FAMILY_NAMES if families else ()
-    with step_progress((4 + len(names)) * trials, "registration scenarios and families") as tick:
-        run = run_registration_scenarios(out, trials, seed, settings.registration, use_peers, families=names,
-                                         tick=tick)
+    with step_progress((len(chosen) + len(names)) * trials, "registration scenarios and families") as tick:
+        run = run_registration_scenarios(out, trials, seed, settings.registration, use_peers, names=chosen,
+                                         families=names, tick=tick)
     save_run(run, out, settings_record(settings))
     if as_json:
         print_json(run_record(run, settings_record(settings)))

@@ -31,7 +31,12 @@ class IcpConfig(BaseModel):
                     "pose a pallet then slid 1.4 cm and turned 1.3 degrees (median), at 10,000 it stays within 2 mm "
                     "and 0.2 degrees, and S1-S4 ICP RMSE fell 10-40 %. The k-d tree query grows only with log M.")
     max_iterations: int = Field(30, ge=1, le=1000, description="Iteration cap per restart.")
-    max_pair_distance: float = Field(0.25, gt=0.0, description="Pairs farther apart than this are not matched, m.")
+    max_pair_distance: float = Field(
+        0.25, gt=0.0,
+        description="Pairs farther apart than this are not matched, m: the loop presumes the initial guess within "
+                    "this distance of the object. So, under a prior, where the data tie between the prior's result "
+                    "and plain ICP's, a result whose centroid ended farther than this from the guess's loses to one "
+                    "within it (registration.icp.guess_decides).")
     pair_distance_per_delta: float = Field(
         4.0, gt=0.0,
         description="The pair distance shrinks with the annealed Huber scale to this multiple of it (never below "

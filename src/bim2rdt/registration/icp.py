@@ -232,7 +232,8 @@ def keep_data_choice(prior: RegistrationResult, free: RegistrationResult, proble
     gaps between samples) plus the upright penalty. The prior's result is kept only when that objective
     prefers it beyond the data's paired noise and the data do not clearly prefer ICP's (:func:`prior_kept`): a
     prior that knows how an object stands, not which yaw or slide alias a sparse view shows, changes the basin
-    only through the tilt it knows."""
+    only through the tilt it knows. On a tie the initial guess decides when one side left the loop's reach
+    (:func:`guess_decides`)."""
     polished = _polish(free.pose, problem, model, normals_world, cfg)
     pose = polished.poses[0]
     poses = np.stack([prior.pose, pose, free.pose])
@@ -240,11 +241,38 @@ def keep_data_choice(prior: RegistrationResult, free: RegistrationResult, proble
     penalties = upright_penalty(poses, pairs, problem, cfg)
     per_point = surface_terms(model, poses, problem.scene_pts_world, cfg)
     total = prior.total_iterations + free.total_iterations + int(polished.iterations[0])
-    if prior_kept(per_point, penalties, cfg.tie_sigmas):
+    if prior_kept(per_point, penalties, cfg.tie_sigmas) or guess_decides(
+            per_point, penalties, beyond_reach(poses[:2], problem, model.centroid, cfg.max_pair_distance),
+            cfg.tie_sigmas):
         return replace(prior, total_iterations=total)
     return replace(free, pose=pose.copy(), iterations=free.iterations + int(polished.iterations[0]),
                    score=float(scores[1] + penalties[1]),
                    tilt_deg=float(np.rad2deg(tilt_angle(pose[:3, :3], problem.up_world))), total_iterations=total)
+
+
+def guess_decides(per_point: np.ndarray, penalties: np.ndarray, beyond: np.ndarray, sigmas: float) -> bool:
+    """Whether the initial guess keeps the prior's pose where the data tie: from the per-point data terms (3, N)
+    (m^2) and upright penalties (3,) of the prior's pose, ICP's pose polished with the prior and ICP's pose as
+    found (as :func:`prior_kept` takes them), and whether the first two are beyond the loop's reach of the
+    guess (2,) (:func:`beyond_reach`). True when ICP's polished pose is beyond reach and the prior's is not,
+    and neither ICP's polished pose (data plus penalty) nor its pose as found (data) scores lower than the
+    prior's by more than ``sigmas`` standard errors. The loop matches no pair farther than
+    ``max_pair_distance``: it presumes the guess (the BIM's pose, or the last one) within that distance of the
+    object, and a pose that carried the object farther away contradicts the one thing known about where it
+    is, when the view cannot tell the two poses apart."""
+    if not beyond[1] or beyond[0]:
+        return False
+    return not (prior_beats_data(per_point[[1, 0]], sigmas, penalties[[1, 0]])
+                or prior_beats_data(per_point[[2, 0]], sigmas))
+
+
+def beyond_reach(poses: np.ndarray, problem: Problem, centroid_body: np.ndarray, reach: float) -> np.ndarray:
+    """(K,) whether each pose (K, 4, 4) puts the model's centroid farther than ``reach`` (m) from where the
+    initial guess ``problem.T_world_model_init`` puts it."""
+    guess = problem.T_world_model_init
+    start = guess[:3, :3] @ centroid_body + guess[:3, 3]
+    found = np.einsum("kij,j->ki", poses[:, :3, :3], centroid_body) + poses[:, :3, 3]
+    return np.linalg.norm(found - start, axis=1) > reach
 
 
 def surface_terms(model: matching.ModelIndex, poses: np.ndarray, scene_pts_world: np.ndarray, cfg: IcpConfig
