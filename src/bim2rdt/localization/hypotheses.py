@@ -8,7 +8,9 @@ to frame by odometry until one is left (AMCL's global localization does the same
    poses used as odometry, or ICP between frames), levelled to the frame's IMU up when there is one, fixed on
    the new frame by the 4-DoF fix (the global search's quick fix: a wider basin, for the odometry's drift) and
    scored by the whole view's likelihood (:class:`~bim2rdt.localization.view_score.ViewScore`), as
-   :func:`find_pose` scores its candidates. Fixes of one place merge (:func:`same_place`);
+   :func:`find_pose` scores its candidates. Fixes of one place merge (within ``same_place`` m and
+   ``same_place_deg``; never along a direction a view leaves free, as the search's merge does: two hypotheses a
+   wall's length apart stay two while the view shows only that wall);
 3. a hypothesis whose fix is refused is kept only while its view, at the moved pose and with the search's loose
    screen, still scores within noise and ``screen_slack`` of the best fix (as :func:`find_pose` counts a peak it
    left unfixed: a place that might fit is never dropped unseen); one whose score falls below the best by more
@@ -69,19 +71,20 @@ class SweepStep:
 
 class Sweep:
     """Multi-hypothesis localization of a sequence of frames or clouds on one model (see the module's note):
-    :meth:`add` each frame in order with the odometry step from the previous one."""
+    :meth:`add` each frame in order with the odometry step from the previous one.
+
+    Args:
+        model: The BIM, loaded with geometry.
+        config: The global search's settings (its fix, noise and screen); None uses the defaults.
+        storey: The storey (name or GlobalId) a global search looks in; None: every storey.
+        hold: At most this many ambiguous frames are held for the back-fill (the oldest go first).
+        recheck: Search each frame on its own too while two or more places are carried (step 5).
+        refused_before_search: After this many frames in a row where every hypothesis was refused, the next
+            frame is searched globally.
+    """
 
     def __init__(self, model: BimModel, config: GlobalSearchConfig | None = None, storey: str | None = None,
                  hold: int = 8, recheck: bool = True, refused_before_search: int = 2) -> None:
-        """Args:
-            model: The BIM, loaded with geometry.
-            config: The global search's settings (its fix, noise and screen); None uses the defaults.
-            storey: The storey (name or GlobalId) a global search looks in; None: every storey.
-            hold: At most this many ambiguous frames are held for the back-fill (the oldest go first).
-            recheck: Search each frame on its own too while two or more places are carried (step 5).
-            refused_before_search: After this many frames in a row where every hypothesis was refused, the
-                next frame is searched globally.
-        """
         self.model, self.cfg, self.storey, self.recheck = model, config or GlobalSearchConfig(), storey, recheck
         self.scene = OccludedMap.of(model)
         self.places: list[Candidate] = []
