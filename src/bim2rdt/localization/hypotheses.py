@@ -86,10 +86,14 @@ class Sweep:
     def __init__(self, model: BimModel, config: GlobalSearchConfig | None = None, storey: str | None = None,
                  hold: int = 8, recheck: bool = True, refused_before_search: int = 2) -> None:
         self.model, self.cfg, self.storey, self.recheck = model, config or GlobalSearchConfig(), storey, recheck
-        self.scene = OccludedMap.of(model)
         self.places: list[Candidate] = []
         self.held: deque[tuple[int, np.ndarray]] = deque(maxlen=hold)
         self.count, self.refused, self.refused_before_search = 0, 0, refused_before_search
+
+    @property
+    def scene(self) -> OccludedMap:
+        """The model's occluded map (built, or the cached one taken, when first needed)."""
+        return OccludedMap.of(self.model)
 
     @property
     def tracking(self) -> bool:

@@ -174,16 +174,15 @@ class Tracker:
         listed = [c.to_json() for c in result.candidates]
         if result.pose is not None:
             by_number = dict(result.backfill)
-            out = [(h.index, h.frame, h.points, Prior(by_number[h.number], "global", places=1, resolved_at=index)
+            out = [(h.index, h.frame, h.points, Prior(by_number[h.number], "global", h.prior.candidates, places=1,
+                                                      resolved_at=index)
                     if h.number in by_number else h.prior) for h in self.held]
             self.held.clear()
             self.sweep.reset()
             resolved = index if result.resolved_at is not None else None
             return out + [(index, frame, points_sensor, Prior(result.pose, "global", listed, places=len(result.places),
                                                        resolved_at=resolved))]
-        reason = result.reason if result.reason.startswith("global search") else f"global search: {result.reason}" \
-            if not result.reason.startswith("ambiguous") else result.reason
-        refused = Prior(None, "global", listed, reason, places=len(result.places))
+        refused = Prior(None, "global", listed, result.reason, places=len(result.places) or None)
         if not self.sweep.places:
             out = self.flush()
             return out + [(index, frame, points_sensor, refused)]

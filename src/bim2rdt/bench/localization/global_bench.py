@@ -117,23 +117,30 @@ def run_sweep(model: BimModel, frames: list, poses: list[np.ndarray], seed: int,
         T_odom = from_planar(state, to_planar(T_true)[1])  # the robot's odometry pose; its tilt the IMU's
         step = sweep.add(frame, None if previous is None else np.linalg.inv(previous) @ T_odom, up)
         previous = T_odom
-        out.append(_scored(step.pose, step.reason, T_true, step.seconds, step.how, len(step.places)))
+        carried = step.places[0].pose if step.pose is None and len(step.places) == 1 else None
+        out.append(_scored(step.pose, step.reason, T_true, step.seconds, step.how, len(step.places), carried))
         if step.resolved_at is not None:
             out[-1]["resolved_here"] = True
         for held, prior in step.backfill:
             started = time.process_time()
             fixed = refix(frames[held][0], prior, model, frames[held][1], cfg)
             seconds = out[held]["seconds"] + time.process_time() - started
-            out[held] = _scored(fixed.pose if fixed.refined and not fixed.degenerate else None,
-                                fixed.reason or "back-filled fix leaves a direction free", poses[held], seconds,
-                                "backfill", 1)
+            taken = fixed.refined and not fixed.degenerate
+            out[held] = _scored(fixed.pose if taken else None, fixed.reason or "the back-filled fix leaves a "
+                                "direction free", poses[held], seconds, "backfill", 1, None if taken else fixed.pose)
             out[held]["resolved_at"] = index
     return out
 
 
-def _scored(pose: np.ndarray | None, reason: str, T_true: np.ndarray, seconds: float, how: str, places: int) -> dict:
+def _scored(pose: np.ndarray | None, reason: str, T_true: np.ndarray, seconds: float, how: str, places: int,
+            carried: np.ndarray | None = None) -> dict:
+    """A sweep station's entry; a refused one with a single place left (its view leaves a direction free: the
+    odometry carries it) gives that place's error too (``carried_position_m``, ``carried_yaw_deg``), not scored."""
     if pose is None:
-        return {"outcome": "refused", "reason": reason, "how": how, "places": places, "seconds": seconds}
+        entry = {"outcome": "refused", "reason": reason, "how": how, "places": places, "seconds": seconds}
+        if carried is not None:
+            entry["carried_position_m"], entry["carried_yaw_deg"] = _error(carried, T_true)
+        return entry
     position, yaw = _error(pose, T_true)
     right = position <= POSITION_M and abs(yaw) <= YAW_DEG
     return {"outcome": "success" if right else "wrong", "position_m": position, "yaw_deg": yaw, "how": how,
