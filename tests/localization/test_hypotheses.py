@@ -68,3 +68,14 @@ def test_standing_still_resolves_nothing_and_no_pose_is_taken_while_two_places_f
     assert step.pose is None and step.reason.startswith("ambiguous: ")
     assert len(fitting(step.places)) >= 2 and step.how == "carried"
     assert step.backfill == []
+
+
+def test_a_wrong_odometry_step_takes_no_pose(site_model, corner_then_unique):
+    """The places moved 2.5 m and 30 degrees off where the robot went: none fits the new frame, nothing is taken."""
+    frames, poses = corner_then_unique
+    sweep = Sweep(site_model, recheck=False)
+    sweep.add(frames[0], None, up_of(poses[0]))
+    wrong = offset(poses[1], dx=-2.0, dy=1.5, dyaw_deg=30.0)
+    step = sweep.add(frames[1], np.linalg.inv(poses[0]) @ wrong, up_of(poses[1]))
+    assert step.pose is None and step.backfill == [] and step.resolved_at is None
+    assert fitting(step.places) == []  # carried on unconfirmed, none fixed
