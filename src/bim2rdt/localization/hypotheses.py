@@ -17,10 +17,12 @@ to frame by odometry until one is left (AMCL's global localization does the same
    than noise is dropped;
 4. :func:`choose` on what is left: exactly one place, fixing every direction, is taken (fixed again in full);
    while two fit, nothing is. When every hypothesis is refused the sweep searches the frame globally again;
-5. while hypotheses are carried, the new frame is also searched on its own (``recheck``): when its best place
-   scores above every carried one by more than noise, the carried places lost the true one (the first search
-   missed it) and the sweep starts over from the new frame's candidates. A frame found on its own is taken at
-   once, as :func:`find_pose` would.
+5. while two or more hypotheses are carried, the new frame is also searched on its own (``recheck``): a place
+   found alone where a carried one stands resolves them. When the frame's own best place scores above every
+   carried one by more than noise, or is found alone away from them, the carried places and the frame disagree
+   (the first search missed the true place, or this frame's search is fooled: clutter that a wall explains
+   elsewhere): the carried places go on, and none is taken at that frame. The first frame of a sweep, found on
+   its own, is taken at once, as :func:`find_pose` would.
 
 Once one place is taken the sweep tracks it: the next frame's hypothesis is that place moved by the odometry
 (steps 2-4 with one hypothesis). The frames held while the view was ambiguous (at most ``hold``) get their
@@ -150,6 +152,7 @@ class Sweep:
                              "tracked" if was_tracking else "carried")
         self.refused = 0
         fresh: list[Candidate] = []
+        conflict = False
         if self.recheck and len(left) > 1:
             try:
                 fresh = find_pose(data, self.model, up=up, config=self.cfg, storey=self.storey)
@@ -157,11 +160,13 @@ class Sweep:
                 fresh = []
             alone, _ = choose(fresh, self.cfg)
             if alone is not None and any(_near(alone.pose, c.pose, self.cfg) for c in left):
-                left = [replace(alone, extra={**alone.extra, "full": True})]  # found on its own where a carried place stands: the carried places are resolved
-            elif alone is not None or _beaten(left, fresh, self.cfg):
-                return self._restarted(fresh)
+                left = [replace(alone, extra={**alone.extra, "full": True})]  # where a carried place stands
+            else:
+                conflict = alone is not None or _beaten(left, fresh, self.cfg)
         self.places = left
         taken, reason = choose(left, self.cfg)
+        if conflict and taken is not None:
+            taken, reason = None, "the frame alone fits a place the carried ones do not: carried on unconfirmed"
         if taken is not None and not taken.extra.get("full"):
             taken = self._full(data, taken, up)
             if taken is None:
@@ -175,10 +180,9 @@ class Sweep:
         return SweepStep(taken.pose, "", [taken], how, fresh, number if backfill else None, backfill)
 
     def _restarted(self, fresh: list[Candidate]) -> SweepStep:
-        """Start over from the frame's own candidates (found on its own, or the carried places were beaten). A
-        place whose view leaves a direction free is no hypothesis: where along that direction it stands is not
-        known (its fixes along a wall were merged into one), so nothing is carried and the next frame is
-        searched again."""
+        """Start over from the frame's own candidates. A place whose view leaves a direction free is no
+        hypothesis: where along that direction it stands is not known (its fixes along a wall were merged into
+        one), so nothing is carried and the next frame is searched again."""
         self.held.clear()
         taken, reason = choose(fresh, self.cfg)
         places = [taken] if taken is not None else fitting(fresh, self.cfg)
