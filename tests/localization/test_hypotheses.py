@@ -79,3 +79,19 @@ def test_a_wrong_odometry_step_takes_no_pose(site_model, corner_then_unique):
     step = sweep.add(frames[1], np.linalg.inv(poses[0]) @ wrong, up_of(poses[1]))
     assert step.pose is None and step.backfill == [] and step.resolved_at is None
     assert fitting(step.places) == []  # carried on unconfirmed, none fixed
+
+
+def test_a_frame_whose_own_search_disagrees_with_the_carried_places_takes_no_wrong_pose(site_model, built,
+                                                                                       corner_then_unique):
+    """The corner turned 30 degrees to the right: searched alone, that frame's best place is another one (a wall
+    there explains the person standing in view), away from every carried place. The carried places go on; no
+    pose is taken unless it is the true one."""
+    frames, poses = corner_then_unique
+    sweep = Sweep(site_model)
+    sweep.add(frames[0], None, up_of(poses[0]))
+    turned = offset(poses[0], dyaw_deg=-30.0)
+    step = sweep.add(frame(built, turned, 2), np.linalg.inv(poses[0]) @ turned, up_of(turned))
+    if step.pose is not None:
+        position, yaw = errors(step.pose, turned)
+        assert np.linalg.norm(position) < 0.05 and abs(yaw) < 1.0, (position, yaw)
+    assert step.how == "carried" and len(step.places) >= 2
