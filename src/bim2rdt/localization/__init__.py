@@ -26,8 +26,8 @@ from bim2rdt.localization.checkshots import StationCheck, check_shots
 from bim2rdt.localization.planar import between, from_planar, to_planar
 from bim2rdt.localization.station import Turned, localize_station, pinned
 
-__all__ = ["between", "Candidate", "carry", "check_shots", "choose", "depth_points", "find_pose", "from_planar", "fuse_frame",
-           "GlobalSearchConfig", "GRAZING_COS", "icp_odometry", "Localization", "LocalizationConfig",
+__all__ = ["between", "Candidate", "carry", "check_shots", "choose", "depth_points", "find_pose", "from_planar",
+           "fuse_frame", "GlobalSearchConfig", "GRAZING_COS", "icp_odometry", "Localization", "LocalizationConfig",
            "LocalizationError", "localize", "localize_cloud", "localize_station", "OccludedMap", "OdometryNoise",
            "pinned", "PoseFilter", "Refusal", "refix", "scan_points", "ScanPoints", "sphere_directions",
            "StationCheck", "StationFix", "Sweep", "SweepStep", "to_planar", "Turned", "voxel_means"]
