@@ -60,6 +60,12 @@ def test_the_global_section_searches_every_station_with_no_prior_and_runs_fpfh_r
     assert report["summary"]["peer"]["stations"] == len(stations)
     assert report["summary"]["look_around"]["wrong_and_confident_rate"] == 0.0
     assert all(s["look_around"]["seconds"] > 0 for s in stations)
+    sweep = report["summary"]["sweep"]  # the stations in order, on the robot's drifting, unaligned odometry
+    assert sweep["stations"] == len(stations) and sweep["wrong_and_confident_rate"] == 0.0
+    assert stations[0]["sweep"]["outcome"] == "success" and stations[0]["sweep"]["how"] == "backfill"  # the corner
+    assert stations[0]["sweep"]["resolved_at"] == 1 and stations[0]["sweep"]["position_m"] < 0.05
+    assert stations[1]["sweep"]["how"] == "carried" and stations[1]["sweep"]["outcome"] == "success"
+    assert sweep["success_rate"] == 1.0 and all(s["sweep"]["seconds"] > 0 for s in stations)
 
 
 def test_bench_localization_rejects_a_tour_too_short_to_walk(tmp_path):

@@ -140,6 +140,7 @@ def _fails(monkeypatch, capsys, *args) -> str:
     (["--up", "0,0,1", "--prior", "1,-4,1.4,80"], "along the optical axis"),
     (["--prior", "1,-4,1.4,80", "--prior-file", "x.json"], "not both"),
     (["--prior", "1,-4,1.4,80", "--depth-correction", "1,2"], "--depth-correction needs 3"),
+    (["--own-poses", "map"], "--own-poses must be 'world' or 'odometry'"),
 ])
 def test_bad_verify_options_are_one_line_and_exit_1(sensors, tmp_path, monkeypatch, capsys, args, message):
     line = _fails(monkeypatch, capsys, sensors / "pcl" / "office1.ifc", sensors / "pcl" / "office1.pcd",

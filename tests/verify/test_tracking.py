@@ -77,3 +77,44 @@ def test_a_sweep_without_a_prior_is_found_then_tracked_then_found_again_after_tw
             b, _ = to_planar(truth[f.index])
             assert np.linalg.norm(a[:3] - b[:3]) < 0.05 and abs(np.rad2deg(a[3] - b[3])) < 1.0
     assert result.frames[0].candidates and result.frames[0].to_dict()["candidates"][0]["refined"]
+
+
+@pytest.fixture(scope="module")
+def unaligned(site_model):
+    """The tour's corner (ambiguous alone) then the next station, each frame carrying its pose in a robot's odometry
+    frame a random 4-DoF offset from the BIM's, the second 2 % of the leg and 0.6 degree off (drift); and the
+    true poses."""
+    scene = tour_scene(site_model, seed=0)
+    poses = tour_poses(10.0)[:2]
+    rng = np.random.default_rng(32)
+    T_odom_world = from_planar(np.r_[rng.uniform(-50, 50, 2), 0.4, rng.uniform(-np.pi, np.pi)], np.eye(3))
+    state, tilt = to_planar(poses[1])
+    drifted = from_planar(state + np.array([0.1, -0.08, 0.0, np.deg2rad(0.6)]), tilt)
+    own = [T_odom_world @ poses[0], T_odom_world @ drifted]
+    frames = [replace(render_frame(scene.scene, T, np.random.default_rng(k)), T_world_camera=own[k])
+              for k, T in enumerate(poses)]
+    return frames, poses
+
+
+def test_own_poses_as_odometry_find_the_first_frame_on_the_bim_and_carry_its_places_through_the_sweep(
+        site_model, unaligned):
+    frames, truth = unaligned
+    result = verify_frames(frames, site_model, None, FAST, own_poses="odometry")
+    assert [f.index for f in result.frames] == [0, 1]
+    assert [f.prior_source for f in result.frames] == ["global", "global"]
+    assert [f.resolved_at for f in result.frames] == [1, 1] and [f.places for f in result.frames] == [1, 1]
+    for f in result.frames:
+        assert f.accepted, f.reason
+        a, _ = to_planar(f.pose)
+        b, _ = to_planar(truth[f.index])
+        assert np.linalg.norm(a[:3] - b[:3]) < 0.05 and abs(np.rad2deg(a[3] - b[3])) < 1.0
+    entry = result.frames[0].to_dict()
+    assert entry["resolved_at"] == 1 and entry["places"] == 1
+
+
+def test_by_default_own_poses_are_taken_in_the_models_frame_as_before(site_model, unaligned):
+    frames, _ = unaligned
+    result = verify_frames(frames[:1], site_model, None, FAST)
+    [first] = result.frames
+    assert first.prior_source == "source" and np.allclose(first.prior, frames[0].T_world_camera)
+    assert not first.accepted and first.places is None and "places" not in first.to_dict()

@@ -50,6 +50,11 @@ def verify_command(
     max_frames: int | None = typer.Option(None, "--max-frames", min=1, help="Stop after this many frames."),
     storey: str | None = typer.Option(None, "--storey", help="Without a prior, search only this storey (name or "
                                       "GlobalId) for the sensor; default: every storey."),
+    own_poses: str = typer.Option("world", "--own-poses", help="How a recording's own poses (a bag's TF, TUM "
+                                  "ground truth) are read without --prior: 'world' (in the model's frame until a "
+                                  "fix is accepted) or 'odometry' (a robot's map/odom frame never aligned to the "
+                                  "BIM: the first frame is found on the BIM and its places carried through the "
+                                  "sweep by the poses' steps until one is left)."),
     publish: Path | None = typer.Option(None, "--publish", help="Also write the results as a ROS 2 bag (NAME.mcap: "
                                         "the rosbag2 folder NAME/): /tf map->odom from the fixes, /bim2rdt/pose, "
                                         "/bim2rdt/objects, /map, /keepout_filter_mask."),
@@ -76,6 +81,8 @@ def verify_command(
         raise _bad(f"--detector must be 'cluster' or 'none', not {detector!r}")
     if prior is not None and prior_file is not None:
         raise _bad("give --prior or --prior-file, not both")
+    if own_poses not in ("world", "odometry"):
+        raise _bad(f"--own-poses must be 'world' or 'odometry', not {own_poses!r}")
     up_sensor = _numbers(up, 3, "--up") if up else None
     T_prior = None  # read before the model: a bad prior is refused in a second, not after a long load
     if prior is not None:
@@ -107,7 +114,7 @@ def verify_command(
         with output, _progress(recording.expected_frames, as_json) as tick:
             structure = StructureRun(model, output.folder, settings.structure)
             result = verify_frames(frames, model, T_prior, config, progress=lambda frame: tick("frame"),
-                                   look=structure.look, storey=storey)
+                                   look=structure.look, storey=storey, own_poses=own_poses)
             judged = structure.finish()
             with record_twin(result, model, output.folder, settings.twin) as twin:
                 counts = verdict_counts(twin.state())  # the objects' verdicts; the structure's are counted apart
@@ -117,7 +124,8 @@ def verify_command(
                 _record_run(output.folder, settings, {
                     "ifc": str(ifc_file.resolve()), "source": str(source.resolve()),
                     "prior": None if T_prior is None else T_prior.tolist(), "detector": detector, "every": every,
-                    "max_frames": max_frames, "depth_scale": depth_scale, "depth_correction": correction})
+                    "max_frames": max_frames, "depth_scale": depth_scale, "depth_correction": correction,
+                    "own_poses": own_poses})
                 states = twin.state()
                 if publish is not None:
                     published = _publish(publish, result, states, model, output.folder)

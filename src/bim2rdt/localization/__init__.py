@@ -7,7 +7,8 @@ core (:mod:`.core`); ``PoseFilter`` fuses odometry between stations with those f
 permanent surface with its other bodies as occluders (build it once per model and pass it on), ``scan_points``
 thins a cloud as the fix uses it, ``depth_points`` turns a frame's depth into camera-frame points;
 ``find_pose(data, model)`` finds the sensor on the BIM without a prior (candidates, and ``choose`` says whether one
-is to be taken or the view is ambiguous)."""
+is to be taken or the view is ambiguous); ``Sweep`` carries an ambiguous view's places through a sequence by
+odometry until one is left (``carry`` one step, ``refix`` a held frame from its back-filled pose)."""
 
 from bim2rdt.localization.config import LocalizationConfig
 from bim2rdt.localization.errors import LocalizationError, Refusal
@@ -20,12 +21,13 @@ from bim2rdt.localization.odometry import icp_odometry
 from bim2rdt.localization.fix import Localization, localize
 from bim2rdt.localization.global_config import GlobalSearchConfig
 from bim2rdt.localization.global_search import Candidate, choose, find_pose
+from bim2rdt.localization.hypotheses import Sweep, SweepStep, carry, refix
 from bim2rdt.localization.checkshots import StationCheck, check_shots
 from bim2rdt.localization.planar import between, from_planar, to_planar
 from bim2rdt.localization.station import Turned, localize_station, pinned
 
-__all__ = ["between", "Candidate", "check_shots", "choose", "depth_points", "find_pose", "from_planar", "fuse_frame",
-           "GlobalSearchConfig", "GRAZING_COS", "icp_odometry", "Localization", "LocalizationConfig",
+__all__ = ["between", "Candidate", "carry", "check_shots", "choose", "depth_points", "find_pose", "from_planar",
+           "fuse_frame", "GlobalSearchConfig", "GRAZING_COS", "icp_odometry", "Localization", "LocalizationConfig",
            "LocalizationError", "localize", "localize_cloud", "localize_station", "OccludedMap", "OdometryNoise",
-           "pinned", "PoseFilter", "Refusal", "scan_points", "ScanPoints", "sphere_directions", "StationCheck",
-           "StationFix", "to_planar", "Turned", "voxel_means"]
+           "pinned", "PoseFilter", "Refusal", "refix", "scan_points", "ScanPoints", "sphere_directions",
+           "StationCheck", "StationFix", "Sweep", "SweepStep", "to_planar", "Turned", "voxel_means"]

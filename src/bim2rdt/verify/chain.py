@@ -41,7 +41,7 @@ from bim2rdt.verify.transient import RECENT_FRAMES, TransientConfig, mark_transi
 from bim2rdt.verify.rays import RangeLookup
 from bim2rdt.verify import shift_search
 from bim2rdt.verify.timing import stage
-from bim2rdt.verify.tracking import Tracker
+from bim2rdt.verify.tracking import OWN_POSES, Tracker
 
 
 REAL_SENSOR = {"inlier_distance": 0.05, "huber_delta": 0.025, "min_inlier_fraction": 0.3}
@@ -153,6 +153,11 @@ class FrameResult:
     """Where the prior came from: ``global``, ``tracked``, ``source`` or ``user`` (:mod:`.tracking`)."""
     candidates: list[dict] = field(default_factory=list)
     """The global search's candidates (JSON), when it ran for this frame."""
+    places: int | None = None
+    """How many places fit when the global search's places were carried to this frame (1: resolved), or None."""
+    resolved_at: int | None = None
+    """The frame index at which the carried places came down to one (this frame, or a later one for a frame held
+    while ambiguous and verified from the resolved pose carried back), or None."""
 
     def to_dict(self) -> dict:
         """The frame's entry in localization.json.
@@ -176,6 +181,10 @@ class FrameResult:
                  "seconds": round(self.seconds, 3), "prior_source": self.prior_source}
         if self.candidates:
             entry["candidates"] = self.candidates
+        if self.places is not None:
+            entry["places"] = self.places
+        if self.resolved_at is not None:
+            entry["resolved_at"] = self.resolved_at
         if not self.accepted:
             entry["reason"], entry["refusal"] = self.reason, self.refusal
         return entry
@@ -258,8 +267,8 @@ def verify_frames(frames: Iterable, model: BimModel, prior: np.ndarray | None = 
                   config: VerifyConfig = VerifyConfig(),
                   progress: Callable[[FrameResult], None] | None = None,
                   priors: Mapping[str, UprightPrior] | None = None,
-                  look: Callable[[object, FrameResult, np.ndarray], None] | None = None, storey: str | None = None
-                  ) -> VerifyResult:
+                  look: Callable[[object, FrameResult, np.ndarray], None] | None = None, storey: str | None = None,
+                  own_poses: str = "world") -> VerifyResult:
     """Each frame of ``frames`` localized on ``model`` and checked (see the module's note). An item is a
     :class:`Frame` or a scan (anything with ``.points`` (N, 3) in the sensor frame, and ``.path``: a
     ``sources.Cloud``). Each item's prior:
@@ -274,8 +283,13 @@ def verify_frames(frames: Iterable, model: BimModel, prior: np.ndarray | None = 
       the fix is what map -> odom should be);
     - without ``prior`` or poses: the BIM is searched globally (:func:`~bim2rdt.localization.find_pose`) for
       the first frame, each scan, and a frame after two refused fixes in a row; the frames in between are
-      tracked. An ambiguous view is refused ("ambiguous: N places fit") with every candidate listed.
-      Each result's ``prior_source`` says which (:mod:`.tracking`).
+      tracked. An ambiguous view's places are carried through the next frames by their odometry (ICP between
+      frames) until one is left; the frames seen meanwhile (at most eight) are then verified from the resolved
+      pose carried back (``places``, ``resolved_at``). A view still ambiguous is refused ("ambiguous: N places
+      fit") with every candidate listed. Each result's ``prior_source`` says which (:mod:`.tracking`);
+    - with ``own_poses="odometry"`` and no ``prior``: the frames' own poses are in a frame never aligned to the
+      model (a robot's ``map`` or ``odom``): they are only odometry, the first frame is searched globally and
+      its places carried through the sweep by the own poses' steps, as above.
 
     What a :class:`~bim2rdt.sources.Recording` dropped (``{"time", "reason", "kind"}``, read after iterating) and
     its warnings about the recording are carried into the result (a plain iterable drops nothing).
@@ -292,13 +306,18 @@ def verify_frames(frames: Iterable, model: BimModel, prior: np.ndarray | None = 
         look: Called with each frame (or scan), its result and its :func:`sensor_points` while the frame is at
             hand (the structure judge and the deviation maps, :mod:`.structure_run`).
         storey: The storey (name or GlobalId) a global search looks in; None searches every storey.
+        own_poses: ``"world"``: the frames' own poses are in the model's frame until a fix is accepted;
+            ``"odometry"``: they are odometry only (see above).
 
     Returns:
         Every frame's result in source order, with what the source dropped and warned about.
 
     Raises:
-        VerifyError: The source holds no frames, or the model has nothing to localize on.
+        VerifyError: The source holds no frames, the model has nothing to localize on, or ``own_poses`` is
+            neither "world" nor "odometry".
     """
+    if own_poses not in OWN_POSES:
+        raise VerifyError(f"own poses must be one of {', '.join(OWN_POSES)}, not {own_poses!r}")
     try:
         with stage("setup"):
             scene = OccludedMap.of(model)
@@ -312,14 +331,15 @@ def verify_frames(frames: Iterable, model: BimModel, prior: np.ndarray | None = 
     anchor_covariance = None  # the located covariance of the fix the anchor is (None: the user's prior)
     recent: deque = deque(maxlen=RECENT_FRAMES)  # the frames a cluster is tested for motion against
     recording = as_recording(frames)
-    tracker = Tracker(model, prior, GlobalSearchConfig(fix=config.localization), storey)
-    for index, frame in enumerate(recording):
+    tracker = Tracker(model, prior, GlobalSearchConfig(fix=config.localization), storey, own_poses)
+
+    def verified(index: int, frame, points_sensor: np.ndarray, guess) -> None:
+        nonlocal anchor, anchor_covariance
         own = frame.T_world_camera if isinstance(frame, Frame) else None
-        points_sensor = sensor_points(frame)  # once per frame: the tracker's odometry and the fix share them
-        guess = tracker.prior(frame, points_sensor)
         result = verify_frame(index, frame, model, scene, guess.pose, config, priors, points_sensor)
         result.recorded = own
         result.prior_source, result.candidates = guess.source, guess.candidates
+        result.places, result.resolved_at = guess.places, guess.resolved_at
         if guess.pose is None and guess.reason:
             result.reason = guess.reason
         tracker.update(guess, result.pose, result.accepted)
@@ -339,6 +359,13 @@ def verify_frames(frames: Iterable, model: BimModel, prior: np.ndarray | None = 
             look(frame, result, points_sensor)
         if progress is not None:
             progress(result)
+
+    for frame in recording:
+        points_sensor = sensor_points(frame)  # once per frame: the tracker's odometry and the fix share them
+        for ready in tracker.push(frame, points_sensor):
+            verified(*ready)
+    for ready in tracker.flush():
+        verified(*ready)
     dropped = list(recording.dropped)
     if not results:
         reasons = "; ".join(f"{n} {k}" for k, n in Counter(d["reason"] for d in dropped).most_common(3))

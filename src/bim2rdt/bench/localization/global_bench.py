@@ -8,6 +8,14 @@ confident" when a pose is taken outside that; otherwise the view was refused (am
 The peer takes whatever RANSAC returns, so each of its answers is confident. Truth is read here only to render
 frames and score; the search sees the depth frame (its pose stripped) and, on the tour, the IMU's up. Times are
 CPU seconds per search (one core when pinned).
+
+The sweep (``sweep`` in the record): the same frames in the tour's order, no prior, given to
+:class:`~bim2rdt.localization.hypotheses.Sweep` with the robot's odometry between stations (the simulator's legged
+odometry, :class:`~bim2rdt.sim.odometry.SimulatedOdometry`: 2 % of the distance in a seeded direction, 1 degree of
+heading per 10 m, noise) integrated in an odometry frame a random 4-DoF offset away from the BIM's (never aligned
+to it): the library sees only the steps between consecutive odometry poses and each frame's IMU up. A station is
+scored on the pose taken at its frame, or the one back-filled when a later frame resolved the ambiguity (fixed
+from the resolved pose carried back through the odometry chain); its time is its step's, plus its back-fill's.
 """
 
 from __future__ import annotations
@@ -20,10 +28,11 @@ from pathlib import Path
 import numpy as np
 
 from bim2rdt.bim import BimModel, load_ifc
-from bim2rdt.localization import GlobalSearchConfig, LocalizationError, choose, find_pose
+from bim2rdt.localization import GlobalSearchConfig, LocalizationError, Sweep, choose, find_pose, refix
 from bim2rdt.localization.depth import depth_points
-from bim2rdt.localization.planar import to_planar, wrap
+from bim2rdt.localization.planar import compose, from_planar, to_planar, wrap
 from bim2rdt.localization.surfaces import permanent_map
+from bim2rdt.sim.odometry import SimulatedOdometry
 from bim2rdt.sim.site import build_site_ifc
 from bim2rdt.sim.tour import render_frame, tour_poses, tour_scene
 
@@ -35,12 +44,13 @@ PEER_VOXEL = 0.1
 
 def run_global(out_dir: Path, seed: int = 0, distance: float = 100.0, config: GlobalSearchConfig | None = None,
                peer: bool = True, sensors: Path | None = None, tick=lambda: None, tour: bool = True,
-               look_around: bool = True) -> dict:
+               look_around: bool = True, sweep: bool = True) -> dict:
     """The tour's stations (unless not ``tour``) and office1 (when ``sensors`` holds it) searched without a
     prior, and the peer on the same frames (JSON-able); with ``look_around``, each station also as the robot
-    sees it turning 70 degrees either way (three frames as one cloud, placed by its odometry and IMU)."""
+    sees it turning 70 degrees either way (three frames as one cloud, placed by its odometry and IMU); with
+    ``sweep``, the stations in order as one sweep on the robot's unaligned, drifting odometry (``sweep``)."""
     cfg = config or GlobalSearchConfig()
-    stations = _tour_stations(Path(out_dir), seed, distance, cfg, peer, tick, look_around) if tour else []
+    stations = _tour_stations(Path(out_dir), seed, distance, cfg, peer, tick, look_around, sweep) if tour else []
     record = {"tolerance": {"position_m": POSITION_M, "yaw_deg": YAW_DEG}, "stations": stations,
               "summary": _summary(stations, peer)}
     if sensors is not None and (sensors / "pcl" / "office1.pcd").is_file():
@@ -49,17 +59,20 @@ def run_global(out_dir: Path, seed: int = 0, distance: float = 100.0, config: Gl
 
 
 def _tour_stations(out_dir: Path, seed: int, distance: float, cfg: GlobalSearchConfig, peer: bool, tick,
-                   look_around: bool) -> list[dict]:
+                   look_around: bool, sweep: bool = False) -> list[dict]:
     """Each station of a ``distance`` m tour of the embedded site (built in ``out_dir``) searched without a prior,
-    by ours and (with ``peer``) by FPFH + RANSAC on the same frame."""
+    by ours and (with ``peer``) by FPFH + RANSAC on the same frame; with ``sweep``, then all of them as one
+    sweep (each station's ``sweep`` entry)."""
     model = load_ifc(build_site_ifc(out_dir / "site.ifc"), cache_dir=out_dir / "cache")
     scene = tour_scene(model, seed=seed).scene
     rng = np.random.default_rng(seed)
     ransac = _FpfhRansac(model, seed) if peer else None
-    stations = []
-    for index, T_true in enumerate(tour_poses(distance)):
+    stations, frames = [], []
+    poses = tour_poses(distance)
+    for index, T_true in enumerate(poses):
         frame = replace(render_frame(scene, T_true, rng), T_world_camera=None)
         up = T_true[:3, :3].T @ np.array([0.0, 0.0, 1.0])  # the IMU's up, in the camera frame
+        frames.append((frame, up))
         entry = {"index": index, **_ours(frame, model, up, cfg, T_true, YAW_DEG)}
         if look_around:
             entry["look_around"] = _ours(_looked_around(scene, T_true, seed + index), model, up, cfg, T_true,
@@ -68,7 +81,70 @@ def _tour_stations(out_dir: Path, seed: int, distance: float, cfg: GlobalSearchC
             entry["peer"] = ransac.score(frame, T_true, YAW_DEG)
         stations.append(entry)
         tick()
+    if sweep:
+        for entry, outcome in zip(stations, run_sweep(model, frames, poses, seed, cfg)):
+            entry["sweep"] = outcome
     return stations
+
+
+ODOMETRY_OFFSET_M = 50.0
+"""The sweep's odometry frame stands up to this far from the BIM's (x and y each, uniform), at any heading."""
+
+
+def run_sweep(model: BimModel, frames: list, poses: list[np.ndarray], seed: int,
+              cfg: GlobalSearchConfig | None = None) -> list[dict]:
+    """The tour's frames in order as one sweep with no prior (see the module's note): each station's outcome.
+
+    Args:
+        model: The site's BIM.
+        frames: (frame without its pose, the IMU's up in the camera frame) per station, in order.
+        poses: The stations' true T_world_camera (to drive the simulated odometry and to score).
+        seed: Seeds the odometry's drift and the odometry frame's offset.
+        cfg: The search's settings.
+
+    Returns:
+        Per station: outcome, errors, how the pose was found, the places left, seconds.
+    """
+    cfg = cfg or GlobalSearchConfig()
+    rng = np.random.default_rng(seed + 7919)
+    odometry = SimulatedOdometry(seed + 1)
+    state = np.r_[rng.uniform(-ODOMETRY_OFFSET_M, ODOMETRY_OFFSET_M, 2), rng.uniform(-1, 1), rng.uniform(-np.pi, np.pi)]
+    sweep, previous, out = Sweep(model, cfg), None, []
+    for index, ((frame, up), T_true) in enumerate(zip(frames, poses)):
+        if index:
+            reading = odometry.leg(np.stack([to_planar(poses[index - 1])[0], to_planar(T_true)[0]]))
+            state = compose(state, reading.increment)
+        T_odom = from_planar(state, to_planar(T_true)[1])  # the robot's odometry pose; its tilt the IMU's
+        step = sweep.add(frame, None if previous is None else np.linalg.inv(previous) @ T_odom, up)
+        previous = T_odom
+        carried = step.places[0].pose if step.pose is None and len(step.places) == 1 else None
+        out.append(_scored(step.pose, step.reason, T_true, step.seconds, step.how, len(step.places), carried))
+        if step.resolved_at is not None:
+            out[-1]["resolved_here"] = True
+        for held, prior in step.backfill:
+            started = time.process_time()
+            fixed = refix(frames[held][0], prior, model, frames[held][1], cfg)
+            seconds = out[held]["seconds"] + time.process_time() - started
+            taken = fixed.refined and not fixed.degenerate
+            out[held] = _scored(fixed.pose if taken else None, fixed.reason or "the back-filled fix leaves a "
+                                "direction free", poses[held], seconds, "backfill", 1, None if taken else fixed.pose)
+            out[held]["resolved_at"] = index
+    return out
+
+
+def _scored(pose: np.ndarray | None, reason: str, T_true: np.ndarray, seconds: float, how: str, places: int,
+            carried: np.ndarray | None = None) -> dict:
+    """A sweep station's entry; a refused one with a single place left (its view leaves a direction free: the
+    odometry carries it) gives that place's error too (``carried_position_m``, ``carried_yaw_deg``), not scored."""
+    if pose is None:
+        entry = {"outcome": "refused", "reason": reason, "how": how, "places": places, "seconds": seconds}
+        if carried is not None:
+            entry["carried_position_m"], entry["carried_yaw_deg"] = _error(carried, T_true)
+        return entry
+    position, yaw = _error(pose, T_true)
+    right = position <= POSITION_M and abs(yaw) <= YAW_DEG
+    return {"outcome": "success" if right else "wrong", "position_m": position, "yaw_deg": yaw, "how": how,
+            "places": places, "seconds": seconds}
 
 
 def _ours(frame, model: BimModel, up, cfg: GlobalSearchConfig, T_true: np.ndarray, yaw_tol: float) -> dict:
@@ -135,6 +211,8 @@ def _summary(stations: list[dict], peer: bool) -> dict:
     summary = {"ours": rates(stations)}
     if stations and "look_around" in stations[0]:
         summary["look_around"] = rates([s["look_around"] for s in stations])
+    if stations and "sweep" in stations[0]:
+        summary["sweep"] = rates([s["sweep"] for s in stations])
     if peer:
         summary["peer"] = rates([s["peer"] for s in stations])
     return summary
