@@ -1,10 +1,14 @@
-"""A settled monitor process: the objects it built before its first message are out of the collector's passes."""
+"""A settled monitor process: the objects it built before its first message, and its streams as they double, are out
+of the collector's passes."""
 
 from __future__ import annotations
 
 import gc
 
+from bim2rdt.bus import AccelBatch
 from bim2rdt.safety.heap import settle
+
+from hav_helpers import plan_batches
 
 
 def test_settle_takes_what_exists_out_of_full_collections():
@@ -18,4 +22,33 @@ def test_settle_takes_what_exists_out_of_full_collections():
         assert all(id(o) in walked for o in made_after)
     finally:
         gc.unfreeze()
-    assert all(id(o) in {id(p) for p in gc.get_objects()} for o in built[:10])  # unfrozen, walked again
+    walked = {id(o) for o in gc.get_objects()}
+    assert all(id(o) in walked for o in built[:10])  # unfrozen, walked again
+
+
+def _walked(*objects) -> bool:
+    """Whether the collector's passes still walk every one of ``objects`` (none is frozen)."""
+    walked = {id(o) for o in gc.get_objects()}
+    return all(id(o) in walked for o in objects)
+
+
+def test_a_monitor_settles_as_its_streams_double_and_gives_the_heap_back_when_it_closes(make_monitor):
+    monitor, _ = make_monitor()
+    batch = plan_batches("w0", [("idle", 0.5)])[0]
+    streams = monitor._engine.streams
+    settled = []
+    for k in range(5):  # the 1st, 2nd and 4th stream settle; the 3rd and the 5th do not
+        monitor.ingest(AccelBatch(f"w{k}", 0, batch.device_time, batch.fs, batch.xyz))
+        settled.append(not _walked(streams[f"w{k}"]))
+    assert settled == [True, True, False, True, False]
+    assert not _walked(streams["w2"])  # the 4th stream's settle took the 3rd's too
+    monitor.close()
+    assert _walked(streams["w0"], streams["w3"])  # closing gave the frozen objects back
+
+
+def test_a_monitor_configured_not_to_settle_leaves_the_collector_alone(make_monitor):
+    monitor, _ = make_monitor(settle_heap=False)
+    batch = plan_batches("w0", [("idle", 0.5)])[0]
+    frozen = gc.get_freeze_count()
+    monitor.ingest(batch)
+    assert gc.get_freeze_count() == frozen and _walked(monitor._engine.streams["w0"])

@@ -1,9 +1,12 @@
-"""The monitor process's heap, settled once it is built, so the cyclic garbage collector's full passes stay short.
+"""The monitor process's heap, settled once it is built and again as its streams grow, so the cyclic garbage
+collector's full passes stay short.
 
-A monitor process holds many long-lived objects once its imports (numpy, scipy, SQLAlchemy, pydantic, nats-py)
-and its restored state are in, and every full collection walks them all while no message is committed (decision
-0028). :func:`settle` moves them to the collector's permanent generation: later full passes walk only what the
-process made since.
+A monitor process holds many long-lived objects once its imports (numpy, scipy, numba, SQLAlchemy, pydantic,
+nats-py) and its streams are in, and every full collection walks them all while no message is committed: 60-180
+ms on the NATS path (decision 0028), 115-145 ms every four or five rounds of ``bench hav``'s 2000 streams (decision
+0051). :func:`settle` moves them to the collector's permanent generation: later full passes walk only what the
+process made since. :class:`HeapSettler` does it for a monitor as its streams first appear and each time they have
+doubled, so a fleet that comes online after the process started is settled too.
 """
 
 from __future__ import annotations
@@ -20,3 +23,42 @@ def settle() -> int:
     gc.collect()
     gc.freeze()
     return gc.get_freeze_count()
+
+
+class HeapSettler:
+    """Settles the heap (:func:`settle`) when a monitor's streams reach 1, 2, 4, 8, ...: a fleet of N devices costs
+    about log2(N) settles, each a full pass over what was made since the one before.
+
+    The collector's permanent generation is the process's: a frozen object that later becomes part of unreachable
+    garbage is not collected while it stays frozen, so :meth:`release` (when the monitor closes) gives every frozen
+    object back to the collector.
+
+    Args:
+        enabled: False leaves the collector alone (an application that manages it itself).
+    """
+
+    def __init__(self, enabled: bool = True):
+        self.enabled = enabled
+        self.settled_at = 0
+        """The monitor's streams at its last settle (0: not settled)."""
+
+    def grown(self, streams: int) -> bool:
+        """Settle if the monitor's streams have doubled since the last settle (the first time: at its first stream).
+
+        Args:
+            streams: How many streams the monitor holds now.
+
+        Returns:
+            Whether it settled.
+        """
+        if not self.enabled or streams < max(1, 2 * self.settled_at):
+            return False
+        settle()
+        self.settled_at = streams
+        return True
+
+    def release(self) -> None:
+        """Give the frozen objects back to the collector, if this settler froze any (the monitor is closing)."""
+        if self.settled_at:
+            gc.unfreeze()
+            self.settled_at = 0
