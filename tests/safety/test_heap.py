@@ -5,8 +5,11 @@ from __future__ import annotations
 
 import gc
 
+import pytest
+
 from bim2rdt.bus import AccelBatch
-from bim2rdt.safety.heap import settle
+from bim2rdt.safety import CallbackSink
+from bim2rdt.safety.heap import settle, young_passes_after
 
 from hav_helpers import plan_batches
 
@@ -52,3 +55,38 @@ def test_a_monitor_configured_not_to_settle_leaves_the_collector_alone(make_moni
     frozen = gc.get_freeze_count()
     monitor.ingest(batch)
     assert gc.get_freeze_count() == frozen and _walked(monitor._engine.streams["w0"])
+
+
+def test_young_passes_wait_for_the_end_of_the_block_and_the_collector_is_on_again_after():
+    passes = []
+
+    def note(phase, info):
+        if phase == "start":
+            passes.append((info["generation"], gc.isenabled()))
+
+    gc.callbacks.append(note)
+    try:
+        with young_passes_after():
+            assert not gc.isenabled()
+            made = [[k] for k in range(5 * gc.get_threshold()[0])]  # enough for several young passes
+            assert passes == []
+        assert gc.isenabled() and passes[:1] == [(0, True)]  # the one pass the block held, at its end
+        assert gc.get_count()[0] < gc.get_threshold()[0] and len(made) > 0
+        with pytest.raises(RuntimeError), young_passes_after():
+            raise RuntimeError("a round that fails")
+        assert gc.isenabled()
+        gc.disable()  # an application that keeps the collector off: left as it is
+        with young_passes_after():
+            pass
+        assert not gc.isenabled()
+    finally:
+        gc.enable()
+        gc.callbacks.remove(note)
+
+
+def test_a_monitor_ingests_with_the_collector_held_and_on_again_after(make_monitor):
+    monitor, _ = make_monitor()
+    seen = []
+    monitor.sinks.append(CallbackSink(lambda event: seen.append(gc.isenabled())))
+    monitor.ingest_many(plan_batches("w0", [("hammer_drill", 2.0)]))  # starts an activity: events in the commit
+    assert seen and not any(seen) and gc.isenabled()

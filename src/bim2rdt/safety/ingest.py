@@ -204,7 +204,7 @@ class MonitorIngest:
             if not batch.duration_s <= MAX_BATCH_S:
                 raise HavError(f"batch {batch.seq} of {batch.device} holds {batch.duration_s:g} s of samples: at "
                                f"most {MAX_BATCH_S:g} s")
-        with self._lock:
+        with self._lock, self._heap.round():  # the collector's young passes after the round, not in it
             now = self.clock() if now is None else now
             outcome = self._push(batches, summaries, now)
             try:
