@@ -9,7 +9,7 @@ import pytest
 
 from bim2rdt.bus import AccelBatch
 from bim2rdt.safety import CallbackSink
-from bim2rdt.safety.heap import settle, young_passes_after
+from bim2rdt.safety.heap import SETTLE_FROM_STREAMS, HeapSettler, settle, young_passes_after
 
 from hav_helpers import plan_batches
 
@@ -37,6 +37,7 @@ def _walked(*objects) -> bool:
 
 def test_a_monitor_settles_as_its_streams_double_and_gives_the_heap_back_when_it_closes(make_monitor):
     monitor, _ = make_monitor()
+    monitor._heap = HeapSettler(first=1)  # from its first stream on, so a few streams show the doubling
     batch = plan_batches("w0", [("idle", 0.5)])[0]
     streams = monitor._engine.streams
     settled = []
@@ -49,10 +50,22 @@ def test_a_monitor_settles_as_its_streams_double_and_gives_the_heap_back_when_it
     assert _walked(streams["w0"], streams["w3"])  # closing gave the frozen objects back
 
 
+def test_a_monitor_settles_first_at_a_fleet_not_at_its_first_streams():
+    settler, frozen = HeapSettler(), gc.get_freeze_count()
+    try:
+        assert not settler.grown(SETTLE_FROM_STREAMS - 1) and gc.get_freeze_count() == frozen
+        assert settler.grown(SETTLE_FROM_STREAMS) and gc.get_freeze_count() > frozen
+        assert not settler.grown(2 * SETTLE_FROM_STREAMS - 1) and settler.grown(2 * SETTLE_FROM_STREAMS)
+    finally:
+        settler.release()
+    assert gc.get_freeze_count() == 0
+
+
 def test_a_monitor_configured_not_to_settle_leaves_the_collector_alone(make_monitor):
     monitor, _ = make_monitor(settle_heap=False)
     batch = plan_batches("w0", [("idle", 0.5)])[0]
     frozen = gc.get_freeze_count()
+    monitor._heap.first = 1  # it would settle at its first stream, were it on
     monitor.ingest(batch)
     assert gc.get_freeze_count() == frozen and _walked(monitor._engine.streams["w0"])
 

@@ -5,8 +5,8 @@ A monitor process holds many long-lived objects once its imports (numpy, scipy, 
 nats-py) and its streams are in, and every full collection walks them all while no message is committed: 60-180
 ms on the NATS path (decision 0028), 115-145 ms every four or five rounds of ``bench hav``'s 2000 streams (decision
 0051). :func:`settle` moves them to the collector's permanent generation: later full passes walk only what the
-process made since. :class:`HeapSettler` does it for a monitor as its streams first appear and each time they have
-doubled, so a fleet that comes online after the process started is settled too. :func:`young_passes_after`
+process made since. :class:`HeapSettler` does it for a monitor once its fleet is large (``SETTLE_FROM_STREAMS``)
+and each time it has doubled, so a fleet that comes online after the process started is settled too. :func:`young_passes_after`
 holds the collector's young passes to the end of a round of ingest: the round's own temporaries (pieces, blocks,
 rows) are gone by then, so the one pass walks only what survives.
 """
@@ -29,9 +29,16 @@ def settle() -> int:
     return gc.get_freeze_count()
 
 
+SETTLE_FROM_STREAMS = 64
+"""A monitor settles its heap first when it holds this many streams. A smaller fleet's objects are few beside the
+imports' (which ``hav listen`` settles when it starts), and a process that builds many small monitors (a test
+suite) would pay a full pass over everything for each, as each one's close gives the frozen objects back."""
+
+
 class HeapSettler:
-    """Settles the heap (:func:`settle`) when a monitor's streams reach 1, 2, 4, 8, ...: a fleet of N devices costs
-    about log2(N) settles, each a full pass over what was made since the one before.
+    """Settles the heap (:func:`settle`) when a monitor's streams reach ``first``, then twice as many as at the last
+    settle: a fleet of N devices costs about log2(N / first) settles, each a full pass over what was made since
+    the one before.
 
     The collector's permanent generation is the process's: a frozen object that later becomes part of unreachable
     garbage is not collected while it stays frozen, so :meth:`release` (when the monitor closes) gives every frozen
@@ -39,15 +46,16 @@ class HeapSettler:
 
     Args:
         enabled: False leaves the collector alone (an application that manages it itself).
+        first: The streams at the first settle.
     """
 
-    def __init__(self, enabled: bool = True):
-        self.enabled = enabled
+    def __init__(self, enabled: bool = True, first: int = SETTLE_FROM_STREAMS):
+        self.enabled, self.first = enabled, max(1, first)
         self.settled_at = 0
         """The monitor's streams at its last settle (0: not settled)."""
 
     def grown(self, streams: int) -> bool:
-        """Settle if the monitor's streams have doubled since the last settle (the first time: at its first stream).
+        """Settle if the monitor's streams have doubled since the last settle (the first time: at ``first``).
 
         Args:
             streams: How many streams the monitor holds now.
@@ -55,7 +63,7 @@ class HeapSettler:
         Returns:
             Whether it settled.
         """
-        if not self.enabled or streams < max(1, 2 * self.settled_at):
+        if not self.enabled or streams < max(self.first, 2 * self.settled_at):
             return False
         settle()
         self.settled_at = streams
