@@ -89,6 +89,11 @@ class MonitorConfig(BaseModel):
     max_message_bytes: int = Field(MAX_MESSAGE_BYTES, ge=4096, le=2**20, description="Largest wearable message, "
                                    "bytes: the monitor dead-letters a longer one before decoding it, and the NATS "
                                    "stream refuses to store it (decision 0037).")
+    settle_heap: bool = Field(True, description="Take the monitor's long-lived objects out of the cyclic garbage "
+                              "collector's full passes (gc.freeze) at its 64th stream and each time its streams have "
+                              "doubled, closing it gives them back, and hold the collector's young passes to the end "
+                              "of each ingest (decision 0051). The collector is the process's: false where the "
+                              "application manages it itself.")
 
     @model_validator(mode="after")
     def _stop_not_above_start(self) -> MonitorConfig:

@@ -149,8 +149,9 @@ class ExposureEngine:
         return stream.placed(stream.buffer.end_time) if stream.buffer.end_time is not None else self.clock()
 
     # --- order, gaps and clock -----------------------------------------------------------------------------
-    def _note_push(self, stream: Stream, batch: AccelBatch, result: PushResult) -> list[Event]:
-        stream.count("batches")
+    def _note_push(self, stream: Stream, batch: AccelBatch, result: PushResult) -> list[Event] | tuple[()]:
+        counters = stream.counters  # stream.count("batches"), written out: this runs for every batch
+        counters["batches"] = counters.get("batches", 0) + 1
         if result.duplicates:
             stream.count("duplicates", result.duplicates)
             self.count("duplicates", result.duplicates)
@@ -164,7 +165,7 @@ class ExposureEngine:
             stream.clock = DeviceClock()
         if result.duplicates == result.late == 0:
             stream.clock.observe(batch.received_time, batch.device_time + batch.duration_s)
-        return self._note_gaps(stream, result) if result.gaps else []
+        return self._note_gaps(stream, result) if result.gaps else ()
 
     def _note_gaps(self, stream: Stream, result: PushResult) -> list[Event]:
         events = []
@@ -209,14 +210,21 @@ class ExposureEngine:
     def _track(self, weighed: dict[str, list[Blocks]]) -> list[Event]:
         """Feed blocks to the trackers; the streams of one worker merged by block end time (each stream's own order
         kept), so two devices of one worker reach a limit in the order their samples were taken."""
-        by_subject: dict[str, list[str]] = {}
+        streams, by_subject = self.streams, {}  # subject: its device, or its devices when it has several
         for device in weighed:
-            by_subject.setdefault(self.streams[device].session.subject, []).append(device)
+            subject = streams[device].session.subject
+            known = by_subject.get(subject)
+            if known is None:
+                by_subject[subject] = device
+            elif known.__class__ is str:
+                by_subject[subject] = [known, device]
+            else:
+                known.append(device)
         events = []
         for subject, devices in by_subject.items():
             day_of = self._day_lookup(subject)
-            if len(devices) == 1:
-                events += self._track_stream(self.streams[devices[0]], weighed[devices[0]], day_of)
+            if devices.__class__ is str:
+                events += self._track_stream(streams[devices], weighed[devices], day_of)
                 continue
             for end, _, device, seconds, energy, flags in heapq.merge(*(_stream_blocks(weighed[d], self.streams[d])
                                                                          for d in devices)):

@@ -29,6 +29,7 @@ from bim2rdt.safety.config import MonitorConfig
 from bim2rdt.safety.deadletters import DeadLetters, MalformedMessages
 from bim2rdt.safety.engine import ExposureEngine, Outcome
 from bim2rdt.safety.errors import AlreadyApplied, HavError
+from bim2rdt.safety.heap import HeapSettler
 from bim2rdt.safety.mounting import MountingCorrection
 from bim2rdt.safety.outbox import OutboxDelivery, outbox_name
 from bim2rdt.safety.persistence import MonitorJournal
@@ -78,6 +79,7 @@ class MonitorIngest:
         self._dead = DeadLetters({d: MalformedMessages(*row) for d, row in self.store.malformed().items()})
         self.failure: str | None = None
         """Why the monitor cannot go on (its store failed), else None: ``hav listen`` exits non-zero on it."""
+        self._heap = HeapSettler(config.settle_heap)
         self._lock = threading.RLock()
         for sink in sinks:
             self.add_sink(sink)
@@ -202,7 +204,7 @@ class MonitorIngest:
             if not batch.duration_s <= MAX_BATCH_S:
                 raise HavError(f"batch {batch.seq} of {batch.device} holds {batch.duration_s:g} s of samples: at "
                                f"most {MAX_BATCH_S:g} s")
-        with self._lock:
+        with self._lock, self._heap.round():  # the collector's young passes after the round, not in it
             now = self.clock() if now is None else now
             outcome = self._push(batches, summaries, now)
             try:
@@ -347,7 +349,8 @@ class MonitorIngest:
 
     def close(self) -> None:
         """Save the refused-message counts, give the durable sinks up to ``config.outbox_drain_s`` to take what is
-        queued (the rest waits in the store for the next start), then close the store and the identity map."""
+        queued (the rest waits in the store for the next start), then close the store and the identity map, and give
+        the settled heap back to the collector (:class:`~bim2rdt.safety.heap.HeapSettler`)."""
         with self._lock:
             self.save_dead_letters()
         if not self.drain_outbox(self.config.outbox_drain_s):
@@ -358,12 +361,14 @@ class MonitorIngest:
         with self._lock:
             self.store.close()
             self.identity.close()
+            self._heap.release()
 
     # --- internals ---------------------------------------------------------------------------------------
     def _commit(self, outcome: Outcome, now: float | None = None, sessions: dict[str, Session] | None = None) -> None:
         """Persist what a call changed in one transaction (the events queued for the durable sinks in it), then
         hand its events to the plain sinks (a sink that fails is logged and counted in ``stats["sink_errors"]``,
-        see :func:`~bim2rdt.safety.sinks.emit_each`) and wake the durable sinks' deliveries."""
+        see :func:`~bim2rdt.safety.sinks.emit_each`) and wake the durable sinks' deliveries; settle the heap when the
+        streams have doubled (:class:`~bim2rdt.safety.heap.HeapSettler`)."""
         now = self.clock() if now is None else now
         self._journal.commit(self._engine, outcome.accepted, outcome.streams.values(), outcome.events, now, sessions,
                              self._dead.take_dirty())
@@ -373,3 +378,4 @@ class MonitorIngest:
         if outcome.events:
             for delivery in self._deliveries.values():
                 delivery.wake()
+        self._heap.grown(len(self._engine.streams))  # a grown fleet leaves the collector's full passes

@@ -55,6 +55,8 @@ class SessionBook:
 
     def correction(self, session: Session) -> MountingCorrection | None:
         """The correction for the session's subject and position; None at the ISO position or without a fit."""
+        if not self._corrections:  # the usual case, asked for every stream of every round
+            return None
         return self._corrections.get((session.subject, session.position)) if session.estimate else None
 
     def add_correction(self, correction: MountingCorrection) -> None:

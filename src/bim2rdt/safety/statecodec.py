@@ -124,12 +124,27 @@ def _pack(buffer: Any, activity: Any, clock_offset_s: float | None, counters: di
             raise _Unpackable
         parts.append(_RUN.pack(*run))
     parts += (boot_b, id_b, day_b)
+    heads = _COUNTER_HEADS
     for name, value in counters.items():
-        name_b = name.encode()
+        head = heads.get(name) or _counter_head(name)
         if value.__class__ is _INT:
-            parts += (_NAME.pack(len(name_b)), name_b, _INT_VALUE.pack(True, value))
+            parts += (head, _INT_VALUE.pack(True, value))
         elif value.__class__ is _FLOAT:
-            parts += (_NAME.pack(len(name_b)), name_b, _FLOAT_VALUE.pack(False, value))
+            parts += (head, _FLOAT_VALUE.pack(False, value))
         else:
             raise _Unpackable
     return b"".join(parts)
+
+
+_COUNTER_HEADS: dict[str, bytes] = {}
+"""A counter's name as packed (its byte length, then its bytes), by name: the monitor's counters are a handful of
+names, packed for every stream of every commit."""
+
+
+def _counter_head(name: str) -> bytes:
+    """``name``'s packed head (struct.error for a name beyond 65535 bytes), kept for the first 256 names."""
+    name_b = name.encode()
+    head = _NAME.pack(len(name_b)) + name_b
+    if len(_COUNTER_HEADS) < 256:
+        _COUNTER_HEADS[name] = head
+    return head

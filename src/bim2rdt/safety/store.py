@@ -304,10 +304,10 @@ class ExposureStore:
     def mark_applied(self, keys: Iterable[tuple[str, str, int, float]], now: float) -> None:
         """Record (device, boot, seq, received time) of batches this commit applies. AlreadyApplied (the
         transaction rolls back) if one was applied before: by another process, or by this one before it restored."""
-        rows = [{"device": d, "boot": b, "seq": s, "received_time": r} for d, b, s, r in keys]
+        rows = keys if isinstance(keys, list) else list(keys)
         if rows:
             try:
-                self._exec(_insert_sql(applied_table, rows[0]), rows)
+                self._exec_rows(_APPLIED_SQL, rows)
             except self._dbapi.IntegrityError:
                 raise AlreadyApplied("a batch of this commit was applied before (another monitor process, or a "
                                      "redelivery): reload and retry") from None
@@ -322,9 +322,9 @@ class ExposureStore:
     def save_streams(self, states: Iterable[tuple[str, Any, bytes]]) -> None:
         """(device, state, filter-state blob) rows: the state as the text of
         :func:`~bim2rdt.safety.statecodec.encode_state`, or a JSON-able value (written as ``json.dumps`` would)."""
-        rows = [{"device": device, "state": state if state.__class__ is str else _dumps(state), "filter": blob}
-                for device, state, blob in states]
-        self._upsert(streams_table, rows, ("device",))
+        rows = [(device, state if state.__class__ is str else _dumps(state), blob) for device, state, blob in states]
+        if rows:
+            self._exec_rows(_STREAMS_SQL, rows)
 
     def streams(self) -> dict[str, tuple[Any, bytes]]:
         """{device: (state, filter-state blob)}, the state as ``json.loads`` gives its JSON form (packed or not)."""
@@ -334,9 +334,10 @@ class ExposureStore:
     def save_days(self, rows: Iterable[tuple[str, str, Any]]) -> None:
         """(subject, day, DayState) rows: the day's energy (m^2/s^3) and trigger seconds of the greater hand,
         EAV/ELV times, and every hand's figures."""
-        self._upsert(days_table, [{"subject": subject, "day": day, "energy": state.energy, "seconds": state.seconds,
-                                   "eav_at": state.eav_at, "elv_at": state.elv_at, "hands": _hands_json(state.hands)}
-                                  for subject, day, state in rows], ("subject", "day"))
+        rows = [(subject, day, state.energy, state.seconds, state.eav_at, state.elv_at, _hands_json(state.hands))
+                for subject, day, state in rows]
+        if rows:
+            self._exec_rows(_DAYS_SQL, rows)
 
     def save_day_parts(self, part: str, rows: Iterable[tuple[str, str, Any]]) -> None:
         """(subject, day, DayState) rows: partition ``part``'s contributions to worker-days (see ``day_parts``)."""
@@ -487,6 +488,17 @@ class ExposureStore:
             self._cursor.execute(text, params)
         return self._cursor
 
+    def _exec_rows(self, sql: str, rows: list[tuple]) -> None:
+        """Run a write once per row, its parameters positional (``?``, rows as tuples in the statement's column
+        order), inside the open transaction: the commit's thousands of rows a round bind faster than as dicts by
+        name (decision 0051)."""
+        if self._cursor is None:
+            raise StoreError("the exposure store writes only inside transaction()")
+        text = self._sql.get(sql)
+        if text is None:
+            text = self._sql[sql] = sql.replace("?", "%s") if self.dialect == "postgresql" else sql
+        self._cursor.executemany(text, rows)
+
     def _read(self, statement, params: dict | None = None):
         """Run a read: inside the open transaction when the writing thread reads, else on a pooled connection
         (its rows fetched before the connection goes back)."""
@@ -562,6 +574,23 @@ def _insert_sql(table: sa.Table, row: dict, conflict: str = "") -> str:
     """INSERT of ``row``'s columns into ``table`` with named parameters (SQLite and PostgreSQL share the syntax,
     ON CONFLICT included)."""
     return (f"INSERT INTO {table.name} ({', '.join(row)}) VALUES ({', '.join(':' + c for c in row)}){conflict}")
+
+
+def _rows_sql(table: sa.Table, keys: tuple[str, ...] = ()) -> str:
+    """INSERT of a row of each of ``table``'s columns in their order, as positional parameters (``?``); an upsert
+    on ``keys`` when given (the other columns updated)."""
+    columns = [c.name for c in table.columns]
+    conflict = (f" ON CONFLICT ({', '.join(keys)}) DO UPDATE SET "
+                + ", ".join(f"{c} = excluded.{c}" for c in columns if c not in keys)) if keys else ""
+    return f"INSERT INTO {table.name} ({', '.join(columns)}) VALUES ({', '.join('?' * len(columns))}){conflict}"
+
+
+_APPLIED_SQL = _rows_sql(applied_table)
+"""(device, boot, seq, received time) rows of the ledger."""
+_STREAMS_SQL = _rows_sql(streams_table, ("device",))
+"""(device, state, filter) rows, inserted or updated."""
+_DAYS_SQL = _rows_sql(days_table, ("subject", "day"))
+"""(subject, day, energy, seconds, eav_at, elv_at, hands) rows, inserted or updated."""
 
 
 def _expired_sql(dialect: str) -> str:

@@ -73,7 +73,10 @@ class Piece:
 
     @property
     def lengths(self) -> tuple[int, ...]:
-        return tuple([b.xyz.shape[0] for b in self.batches])
+        batches = self.batches
+        if len(batches) == 1:  # the usual run: one batch
+            return (batches[0].xyz.shape[0],)
+        return tuple([b.xyz.shape[0] for b in batches])
 
     @property
     def fs(self) -> float:
