@@ -585,10 +585,15 @@ def _compiled_step(T: np.ndarray, problem: Problem, model: matching.ModelIndex, 
     if yaw_only:
         return (*_yaw_only_step(T, scene_body, residual, index, problem, model, cfg, delta, bias_gamma), scores)
     support = np.nan if problem.support_height is None else problem.support_height
-    dR, dt = kernels.plane_steps(T, scene_body, residual, index, model.points, model.normals, model.extreme_points,
+    hull = _NO_HULL if problem.support_height is None else model.extreme_points  # read only on a support
+    dR, dt = kernels.plane_steps(T, scene_body, residual, index, model.points, model.normals, hull,
                                  cfg.trim_fraction, cfg.min_pairs, cfg.trim_floor_per_delta * delta, delta, bias_gamma,
                                  problem.up_world, UP_BODY, support, cfg.support_weight, DEGENERATE_RATIO)
     return dR, dt, scores
+
+
+_NO_HULL = np.zeros((0, 3))
+"""The hull points :func:`_compiled_step` hands the kernel off a support (it reads them only on one)."""
 
 
 def _yaw_only_step(T: np.ndarray, scene_body: np.ndarray, residual: np.ndarray, index: np.ndarray, problem: Problem,
