@@ -99,8 +99,8 @@ def test_verify_imports_without_numba_and_load_kernels_brings_its_machine_code_i
             "assert 'numba' not in sys.modules\n"
             "from bim2rdt.registration import load_kernels, register, kernels\n"
             "load_kernels()\n"
-            "names = ('body_points', 'pair_residuals', 'normal_systems',\n"
-            "         'neighbour_scatter', 'any_within', 'plane_steps', 'settle_steps', 'stop_agreed',\n"
+            "names = ('body_points', 'pair_residuals',\n"
+            "         'neighbour_scatter', 'smallest_axes', 'any_within', 'plane_steps', 'settle_steps', 'stop_agreed',\n"
             "         'warm_nearest', 'remember_nearest', 'nearest_patches')\n"
             "loaded = {n: len(getattr(kernels, n).signatures) for n in names}\n"
             "assert all(loaded.values()), loaded\n"
@@ -126,6 +126,64 @@ def test_neighbour_scatter_is_numpys_mean_and_einsum_bit_for_bit(k):
     want = np.einsum("nki,nkj->nij", local, local)
     got = kernels.neighbour_scatter(points, index)
     assert got.shape == (800, 3, 3) and np.array_equal(got, want)
+
+
+@pytest.mark.parametrize("spread", [(2.0, 1.0, 0.05), (1.0, 1.0, 0.01), (3.0, 0.05, 0.04), (1.0, 1.0, 1.0)])
+def test_the_closed_form_axes_are_eighs(spread):
+    """A cloud's normals (a slab, a disc, a rod, a ball): the eigenvalues and the smallest one's axis in closed
+    form are ``np.linalg.eigh``'s to round-off (the axis up to its sign, as much as the gap to the next
+    eigenvalue allows), and each axis is a unit eigenvector of its matrix."""
+    from scipy.spatial import cKDTree
+
+    rng = np.random.default_rng(len(str(spread)))
+    points = rng.normal(0.0, 1.0, (1500, 3)) * spread
+    _, index = cKDTree(points).query(points, k=16)
+    scatter = kernels.neighbour_scatter(points, index)
+    values, axes = matching.smallest_axes(scatter)
+    want_values, want_vectors = np.linalg.eigh(scatter)
+    top = want_values[:, 2:]
+    assert np.all(np.abs(values - want_values) <= 1e-12 * top)  # a near-double pair: ~1e-13 (a rod's cross-section)
+    assert np.allclose(np.linalg.norm(axes, axis=1), 1.0, atol=1e-14)
+    residual = np.linalg.norm(np.einsum("nij,nj->ni", scatter, axes) - values[:, :1] * axes, axis=1)
+    assert np.all(residual <= 1e-12 * top[:, 0])
+    gap = (want_values[:, 1] - want_values[:, 0]) / top[:, 0]
+    sine = np.linalg.norm(np.cross(axes, want_vectors[:, :, 0]), axis=1)
+    assert np.all(sine * gap <= 1e-12) and np.all(sine[gap > 0.1] <= 1e-13)  # an axis is as sure as its gap
+
+
+def test_the_closed_form_axes_of_special_matrices():
+    """Diagonal (sorted as eigh sorts; the smallest's own axis), zero (LAPACK's first axis), a double smallest
+    eigenvalue (any unit vector of its plane) and a double largest one: eigenvalues to round-off, unit
+    eigenvectors."""
+    rng = np.random.default_rng(3)
+    turns = np.linalg.qr(rng.normal(size=(200, 3, 3)))[0]
+    for spectrum in ([0.0, 1.0, 2.0], [1e-9, 1.0, 1.0], [0.0, 0.0, 1.0], [2.0, 2.0, 2.0], [5.0, 1e-3, 1e-3]):
+        A = turns @ np.diag(spectrum) @ np.swapaxes(turns, 1, 2)
+        values, axes = matching.smallest_axes(A)
+        assert np.allclose(values, np.sort(spectrum), atol=1e-7)
+        assert np.allclose(np.einsum("nij,nj->ni", A, axes), values[:, :1] * axes, atol=1e-7)
+        assert np.allclose(np.linalg.norm(axes, axis=1), 1.0)
+    values, axes = matching.smallest_axes(np.stack([np.diag([3.0, 1.0, 2.0]), np.zeros((3, 3))]))
+    assert values.tolist() == [[1.0, 2.0, 3.0], [0.0, 0.0, 0.0]] and axes.tolist() == [[0, 1, 0], [1, 0, 0]]
+
+
+def test_the_compiled_yaw_solve_is_the_projected_remapped_solve():
+    """The yaw-only step (turn about each restart's up, three translations) compiled: ``solve_system``'s with
+    ``yaw_only`` to round-off, for well-posed systems (Cholesky) and one whose translation along a wall is free
+    (the eigen-directions)."""
+    rng = np.random.default_rng(2)
+    J = rng.normal(size=(6, 40, 6))
+    A = np.swapaxes(J, 1, 2) @ J
+    A[4, :, 3] = A[4, 3, :] = 0.0  # x free
+    A[4, 3, 3] = 1e-13
+    b = rng.normal(size=(6, 6)) * 1e-3
+    up = rng.normal(size=(6, 3))
+    up /= np.linalg.norm(up, axis=1)[:, None]
+    dR, dt = kernels.yaw_steps(A, b, up, DEGENERATE_RATIO)
+    want_R, want_t = solve_system(A, b, up, True)
+    assert np.allclose(dR, want_R, atol=1e-12) and np.allclose(dt, want_t, atol=1e-12)
+    assert np.allclose(np.einsum("kij,kj->ki", dR, up), up, atol=1e-14)  # a turn about the up only
+    assert abs(dt[4, 0]) < 1e-12 and not np.allclose(want_R, np.eye(3))
 
 
 @pytest.mark.parametrize("seed", range(3))

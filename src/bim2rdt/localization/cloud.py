@@ -29,7 +29,7 @@ from bim2rdt.localization.config import LocalizationConfig
 from bim2rdt.localization.core import Localization, behind_fraction, checked_up, fix_pose, rigid_prior
 from bim2rdt.localization.errors import LocalizationError, Refusal
 from bim2rdt.localization.surfaces import GRAZING_COS, PermanentMap, SurfaceSamples, permanent_map
-from bim2rdt.registration import any_within, nearest_neighbours, neighbour_scatter
+from bim2rdt.registration import any_within, nearest_neighbours, neighbour_scatter, smallest_axes
 
 _CACHE_SIZE = 4
 
@@ -218,8 +218,7 @@ def pca_normals(points: np.ndarray, neighbours: int) -> np.ndarray:
     third of the middle one: an edge, a corner, clutter)."""
     k = min(neighbours, len(points))
     points = np.ascontiguousarray(points, dtype=np.float64)
-    values, vectors = np.linalg.eigh(neighbour_scatter(points, nearest_neighbours(points, k)))  # numpy's sums, compiled
-    normals = vectors[:, :, 0]
+    values, normals = smallest_axes(neighbour_scatter(points, nearest_neighbours(points, k)))  # compiled
     normals = np.where((np.einsum("ni,ni->n", normals, points) > 0)[:, None], -normals, normals)
     flat = values[:, 0] <= values[:, 1] / 9.0
     return np.where(flat[:, None], normals, np.nan)

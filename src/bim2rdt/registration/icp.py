@@ -17,7 +17,7 @@ from bim2rdt.registration import matching
 from bim2rdt.registration.config import IcpConfig
 from bim2rdt.registration.fit import report_fit
 from bim2rdt.registration.so3 import axis_angle, invert_poses, rotation_angle, tilt_angle
-from bim2rdt.registration.solvers import DEGENERATE_RATIO, SOLVERS, gravity_weight, solve_system
+from bim2rdt.registration.solvers import DEGENERATE_RATIO, SOLVERS, gravity_weight
 from bim2rdt.registration.uncertainty import PoseUncertainty
 from bim2rdt.registration.validation import Problem, validate_problem
 
@@ -582,38 +582,16 @@ def _compiled_step(T: np.ndarray, problem: Problem, model: matching.ModelIndex, 
     if pairs.min() < cfg.min_pairs:
         return None
     bias_gamma = np.full(k, bias * cfg.gravity_gamma0) if np.ndim(bias) == 0 else bias * cfg.gravity_gamma0
-    if yaw_only:
-        return (*_yaw_only_step(T, scene_body, residual, index, problem, model, cfg, delta, bias_gamma), scores)
     support = np.nan if problem.support_height is None else problem.support_height
     hull = _NO_HULL if problem.support_height is None else model.extreme_points  # read only on a support
     dR, dt = kernels.plane_steps(T, scene_body, residual, index, model.points, model.normals, hull,
                                  cfg.trim_fraction, cfg.min_pairs, cfg.trim_floor_per_delta * delta, delta, bias_gamma,
-                                 problem.up_world, UP_BODY, support, cfg.support_weight, DEGENERATE_RATIO)
+                                 problem.up_world, UP_BODY, support, cfg.support_weight, DEGENERATE_RATIO, yaw_only)
     return dR, dt, scores
 
 
 _NO_HULL = np.zeros((0, 3))
 """The hull points :func:`_compiled_step` hands the kernel off a support (it reads them only on one)."""
-
-
-def _yaw_only_step(T: np.ndarray, scene_body: np.ndarray, residual: np.ndarray, index: np.ndarray, problem: Problem,
-                   model: matching.ModelIndex, cfg: IcpConfig, delta: float, bias_gamma: np.ndarray):
-    """yaw_only's step from the compiled pairs (:func:`_compiled_step`): the normal equations compiled, the
-    solve projected onto yaw and position by :func:`solve_system` -> (dR, dt)."""
-    from bim2rdt.registration import kernels
-
-    k = len(T)
-    up_body = np.einsum("kji,j->ki", T[:, :3, :3], problem.up_world)
-    if problem.support_height is not None:
-        contact, on_slab = _contact(T, up_body, problem, model.extreme_points)
-        weight = cfg.support_weight
-    else:
-        contact = on_slab = np.zeros((k, 3))
-        weight = 0.0
-    A, b = kernels.normal_systems(scene_body, residual, index, model.points, model.normals, cfg.trim_fraction,
-                                  cfg.min_pairs, cfg.trim_floor_per_delta * delta, delta, bias_gamma, up_body,
-                                  UP_BODY, on_slab, contact, float(weight))
-    return solve_system(A, b, up_body, True)
 
 
 def _contact(T: np.ndarray, up_body: np.ndarray, problem: Problem, hull: np.ndarray):
