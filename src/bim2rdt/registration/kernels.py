@@ -520,6 +520,66 @@ def _axis_in_complement(a00, a01, a02, a11, a12, a22, w, value):  # pragma: no c
 
 
 @njit(cache=True, nogil=True)
+def in_range(points, low, high):  # pragma: no cover - compiled
+    """(N,) bool: rows of ``points`` (N, 3) whose every coordinate is finite and whose length lies in [``low``,
+    ``high``]: numpy's ``np.all(np.isfinite(points), axis=1)`` and then ``np.linalg.norm(points, axis=1)``, the
+    same squares summed x, y, z in order (so the same lengths bit for bit), in one pass without temporaries."""
+    n = len(points)
+    keep = np.empty(n, np.bool_)
+    for i in range(n):
+        x, y, z = points[i, 0], points[i, 1], points[i, 2]
+        if not (np.isfinite(x) and np.isfinite(y) and np.isfinite(z)):
+            keep[i] = False
+            continue
+        length = math.sqrt(x * x + y * y + z * z)
+        keep[i] = low <= length <= high
+    return keep
+
+
+@njit(cache=True, nogil=True)
+def cube_means(points, voxel, dense_cubes):  # pragma: no cover - compiled
+    """One mean point per occupied cube of side ``voxel`` (M, 3), cubes in ascending key order (x, then y,
+    then z, from the points' least cube), each cube's points summed in their own order from 0: what
+    :func:`bim2rdt.localization.cloud.voxel_means` computes with ``np.floor``, a count table and ``np.bincount``,
+    bit for bit, in three passes. A box of more than ``dense_cubes`` cubes gives None (the caller sorts)."""
+    n = len(points)
+    cells = np.empty((n, 3), np.int64)
+    for i in range(n):
+        for c in range(3):
+            cells[i, c] = np.int64(math.floor(points[i, c] / voxel))
+    low = np.empty(3, np.int64)
+    size = np.empty(3, np.int64)
+    for c in range(3):
+        low[c] = cells[:, c].min()
+        size[c] = cells[:, c].max() - low[c] + 1
+    if float(size[0]) * float(size[1]) * float(size[2]) > dense_cubes:
+        return None
+    count = np.zeros(size[0] * size[1] * size[2], np.int64)
+    key = np.empty(n, np.int64)
+    for i in range(n):
+        key[i] = ((cells[i, 0] - low[0]) * size[1] + (cells[i, 1] - low[1])) * size[2] + (cells[i, 2] - low[2])
+        count[key[i]] += 1
+    rank = np.empty(len(count), np.int64)
+    occupied = 0
+    for c in range(len(count)):
+        if count[c]:
+            rank[c] = occupied
+            occupied += 1
+    sums = np.zeros((occupied, 3))
+    counts = np.zeros(occupied, np.int64)
+    for i in range(n):
+        r = rank[key[i]]
+        sums[r, 0] += points[i, 0]
+        sums[r, 1] += points[i, 1]
+        sums[r, 2] += points[i, 2]
+        counts[r] += 1
+    for r in range(occupied):
+        for c in range(3):
+            sums[r, c] = sums[r, c] / counts[r]
+    return sums
+
+
+@njit(cache=True, nogil=True)
 def any_within(points, queries, radius, bound):  # pragma: no cover - compiled
     """(Q,) bool: whether any of ``points`` (P, 3) lies nearer than ``radius`` to each of ``queries`` (Q, 3): a
     grid of cubes a hair wider than ``radius`` over the points' box, each query tested against the points of the
