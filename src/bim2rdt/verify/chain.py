@@ -495,12 +495,13 @@ def _observe(result: FrameResult, points_sensor: np.ndarray, pose: np.ndarray, m
     """The planned objects in view checked and judged (:func:`bim2rdt.twin.judge_evidence` on this frame), and
     the new clusters, from the fixed ``pose``: into ``result`` (its looks, observations, missing, clusters)."""
     points_sensor = points_sensor[:: max(1, len(points_sensor) // 90_000)]
-    points_sensor = points_sensor[np.linalg.norm(points_sensor, axis=1) > 1e-6]
+    ranges = np.linalg.norm(points_sensor, axis=1)  # once: the kept rows' lengths are the same floats
+    keep = ranges > 1e-6
+    points_sensor, ranges = points_sensor[keep], ranges[keep]  # a contiguous copy, as BLAS's product had it
     located = points_sensor @ pose[:3, :3].T + pose[:3, 3]
     structure = structure_for(model)
     slab = structure.slab_height(pose[:3, 3])
     a, b = config.depth_noise
-    ranges = np.linalg.norm(points_sensor, axis=1)
     directions = points_sensor / ranges[:, None]  # unit rays: a scan looks all round, no camera z to divide by
     building = explained(structure, pose[:3, 3], directions @ pose[:3, :3].T, ranges, config.surface_tolerance,
                          a + b * ranges**2, slab, config.surface_tolerance)
