@@ -12,16 +12,17 @@ from bim2rdt.registration.solvers import DEGENERATE_RATIO, SOLVERS, gravity_weig
 from bim2rdt.registration.validation import validate_problem
 
 
-def _numpy_step(T, problem, model, cfg, delta, stride, bias):
+def _numpy_step(T, problem, model, cfg, delta, stride, bias, normals_world=None, yaw_only=False):
     """:func:`icp._iterate`'s numpy path up to the step: (dR, dt, scores)."""
-    scene_body, pairs, w = icp._weighted_pairs(icp.invert_poses(T), problem, model, None, cfg, delta, stride)
+    scene_body, pairs, w = icp._weighted_pairs(icp.invert_poses(T), problem, model, normals_world, cfg, delta,
+                                               stride)
     dst, normals = pairs.samples, pairs.normals
     up_body = np.einsum("kji,j->ki", T[:, :3, :3], problem.up_world)
     lam = gravity_weight(dst, w, bias * cfg.gravity_gamma0)
     if problem.support_height is not None:
         scene_body, dst, normals, w = icp._with_contact_pair(T, up_body, problem, model.extreme_points,
                                                              cfg.support_weight, (scene_body, dst, normals, w))
-    dR, dt = SOLVERS["point_to_plane"].step(scene_body, dst, normals, w, up_body, UP, lam, False)
+    dR, dt = SOLVERS["point_to_plane"].step(scene_body, dst, normals, w, up_body, UP, lam, yaw_only)
     return dR, dt, matching.truncated_score(pairs, cfg.score_distance)
 
 
@@ -46,6 +47,25 @@ def test_the_compiled_step_is_the_numpy_step(crate_model, cluttered_problem, del
     for got, want in zip(compiled, expected):
         assert np.allclose(got, want, rtol=1e-9, atol=1e-12)
     assert not np.allclose(expected[1][0], expected[1][1])  # the restarts' steps differ: a real comparison
+
+
+@pytest.mark.parametrize("yaw_only", [True, False])
+def test_the_compiled_step_with_the_normal_gate_is_the_numpy_step(crate_model, cluttered_problem, yaw_only):
+    """The localizer's registrations gate pairs by their normals (decision 0050: now compiled too): the gated
+    step and score are the numpy path's, and the gate does drop pairs here (a 20 degree gate on a tilted crate
+    and its clutter)."""
+    cfg = IcpConfig(normal_gate_deg=20.0)
+    model = matching.ModelIndex.build(*crate_model)
+    normals = matching.scene_normals(cluttered_problem.scene_pts_world, cfg.scene_normal_neighbours)
+    starts = icp._restart_starts(cluttered_problem, model, cfg, yaw_only)[:4]
+    for delta, stride in [(0.25, 2), (0.01, 1)]:
+        compiled = icp._compiled_step(starts, cluttered_problem, model, cfg, delta, stride, 0.0, yaw_only, None,
+                                      normals)
+        expected = _numpy_step(starts, cluttered_problem, model, cfg, delta, stride, 0.0, normals, yaw_only)
+        for got, want in zip(compiled, expected):
+            assert np.allclose(got, want, rtol=1e-9, atol=1e-12)
+        ungated = icp._compiled_step(starts, cluttered_problem, model, cfg, delta, stride, 0.0, yaw_only, None)
+        assert not np.allclose(ungated[1], compiled[1])  # the gate changed the step: a real comparison
 
 
 def test_the_compiled_solve_is_the_remapped_solve_with_a_degenerate_system():

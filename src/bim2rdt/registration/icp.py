@@ -552,10 +552,13 @@ def _iterate(restarts: _Restarts, active: np.ndarray, problem: Problem, model: m
     annealing = delta > cfg.huber_delta
     stride = max(1, cfg.coarse_stride) if annealing else 1  # coarse-to-fine: the wide-scale steps need few points
     bias = problem.upright_bias if bias is None else bias
-    if cfg.method == "point_to_plane" and normals_world is None:
-        if restarts.nearest is None:
-            restarts.nearest = np.full((len(restarts.poses), len(problem.scene_pts_world)), -1, np.int64)
-        step = _compiled_step(T, problem, model, cfg, delta, stride, bias, yaw_only, (restarts.nearest, active))
+    if cfg.method == "point_to_plane":
+        warm = None  # gated (the localizer's: one restart on a fresh model each frame): no near lists to build
+        if normals_world is None:
+            if restarts.nearest is None:
+                restarts.nearest = np.full((len(restarts.poses), len(problem.scene_pts_world)), -1, np.int64)
+            warm = (restarts.nearest, active)
+        step = _compiled_step(T, problem, model, cfg, delta, stride, bias, yaw_only, warm, normals_world)
         if step is not None:
             _advance(restarts, active, *step, cfg, annealing)
             return
@@ -571,18 +574,23 @@ def _iterate(restarts: _Restarts, active: np.ndarray, problem: Problem, model: m
 
 
 def _compiled_step(T: np.ndarray, problem: Problem, model: matching.ModelIndex, cfg: IcpConfig, delta: float,
-                   stride: int, bias: float | np.ndarray, yaw_only: bool, warm: tuple | None = None):
+                   stride: int, bias: float | np.ndarray, yaw_only: bool, warm: tuple | None = None,
+                   normals_world: np.ndarray | None = None):
     """:func:`_iterate`'s match, trim, weigh and point-to-plane solve by the compiled kernels
     (:mod:`bim2rdt.registration.kernels`: the same arithmetic in one pass, ~40 numpy calls fewer) -> (dR, dt,
     scores), or None when a restart has fewer than ``min_pairs`` pairs (RelaxIfFew: the numpy path then runs).
-    Only without the normal gate (off by default). ``warm``: the restarts' last nearest samples (K, N) and
-    which of them ``T`` are (k,), to start the search from (:func:`matching.nearest_samples`)."""
+    ``normals_world``: the scene's normals when the normal gate is on (:func:`kernels.gated_residuals`: the
+    localizer's fix, decision 0050). ``warm``: the restarts' last nearest samples (K, N) and which of them
+    ``T`` are (k,), to start the search from (:func:`matching.nearest_samples`)."""
     from bim2rdt.registration import kernels  # numba's import (~0.5 s) waits for the first registration
     scene_body = kernels.body_points(T, problem.scene_pts_world, stride)
     k, n, _ = scene_body.shape
     distance, index = matching.nearest_samples(model, scene_body, _pair_distance(model, cfg, delta), stride, warm)
     residual, pairs, scores = kernels.pair_residuals(scene_body, distance, index, model.points, model.normals,
                                                      model.spacing, cfg.score_distance)
+    if normals_world is not None:
+        residual, pairs = kernels.gated_residuals(residual, index, T, normals_world, stride, model.normals,
+                                                  float(np.cos(np.deg2rad(cfg.normal_gate_deg))))
     if pairs.min() < cfg.min_pairs:
         return None
     bias_gamma = np.full(k, bias * cfg.gravity_gamma0) if np.ndim(bias) == 0 else bias * cfg.gravity_gamma0

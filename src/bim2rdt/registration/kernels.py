@@ -50,6 +50,33 @@ def pair_residuals(scene_body, distance, index, points, normals, spacing, trunca
 
 
 @njit(cache=True, nogil=True)
+def gated_residuals(residual, index, T, normals_world, stride, model_normals, cos_gate):  # pragma: no cover
+    """The pairs' residuals (k, N) for the step with the normal gate applied, as
+    :func:`bim2rdt.registration.matching.gate_normals` gates them: a pair whose scene normal (``normals_world``,
+    every ``stride``-th, turned into each restart's body frame by T (k, 4, 4)) and matched sample's normal are
+    less than ``cos_gate`` apart in |cos| is no pair (its residual inf here; the score keeps the ungated
+    residuals, as the numpy path's does). Returns the gated residuals and each restart's pair count (k,)."""
+    k, n = residual.shape
+    gated = residual.copy()
+    pairs = np.zeros(k, np.int64)
+    size = len(model_normals)
+    for r in range(k):
+        for i in range(n):
+            if not np.isfinite(gated[r, i]):
+                continue
+            w0, w1, w2 = normals_world[i * stride, 0], normals_world[i * stride, 1], normals_world[i * stride, 2]
+            b0 = w0 * T[r, 0, 0] + w1 * T[r, 1, 0] + w2 * T[r, 2, 0]
+            b1 = w0 * T[r, 0, 1] + w1 * T[r, 1, 1] + w2 * T[r, 2, 1]
+            b2 = w0 * T[r, 0, 2] + w1 * T[r, 1, 2] + w2 * T[r, 2, 2]
+            s = min(index[r, i], size - 1)
+            if abs(b0 * model_normals[s, 0] + b1 * model_normals[s, 1] + b2 * model_normals[s, 2]) >= cos_gate:
+                pairs[r] += 1
+            else:
+                gated[r, i] = np.inf
+    return gated, pairs
+
+
+@njit(cache=True, nogil=True)
 def _trim_cutoff(residual_row, trim_fraction, min_pairs, keep_within, buffer):  # pragma: no cover - compiled
     """The largest residual a pair of one restart may have after trimming (:func:`matching.trim_pairs`);
     ``buffer`` (N,) is scratch space."""
