@@ -121,7 +121,7 @@ def test_verify_imports_without_numba_and_load_kernels_brings_its_machine_code_i
             "load_kernels()\n"
             "names = ('body_points', 'pair_residuals',\n"
             "         'neighbour_scatter', 'smallest_axes', 'any_within', 'plane_steps', 'settle_steps', 'stop_agreed',\n"
-            "         'warm_nearest', 'remember_nearest', 'nearest_patches')\n"
+            "         'warm_nearest', 'remember_nearest', 'nearest_patches', 'in_range', 'cube_means', 'hit_depths')\n"
             "loaded = {n: len(getattr(kernels, n).signatures) for n in names}\n"
             "assert all(loaded.values()), loaded\n"
             "rng = np.random.default_rng(1)\n"
@@ -204,6 +204,33 @@ def test_the_compiled_yaw_solve_is_the_projected_remapped_solve():
     assert np.allclose(dR, want_R, atol=1e-12) and np.allclose(dt, want_t, atol=1e-12)
     assert np.allclose(np.einsum("kij,kj->ki", dR, up), up, atol=1e-14)  # a turn about the up only
     assert abs(dt[4, 0]) < 1e-12 and not np.allclose(want_R, np.eye(3))
+
+
+def test_the_compiled_hit_depths_are_the_einsum_formula():
+    """The structure's and the permanent map's ray casts: t = n . (v0 - origin) / n . d of each ray's first face
+    and that face's normal, as the numpy expression gives them (to round-off; numpy's einsum sums the three
+    products in an order of its own), NaN and zeros where a ray hits nothing; on a turned sphere, so no normal
+    lies along an axis."""
+    import trimesh
+
+    from bim2rdt.perception.background import hit_depths
+
+    rng = np.random.default_rng(4)
+    mesh = trimesh.creation.icosphere(subdivisions=2, radius=1.5)
+    mesh.apply_transform(trimesh.transformations.random_rotation_matrix(rng.random(3)))
+    origin = np.array([0.1, -0.2, 0.05])
+    directions = rng.normal(size=(3000, 3))
+    face = mesh.ray.intersects_first(np.broadcast_to(origin, directions.shape), directions)
+    face[::7] = -1  # some rays hit nothing
+    t, normals = hit_depths(mesh, face, origin, directions)
+    hit = face >= 0
+    want_normals = mesh.face_normals[face[hit]]
+    corner = mesh.vertices[mesh.faces[face[hit], 0]]
+    want = np.einsum("ni,ni->n", want_normals, corner - origin) / np.einsum("ni,ni->n", want_normals, directions[hit])
+    assert np.array_equal(np.isnan(t), ~hit) and np.allclose(t[hit], want, rtol=1e-13, atol=0.0)
+    assert np.array_equal(normals[hit], want_normals) and not normals[~hit].any()
+    points = origin + directions[hit] * t[hit, None]
+    assert np.allclose(np.linalg.norm(points, axis=1), 1.5, atol=0.1)  # on the sphere's facets
 
 
 @pytest.mark.parametrize("seed", range(3))

@@ -144,8 +144,8 @@ def load_kernels() -> None:
     cached machine code cost ~0.4 s of one core once per process, which the first registration would otherwise
     pay. A long run (``verify``) calls this in its setup so its first frame costs what the others do. Two small
     registrations of a box's corner do it, yaw-only on a support and under an upright prior (the paths verify
-    takes, the second with its fit report), the scene normals' scatter and axes, the bounded any-point test and
-    the scan's range test and cube means; no result is kept."""
+    takes, the second with its fit report), the scene normals' scatter and axes, the bounded any-point test,
+    the scan's range test and cube means, and the ray casts' hit depths; no result is kept."""
     grid = np.linspace(0.0, 0.4, 8)
     u, v = (a.ravel() for a in np.meshgrid(grid, grid))
     zero = np.zeros_like(u)
@@ -161,6 +161,7 @@ def load_kernels() -> None:
 
     kernels.in_range(scene, 0.0, 1.0)  # a scan's returns in range, and their cube means (the localizer's)
     kernels.cube_means(scene, 0.05, 1e6)
+    kernels.hit_depths(np.array([0, -1]), normals[:1], points[:3], np.array([[0, 1, 2]]), np.zeros(3), scene[:2])
 
 
 RIVAL_DEGREES = 3.0

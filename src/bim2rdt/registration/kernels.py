@@ -7,9 +7,11 @@ solve_point_to_plane`) costs ~40 numpy calls an iteration on arrays of a few hun
 so its time is mostly per-call overhead (decision 0040). These kernels do the same arithmetic in a pass per
 restart. Sums run in another order than numpy's, so results agree with the numpy path to round-off (~1e-15
 relative), not bit for bit (registration products are not bit-exact anyway: decision 0021); the numpy path
-still runs where a restart has too few pairs (RelaxIfFew), with the normal gate, for point-to-point, and is
-what tests/registration/test_kernels.py compares them with. Compiled once per machine and cached next to this
-file (``cache=True``): the first registration on a fresh checkout compiles them, ~10-30 s of one core.
+still runs where a restart has too few pairs (RelaxIfFew) and for point-to-point, and is what
+tests/registration/test_kernels.py compares them with (the normal gate is compiled too since decision 0050).
+Beside the step: the normals' scatter and closed-form axes, and the localizer's cloud kernels (the range test,
+cube means, the bounded any-point test). Compiled once per machine and cached next to this file
+(``cache=True``): the first registration on a fresh checkout compiles them, ~10-30 s of one core.
 """
 
 from __future__ import annotations
@@ -604,6 +606,31 @@ def cube_means(points, voxel, dense_cubes):  # pragma: no cover - compiled
         for c in range(3):
             sums[r, c] = sums[r, c] / counts[r]
     return sums
+
+
+@njit(cache=True, nogil=True, error_model="numpy")  # a ray along its face's plane: inf or NaN, as numpy's
+def hit_depths(face, face_normals, vertices, faces, origin, directions):  # pragma: no cover - compiled
+    """Ray parameters t (N,) of rays ``origin`` + t ``directions`` (N, 3) at the plane of the triangle each first
+    hit (``face`` (N,), -1 none: t NaN), and that triangle's unit normal (N, 3; zeros for none): t = n . (v0 -
+    origin) / n . d with v0 the triangle's first corner, each dot's three products summed (x + z) + y, as
+    numpy's ``einsum("ni,ni->n")`` sums them here (tests/registration/test_kernels.py), in one pass where
+    numpy's masked gathers and scatters of a frame's 127,000 rays cost ~10 ms."""
+    n = len(face)
+    t = np.full(n, np.nan)
+    normals = np.zeros((n, 3))
+    for i in range(n):
+        f = face[i]
+        if f < 0:
+            continue
+        n0, n1, n2 = face_normals[f, 0], face_normals[f, 1], face_normals[f, 2]
+        v = faces[f, 0]
+        near = n0 * (vertices[v, 0] - origin[0]) + n2 * (vertices[v, 2] - origin[2])
+        near += n1 * (vertices[v, 1] - origin[1])
+        along = n0 * directions[i, 0] + n2 * directions[i, 2]
+        along += n1 * directions[i, 1]
+        t[i] = near / along
+        normals[i, 0], normals[i, 1], normals[i, 2] = n0, n1, n2
+    return t, normals
 
 
 @njit(cache=True, nogil=True)
