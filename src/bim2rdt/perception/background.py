@@ -51,8 +51,8 @@ class BimStructure:
 def hit_depths(mesh: trimesh.Trimesh, face: np.ndarray, origin: np.ndarray, directions: np.ndarray
                ) -> tuple[np.ndarray, np.ndarray]:
     """Ray parameters t (N,) at the plane of the triangle of ``mesh`` each ray ``origin`` + t ``directions`` (N, 3)
-    first hit (``face`` (N,), -1: none, t NaN) and the triangle's unit normal (N, 3; zeros for none): t = n . (v0
-    - origin) / n . d, compiled (:func:`bim2rdt.registration.kernels.hit_depths`, decision 0050).
+    first hit (``face`` (N,), -1: none, t NaN) and the triangle's unit normal (N, 3; zeros for none):
+    t = n . (v0 - origin) / n . d, compiled (:func:`bim2rdt.registration.kernels.hit_depths`, decision 0050).
 
     Args:
         mesh: The mesh the rays were cast on.
