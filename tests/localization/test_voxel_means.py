@@ -42,3 +42,22 @@ def test_the_table_is_not_built_for_a_huge_box(monkeypatch):
     means = cloud.voxel_means(np.array([[0.0, 0.0, 0.0], [100_000.0, 0.0, 0.0]]), 0.05)
     assert np.array_equal(means, [[0.0, 0.0, 0.0], [100_000.0, 0.0, 0.0]])
     assert max(built) <= 2  # only the sums' bincounts, no table of 2e6 counts
+
+
+def test_the_range_test_is_numpys_finite_rows_and_lengths():
+    """scan_points' compiled filter: numpy's finite rows and ``np.linalg.norm`` lengths in [low, high], bit for
+    bit: rows with NaN or inf out, lengths exactly at either bound in (3-4-5 triangles), a hair beyond out."""
+    from bim2rdt.registration import kernels
+
+    rng = np.random.default_rng(3)
+    points = rng.normal(0.0, 3.0, (50_000, 3))
+    points[::97, 1] = np.nan
+    points[::89, 2] = np.inf
+    edges = np.array([[0.3, 0.4, 0.0], [3.0, 0.0, 4.0], [0.0, 0.0, np.nextafter(5.0, 6.0)], [0.0, 0.29, 0.4]])
+    points = np.concatenate([points, edges])
+    finite = np.all(np.isfinite(points), axis=1)
+    length = np.linalg.norm(np.where(finite[:, None], points, 0.0), axis=1)
+    want = finite & (length >= 0.5) & (length <= 5.0)
+    got = kernels.in_range(points, 0.5, 5.0)
+    assert np.array_equal(got, want) and got[-4:].tolist() == [True, True, False, False]
+    assert 0 < want.sum() < len(want) - 1000  # both kinds dropped

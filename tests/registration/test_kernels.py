@@ -12,16 +12,17 @@ from bim2rdt.registration.solvers import DEGENERATE_RATIO, SOLVERS, gravity_weig
 from bim2rdt.registration.validation import validate_problem
 
 
-def _numpy_step(T, problem, model, cfg, delta, stride, bias):
+def _numpy_step(T, problem, model, cfg, delta, stride, bias, normals_world=None, yaw_only=False):
     """:func:`icp._iterate`'s numpy path up to the step: (dR, dt, scores)."""
-    scene_body, pairs, w = icp._weighted_pairs(icp.invert_poses(T), problem, model, None, cfg, delta, stride)
+    scene_body, pairs, w = icp._weighted_pairs(icp.invert_poses(T), problem, model, normals_world, cfg, delta,
+                                               stride)
     dst, normals = pairs.samples, pairs.normals
     up_body = np.einsum("kji,j->ki", T[:, :3, :3], problem.up_world)
     lam = gravity_weight(dst, w, bias * cfg.gravity_gamma0)
     if problem.support_height is not None:
         scene_body, dst, normals, w = icp._with_contact_pair(T, up_body, problem, model.extreme_points,
                                                              cfg.support_weight, (scene_body, dst, normals, w))
-    dR, dt = SOLVERS["point_to_plane"].step(scene_body, dst, normals, w, up_body, UP, lam, False)
+    dR, dt = SOLVERS["point_to_plane"].step(scene_body, dst, normals, w, up_body, UP, lam, yaw_only)
     return dR, dt, matching.truncated_score(pairs, cfg.score_distance)
 
 
@@ -46,6 +47,25 @@ def test_the_compiled_step_is_the_numpy_step(crate_model, cluttered_problem, del
     for got, want in zip(compiled, expected):
         assert np.allclose(got, want, rtol=1e-9, atol=1e-12)
     assert not np.allclose(expected[1][0], expected[1][1])  # the restarts' steps differ: a real comparison
+
+
+@pytest.mark.parametrize("yaw_only", [True, False])
+def test_the_compiled_step_with_the_normal_gate_is_the_numpy_step(crate_model, cluttered_problem, yaw_only):
+    """The localizer's registrations gate pairs by their normals (decision 0050: now compiled too): the gated
+    step and score are the numpy path's, and the gate does drop pairs here (a 20 degree gate on a tilted crate
+    and its clutter)."""
+    cfg = IcpConfig(normal_gate_deg=20.0)
+    model = matching.ModelIndex.build(*crate_model)
+    normals = matching.scene_normals(cluttered_problem.scene_pts_world, cfg.scene_normal_neighbours)
+    starts = icp._restart_starts(cluttered_problem, model, cfg, yaw_only)[:4]
+    for delta, stride in [(0.25, 2), (0.01, 1)]:
+        compiled = icp._compiled_step(starts, cluttered_problem, model, cfg, delta, stride, 0.0, yaw_only, None,
+                                      normals)
+        expected = _numpy_step(starts, cluttered_problem, model, cfg, delta, stride, 0.0, normals, yaw_only)
+        for got, want in zip(compiled, expected):
+            assert np.allclose(got, want, rtol=1e-9, atol=1e-12)
+        ungated = icp._compiled_step(starts, cluttered_problem, model, cfg, delta, stride, 0.0, yaw_only, None)
+        assert not np.allclose(ungated[1], compiled[1])  # the gate changed the step: a real comparison
 
 
 def test_the_compiled_solve_is_the_remapped_solve_with_a_degenerate_system():
@@ -99,9 +119,9 @@ def test_verify_imports_without_numba_and_load_kernels_brings_its_machine_code_i
             "assert 'numba' not in sys.modules\n"
             "from bim2rdt.registration import load_kernels, register, kernels\n"
             "load_kernels()\n"
-            "names = ('body_points', 'pair_residuals', 'normal_systems',\n"
-            "         'neighbour_scatter', 'any_within', 'plane_steps', 'settle_steps', 'stop_agreed',\n"
-            "         'warm_nearest', 'remember_nearest', 'nearest_patches')\n"
+            "names = ('body_points', 'pair_residuals', 'neighbour_scatter', 'smallest_axes', 'any_within',\n"
+            "         'plane_steps', 'settle_steps', 'stop_agreed', 'warm_nearest', 'remember_nearest',\n"
+            "         'nearest_patches', 'in_range', 'cube_means', 'hit_depths')\n"
             "loaded = {n: len(getattr(kernels, n).signatures) for n in names}\n"
             "assert all(loaded.values()), loaded\n"
             "rng = np.random.default_rng(1)\n"
@@ -126,6 +146,91 @@ def test_neighbour_scatter_is_numpys_mean_and_einsum_bit_for_bit(k):
     want = np.einsum("nki,nkj->nij", local, local)
     got = kernels.neighbour_scatter(points, index)
     assert got.shape == (800, 3, 3) and np.array_equal(got, want)
+
+
+@pytest.mark.parametrize("spread", [(2.0, 1.0, 0.05), (1.0, 1.0, 0.01), (3.0, 0.05, 0.04), (1.0, 1.0, 1.0)])
+def test_the_closed_form_axes_are_eighs(spread):
+    """A cloud's normals (a slab, a disc, a rod, a ball): the eigenvalues and the smallest one's axis in closed
+    form are ``np.linalg.eigh``'s to round-off (the axis up to its sign, as much as the gap to the next
+    eigenvalue allows), and each axis is a unit eigenvector of its matrix."""
+    from scipy.spatial import cKDTree
+
+    rng = np.random.default_rng(len(str(spread)))
+    points = rng.normal(0.0, 1.0, (1500, 3)) * spread
+    _, index = cKDTree(points).query(points, k=16)
+    scatter = kernels.neighbour_scatter(points, index)
+    values, axes = matching.smallest_axes(scatter)
+    want_values, want_vectors = np.linalg.eigh(scatter)
+    top = want_values[:, 2:]
+    assert np.all(np.abs(values - want_values) <= 1e-12 * top)  # a near-double pair: ~1e-13 (a rod's cross-section)
+    assert np.allclose(np.linalg.norm(axes, axis=1), 1.0, atol=1e-14)
+    residual = np.linalg.norm(np.einsum("nij,nj->ni", scatter, axes) - values[:, :1] * axes, axis=1)
+    assert np.all(residual <= 1e-12 * top[:, 0])
+    gap = (want_values[:, 1] - want_values[:, 0]) / top[:, 0]
+    sine = np.linalg.norm(np.cross(axes, want_vectors[:, :, 0]), axis=1)
+    assert np.all(sine * gap <= 1e-12) and np.all(sine[gap > 0.1] <= 1e-13)  # an axis is as sure as its gap
+
+
+def test_the_closed_form_axes_of_special_matrices():
+    """Diagonal (sorted as eigh sorts; the smallest's own axis), zero (LAPACK's first axis), a double smallest
+    eigenvalue (any unit vector of its plane) and a double largest one: eigenvalues to round-off, unit
+    eigenvectors."""
+    rng = np.random.default_rng(3)
+    turns = np.linalg.qr(rng.normal(size=(200, 3, 3)))[0]
+    for spectrum in ([0.0, 1.0, 2.0], [1e-9, 1.0, 1.0], [0.0, 0.0, 1.0], [2.0, 2.0, 2.0], [5.0, 1e-3, 1e-3]):
+        A = turns @ np.diag(spectrum) @ np.swapaxes(turns, 1, 2)
+        values, axes = matching.smallest_axes(A)
+        assert np.allclose(values, np.sort(spectrum), atol=1e-7)
+        assert np.allclose(np.einsum("nij,nj->ni", A, axes), values[:, :1] * axes, atol=1e-7)
+        assert np.allclose(np.linalg.norm(axes, axis=1), 1.0)
+    values, axes = matching.smallest_axes(np.stack([np.diag([3.0, 1.0, 2.0]), np.zeros((3, 3))]))
+    assert values.tolist() == [[1.0, 2.0, 3.0], [0.0, 0.0, 0.0]] and axes.tolist() == [[0, 1, 0], [1, 0, 0]]
+
+
+def test_the_compiled_yaw_solve_is_the_projected_remapped_solve():
+    """The yaw-only step (turn about each restart's up, three translations) compiled: ``solve_system``'s with
+    ``yaw_only`` to round-off, for well-posed systems (Cholesky) and one whose translation along a wall is free
+    (the eigen-directions)."""
+    rng = np.random.default_rng(2)
+    J = rng.normal(size=(6, 40, 6))
+    A = np.swapaxes(J, 1, 2) @ J
+    A[4, :, 3] = A[4, 3, :] = 0.0  # x free
+    A[4, 3, 3] = 1e-13
+    b = rng.normal(size=(6, 6)) * 1e-3
+    up = rng.normal(size=(6, 3))
+    up /= np.linalg.norm(up, axis=1)[:, None]
+    dR, dt = kernels.yaw_steps(A, b, up, DEGENERATE_RATIO)
+    want_R, want_t = solve_system(A, b, up, True)
+    assert np.allclose(dR, want_R, atol=1e-12) and np.allclose(dt, want_t, atol=1e-12)
+    assert np.allclose(np.einsum("kij,kj->ki", dR, up), up, atol=1e-14)  # a turn about the up only
+    assert abs(dt[4, 0]) < 1e-12 and not np.allclose(want_R, np.eye(3))
+
+
+def test_the_compiled_hit_depths_are_the_einsum_formula():
+    """The structure's and the permanent map's ray casts: t = n . (v0 - origin) / n . d of each ray's first face
+    and that face's normal, as the numpy expression gives them (to round-off; numpy's einsum sums the three
+    products in an order of its own), NaN and zeros where a ray hits nothing; on a turned sphere, so no normal
+    lies along an axis."""
+    import trimesh
+
+    from bim2rdt.perception.background import hit_depths
+
+    rng = np.random.default_rng(4)
+    mesh = trimesh.creation.icosphere(subdivisions=2, radius=1.5)
+    mesh.apply_transform(trimesh.transformations.random_rotation_matrix(rng.random(3)))
+    origin = np.array([0.1, -0.2, 0.05])
+    directions = rng.normal(size=(3000, 3))
+    face = mesh.ray.intersects_first(np.broadcast_to(origin, directions.shape), directions)
+    face[::7] = -1  # some rays hit nothing
+    t, normals = hit_depths(mesh, face, origin, directions)
+    hit = face >= 0
+    want_normals = mesh.face_normals[face[hit]]
+    corner = mesh.vertices[mesh.faces[face[hit], 0]]
+    want = np.einsum("ni,ni->n", want_normals, corner - origin) / np.einsum("ni,ni->n", want_normals, directions[hit])
+    assert np.array_equal(np.isnan(t), ~hit) and np.allclose(t[hit], want, rtol=1e-13, atol=0.0)
+    assert np.array_equal(normals[hit], want_normals) and not normals[~hit].any()
+    points = origin + directions[hit] * t[hit, None]
+    assert np.allclose(np.linalg.norm(points, axis=1), 1.5, atol=0.1)  # on the sphere's facets
 
 
 @pytest.mark.parametrize("seed", range(3))

@@ -29,7 +29,7 @@ from bim2rdt.localization.config import LocalizationConfig
 from bim2rdt.localization.core import Localization, behind_fraction, checked_up, fix_pose, rigid_prior
 from bim2rdt.localization.errors import LocalizationError, Refusal
 from bim2rdt.localization.surfaces import GRAZING_COS, PermanentMap, SurfaceSamples, permanent_map
-from bim2rdt.registration import any_within, nearest_neighbours, neighbour_scatter
+from bim2rdt.registration import any_within, nearest_neighbours, neighbour_scatter, smallest_axes
 
 _CACHE_SIZE = 4
 
@@ -158,9 +158,11 @@ def scan_points(points_sensor: np.ndarray, cfg: LocalizationConfig) -> ScanPoint
     points = np.asarray(_points_of(points_sensor), dtype=np.float64)
     if points.ndim != 2 or points.shape[1] != 3:
         raise LocalizationError(f"cloud.points must be (N, 3) metres, got shape {points.shape}")
-    points = points[np.all(np.isfinite(points), axis=1)]
-    distance = np.linalg.norm(points, axis=1)
-    points = points[(distance >= cfg.min_range) & (distance <= cfg.max_range)]
+    from bim2rdt.registration import kernels  # numba's import waits for the first call
+
+    points = np.ascontiguousarray(points)
+    keep = kernels.in_range(points, float(cfg.min_range), float(cfg.max_range))  # finite, and norm's lengths
+    points = points if keep.all() else points[keep]
     if len(points) < cfg.min_points:
         raise LocalizationError(f"the cloud has {len(points)} returns in {cfg.min_range}-{cfg.max_range} m of the "
                                 f"sensor, need {cfg.min_points}", Refusal.TOO_FEW_RETURNS)
@@ -183,6 +185,12 @@ def voxel_means(points: np.ndarray, voxel: float) -> np.ndarray:
     """
     if len(points) == 0:
         return np.zeros((0, 3))
+    from bim2rdt.registration import kernels  # numba's import waits for the first call
+
+    points = np.ascontiguousarray(points, dtype=np.float64)
+    means = kernels.cube_means(points, float(voxel), float(DENSE_CUBES))  # the table's numbering, compiled
+    if means is not None:
+        return means
     cells = np.floor(points / voxel).astype(np.int64)
     cells -= cells.min(axis=0)
     size = cells.max(axis=0) + 1
@@ -196,7 +204,8 @@ def voxel_means(points: np.ndarray, voxel: float) -> np.ndarray:
 
 DENSE_CUBES = 2_000_000
 """Up to this many cubes in the points' box, :func:`voxel_means` numbers the occupied ones with a table over the
-box (a count per cube) instead of sorting the keys: the same numbering, half the time on a frame's 254,000 points."""
+box (a count per cube, compiled: :func:`bim2rdt.registration.kernels.cube_means`) instead of sorting the keys:
+the same numbering and means, a quarter of the time on a frame's 254,000 points (decision 0050)."""
 
 
 def _cube_index(keys: np.ndarray, cubes: int) -> tuple[np.ndarray, np.ndarray]:
@@ -218,8 +227,7 @@ def pca_normals(points: np.ndarray, neighbours: int) -> np.ndarray:
     third of the middle one: an edge, a corner, clutter)."""
     k = min(neighbours, len(points))
     points = np.ascontiguousarray(points, dtype=np.float64)
-    values, vectors = np.linalg.eigh(neighbour_scatter(points, nearest_neighbours(points, k)))  # numpy's sums, compiled
-    normals = vectors[:, :, 0]
+    values, normals = smallest_axes(neighbour_scatter(points, nearest_neighbours(points, k)))  # compiled
     normals = np.where((np.einsum("ni,ni->n", normals, points) > 0)[:, None], -normals, normals)
     flat = values[:, 0] <= values[:, 1] / 9.0
     return np.where(flat[:, None], normals, np.nan)
@@ -356,6 +364,19 @@ def sphere_directions(step_deg: float) -> np.ndarray:
     azimuth = np.pi * (1 + 5**0.5) * k
     ring = np.sqrt(1 - z**2)
     return np.stack([ring * np.cos(azimuth), ring * np.sin(azimuth), z], axis=1)
+
+
+def load_lattices(cfg: LocalizationConfig, *steps_deg: float) -> None:
+    """Build now the ray lattices (:func:`sphere_directions`) a fix of a cloud with ``cfg`` casts over (every
+    ``cloud_ray_deg``, and twice that for the coarse pass) and any other ``steps_deg``: constants of the settings,
+    kept once built (~3 ms each), which a long run (``verify``) builds in its setup, not in its first frame.
+
+    Args:
+        cfg: Localization's settings.
+        *steps_deg: Other lattice spacings the run casts over, degrees.
+    """
+    for step in (cfg.cloud_ray_deg, 2 * cfg.cloud_ray_deg, *steps_deg):
+        _sphere(step)
 
 
 @lru_cache(maxsize=8)

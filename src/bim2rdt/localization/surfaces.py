@@ -19,6 +19,7 @@ import trimesh
 from bim2rdt.bim import BimModel, NO_MAP, map_elements
 from bim2rdt.localization.errors import LocalizationError, Refusal
 from bim2rdt.perception import Intrinsics
+from bim2rdt.perception.background import hit_depths
 
 GRAZING_COS = np.cos(np.deg2rad(80.0))
 """Surfaces seen at more than 80 degrees from their normal are left out: their depth returns are mixed pixels."""
@@ -90,11 +91,8 @@ class PermanentMap:
     def _cast(self, origin: np.ndarray, directions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(t (K,), first face hit (K,), -1 and inf where none) of rays origin + t * directions (embree)."""
         face = self.mesh.ray.intersects_first(np.broadcast_to(origin, directions.shape), directions)
-        t = np.full(len(directions), np.inf)
-        hit = face >= 0
-        normals = self.mesh.face_normals[face[hit]]
-        corner = self.mesh.vertices[self.mesh.faces[face[hit], 0]]
-        t[hit] = np.einsum("ni,ni->n", normals, corner - origin) / np.einsum("ni,ni->n", normals, directions[hit])
+        t, _ = hit_depths(self.mesh, face, origin, directions)  # n . (v0 - origin) / n . d, compiled
+        t[face < 0] = np.inf
         return t, face
 
     def samples(self, spacing: float, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:

@@ -42,17 +42,33 @@ class BimStructure:
 
     def cast(self, origin: np.ndarray, directions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Ray parameters (N,) of the first BIM surface along each ray (NaN: none) and its unit normals (N, 3)."""
-        t = np.full(len(directions), np.nan)
-        normals = np.zeros((len(directions), 3))
         if self.mesh is None or len(directions) == 0:
-            return t, normals
+            return np.full(len(directions), np.nan), np.zeros((len(directions), 3))
         face = self.mesh.ray.intersects_first(np.broadcast_to(origin, directions.shape), directions)
-        hit = face >= 0
-        normals[hit] = self.mesh.face_normals[face[hit]]
-        v0 = self.mesh.vertices[self.mesh.faces[face[hit], 0]]
-        t[hit] = np.einsum("ni,ni->n", normals[hit], v0 - origin) / np.einsum("ni,ni->n", normals[hit],
-                                                                               directions[hit])
-        return t, normals
+        return hit_depths(self.mesh, face, origin, directions)
+
+
+def hit_depths(mesh: trimesh.Trimesh, face: np.ndarray, origin: np.ndarray, directions: np.ndarray
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """Ray parameters t (N,) at the plane of the triangle of ``mesh`` each ray ``origin`` + t ``directions`` (N, 3)
+    first hit (``face`` (N,), -1: none, t NaN) and the triangle's unit normal (N, 3; zeros for none):
+    t = n . (v0 - origin) / n . d, compiled (:func:`bim2rdt.registration.kernels.hit_depths`, decision 0050).
+
+    Args:
+        mesh: The mesh the rays were cast on.
+        face: (N,) the first face each ray hit, -1 for none.
+        origin: (3,) the rays' origin, metres.
+        directions: (N, 3) the rays' directions.
+
+    Returns:
+        (t (N,), normals (N, 3)).
+    """
+    from bim2rdt.registration import kernels  # numba's import waits for the first cast
+
+    return kernels.hit_depths(np.ascontiguousarray(face, dtype=np.int64), np.asarray(mesh.face_normals),
+                              np.asarray(mesh.vertices), np.asarray(mesh.faces, dtype=np.int64),
+                              np.asarray(origin, dtype=np.float64),
+                              np.ascontiguousarray(directions, dtype=np.float64))
 
 
 _STRUCTURES: dict[tuple[int, str], BimStructure] = {}

@@ -4,7 +4,8 @@ paper's Hausdorff alignment metric. Plain robust ICP is ``register(..., upright_
 from bim2rdt.registration.config import IcpConfig
 from bim2rdt.registration.errors import RegistrationError
 from bim2rdt.registration.icp import RegistrationResult, load_kernels, register
-from bim2rdt.registration.matching import SampleTree, any_within, nearest_neighbours, neighbour_scatter
+from bim2rdt.registration.matching import (SampleTree, any_within, nearest_neighbours, neighbour_scatter,
+                                           smallest_axes)
 from bim2rdt.registration.metrics import HausdorffStats, hausdorff
 from bim2rdt.registration.sampling import sample_model
 from bim2rdt.registration.so3 import invert_poses
@@ -15,4 +16,4 @@ from bim2rdt.registration.validation import MIN_SCENE_POINTS, unit_up
 __all__ = ["any_within", "closest_equivalent", "hausdorff", "HausdorffStats", "IcpConfig", "invert_poses",
            "load_kernels", "MIN_SCENE_POINTS", "nearest_neighbours", "neighbour_scatter", "POSE_PARAMETERS",
            "PoseUncertainty", "register", "RegistrationError", "RegistrationResult", "sample_model", "SampleTree",
-           "unit_up"]
+           "smallest_axes", "unit_up"]

@@ -17,7 +17,7 @@ from bim2rdt.registration import matching
 from bim2rdt.registration.config import IcpConfig
 from bim2rdt.registration.fit import report_fit
 from bim2rdt.registration.so3 import axis_angle, invert_poses, rotation_angle, tilt_angle
-from bim2rdt.registration.solvers import DEGENERATE_RATIO, SOLVERS, gravity_weight, solve_system
+from bim2rdt.registration.solvers import DEGENERATE_RATIO, SOLVERS, gravity_weight
 from bim2rdt.registration.uncertainty import PoseUncertainty
 from bim2rdt.registration.validation import Problem, validate_problem
 
@@ -144,8 +144,8 @@ def load_kernels() -> None:
     cached machine code cost ~0.4 s of one core once per process, which the first registration would otherwise
     pay. A long run (``verify``) calls this in its setup so its first frame costs what the others do. Two small
     registrations of a box's corner do it, yaw-only on a support and under an upright prior (the paths verify
-    takes, the second with its fit report), the scene normals' scatter and the bounded any-point test; no result
-    is kept."""
+    takes, the second with its fit report), the scene normals' scatter and axes, the bounded any-point test,
+    the scan's range test and cube means, and the ray casts' hit depths; no result is kept."""
     grid = np.linspace(0.0, 0.4, 8)
     u, v = (a.ravel() for a in np.meshgrid(grid, grid))
     zero = np.zeros_like(u)
@@ -157,6 +157,11 @@ def load_kernels() -> None:
     register(points, normals, scene, upright_bias=0.5)  # with the fit report (its surface patches' kernel)
     matching.scene_normals(scene, 8)  # the normals' scatter kernel (the localizer's scan and gated pairs use it)
     matching.any_within(points, scene, 0.05)  # which lattice directions a view covers (the localizer's)
+    from bim2rdt.registration import kernels
+
+    kernels.in_range(scene, 0.0, 1.0)  # a scan's returns in range, and their cube means (the localizer's)
+    kernels.cube_means(scene, 0.05, 1e6)
+    kernels.hit_depths(np.array([0, -1]), normals[:1], points[:3], np.array([[0, 1, 2]]), np.zeros(3), scene[:2])
 
 
 RIVAL_DEGREES = 3.0
@@ -576,10 +581,13 @@ def _iterate(restarts: _Restarts, active: np.ndarray, problem: Problem, model: m
     annealing = delta > cfg.huber_delta
     stride = max(1, cfg.coarse_stride) if annealing else 1  # coarse-to-fine: the wide-scale steps need few points
     bias = problem.upright_bias if bias is None else bias
-    if cfg.method == "point_to_plane" and normals_world is None:
-        if restarts.nearest is None:
-            restarts.nearest = np.full((len(restarts.poses), len(problem.scene_pts_world)), -1, np.int64)
-        step = _compiled_step(T, problem, model, cfg, delta, stride, bias, yaw_only, (restarts.nearest, active))
+    if cfg.method == "point_to_plane":
+        warm = None  # gated (the localizer's: one restart on a fresh model each frame): no near lists to build
+        if normals_world is None:
+            if restarts.nearest is None:
+                restarts.nearest = np.full((len(restarts.poses), len(problem.scene_pts_world)), -1, np.int64)
+            warm = (restarts.nearest, active)
+        step = _compiled_step(T, problem, model, cfg, delta, stride, bias, yaw_only, warm, normals_world)
         if step is not None:
             _advance(restarts, active, *step, cfg, annealing)
             return
@@ -595,48 +603,36 @@ def _iterate(restarts: _Restarts, active: np.ndarray, problem: Problem, model: m
 
 
 def _compiled_step(T: np.ndarray, problem: Problem, model: matching.ModelIndex, cfg: IcpConfig, delta: float,
-                   stride: int, bias: float | np.ndarray, yaw_only: bool, warm: tuple | None = None):
+                   stride: int, bias: float | np.ndarray, yaw_only: bool, warm: tuple | None = None,
+                   normals_world: np.ndarray | None = None):
     """:func:`_iterate`'s match, trim, weigh and point-to-plane solve by the compiled kernels
     (:mod:`bim2rdt.registration.kernels`: the same arithmetic in one pass, ~40 numpy calls fewer) -> (dR, dt,
     scores), or None when a restart has fewer than ``min_pairs`` pairs (RelaxIfFew: the numpy path then runs).
-    Only without the normal gate (off by default). ``warm``: the restarts' last nearest samples (K, N) and
-    which of them ``T`` are (k,), to start the search from (:func:`matching.nearest_samples`)."""
+    ``normals_world``: the scene's normals when the normal gate is on (:func:`kernels.gated_residuals`: the
+    localizer's fix, decision 0050). ``warm``: the restarts' last nearest samples (K, N) and which of them
+    ``T`` are (k,), to start the search from (:func:`matching.nearest_samples`)."""
     from bim2rdt.registration import kernels  # numba's import (~0.5 s) waits for the first registration
     scene_body = kernels.body_points(T, problem.scene_pts_world, stride)
     k, n, _ = scene_body.shape
     distance, index = matching.nearest_samples(model, scene_body, _pair_distance(model, cfg, delta), stride, warm)
     residual, pairs, scores = kernels.pair_residuals(scene_body, distance, index, model.points, model.normals,
                                                      model.spacing, cfg.score_distance)
+    if normals_world is not None:
+        residual, pairs = kernels.gated_residuals(residual, index, T, normals_world, stride, model.normals,
+                                                  float(np.cos(np.deg2rad(cfg.normal_gate_deg))))
     if pairs.min() < cfg.min_pairs:
         return None
     bias_gamma = np.full(k, bias * cfg.gravity_gamma0) if np.ndim(bias) == 0 else bias * cfg.gravity_gamma0
-    if yaw_only:
-        return (*_yaw_only_step(T, scene_body, residual, index, problem, model, cfg, delta, bias_gamma), scores)
     support = np.nan if problem.support_height is None else problem.support_height
-    dR, dt = kernels.plane_steps(T, scene_body, residual, index, model.points, model.normals, model.extreme_points,
+    hull = _NO_HULL if problem.support_height is None else model.extreme_points  # read only on a support
+    dR, dt = kernels.plane_steps(T, scene_body, residual, index, model.points, model.normals, hull,
                                  cfg.trim_fraction, cfg.min_pairs, cfg.trim_floor_per_delta * delta, delta, bias_gamma,
-                                 problem.up_world, UP_BODY, support, cfg.support_weight, DEGENERATE_RATIO)
+                                 problem.up_world, UP_BODY, support, cfg.support_weight, DEGENERATE_RATIO, yaw_only)
     return dR, dt, scores
 
 
-def _yaw_only_step(T: np.ndarray, scene_body: np.ndarray, residual: np.ndarray, index: np.ndarray, problem: Problem,
-                   model: matching.ModelIndex, cfg: IcpConfig, delta: float, bias_gamma: np.ndarray):
-    """yaw_only's step from the compiled pairs (:func:`_compiled_step`): the normal equations compiled, the
-    solve projected onto yaw and position by :func:`solve_system` -> (dR, dt)."""
-    from bim2rdt.registration import kernels
-
-    k = len(T)
-    up_body = np.einsum("kji,j->ki", T[:, :3, :3], problem.up_world)
-    if problem.support_height is not None:
-        contact, on_slab = _contact(T, up_body, problem, model.extreme_points)
-        weight = cfg.support_weight
-    else:
-        contact = on_slab = np.zeros((k, 3))
-        weight = 0.0
-    A, b = kernels.normal_systems(scene_body, residual, index, model.points, model.normals, cfg.trim_fraction,
-                                  cfg.min_pairs, cfg.trim_floor_per_delta * delta, delta, bias_gamma, up_body,
-                                  UP_BODY, on_slab, contact, float(weight))
-    return solve_system(A, b, up_body, True)
+_NO_HULL = np.zeros((0, 3))
+"""The hull points :func:`_compiled_step` hands the kernel off a support (it reads them only on one)."""
 
 
 def _contact(T: np.ndarray, up_body: np.ndarray, problem: Problem, hull: np.ndarray):

@@ -7,9 +7,11 @@ solve_point_to_plane`) costs ~40 numpy calls an iteration on arrays of a few hun
 so its time is mostly per-call overhead (decision 0040). These kernels do the same arithmetic in a pass per
 restart. Sums run in another order than numpy's, so results agree with the numpy path to round-off (~1e-15
 relative), not bit for bit (registration products are not bit-exact anyway: decision 0021); the numpy path
-still runs where a restart has too few pairs (RelaxIfFew), with the normal gate, for point-to-point, and is
-what tests/registration/test_kernels.py compares them with. Compiled once per machine and cached next to this
-file (``cache=True``): the first registration on a fresh checkout compiles them, ~10-30 s of one core.
+still runs where a restart has too few pairs (RelaxIfFew) and for point-to-point, and is what
+tests/registration/test_kernels.py compares them with (the normal gate is compiled too since decision 0050).
+Beside the step: the normals' scatter and closed-form axes, and the localizer's cloud kernels (the range test,
+cube means, the bounded any-point test). Compiled once per machine and cached next to this file
+(``cache=True``): the first registration on a fresh checkout compiles them, ~10-30 s of one core.
 """
 
 from __future__ import annotations
@@ -47,6 +49,33 @@ def pair_residuals(scene_body, distance, index, points, normals, spacing, trunca
             total += min(value, truncation) ** 2
         scores[r] = total / n
     return residual, pairs, scores
+
+
+@njit(cache=True, nogil=True)
+def gated_residuals(residual, index, T, normals_world, stride, model_normals, cos_gate):  # pragma: no cover
+    """The pairs' residuals (k, N) for the step with the normal gate applied, as
+    :func:`bim2rdt.registration.matching.gate_normals` gates them: a pair whose scene normal (``normals_world``,
+    every ``stride``-th, turned into each restart's body frame by T (k, 4, 4)) and matched sample's normal are
+    less than ``cos_gate`` apart in |cos| is no pair (its residual inf here; the score keeps the ungated
+    residuals, as the numpy path's does). Returns the gated residuals and each restart's pair count (k,)."""
+    k, n = residual.shape
+    gated = residual.copy()
+    pairs = np.zeros(k, np.int64)
+    size = len(model_normals)
+    for r in range(k):
+        for i in range(n):
+            if not np.isfinite(gated[r, i]):
+                continue
+            w0, w1, w2 = normals_world[i * stride, 0], normals_world[i * stride, 1], normals_world[i * stride, 2]
+            b0 = w0 * T[r, 0, 0] + w1 * T[r, 1, 0] + w2 * T[r, 2, 0]
+            b1 = w0 * T[r, 0, 1] + w1 * T[r, 1, 1] + w2 * T[r, 2, 1]
+            b2 = w0 * T[r, 0, 2] + w1 * T[r, 1, 2] + w2 * T[r, 2, 2]
+            s = min(index[r, i], size - 1)
+            if abs(b0 * model_normals[s, 0] + b1 * model_normals[s, 1] + b2 * model_normals[s, 2]) >= cos_gate:
+                pairs[r] += 1
+            else:
+                gated[r, i] = np.inf
+    return gated, pairs
 
 
 @njit(cache=True, nogil=True)
@@ -201,6 +230,68 @@ def solve_steps(A, b, degenerate_ratio):  # pragma: no cover - compiled
 
 
 @njit(cache=True, nogil=True)
+def yaw_steps(A, b, g_src, degenerate_ratio):  # pragma: no cover - compiled
+    """The yaw-only steps (dR (k, 3, 3), dt (k, 3)) of normal equations A (k, 6, 6), b (k, 6), as
+    :func:`bim2rdt.registration.solvers.solve_system` with ``yaw_only``: the system projected onto the turn
+    about each restart's ``g_src`` (k, 3, unit) and the three translations (4, 4), the turn scaled by the full
+    system's lever arm, then solved as :func:`solve_steps` solves (Cholesky where A - tau I is positive
+    definite, else along the eigen-directions with at least ``degenerate_ratio`` of the largest eigenvalue).
+    The numpy solve's ~25 calls of a restart's step, one pass (decision 0050); LAPACK's LU solve there, a
+    Cholesky here: the same step to round-off."""
+    k = len(A)
+    dR = np.empty((k, 3, 3))
+    dt = np.empty((k, 3))
+    A_s = np.empty((4, 4))
+    L = np.empty((4, 4))
+    rhs = np.empty(4)
+    scales = np.ones(4)
+    for r in range(k):
+        g0, g1, g2 = g_src[r, 0], g_src[r, 1], g_src[r, 2]
+        rot = A[r, 0, 0] + A[r, 1, 1] + A[r, 2, 2]
+        trans = A[r, 3, 3] + A[r, 4, 4] + A[r, 5, 5]
+        lever = math.sqrt(rot / max(trans, 1e-300))
+        scales[0] = 1.0 / max(lever, 1e-6) if g0 * g0 + g1 * g1 + g2 * g2 > 0.0 else 1.0
+        turn = 0.0
+        for i in range(3):
+            turn += g_src[r, i] * (A[r, i, 0] * g0 + A[r, i, 1] * g1 + A[r, i, 2] * g2)
+        A_s[0, 0] = turn
+        for m in range(3):
+            across = g0 * A[r, 0, 3 + m] + g1 * A[r, 1, 3 + m] + g2 * A[r, 2, 3 + m]
+            A_s[0, 1 + m] = across
+            A_s[1 + m, 0] = across
+            for n in range(3):
+                A_s[1 + m, 1 + n] = A[r, 3 + m, 3 + n]
+        rhs[0] = g0 * b[r, 0] + g1 * b[r, 1] + g2 * b[r, 2]
+        for m in range(3):
+            rhs[1 + m] = b[r, 3 + m]
+        trace = 0.0
+        for i in range(4):
+            for j in range(4):
+                A_s[i, j] = scales[i] * A_s[i, j] * scales[j]
+            trace += A_s[i, i]
+            rhs[i] = scales[i] * rhs[i]
+        tau = degenerate_ratio * trace
+        if tau > 0.0 and _cholesky(A_s, tau, L):
+            _cholesky(A_s, 0.0, L)
+            y = _cholesky_solve(L, rhs)
+        else:
+            values, vectors = np.linalg.eigh(A_s)
+            top = max(values[3], 1e-300)
+            y = np.zeros(4)
+            for m in range(4):
+                if values[m] > degenerate_ratio * top:
+                    along = 0.0
+                    for i in range(4):
+                        along += vectors[i, m] * rhs[i]
+                    for i in range(4):
+                        y[i] += vectors[i, m] * along / values[m]
+        angle = scales[0] * y[0]
+        _rodrigues(g0 * angle, g1 * angle, g2 * angle, dR[r])
+        dt[r, 0], dt[r, 1], dt[r, 2] = y[1], y[2], y[3]
+    return dR, dt
+
+
+@njit(cache=True, nogil=True)
 def _cholesky(A, shift, L):  # pragma: no cover - compiled
     """Cholesky factor of A - shift I (6, 6) into L; False when it is not positive definite."""
     n = len(A)
@@ -325,6 +416,224 @@ def neighbour_scatter(points, index):  # pragma: no cover - compiled
 
 
 @njit(cache=True, nogil=True)
+def smallest_axes(scatter):  # pragma: no cover - compiled
+    """Eigenvalues (n, 3), ascending, and the unit eigenvector of the smallest (n, 3) of symmetric 3x3 matrices
+    (n, 3, 3; the upper triangle is read), in closed form (Eberly, "A robust eigensolver for 3x3 symmetric
+    matrices", 2014): the matrix scaled by its largest entry, the eigenvalues from the trigonometric solution of
+    its characteristic cubic, the eigenvector of the one farthest from the other two by cross products of the
+    rows of A - lambda I, the next in its orthogonal complement, the third their cross product. What
+    ``np.linalg.eigh`` answers to round-off (~1e-15 relative to the largest eigenvalue; the vector's sign may
+    differ), ~20x faster: a point's normal from its neighbours' scatter (:func:`neighbour_scatter`) needs only
+    these. A zero matrix gives zeros and (1, 0, 0), as LAPACK does."""
+    n = len(scatter)
+    values = np.empty((n, 3))
+    axes = np.empty((n, 3))
+    for r in range(n):
+        a00, a01, a02 = scatter[r, 0, 0], scatter[r, 0, 1], scatter[r, 0, 2]
+        a11, a12, a22 = scatter[r, 1, 1], scatter[r, 1, 2], scatter[r, 2, 2]
+        top = max(abs(a00), abs(a01), abs(a02), abs(a11), abs(a12), abs(a22))
+        if top == 0.0:
+            values[r, 0], values[r, 1], values[r, 2] = 0.0, 0.0, 0.0
+            axes[r, 0], axes[r, 1], axes[r, 2] = 1.0, 0.0, 0.0
+            continue
+        a00, a01, a02, a11, a12, a22 = a00 / top, a01 / top, a02 / top, a11 / top, a12 / top, a22 / top
+        off = a01 * a01 + a02 * a02 + a12 * a12
+        if off == 0.0:  # diagonal: its entries, the smallest one's axis
+            _sorted_diagonal(a00, a11, a22, top, values[r], axes[r])
+            continue
+        q = (a00 + a11 + a22) / 3.0
+        b00, b11, b22 = a00 - q, a11 - q, a22 - q
+        p = math.sqrt((b00 * b00 + b11 * b11 + b22 * b22 + 2.0 * off) / 6.0)
+        c00 = b11 * b22 - a12 * a12
+        c01 = a01 * b22 - a12 * a02
+        c02 = a01 * a12 - b11 * a02
+        half_det = (b00 * c00 - a01 * c01 + a02 * c02) / (p * p * p) / 2.0
+        half_det = min(max(half_det, -1.0), 1.0)
+        angle = math.acos(half_det) / 3.0
+        beta2 = 2.0 * math.cos(angle)
+        beta0 = 2.0 * math.cos(angle + 2.0 * math.pi / 3.0)
+        beta1 = -(beta0 + beta2)
+        e0, e1, e2 = q + p * beta0, q + p * beta1, q + p * beta2
+        values[r, 0], values[r, 1], values[r, 2] = e0 * top, e1 * top, e2 * top
+        if half_det >= 0.0:  # the largest is the one set apart: its axis first, the smallest's last
+            v2 = _axis_of(a00, a01, a02, a11, a12, a22, e2)
+            v1 = _axis_in_complement(a00, a01, a02, a11, a12, a22, v2, e1)
+            axes[r, 0] = v1[1] * v2[2] - v1[2] * v2[1]
+            axes[r, 1] = v1[2] * v2[0] - v1[0] * v2[2]
+            axes[r, 2] = v1[0] * v2[1] - v1[1] * v2[0]
+        else:
+            v0 = _axis_of(a00, a01, a02, a11, a12, a22, e0)
+            axes[r, 0], axes[r, 1], axes[r, 2] = v0[0], v0[1], v0[2]
+    return values, axes
+
+
+@njit(cache=True, nogil=True)
+def _sorted_diagonal(d0, d1, d2, scale, values, axis):  # pragma: no cover - compiled
+    """A diagonal matrix's eigenvalues ascending (times ``scale``) into ``values`` and its smallest's axis."""
+    smallest = 0
+    if d1 < d0 and d1 <= d2:
+        smallest = 1
+    elif d2 < d0 and d2 < d1:
+        smallest = 2
+    middle = max(min(d0, d1), min(max(d0, d1), d2))
+    values[0], values[1], values[2] = min(d0, d1, d2) * scale, middle * scale, max(d0, d1, d2) * scale
+    axis[0], axis[1], axis[2] = 0.0, 0.0, 0.0
+    axis[smallest] = 1.0
+
+
+@njit(cache=True, nogil=True)
+def _axis_of(a00, a01, a02, a11, a12, a22, value):  # pragma: no cover - compiled
+    """The unit eigenvector of a simple eigenvalue ``value``: the longest cross product of two rows of A -
+    value I (each is orthogonal to both rows, so along the null space)."""
+    r00, r11, r22 = a00 - value, a11 - value, a22 - value
+    x0 = (a01 * a12 - a02 * r11, a02 * a01 - r00 * a12, r00 * r11 - a01 * a01)
+    x1 = (a01 * r22 - a02 * a12, a02 * a02 - r00 * r22, r00 * a12 - a01 * a02)
+    x2 = (r11 * r22 - a12 * a12, a12 * a02 - a01 * r22, a01 * a12 - r11 * a02)
+    d0 = x0[0] * x0[0] + x0[1] * x0[1] + x0[2] * x0[2]
+    d1 = x1[0] * x1[0] + x1[1] * x1[1] + x1[2] * x1[2]
+    d2 = x2[0] * x2[0] + x2[1] * x2[1] + x2[2] * x2[2]
+    if d0 >= d1 and d0 >= d2:
+        best, length = x0, math.sqrt(d0)
+    elif d1 >= d2:
+        best, length = x1, math.sqrt(d1)
+    else:
+        best, length = x2, math.sqrt(d2)
+    return (best[0] / length, best[1] / length, best[2] / length)
+
+
+@njit(cache=True, nogil=True)
+def _axis_in_complement(a00, a01, a02, a11, a12, a22, w, value):  # pragma: no cover - compiled
+    """The unit eigenvector of ``value`` orthogonal to the unit eigenvector ``w``: the 2x2 problem on the plane
+    orthogonal to ``w`` (basis u, v), its null direction taken from the larger row (robust when ``value`` is
+    double)."""
+    if abs(w[0]) > abs(w[1]):
+        inv = 1.0 / math.sqrt(w[0] * w[0] + w[2] * w[2])
+        u0, u1, u2 = -w[2] * inv, 0.0, w[0] * inv
+    else:
+        inv = 1.0 / math.sqrt(w[1] * w[1] + w[2] * w[2])
+        u0, u1, u2 = 0.0, w[2] * inv, -w[1] * inv
+    v0, v1, v2 = w[1] * u2 - w[2] * u1, w[2] * u0 - w[0] * u2, w[0] * u1 - w[1] * u0
+    au0 = a00 * u0 + a01 * u1 + a02 * u2
+    au1 = a01 * u0 + a11 * u1 + a12 * u2
+    au2 = a02 * u0 + a12 * u1 + a22 * u2
+    av0 = a00 * v0 + a01 * v1 + a02 * v2
+    av1 = a01 * v0 + a11 * v1 + a12 * v2
+    av2 = a02 * v0 + a12 * v1 + a22 * v2
+    m00 = u0 * au0 + u1 * au1 + u2 * au2 - value
+    m01 = u0 * av0 + u1 * av1 + u2 * av2
+    m11 = v0 * av0 + v1 * av1 + v2 * av2 - value
+    abs00, abs01, abs11 = abs(m00), abs(m01), abs(m11)
+    if abs00 >= abs11:
+        if max(abs00, abs01) == 0.0:
+            return (u0, u1, u2)
+        if abs00 >= abs01:
+            m01 /= m00
+            m00 = 1.0 / math.sqrt(1.0 + m01 * m01)
+            m01 *= m00
+        else:
+            m00 /= m01
+            m01 = 1.0 / math.sqrt(1.0 + m00 * m00)
+            m00 *= m01
+        return (m01 * u0 - m00 * v0, m01 * u1 - m00 * v1, m01 * u2 - m00 * v2)
+    if max(abs11, abs01) == 0.0:
+        return (u0, u1, u2)
+    if abs11 >= abs01:
+        m01 /= m11
+        m11 = 1.0 / math.sqrt(1.0 + m01 * m01)
+        m01 *= m11
+    else:
+        m11 /= m01
+        m01 = 1.0 / math.sqrt(1.0 + m11 * m11)
+        m11 *= m01
+    return (m11 * u0 - m01 * v0, m11 * u1 - m01 * v1, m11 * u2 - m01 * v2)
+
+
+@njit(cache=True, nogil=True)
+def in_range(points, low, high):  # pragma: no cover - compiled
+    """(N,) bool: rows of ``points`` (N, 3) whose every coordinate is finite and whose length lies in [``low``,
+    ``high``]: numpy's ``np.all(np.isfinite(points), axis=1)`` and then ``np.linalg.norm(points, axis=1)``, the
+    same squares summed x, y, z in order (so the same lengths bit for bit), in one pass without temporaries."""
+    n = len(points)
+    keep = np.empty(n, np.bool_)
+    for i in range(n):
+        x, y, z = points[i, 0], points[i, 1], points[i, 2]
+        if not (np.isfinite(x) and np.isfinite(y) and np.isfinite(z)):
+            keep[i] = False
+            continue
+        length = math.sqrt(x * x + y * y + z * z)
+        keep[i] = low <= length <= high
+    return keep
+
+
+@njit(cache=True, nogil=True)
+def cube_means(points, voxel, dense_cubes):  # pragma: no cover - compiled
+    """One mean point per occupied cube of side ``voxel`` (M, 3), cubes in ascending key order (x, then y,
+    then z, from the points' least cube), each cube's points summed in their own order from 0: what
+    :func:`bim2rdt.localization.cloud.voxel_means` computes with ``np.floor``, a count table and ``np.bincount``,
+    bit for bit, in three passes. A box of more than ``dense_cubes`` cubes gives None (the caller sorts)."""
+    n = len(points)
+    cells = np.empty((n, 3), np.int64)
+    for i in range(n):
+        for c in range(3):
+            cells[i, c] = np.int64(math.floor(points[i, c] / voxel))
+    low = np.empty(3, np.int64)
+    size = np.empty(3, np.int64)
+    for c in range(3):
+        low[c] = cells[:, c].min()
+        size[c] = cells[:, c].max() - low[c] + 1
+    if float(size[0]) * float(size[1]) * float(size[2]) > dense_cubes:
+        return None
+    count = np.zeros(size[0] * size[1] * size[2], np.int64)
+    key = np.empty(n, np.int64)
+    for i in range(n):
+        key[i] = ((cells[i, 0] - low[0]) * size[1] + (cells[i, 1] - low[1])) * size[2] + (cells[i, 2] - low[2])
+        count[key[i]] += 1
+    rank = np.empty(len(count), np.int64)
+    occupied = 0
+    for c in range(len(count)):
+        if count[c]:
+            rank[c] = occupied
+            occupied += 1
+    sums = np.zeros((occupied, 3))
+    counts = np.zeros(occupied, np.int64)
+    for i in range(n):
+        r = rank[key[i]]
+        sums[r, 0] += points[i, 0]
+        sums[r, 1] += points[i, 1]
+        sums[r, 2] += points[i, 2]
+        counts[r] += 1
+    for r in range(occupied):
+        for c in range(3):
+            sums[r, c] = sums[r, c] / counts[r]
+    return sums
+
+
+@njit(cache=True, nogil=True, error_model="numpy")  # a ray along its face's plane: inf or NaN, as numpy's
+def hit_depths(face, face_normals, vertices, faces, origin, directions):  # pragma: no cover - compiled
+    """Ray parameters t (N,) of rays ``origin`` + t ``directions`` (N, 3) at the plane of the triangle each first
+    hit (``face`` (N,), -1 none: t NaN), and that triangle's unit normal (N, 3; zeros for none): t = n . (v0 -
+    origin) / n . d with v0 the triangle's first corner, each dot's three products summed (x + z) + y, as
+    numpy's ``einsum("ni,ni->n")`` sums them here (tests/registration/test_kernels.py), in one pass where
+    numpy's masked gathers and scatters of a frame's 127,000 rays cost ~10 ms."""
+    n = len(face)
+    t = np.full(n, np.nan)
+    normals = np.zeros((n, 3))
+    for i in range(n):
+        f = face[i]
+        if f < 0:
+            continue
+        n0, n1, n2 = face_normals[f, 0], face_normals[f, 1], face_normals[f, 2]
+        v = faces[f, 0]
+        near = n0 * (vertices[v, 0] - origin[0]) + n2 * (vertices[v, 2] - origin[2])
+        near += n1 * (vertices[v, 1] - origin[1])
+        along = n0 * directions[i, 0] + n2 * directions[i, 2]
+        along += n1 * directions[i, 1]
+        t[i] = near / along
+        normals[i, 0], normals[i, 1], normals[i, 2] = n0, n1, n2
+    return t, normals
+
+
+@njit(cache=True, nogil=True)
 def any_within(points, queries, radius, bound):  # pragma: no cover - compiled
     """(Q,) bool: whether any of ``points`` (P, 3) lies nearer than ``radius`` to each of ``queries`` (Q, 3): a
     grid of cubes a hair wider than ``radius`` over the points' box, each query tested against the points of the
@@ -390,12 +699,13 @@ def any_within(points, queries, radius, bound):  # pragma: no cover - compiled
 @njit(cache=True, nogil=True)
 def plane_steps(T, scene_body, residual, index, points, normals, hull, trim_fraction, min_pairs, keep_within,
                 delta, bias_gamma, up_world, g_dst, support_height, support_weight,
-                degenerate_ratio):  # pragma: no cover - compiled
+                degenerate_ratio, yaw_only):  # pragma: no cover - compiled
     """The point-to-plane steps (dR (k, 3, 3), dt (k, 3)) of restarts at poses T (k, 4, 4) in one call: each
     restart's world up in its body frame (R^T ``up_world``), its resting contact when ``support_height`` (m along
     ``up_world``) is finite (the lowest of the ``hull`` points along that up, dropped onto the slab, as
-    :func:`bim2rdt.registration.icp._contact`), then :func:`normal_systems` and :func:`solve_steps` (decision
-    0045: the ~10 numpy calls between them were a tenth of an iteration)."""
+    :func:`bim2rdt.registration.icp._contact`), then :func:`normal_systems` and :func:`solve_steps`, or
+    :func:`yaw_steps` with ``yaw_only`` (decisions 0045, 0050: the ~10 numpy calls between them were a tenth of
+    an iteration, the yaw-only solve's ~25 a quarter)."""
     k = len(T)
     up_body = np.empty((k, 3))
     contact = np.zeros((k, 3))
@@ -420,6 +730,8 @@ def plane_steps(T, scene_body, residual, index, points, normals, hull, trim_frac
                 on_slab[r, i] = hull[lowest, i] - gap * up_body[r, i]
     A, b = normal_systems(scene_body, residual, index, points, normals, trim_fraction, min_pairs, keep_within, delta,
                           bias_gamma, up_body, g_dst, on_slab, contact, weight)
+    if yaw_only:
+        return yaw_steps(A, b, up_body, degenerate_ratio)
     return solve_steps(A, b, degenerate_ratio)
 
 

@@ -24,6 +24,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from bim2rdt.bim import BimModel
 from bim2rdt.localization import (GlobalSearchConfig, LocalizationConfig, LocalizationError, OccludedMap, Refusal,
                                   depth_points, localize_cloud, scan_points)
+from bim2rdt.localization.cloud import load_lattices
 from bim2rdt.perception import Frame, Observation, explained, movable_elements, structure_for
 from bim2rdt.registration import load_kernels
 from bim2rdt.semantics import KnowledgeBasePriors, UprightPrior
@@ -323,6 +324,7 @@ def verify_frames(frames: Iterable, model: BimModel, prior: np.ndarray | None = 
             scene = OccludedMap.of(model)
             load_kernels()  # numba's import and machine code (~0.4 s once), here and not in the first frame
             shift_search.load_kernels()  # the plan search's count, likewise
+            load_lattices(config.localization, VIEW_RAY_DEG)  # the view's ray lattices: constants of the settings
     except LocalizationError as error:
         raise VerifyError(str(error)) from None
     priors = family_priors(model) if priors is None else priors
@@ -442,6 +444,10 @@ def verify_frame(index: int, frame, model: BimModel, scene: OccludedMap, prior: 
     return _timed(result, start)
 
 
+VIEW_RAY_DEG = 0.5
+"""Degrees between the rays that find which planned objects a frame could see (:meth:`OccludedMap.occluder_hits`)."""
+
+
 LOW_PRIOR_M = 0.2
 """A prior this close to the slab under it is at floor height: a sensor is carried higher (hinted on any refusal)."""
 
@@ -517,17 +523,18 @@ def _observe(result: FrameResult, points_sensor: np.ndarray, pose: np.ndarray, m
     """The planned objects in view checked and judged (:func:`bim2rdt.twin.judge_evidence` on this frame), and
     the new clusters, from the fixed ``pose``: into ``result`` (its looks, observations, missing, clusters)."""
     points_sensor = points_sensor[:: max(1, len(points_sensor) // 90_000)]
-    points_sensor = points_sensor[np.linalg.norm(points_sensor, axis=1) > 1e-6]
+    ranges = np.linalg.norm(points_sensor, axis=1)  # once: the kept rows' lengths are the same floats
+    keep = ranges > 1e-6
+    points_sensor, ranges = points_sensor[keep], ranges[keep]  # a contiguous copy, as BLAS's product had it
     located = points_sensor @ pose[:3, :3].T + pose[:3, 3]
     structure = structure_for(model)
     slab = structure.slab_height(pose[:3, 3])
     a, b = config.depth_noise
-    ranges = np.linalg.norm(points_sensor, axis=1)
     directions = points_sensor / ranges[:, None]  # unit rays: a scan looks all round, no camera z to divide by
     building = explained(structure, pose[:3, 3], directions @ pose[:3, :3].T, ranges, config.surface_tolerance,
                          a + b * ranges**2, slab, config.surface_tolerance)
     left = located[~building]
-    hits = scene.occluder_hits(pose, directions[:: max(1, len(directions) // 20_000)], 0.5,
+    hits = scene.occluder_hits(pose, directions[:: max(1, len(directions) // 20_000)], VIEW_RAY_DEG,
                                config.localization.max_range)
     elements = planned_in_view(model, hits, config.planned)
     lookup = RangeLookup.of(points_sensor, pose)
