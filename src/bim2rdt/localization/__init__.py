@@ -13,8 +13,8 @@ odometry until one is left (``carry`` one step, ``refix`` a held frame from its 
 from bim2rdt.localization.config import LocalizationConfig
 from bim2rdt.localization.errors import LocalizationError, Refusal
 from bim2rdt.localization.filter import OdometryNoise, PoseFilter, StationFix, fuse_frame
-from bim2rdt.localization.cloud import (OccludedMap, ScanPoints, localize_cloud, scan_points, sphere_directions,
-                                       voxel_means)
+from bim2rdt.localization.cloud import (OccludedMap, ScanPoints, load_lattices, localize_cloud, scan_points,
+                                       sphere_directions, voxel_means)
 from bim2rdt.localization.surfaces import GRAZING_COS
 from bim2rdt.localization.depth import depth_points
 from bim2rdt.localization.odometry import icp_odometry
@@ -28,6 +28,6 @@ from bim2rdt.localization.station import Turned, localize_station, pinned
 
 __all__ = ["between", "Candidate", "carry", "check_shots", "choose", "depth_points", "find_pose", "from_planar",
            "fuse_frame", "GlobalSearchConfig", "GRAZING_COS", "icp_odometry", "Localization", "LocalizationConfig",
-           "LocalizationError", "localize", "localize_cloud", "localize_station", "OccludedMap", "OdometryNoise",
-           "pinned", "PoseFilter", "Refusal", "refix", "scan_points", "ScanPoints", "sphere_directions",
-           "StationCheck", "StationFix", "Sweep", "SweepStep", "to_planar", "Turned", "voxel_means"]
+           "LocalizationError", "load_lattices", "localize", "localize_cloud", "localize_station", "OccludedMap",
+           "OdometryNoise", "pinned", "PoseFilter", "Refusal", "refix", "scan_points", "ScanPoints",
+           "sphere_directions", "StationCheck", "StationFix", "Sweep", "SweepStep", "to_planar", "Turned", "voxel_means"]

@@ -29,7 +29,8 @@ from bim2rdt.localization.config import LocalizationConfig
 from bim2rdt.localization.core import Localization, behind_fraction, checked_up, fix_pose, rigid_prior
 from bim2rdt.localization.errors import LocalizationError, Refusal
 from bim2rdt.localization.surfaces import GRAZING_COS, PermanentMap, SurfaceSamples, permanent_map
-from bim2rdt.registration import any_within, nearest_neighbours, neighbour_scatter, smallest_axes
+from bim2rdt.registration import (any_within, cube_means, nearest_neighbours, neighbour_scatter, points_in_range,
+                                  smallest_axes)
 
 _CACHE_SIZE = 4
 
@@ -158,10 +159,8 @@ def scan_points(points_sensor: np.ndarray, cfg: LocalizationConfig) -> ScanPoint
     points = np.asarray(_points_of(points_sensor), dtype=np.float64)
     if points.ndim != 2 or points.shape[1] != 3:
         raise LocalizationError(f"cloud.points must be (N, 3) metres, got shape {points.shape}")
-    from bim2rdt.registration import kernels  # numba's import waits for the first call
-
     points = np.ascontiguousarray(points)
-    keep = kernels.in_range(points, float(cfg.min_range), float(cfg.max_range))  # finite, and norm's lengths
+    keep = points_in_range(points, cfg.min_range, cfg.max_range)  # finite, and norm's lengths
     points = points if keep.all() else points[keep]
     if len(points) < cfg.min_points:
         raise LocalizationError(f"the cloud has {len(points)} returns in {cfg.min_range}-{cfg.max_range} m of the "
@@ -185,10 +184,8 @@ def voxel_means(points: np.ndarray, voxel: float) -> np.ndarray:
     """
     if len(points) == 0:
         return np.zeros((0, 3))
-    from bim2rdt.registration import kernels  # numba's import waits for the first call
-
     points = np.ascontiguousarray(points, dtype=np.float64)
-    means = kernels.cube_means(points, float(voxel), float(DENSE_CUBES))  # the table's numbering, compiled
+    means = cube_means(points, voxel, DENSE_CUBES)  # the table's numbering, compiled
     if means is not None:
         return means
     cells = np.floor(points / voxel).astype(np.int64)

@@ -19,7 +19,7 @@ import trimesh
 from bim2rdt.bim import BimModel, NO_MAP, map_elements
 from bim2rdt.localization.errors import LocalizationError, Refusal
 from bim2rdt.perception import Intrinsics
-from bim2rdt.perception.background import hit_depths
+from bim2rdt.perception import hit_depths
 
 GRAZING_COS = np.cos(np.deg2rad(80.0))
 """Surfaces seen at more than 80 degrees from their normal are left out: their depth returns are mixed pixels."""

@@ -3,7 +3,7 @@
 ``perceive_frame(frame, model, priors, detector=GeometricDetector(model))`` turns one RGB-D frame into
 observations (one per object found); ``perceive_frames`` fuses several views of one place."""
 
-from bim2rdt.perception.background import SLAB_CLASSES, explained, structure_for
+from bim2rdt.perception.background import SLAB_CLASSES, explained, hit_depths, structure_for
 from bim2rdt.perception.camera import CameraError, Intrinsics, look_at
 from bim2rdt.perception.config import PerceptionConfig
 from bim2rdt.perception.detection import Detection
@@ -23,8 +23,8 @@ from bim2rdt.perception.visibility import DepthView, PlaceLook, look_at_place, s
 from bim2rdt.perception.yoloe import YoloeDetector
 
 __all__ = ["CameraError", "DepthView", "Detection", "Detector", "EdgeFilter", "element_body_mesh", "ElementStatus",
-           "explained", "fit_detection", "FitRules", "Frame", "GeometricConfig", "GeometricDetector", "Intrinsics",
-           "KnownSurface", "locate_detections", "look_at", "look_at_place", "movable_elements", "Observation",
-           "off_the_slab", "perceive_frame", "perceive_frames", "PerceiveConfig", "PerceptionConfig", "PerceptionError",
-           "permanent_elements", "PlaceLook", "Plausible", "see_through_fraction", "SLAB_CLASSES", "SLAB_CLEARANCE",
-           "structure_for", "UNKNOWN_FAMILY", "YoloeDetector"]
+           "explained", "fit_detection", "FitRules", "Frame", "hit_depths", "GeometricConfig", "GeometricDetector",
+           "Intrinsics", "KnownSurface", "locate_detections", "look_at", "look_at_place", "movable_elements",
+           "Observation", "off_the_slab", "perceive_frame", "perceive_frames", "PerceiveConfig", "PerceptionConfig",
+           "PerceptionError", "permanent_elements", "PlaceLook", "Plausible", "see_through_fraction", "SLAB_CLASSES",
+           "SLAB_CLEARANCE", "structure_for", "UNKNOWN_FAMILY", "YoloeDetector"]

@@ -15,6 +15,7 @@ import trimesh
 from bim2rdt.bim import BimModel
 from bim2rdt.perception.structure import permanent_elements
 from bim2rdt.perception.surfaces import KnownSurface
+from bim2rdt.registration import plane_hit_depths
 
 SLAB_CLASSES = ("IfcSlab", "IfcSlabStandardCase", "IfcSlabElementedCase")
 
@@ -63,12 +64,7 @@ def hit_depths(mesh: trimesh.Trimesh, face: np.ndarray, origin: np.ndarray, dire
     Returns:
         (t (N,), normals (N, 3)).
     """
-    from bim2rdt.registration import kernels  # numba's import waits for the first cast
-
-    return kernels.hit_depths(np.ascontiguousarray(face, dtype=np.int64), np.asarray(mesh.face_normals),
-                              np.asarray(mesh.vertices), np.asarray(mesh.faces, dtype=np.int64),
-                              np.asarray(origin, dtype=np.float64),
-                              np.ascontiguousarray(directions, dtype=np.float64))
+    return plane_hit_depths(face, mesh.face_normals, mesh.vertices, mesh.faces, origin, directions)
 
 
 _STRUCTURES: dict[tuple[int, str], BimStructure] = {}

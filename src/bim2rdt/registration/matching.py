@@ -149,6 +149,65 @@ def smallest_axes(scatter: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return compiled(np.ascontiguousarray(scatter, dtype=np.float64).reshape(-1, 3, 3))
 
 
+
+def points_in_range(points: np.ndarray, low: float, high: float) -> np.ndarray:
+    """Which rows of ``points`` are finite and lie ``low``-``high`` from the origin, compiled
+    (:func:`bim2rdt.registration.kernels.in_range`): ``np.isfinite`` and ``np.linalg.norm``'s lengths, bit for bit,
+    in one pass.
+
+    Args:
+        points: (N, 3) points, metres.
+        low: The least length kept, metres.
+        high: The greatest length kept, metres.
+
+    Returns:
+        (N,) bool, True for a row kept.
+    """
+    from bim2rdt.registration.kernels import in_range as compiled  # numba's import waits for the first call
+
+    return compiled(np.ascontiguousarray(points, dtype=np.float64), float(low), float(high))
+
+
+def cube_means(points: np.ndarray, voxel: float, dense_cubes: float) -> np.ndarray | None:
+    """One mean point per occupied cube of side ``voxel``, cubes in ascending key order, compiled
+    (:func:`bim2rdt.registration.kernels.cube_means`): a count table's numbering and ``np.bincount``'s sums, bit for
+    bit.
+
+    Args:
+        points: (N, 3) points, metres.
+        voxel: The cube's side, metres.
+        dense_cubes: The most cubes the points' box may span for a count table.
+
+    Returns:
+        (M, 3) the cubes' mean points, metres; None when the box spans more than ``dense_cubes`` cubes.
+    """
+    from bim2rdt.registration.kernels import cube_means as compiled  # numba's import waits for the first call
+
+    return compiled(np.ascontiguousarray(points, dtype=np.float64), float(voxel), float(dense_cubes))
+
+
+def plane_hit_depths(face: np.ndarray, face_normals: np.ndarray, vertices: np.ndarray, faces: np.ndarray,
+                     origin: np.ndarray, directions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Ray parameters at the plane of the triangle each ray first hit, and its unit normal, compiled
+    (:func:`bim2rdt.registration.kernels.hit_depths`): t = n . (v0 - origin) / n . d, as numpy's einsum sums it.
+
+    Args:
+        face: (N,) the first triangle each ray hit, -1 for none.
+        face_normals: (F, 3) the mesh's unit triangle normals.
+        vertices: (V, 3) the mesh's vertices, metres.
+        faces: (F, 3) the triangles' vertex indices.
+        origin: (3,) the rays' origin, metres.
+        directions: (N, 3) the rays' directions.
+
+    Returns:
+        (t (N,), NaN for no hit; normals (N, 3), zeros for no hit).
+    """
+    from bim2rdt.registration.kernels import hit_depths as compiled  # numba's import waits for the first call
+
+    return compiled(np.ascontiguousarray(face, dtype=np.int64), np.asarray(face_normals, dtype=np.float64),
+                    np.asarray(vertices, dtype=np.float64), np.asarray(faces, dtype=np.int64),
+                    np.asarray(origin, dtype=np.float64), np.ascontiguousarray(directions, dtype=np.float64))
+
 WITHIN_CUBES = 4_000_000
 """:func:`any_within` grids the points' box in cubes of the radius up to this many; beyond, it asks the k-d tree."""
 

@@ -23,8 +23,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from bim2rdt.bim import BimModel
 from bim2rdt.localization import (GlobalSearchConfig, LocalizationConfig, LocalizationError, OccludedMap, Refusal,
-                                  depth_points, localize_cloud, scan_points)
-from bim2rdt.localization.cloud import load_lattices
+                                  depth_points, load_lattices, localize_cloud, scan_points)
 from bim2rdt.perception import Frame, Observation, explained, movable_elements, structure_for
 from bim2rdt.registration import load_kernels
 from bim2rdt.semantics import KnowledgeBasePriors, UprightPrior
