@@ -48,7 +48,14 @@ OFFICE1_VERIFY_MODULES = (
 """Test files that take office1's corrected verify from the session's one run (the ``office1_verified`` fixture),
 sent to one xdist worker as one unit as :data:`DEMO_DAY_MODULES` are."""
 
-SHARED_RUN_UNITS = (DEMO_DAY_MODULES, OFFICE1_VERIFY_MODULES)
+FZK_DAY_MODULES = (
+    "tests/demo/test_demo_ifc.py",  # the house's day: its site objects, its walk, its verdicts
+    "tests/demo/test_demo_determinism.py",  # the same decisions on another thread count and BLAS kernel
+)
+"""Test files that take the FZK house's day from the session's one run (the ``fzk_day`` fixture), sent to one
+xdist worker as one unit as :data:`DEMO_DAY_MODULES` are."""
+
+SHARED_RUN_UNITS = (DEMO_DAY_MODULES, OFFICE1_VERIFY_MODULES, FZK_DAY_MODULES)
 """Groups of test files that share a session fixture's run: each group is one unit of work under ``loadfile``."""
 
 LONG_UNITS = (
@@ -67,13 +74,12 @@ LONG_UNITS = (
     "tests/semantics/test_cli_priors.py",
     "tests/planning/test_cli_planning.py",
     "tests/bim/test_cli_info.py",
-    "tests/demo/test_demo_determinism.py",
+    FZK_DAY_MODULES[0],
     "tests/demo/test_demo_localization.py",
     "tests/bim/test_map_classes.py",
     "tests/twin/test_text.py",
     "tests/semantics/test_knowledge.py",
     "tests/bim/test_integrity.py",
-    "tests/demo/test_demo_ifc.py",
 )
 """The longest units of work (a group by its first file), longest first: every unit of about 25 s or more in CI
 (decision 0048's timed run). Under ``loadfile`` they are handed out before the others, so the parallel part does
@@ -85,8 +91,8 @@ the last.)"""
 @pytest.hookimpl(optionalhook=True)
 def pytest_xdist_make_scheduler(config, log):
     """``--dist loadfile`` with the files of each group of :data:`SHARED_RUN_UNITS` as one unit of work: one
-    worker runs them all, so the session's ``demo_run`` (an in-process day, kept in memory) or
-    ``office1_verified`` is computed once for all of them; the units of :data:`LONG_UNITS` are handed out first.
+    worker runs them all, so the session's ``demo_run`` (an in-process day, kept in memory), ``office1_verified``
+    or ``fzk_day`` is computed once for all of them; the units of :data:`LONG_UNITS` are handed out first.
     Any other ``--dist`` mode: xdist's own scheduler."""
     if config.getvalue("dist") != "loadfile":
         return None
@@ -246,6 +252,32 @@ def demo_run(tmp_path_factory):
             get_settings.cache_clear()
     assert result.exit_code == 0 and len(made) == 1, (result.output, result.exception)
     return SimpleNamespace(out=out, stdout=result.stdout, result=made[0], day=made[0].site_day)
+
+
+@pytest.fixture(scope="session")
+def fzk_day(samples, tmp_path_factory):
+    """`run_ifc_day(AC20-FZK-Haus.ifc, out, workers=1, minutes=1.0)`, run in this process once per session, its
+    numerical pools (BLAS, OpenMP) on one thread as the CLI runs them, with a cache folder of its own: ``day``
+    (the :class:`~bim2rdt.demo.site_day.SiteDay`), ``out`` (its folder), ``ifc`` (the house's file), ``minutes``
+    and ``threads`` (each pool's number of threads while it ran). Shared by the files of
+    :data:`FZK_DAY_MODULES`: read-only."""
+    from types import SimpleNamespace
+
+    from threadpoolctl import threadpool_info, threadpool_limits
+
+    from bim2rdt.config import get_settings
+    from bim2rdt.demo.ifc_day import run_ifc_day  # its pools are loaded before they are limited
+
+    ifc, out, minutes = samples / "AC20-FZK-Haus.ifc", tmp_path_factory.mktemp("fzk-day"), 1.0
+    with pytest.MonkeyPatch.context() as patch, threadpool_limits(limits=1):
+        patch.setenv("BIM2RDT_CACHE_DIR", str(tmp_path_factory.mktemp("fzk-cache")))
+        get_settings.cache_clear()
+        try:
+            day = run_ifc_day(ifc, out, workers=1, minutes=minutes)
+            threads = {pool["internal_api"]: pool["num_threads"] for pool in threadpool_info()}
+        finally:
+            get_settings.cache_clear()
+    return SimpleNamespace(day=day, out=out, ifc=ifc, minutes=minutes, threads=threads)
 
 
 @pytest.fixture(autouse=True)
