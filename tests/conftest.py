@@ -68,32 +68,33 @@ SHARED_RUN_UNITS = (DEMO_DAY_MODULES, OFFICE1_VERIFY_MODULES, FZK_DAY_MODULES)
 
 LONG_UNITS = (
     DEMO_DAY_MODULES[0],
-    "tests/demo/test_demo_every_ifc.py",
     "tests/safety/test_cli_hav.py",
-    "tests/cli/test_bench_registration.py",
-    "tests/cli/test_bench_localization.py",
-    "tests/demo/test_record_round_trip.py",
-    "tests/server/test_cli_server.py",
-    "tests/cli/test_bench_perception.py",
-    "tests/safety/test_weighting.py",
-    OFFICE1_VERIFY_MODULES[0],
-    "tests/twin/test_twin.py",
-    "tests/cli/test_verify_outputs.py",
     "tests/semantics/test_cli_priors.py",
-    "tests/planning/test_cli_planning.py",
-    "tests/bim/test_cli_info.py",
+    "tests/demo/test_demo_every_ifc.py",
+    "tests/cli/test_bench_localization.py",
+    OFFICE1_VERIFY_MODULES[0],
     FZK_DAY_MODULES[0],
+    "tests/bim/test_cli_info.py",
+    "tests/server/test_cli_server.py",
+    "tests/cli/test_bench_registration.py",
+    "tests/demo/test_record_round_trip.py",
+    "tests/bus/test_broker.py",
+    "tests/cli/test_bench_perception.py",
+    "tests/cli/test_verify_outputs.py",
+    "tests/planning/test_cli_planning.py",
+    "tests/cli/test_output_paths.py",
     "tests/demo/test_demo_localization.py",
-    "tests/bim/test_map_classes.py",
-    "tests/twin/test_text.py",
-    "tests/semantics/test_knowledge.py",
     "tests/bim/test_integrity.py",
+    "tests/bim/test_map_classes.py",
+    "tests/test_config.py",
+    "tests/bim/test_model.py",
+    "tests/sim/test_scenarios.py",
 )
 """The longest units of work (a group by its first file), longest first: every unit of about 25 s or more in CI
-(decision 0048's timed run). Under ``loadfile`` they are handed out before the others, so the parallel part does
-not end on one worker still busy with one of them while the others have nothing left. (xdist's own order is by
-number of tests: a long file of one or two tests, as the FZK determinism or bench perception, would start among
-the last.)"""
+(decision 0048's amendment: a run of the parallel part under load, its failed tests' time left out). Under
+``loadfile`` they are handed out before the others, so the parallel part does not end on one worker still busy
+with one of them while the others have nothing left. (xdist's own order is by number of tests: a long file of
+one or two tests, as bench perception, would start among the last.)"""
 
 
 @pytest.hookimpl(optionalhook=True)
