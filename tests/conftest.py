@@ -267,9 +267,9 @@ def demo_run(tmp_path_factory):
 def fzk_day(samples, tmp_path_factory):
     """`run_ifc_day(AC20-FZK-Haus.ifc, out, workers=1, minutes=1.0)`, run in this process once per session, its
     numerical pools (BLAS, OpenMP) on one thread as the CLI runs them, with a cache folder of its own: ``day``
-    (the :class:`~bim2rdt.demo.site_day.SiteDay`), ``out`` (its folder), ``ifc`` (the house's file), ``minutes``
-    and ``threads`` (each pool's number of threads while it ran). Shared by the files of
-    :data:`FZK_DAY_MODULES`: read-only."""
+    (the :class:`~bim2rdt.demo.site_day.SiteDay`), ``out`` (its folder), ``ifc`` (the house's file), ``minutes``,
+    ``threads`` (each pool's number of threads while it ran) and ``cache`` (the model cache it filled). Shared by
+    the files of :data:`FZK_DAY_MODULES`: read-only."""
     from types import SimpleNamespace
 
     from threadpoolctl import threadpool_info, threadpool_limits
@@ -278,15 +278,16 @@ def fzk_day(samples, tmp_path_factory):
     from bim2rdt.demo.ifc_day import run_ifc_day  # its pools are loaded before they are limited
 
     ifc, out, minutes = samples / "AC20-FZK-Haus.ifc", tmp_path_factory.mktemp("fzk-day"), 1.0
+    cache = tmp_path_factory.mktemp("fzk-cache")
     with pytest.MonkeyPatch.context() as patch, threadpool_limits(limits=1):
-        patch.setenv("BIM2RDT_CACHE_DIR", str(tmp_path_factory.mktemp("fzk-cache")))
+        patch.setenv("BIM2RDT_CACHE_DIR", str(cache))
         get_settings.cache_clear()
         try:
             day = run_ifc_day(ifc, out, workers=1, minutes=minutes)
             threads = {pool["internal_api"]: pool["num_threads"] for pool in threadpool_info()}
         finally:
             get_settings.cache_clear()
-    return SimpleNamespace(day=day, out=out, ifc=ifc, minutes=minutes, threads=threads)
+    return SimpleNamespace(day=day, out=out, ifc=ifc, minutes=minutes, threads=threads, cache=cache)
 
 
 @pytest.fixture(autouse=True)

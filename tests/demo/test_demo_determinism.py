@@ -4,7 +4,8 @@ which a machine whose CPU OpenBLAS does not recognise falls back to). Their last
 (stations, verdicts, what was not seen) must not. A round object's x and y extents once differed in the last bit,
 and picked its "long side", and so its station, differently on each. The first run is the session's FZK day
 (``fzk_day``, tests/conftest.py: this process, one thread, this CPU's kernel, shared with test_demo_ifc.py); the
-other runs in a fresh process on two threads and the Prescott kernel."""
+other runs in a fresh process on two threads and the Prescott kernel, reading the model cache the first one
+filled (as the second of two fresh processes did before)."""
 
 from __future__ import annotations
 
@@ -42,8 +43,9 @@ print(json.dumps(decisions_of(day)))
 """
 
 
-def decisions(ifc, minutes: float, threads: int, kernel: str | None) -> dict:
-    env = {**os.environ, "OMP_NUM_THREADS": str(threads), "OPENBLAS_NUM_THREADS": str(threads)}
+def decisions(ifc, minutes: float, threads: int, kernel: str | None, cache) -> dict:
+    env = {**os.environ, "OMP_NUM_THREADS": str(threads), "OPENBLAS_NUM_THREADS": str(threads),
+           "BIM2RDT_CACHE_DIR": str(cache)}
     env.pop("OPENBLAS_CORETYPE", None)
     if kernel:
         env["OPENBLAS_CORETYPE"] = kernel
@@ -56,6 +58,6 @@ def decisions(ifc, minutes: float, threads: int, kernel: str | None) -> dict:
 def test_the_fzk_day_decides_the_same_on_one_thread_and_two_and_on_another_blas_kernel(fzk_day):
     assert set(fzk_day.threads.values()) == {1}  # the session's day ran on one thread
     here = json.loads(json.dumps(decisions_of(fzk_day.day)))  # as the other process prints them
-    elsewhere = decisions(fzk_day.ifc, fzk_day.minutes, threads=2, kernel="Prescott")
+    elsewhere = decisions(fzk_day.ifc, fzk_day.minutes, threads=2, kernel="Prescott", cache=fzk_day.cache)
     assert here["verdicts"] and here["not_seen"] == []
     assert elsewhere == here
