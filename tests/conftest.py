@@ -8,6 +8,14 @@ from pathlib import Path
 
 import pytest
 
+from bim2rdt.cli.threads import limit_threads
+
+# The numerical pools (BLAS, OpenMP) on one thread in the test processes, as the CLI runs them (decision 0048):
+# set before any of them loads, here and in the xdist workers, which inherit the environment. In-process runs
+# (the demo's day, office1's verify, the FZK day) spent about twice the CPU on two-thread pools. A variable the
+# environment already sets is kept.
+limit_threads()
+
 _DEFAULT_SAMPLES = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "ifc"
 _DEFAULT_SENSORS = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "sensors"
 
@@ -48,45 +56,52 @@ OFFICE1_VERIFY_MODULES = (
 """Test files that take office1's corrected verify from the session's one run (the ``office1_verified`` fixture),
 sent to one xdist worker as one unit as :data:`DEMO_DAY_MODULES` are."""
 
-SHARED_RUN_UNITS = (DEMO_DAY_MODULES, OFFICE1_VERIFY_MODULES)
+FZK_DAY_MODULES = (
+    "tests/demo/test_demo_ifc.py",  # the house's day: its site objects, its walk, its verdicts
+    "tests/demo/test_demo_determinism.py",  # the same decisions on another thread count and BLAS kernel
+)
+"""Test files that take the FZK house's day from the session's one run (the ``fzk_day`` fixture), sent to one
+xdist worker as one unit as :data:`DEMO_DAY_MODULES` are."""
+
+SHARED_RUN_UNITS = (DEMO_DAY_MODULES, OFFICE1_VERIFY_MODULES, FZK_DAY_MODULES)
 """Groups of test files that share a session fixture's run: each group is one unit of work under ``loadfile``."""
 
 LONG_UNITS = (
     DEMO_DAY_MODULES[0],
-    "tests/demo/test_demo_every_ifc.py",
     "tests/safety/test_cli_hav.py",
-    "tests/cli/test_bench_registration.py",
-    "tests/cli/test_bench_localization.py",
-    "tests/demo/test_record_round_trip.py",
-    "tests/server/test_cli_server.py",
-    "tests/cli/test_bench_perception.py",
-    "tests/safety/test_weighting.py",
-    OFFICE1_VERIFY_MODULES[0],
-    "tests/twin/test_twin.py",
-    "tests/cli/test_verify_outputs.py",
     "tests/semantics/test_cli_priors.py",
-    "tests/planning/test_cli_planning.py",
+    "tests/demo/test_demo_every_ifc.py",
+    "tests/cli/test_bench_localization.py",
+    OFFICE1_VERIFY_MODULES[0],
+    FZK_DAY_MODULES[0],
     "tests/bim/test_cli_info.py",
-    "tests/demo/test_demo_determinism.py",
+    "tests/server/test_cli_server.py",
+    "tests/cli/test_bench_registration.py",
+    "tests/demo/test_record_round_trip.py",
+    "tests/bus/test_broker.py",
+    "tests/cli/test_bench_perception.py",
+    "tests/cli/test_verify_outputs.py",
+    "tests/planning/test_cli_planning.py",
+    "tests/cli/test_output_paths.py",
     "tests/demo/test_demo_localization.py",
-    "tests/bim/test_map_classes.py",
-    "tests/twin/test_text.py",
-    "tests/semantics/test_knowledge.py",
     "tests/bim/test_integrity.py",
-    "tests/demo/test_demo_ifc.py",
+    "tests/bim/test_map_classes.py",
+    "tests/test_config.py",
+    "tests/bim/test_model.py",
+    "tests/sim/test_scenarios.py",
 )
 """The longest units of work (a group by its first file), longest first: every unit of about 25 s or more in CI
-(decision 0048's timed run). Under ``loadfile`` they are handed out before the others, so the parallel part does
-not end on one worker still busy with one of them while the others have nothing left. (xdist's own order is by
-number of tests: a long file of one or two tests, as the FZK determinism or bench perception, would start among
-the last.)"""
+(decision 0048's amendment: a run of the parallel part under load, its failed tests' time left out). Under
+``loadfile`` they are handed out before the others, so the parallel part does not end on one worker still busy
+with one of them while the others have nothing left. (xdist's own order is by number of tests: a long file of
+one or two tests, as bench perception, would start among the last.)"""
 
 
 @pytest.hookimpl(optionalhook=True)
 def pytest_xdist_make_scheduler(config, log):
     """``--dist loadfile`` with the files of each group of :data:`SHARED_RUN_UNITS` as one unit of work: one
-    worker runs them all, so the session's ``demo_run`` (an in-process day, kept in memory) or
-    ``office1_verified`` is computed once for all of them; the units of :data:`LONG_UNITS` are handed out first.
+    worker runs them all, so the session's ``demo_run`` (an in-process day, kept in memory), ``office1_verified``
+    or ``fzk_day`` is computed once for all of them; the units of :data:`LONG_UNITS` are handed out first.
     Any other ``--dist`` mode: xdist's own scheduler."""
     if config.getvalue("dist") != "loadfile":
         return None
@@ -246,6 +261,33 @@ def demo_run(tmp_path_factory):
             get_settings.cache_clear()
     assert result.exit_code == 0 and len(made) == 1, (result.output, result.exception)
     return SimpleNamespace(out=out, stdout=result.stdout, result=made[0], day=made[0].site_day)
+
+
+@pytest.fixture(scope="session")
+def fzk_day(samples, tmp_path_factory):
+    """`run_ifc_day(AC20-FZK-Haus.ifc, out, workers=1, minutes=1.0)`, run in this process once per session, its
+    numerical pools (BLAS, OpenMP) on one thread as the CLI runs them, with a cache folder of its own: ``day``
+    (the :class:`~bim2rdt.demo.site_day.SiteDay`), ``out`` (its folder), ``ifc`` (the house's file), ``minutes``,
+    ``threads`` (each pool's number of threads while it ran) and ``cache`` (the model cache it filled). Shared by
+    the files of :data:`FZK_DAY_MODULES`: read-only."""
+    from types import SimpleNamespace
+
+    from threadpoolctl import threadpool_info, threadpool_limits
+
+    from bim2rdt.config import get_settings
+    from bim2rdt.demo.ifc_day import run_ifc_day  # its pools are loaded before they are limited
+
+    ifc, out, minutes = samples / "AC20-FZK-Haus.ifc", tmp_path_factory.mktemp("fzk-day"), 1.0
+    cache = tmp_path_factory.mktemp("fzk-cache")
+    with pytest.MonkeyPatch.context() as patch, threadpool_limits(limits=1):
+        patch.setenv("BIM2RDT_CACHE_DIR", str(cache))
+        get_settings.cache_clear()
+        try:
+            day = run_ifc_day(ifc, out, workers=1, minutes=minutes)
+            threads = {pool["internal_api"]: pool["num_threads"] for pool in threadpool_info()}
+        finally:
+            get_settings.cache_clear()
+    return SimpleNamespace(day=day, out=out, ifc=ifc, minutes=minutes, threads=threads, cache=cache)
 
 
 @pytest.fixture(autouse=True)

@@ -21,6 +21,7 @@ def _root_conftest():
 _CONFTEST = _root_conftest()
 DEMO_DAY_MODULES, SERIAL_MODULES = _CONFTEST.DEMO_DAY_MODULES, _CONFTEST.SERIAL_MODULES
 OFFICE1_VERIFY_MODULES, LONG_UNITS = _CONFTEST.OFFICE1_VERIFY_MODULES, _CONFTEST.LONG_UNITS
+FZK_DAY_MODULES = _CONFTEST.FZK_DAY_MODULES
 pytest_xdist_make_scheduler = _CONFTEST.pytest_xdist_make_scheduler
 
 
@@ -43,6 +44,14 @@ def test_the_office1_verify_files_are_one_unit_apart_from_the_demo_days():
     assert scopes == {OFFICE1_VERIFY_MODULES[0]} != {DEMO_DAY_MODULES[0]}
     other = "tests/verify/test_office1_judge.py"
     assert schedule._split_scope(f"{other}::test_y") == other
+
+
+def test_the_fzk_day_files_are_one_unit_apart_from_the_other_groups():
+    schedule = pytest_xdist_make_scheduler(_config("loadfile"), None)
+    scopes = {schedule._split_scope(f"{name}::test_x[a::b]") for name in FZK_DAY_MODULES}
+    assert scopes == {FZK_DAY_MODULES[0]} and not scopes & {DEMO_DAY_MODULES[0], OFFICE1_VERIFY_MODULES[0]}
+    other = "tests/demo/test_demo_every_ifc.py"
+    assert schedule._split_scope(f"{other}::test_y[AC20-FZK-Haus.ifc]") == other
 
 
 class _Node:
@@ -70,7 +79,7 @@ def test_other_dist_modes_keep_xdists_scheduler():
 
 
 def test_each_listed_file_exists_and_runs_in_the_parallel_part():
-    listed = DEMO_DAY_MODULES + OFFICE1_VERIFY_MODULES
+    listed = DEMO_DAY_MODULES + OFFICE1_VERIFY_MODULES + FZK_DAY_MODULES
     assert all((ROOT / name).is_file() for name in listed)  # a renamed file would leave the unit
     assert not set(listed) & set(SERIAL_MODULES) and len(set(listed)) == len(listed)
     shared = [name for unit in _CONFTEST.SHARED_RUN_UNITS for name in unit[1:]]

@@ -44,3 +44,13 @@ def test_limit_threads_fills_only_what_the_environment_leaves_unset():
     made = limit_threads(environ)
     assert environ["OMP_NUM_THREADS"] == "3" and "OMP_NUM_THREADS" not in made
     assert environ["OPENBLAS_NUM_THREADS"] == "1" and made["OPENBLAS_NUM_THREADS"] == "1"
+
+
+def test_the_test_processes_run_blas_as_the_cli_does():
+    """tests/conftest.py gives this process the CLI's pools: in-process runs cost what the command costs."""
+    import numpy
+    import threadpoolctl
+
+    numpy.ones((64, 64)) @ numpy.ones((64, 64))
+    pools = {p["internal_api"]: p["num_threads"] for p in threadpoolctl.threadpool_info()}
+    assert pools["openblas"] == int(os.environ["OPENBLAS_NUM_THREADS"])  # 1 unless the environment says

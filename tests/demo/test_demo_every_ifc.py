@@ -1,7 +1,8 @@
 """`demo --ifc` on every sample building: the robot visits at least one station, or the command exits 1 with
 one line saying why (never exit 0 with empty tables). Kept affordable with the cheapest settings of the same
 code path: one site object (so one station), one worker, one minute of tool work. Each building runs once: the
-IFC2X3 one (Duplex) and the one with no floor are checked further on the same runs."""
+IFC2X3 one (Duplex) and the one with no floor (its error, and no empty --out folder left behind) are checked
+further on the same runs."""
 
 from __future__ import annotations
 
@@ -67,6 +68,12 @@ def test_a_building_with_no_floor_to_stand_on_is_a_one_line_error(demo_ifc):
     assert result.returncode == 1 and "Traceback" not in result.stderr
     assert result.stderr.strip() == ("error: construction_scheduling_task.ifc: no storey has a slab (or a space) to "
                                      "take its floor from")
+
+
+def test_a_failed_run_leaves_no_empty_folder_it_made(demo_ifc):
+    result, out = demo_ifc("construction_scheduling_task.ifc")
+    assert result.returncode == 1 and result.stderr.startswith("error: ")
+    assert not out.exists()
 
 
 def test_a_day_that_visits_no_station_is_an_error_saying_why(tmp_path):

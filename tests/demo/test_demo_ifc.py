@@ -1,6 +1,7 @@
 """`bim2rdt demo --ifc FILE`: the loop on real buildings. The FZK house (IFC4): site objects placed in its rooms,
 the robot walks room to room through the doors, never through a wall, and the twin is written back. (Duplex,
-IFC2X3, without IFC write-back, and a building with no floor: test_demo_every_ifc.py, on its runs.)"""
+IFC2X3, without IFC write-back, and a building with no floor: test_demo_every_ifc.py, on its runs.) The house's
+day is the session's one run (``fzk_day``, tests/conftest.py), shared with test_demo_determinism.py."""
 
 from __future__ import annotations
 
@@ -15,14 +16,8 @@ from path_checks import segments_through, wall_mesh
 pytestmark = pytest.mark.samples
 
 
-@pytest.fixture(scope="module")
-def fzk_day(samples, tmp_path_factory):
-    out = tmp_path_factory.mktemp("fzk-day")
-    return run_ifc_day(samples / "AC20-FZK-Haus.ifc", out, workers=1, minutes=3.0), out
-
-
 def test_site_objects_stand_on_the_ground_floor_slab_in_the_copy(fzk_day):
-    day, out = fzk_day
+    day, out = fzk_day.day, fzk_day.out
     proxies = [el for el in day.model.elements if el.ifc_class == "IfcBuildingElementProxy"]
     assert len(proxies) >= 4 and all(el.storey == "Erdgeschoss" for el in proxies)
     assert all(abs(day.model.mesh(el.global_id)[0][:, 2].min() - 0.0) < 0.01 for el in proxies)
@@ -30,7 +25,7 @@ def test_site_objects_stand_on_the_ground_floor_slab_in_the_copy(fzk_day):
 
 
 def test_the_robot_walks_room_to_room_through_doors_and_never_through_a_wall(fzk_day):
-    day, _ = fzk_day
+    day = fzk_day.day
     legs = [leg.path for leg in day.route.navigator.legs]
     walls = wall_mesh(day.model)
     assert all(segments_through(walls, path) == [] for path in legs)
@@ -44,7 +39,7 @@ def test_the_robot_walks_room_to_room_through_doors_and_never_through_a_wall(fzk
 
 
 def test_every_placed_object_is_seen_and_judged(fzk_day):
-    day, _ = fzk_day
+    day = fzk_day.day
     assert day.mission.not_seen == [] and day.route.route.skipped == {}
     new = [obs for obs in day.mission.observations if obs.global_id is None]
     assert len(new) <= 1 and all(obs.family == "Steel_Drum_55gal" for obs in new)   # only the unplanned drum
@@ -56,7 +51,7 @@ def test_the_robot_sees_the_house_through_the_embedded_days_camera_and_detector_
     is deviating, what did not is as planned."""
     from bim2rdt.demo.site_report import observation_rows
 
-    day, _ = fzk_day
+    day = fzk_day.day
     assert day.reality.scene.building
     rows = observation_rows(day)
     assert rows and all(r["truth"] is not None for r in rows)
