@@ -207,22 +207,7 @@ def solve_steps(A, b, degenerate_ratio):  # pragma: no cover - compiled
             for j in range(6):
                 A_s[i, j] = scales[i] * A[r, i, j] * scales[j]
             trace += A_s[i, i]
-        tau = degenerate_ratio * trace
-        rhs = scales * b[r]
-        if tau > 0.0 and _cholesky(A_s, tau, L):
-            _cholesky(A_s, 0.0, L)
-            y = _cholesky_solve(L, rhs)
-        else:
-            values, vectors = np.linalg.eigh(A_s)
-            top = max(values[5], 1e-300)
-            y = np.zeros(6)
-            for m in range(6):
-                if values[m] > degenerate_ratio * top:
-                    along = 0.0
-                    for i in range(6):
-                        along += vectors[i, m] * rhs[i]
-                    for i in range(6):
-                        y[i] += vectors[i, m] * along / values[m]
+        y = _scaled_solve(A_s, scales * b[r], trace, degenerate_ratio, L)
         x = scales * y
         _rodrigues(x[0], x[1], x[2], dR[r])
         dt[r, 0], dt[r, 1], dt[r, 2] = x[3], x[4], x[5]
@@ -270,21 +255,7 @@ def yaw_steps(A, b, g_src, degenerate_ratio):  # pragma: no cover - compiled
                 A_s[i, j] = scales[i] * A_s[i, j] * scales[j]
             trace += A_s[i, i]
             rhs[i] = scales[i] * rhs[i]
-        tau = degenerate_ratio * trace
-        if tau > 0.0 and _cholesky(A_s, tau, L):
-            _cholesky(A_s, 0.0, L)
-            y = _cholesky_solve(L, rhs)
-        else:
-            values, vectors = np.linalg.eigh(A_s)
-            top = max(values[3], 1e-300)
-            y = np.zeros(4)
-            for m in range(4):
-                if values[m] > degenerate_ratio * top:
-                    along = 0.0
-                    for i in range(4):
-                        along += vectors[i, m] * rhs[i]
-                    for i in range(4):
-                        y[i] += vectors[i, m] * along / values[m]
+        y = _scaled_solve(A_s, rhs, trace, degenerate_ratio, L)
         angle = scales[0] * y[0]
         _rodrigues(g0 * angle, g1 * angle, g2 * angle, dR[r])
         dt[r, 0], dt[r, 1], dt[r, 2] = y[1], y[2], y[3]
@@ -292,8 +263,32 @@ def yaw_steps(A, b, g_src, degenerate_ratio):  # pragma: no cover - compiled
 
 
 @njit(cache=True, nogil=True)
+def _scaled_solve(A_s, rhs, trace, degenerate_ratio, L):  # pragma: no cover - compiled
+    """y with A_s y = rhs for a scaled system (n, n) of the given trace: a direct (Cholesky) solve where A_s - tau I
+    is positive definite (tau = ``degenerate_ratio`` x the trace), else only along the eigen-directions with at
+    least ``degenerate_ratio`` of the largest eigenvalue. ``L`` (n, n) is scratch. Shared by :func:`solve_steps`
+    and :func:`yaw_steps`."""
+    n = len(rhs)
+    tau = degenerate_ratio * trace
+    if tau > 0.0 and _cholesky(A_s, tau, L):
+        _cholesky(A_s, 0.0, L)
+        return _cholesky_solve(L, rhs)
+    values, vectors = np.linalg.eigh(A_s)
+    top = max(values[n - 1], 1e-300)
+    y = np.zeros(n)
+    for m in range(n):
+        if values[m] > degenerate_ratio * top:
+            along = 0.0
+            for i in range(n):
+                along += vectors[i, m] * rhs[i]
+            for i in range(n):
+                y[i] += vectors[i, m] * along / values[m]
+    return y
+
+
+@njit(cache=True, nogil=True)
 def _cholesky(A, shift, L):  # pragma: no cover - compiled
-    """Cholesky factor of A - shift I (6, 6) into L; False when it is not positive definite."""
+    """Cholesky factor of A - shift I (n, n) into L; False when it is not positive definite."""
     n = len(A)
     for i in range(n):
         for j in range(i + 1):

@@ -81,14 +81,10 @@ def _sosfilt(sos, x, zi, out):  # pragma: no cover - compiled
     sections = sos.shape[0]
     z = np.empty((sections, 2))
     for i in range(rows):
-        for s in range(sections):
-            z[s, 0] = zi[s, i, 0]
-            z[s, 1] = zi[s, i, 1]
+        z[:, :] = zi[:, i, :]
         for j in range(n):
             out[i, j] = _cascade(sos, z, np.float64(x[i, j]))
-        for s in range(sections):
-            zi[s, i, 0] = z[s, 0]
-            zi[s, i, 1] = z[s, 1]
+        zi[:, i, :] = z
 
 
 @njit(cache=True, nogil=True)
@@ -99,9 +95,7 @@ def _weigh(sos, x, zi, out, starts, top, bottom):  # pragma: no cover - compiled
     sections, blocks = sos.shape[0], starts.size
     z = np.empty((sections, 2))
     for i in range(rows):
-        for s in range(sections):
-            z[s, 0] = zi[s, i, 0]
-            z[s, 1] = zi[s, i, 1]
+        z[:, :] = zi[:, i, :]
         for b in range(blocks):
             end = starts[b + 1] if b + 1 < blocks else n
             high = low = x[i, starts[b]]
@@ -116,9 +110,7 @@ def _weigh(sos, x, zi, out, starts, top, bottom):  # pragma: no cover - compiled
                 out[i, j] = _cascade(sos, z, np.float64(value))
             top[i, b] = high
             bottom[i, b] = low
-        for s in range(sections):
-            zi[s, i, 0] = z[s, 0]
-            zi[s, i, 1] = z[s, 1]
+        zi[:, i, :] = z
 
 
 def compile_kernels() -> None:
