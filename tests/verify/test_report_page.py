@@ -77,3 +77,18 @@ def test_a_new_objects_size_is_the_cluster_a_frame_sees_at_its_position():
     size = measure(view, T, residual, np.array([3.2, 0.0, 0.0]))
     assert size is not None and abs(size[1] - 0.6) < 0.04 and abs(size[2] - 0.9) < 0.04, size
     assert measure(view, T, residual, np.array([3.2, 2.0, 0.0])) is None  # nothing stands there
+
+
+def test_the_summary_counts_one_frame_in_the_singular_and_more_in_the_plural():
+    from bim2rdt.verify.report.page import _summary
+
+    one, two = [_Frame(True)], [_Frame(True), _Frame(False)]
+    assert "<p>1 frame, 1 localized on the BIM." in _summary(ReportData("t", one, [], {}))
+    assert "<p>2 frames, 1 localized on the BIM." in _summary(ReportData("t", two, [], {}))
+
+
+class _Frame:
+    """What the summary reads of a frame: whether it was localized."""
+
+    def __init__(self, accepted: bool):
+        self.accepted = accepted

@@ -137,7 +137,8 @@ def _summary(data: ReportData) -> str:
     words = ", ".join(f"{_badge(ElementStatus(k))} {v}" for k, v in counts.items()
                       if k != ElementStatus.NOT_OBSERVED.value)
     warnings = "".join(f"<p class='warn'>{_e(w)}</p>" for w in data.warnings)
-    return (f"<p>{len(data.frames)} frames, {fixed} localized on the BIM. Verdicts: {words or 'none'}. "
+    frames = f"{len(data.frames)} frame" + ("" if len(data.frames) == 1 else "s")
+    return (f"<p>{frames}, {fixed} localized on the BIM. Verdicts: {words or 'none'}. "
             "Files beside this page: <a href='issues.bcf'>issues.bcf</a>, <a href='twin.json'>twin.json</a>, "
             f"<a href='localization.json'>localization.json</a>.</p>{warnings}")
 
