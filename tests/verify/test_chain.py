@@ -46,6 +46,25 @@ def test_a_360_degree_scan_is_localized_and_its_planned_objects_are_not_deviatin
         assert np.linalg.norm(o.pose[:3, 3] - site_model.element(o.global_id).placement[:3, 3]) < 0.05, o.family
 
 
+@pytest.mark.parametrize("axes", ["z-up", "y-up"])
+def test_a_360_degree_scan_without_a_prior_is_found_whichever_axis_it_was_written_up(site_model, tmp_path, axes):
+    """A tripod scan at (14, 9), 1.5 m up, heading 200 degrees, with no prior and no IMU. Written y-up, a wall
+    within 3 m behind it passes for a floor along the scanner's usual z: the other axes' floors are searched
+    too, and the BIM tells the right one."""
+    c, s = np.cos(np.deg2rad(200.0)), np.sin(np.deg2rad(200.0))
+    T_true = np.eye(4)
+    T_true[:3, :3] = [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]
+    T_true[:3, 3] = (14.0, 9.0, 1.5)
+    points = _scan(site_model, T_true)
+    to_written = np.eye(3) if axes == "z-up" else np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])
+    cloud = SimpleNamespace(points=points @ to_written.T, path=tmp_path / "scan.ply")
+    frame = verify_frames([cloud], site_model, None).frames[0]
+    assert frame.accepted and frame.prior_source == "global", frame.reason
+    T_found = frame.pose
+    assert np.linalg.norm(T_found[:3, 3] - T_true[:3, 3]) < 0.03
+    assert np.allclose(T_found[:3, :3] @ to_written, T_true[:3, :3], atol=np.sin(np.deg2rad(1.0)))
+
+
 def test_a_scan_without_a_prior_is_searched_and_refused_with_its_reason_and_no_frames_is_an_error(site_model):
     result = verify_frames([SimpleNamespace(points=np.zeros((10, 3)))], site_model, None)
     frame = result.frames[0]

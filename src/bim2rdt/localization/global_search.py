@@ -1,7 +1,9 @@
 """Global localization on the BIM: where the sensor stands, from the data and the model alone (no prior).
 
 1. gravity (the source's IMU up, else the floor plane's normal: :mod:`.gravity`) levels the points and the
-   floor gives the height, so only x, y and yaw are left;
+   floor gives the height, so only x, y and yaw are left. A cloud with no IMU (a scan in unknown axes) whose
+   floor gives no pose has the floors along its other axes searched too (:func:`.gravity.other_floors`): a wall
+   a metre or two away can pass for a floor, and the BIM tells them apart;
 2. a coarse correlative search over every storey's free space (:mod:`.global_map`) and every heading
    ``yaw_step_deg`` apart: the wall-facing points, turned by the heading, are scored at every cell at once (one
    FFT correlation per heading) by how near they fall to a permanent surface, less a penalty for each 10 cm of
@@ -35,7 +37,7 @@ from bim2rdt.localization.depth import depth_points
 from bim2rdt.localization.errors import LocalizationError
 from bim2rdt.localization.global_config import GlobalSearchConfig
 from bim2rdt.localization.global_map import StoreyPlan, storey_plans
-from bim2rdt.localization.gravity import CAMERA_UP, SCANNER_UP, Levelled, level
+from bim2rdt.localization.gravity import CAMERA_UP, SCANNER_UP, Levelled, level, other_floors
 from bim2rdt.localization.planar import rz, wrap
 from bim2rdt.localization.view_score import ViewScore
 from bim2rdt.perception import Frame
@@ -103,18 +105,19 @@ def find_pose(data: object, model: BimModel, up: np.ndarray | tuple[float, float
     scan, default_up, up, gravity = _prepared(data, up, cfg)
     levelled = level(scan, up, gravity, default_up, cfg.floor_cone_deg, cfg.min_floor_points)
     plan_points, view = _plan_points(scan, levelled, cfg)
-    if len(plan_points) < 10:
-        raise LocalizationError(f"only {len(plan_points)} points face sideways {cfg.band[0]}-{cfg.band[1]} m above "
-                                "the floor: no wall or column in view to search with")
-    peaks = []
-    for plan in storey_plans(model, storey, cfg.resolution, cfg.band, cfg.sigma, cfg.clearance):
-        peaks += [(score, plan, xy, yaw) for score, xy, yaw in coarse_peaks(plan, plan_points, cfg)]
-    peaks = _separated(sorted(peaks, key=lambda p: -p[0]), cfg)[: cfg.screened]
-    peaks = [(score, plan, *polish(plan, plan_points, xy, yaw, cfg)) for score, plan, xy, yaw in peaks]
     scene = OccludedMap.of(model)
     judge = ViewScore(view, scene, 2 * cfg.fix.inlier_distance, cfg.fix.behind_tolerance)
     screen = ViewScore(view, scene, cfg.screen_tolerance, cfg.screen_tolerance)
-    quick = _unique(_refined_peaks(scan, model, levelled, peaks, cfg, judge, screen), cfg)
+    search = _LevelSearch(scan, model, storey, cfg, judge, screen)
+    first_error: LocalizationError | None = None
+    try:
+        quick = search(levelled, plan_points)
+    except LocalizationError as error:
+        quick, first_error = [], error
+    if up is None and not isinstance(data, Frame) and choose(quick, cfg)[0] is None:
+        quick = _other_floors_searched(search, scan, levelled, quick, cfg)
+    if first_error is not None and not quick:
+        raise LocalizationError(str(first_error)) from first_error
     taken, _ = choose(quick, cfg)
     if taken is None:  # no place fits, or several do already: fixing them again in full would not make one
         candidates = quick
@@ -122,6 +125,45 @@ def find_pose(data: object, model: BimModel, up: np.ndarray | tuple[float, float
         candidates = _unique([_fixed(scan, model, taken, cfg.fix, judge)] + [c for c in quick if c is not taken], cfg)
     seconds = time.process_time() - started
     return [replace(c, seconds=seconds) for c in candidates]
+
+
+@dataclass(frozen=True)
+class _LevelSearch:
+    """Steps 2-3 of the module's note for one levelling of the cloud: the coarse search over every storey, then the
+    peaks screened and quickly fixed, judged on the whole view (the same ``judge`` for every levelling, so their
+    candidates' scores compare)."""
+
+    scan: ScanPoints
+    model: BimModel
+    storey: str | None
+    cfg: GlobalSearchConfig
+    judge: ViewScore
+    screen: ViewScore
+
+    def __call__(self, levelled: Levelled, plan_points: np.ndarray) -> list[Candidate]:
+        cfg = self.cfg
+        if len(plan_points) < 10:
+            raise LocalizationError(f"only {len(plan_points)} points face sideways {cfg.band[0]}-{cfg.band[1]} m "
+                                    "above the floor: no wall or column in view to search with")
+        peaks = []
+        for plan in storey_plans(self.model, self.storey, cfg.resolution, cfg.band, cfg.sigma, cfg.clearance):
+            peaks += [(score, plan, xy, yaw) for score, xy, yaw in coarse_peaks(plan, plan_points, cfg)]
+        peaks = _separated(sorted(peaks, key=lambda p: -p[0]), cfg)[: cfg.screened]
+        peaks = [(score, plan, *polish(plan, plan_points, xy, yaw, cfg)) for score, plan, xy, yaw in peaks]
+        return _unique(_refined_peaks(self.scan, self.model, levelled, peaks, cfg, self.judge, self.screen), cfg)
+
+
+def _other_floors_searched(search: _LevelSearch, scan: ScanPoints, taken: Levelled, quick: list[Candidate],
+                           cfg: GlobalSearchConfig) -> list[Candidate]:
+    """A cloud with no IMU whose first floor gave no pose (a scan written y-up, or in a camera's axes, can have a
+    wall within 0.1-3 m that passes for a floor): every other axis's floor is searched too, and all candidates
+    compete on the same view (a wrong floor's places score far below the right one's; a tie stays ambiguous)."""
+    for other in other_floors(scan, taken, cfg.floor_cone_deg, cfg.min_floor_points):
+        try:
+            quick = _unique(quick + search(other, _plan_points(scan, other, cfg)[0]), cfg)
+        except LocalizationError:
+            continue
+    return quick
 
 
 def choose(candidates: list[Candidate], config: GlobalSearchConfig | None = None) -> tuple[Candidate | None, str]:

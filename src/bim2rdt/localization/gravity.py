@@ -6,7 +6,9 @@ flat patch whose normal lies within ``floor_cone_deg`` of the sensor's usual up 
 and that lies lowest below the sensor (a desk top is nearer, the floor is the lowest surface that many points
 share). When there is none around the usual up, the other axes are tried (a scan written y-up), a floor
 accepted only with the sensor 0.1-3 m above it. The height is the sensor's distance to that plane along up,
-so the search is left with x, y and yaw.
+so the search is left with x, y and yaw. A wall within 0.1-3 m can pass for a floor along a scan's usual
+up: :func:`other_floors` gives the floors along the other axes, for the search to try when the first gives no
+pose.
 """
 
 from __future__ import annotations
@@ -74,6 +76,32 @@ def level(scan: ScanPoints, up: np.ndarray | None, gravity: str, default_up: np.
         if MIN_HEIGHT <= height <= MAX_HEIGHT:
             return Levelled(level_rotation(normal), height, normal, "floor", count)
     raise first_error or _no_floor(0, min_floor_points)
+
+
+def other_floors(scan: ScanPoints, taken: Levelled, cone_deg: float, min_floor_points: int) -> list[Levelled]:
+    """The floors found along the axes other than ``taken``'s up, each with the sensor 0.1-3 m above it: where a
+    cloud written in unknown axes might stand instead (the search lets the BIM tell them apart).
+
+    Args:
+        scan: The thinned points and normals, sensor frame, metres.
+        taken: The levelling :func:`level` took.
+        cone_deg: A floor's normal lies within this many degrees of its axis.
+        min_floor_points: Fewer thinned points on a floor than this, and it is not one.
+
+    Returns:
+        The other levellings, each more than 45 degrees from ``taken`` and from one another.
+    """
+    found: list[Levelled] = []
+    for axis in _axes(taken.up):
+        if any(float(axis @ f.up) > np.cos(np.pi / 4) for f in (taken, *found)):
+            continue
+        try:
+            normal, height, count = _floor(scan, axis, cone_deg, min_floor_points)
+        except LocalizationError:
+            continue
+        if MIN_HEIGHT <= height <= MAX_HEIGHT and all(float(normal @ f.up) < np.cos(np.pi / 4) for f in (taken, *found)):
+            found.append(Levelled(level_rotation(normal), height, normal, "floor", count))
+    return found
 
 
 MIN_HEIGHT, MAX_HEIGHT = 0.1, 3.0
