@@ -128,3 +128,26 @@ def test_verify_reads_what_a_recording_reports_and_builds_the_map_once(site_mode
     assert len(built) == 1  # once per run, handed to every fix (and the depth check)
     assert result.frames[0].accepted and not result.frames[1].accepted
     assert result.drop_counts == {"no depth partner": 1} and result.source_warnings == ["clocks disagree: test"]
+
+
+def test_a_scan_over_max_scan_points_is_thinned_evenly_and_says_so(site_model, tmp_path):
+    """Three jittered copies of a scan (the scanner's order kept) over a cap of 100,000: every second return is
+    kept, the scan is still localized, and the run warns what was thinned. A frame's pixels are never thinned."""
+    from bim2rdt.verify.chain import VerifyConfig, sensor_points
+
+    T_true = look_at((8.5, 2.0, 1.1), (11.85, 6.5, 1.1))
+    one = _scan(site_model, T_true)
+    rng = np.random.default_rng(1)
+    points = np.concatenate([one + rng.normal(0.0, 0.002, one.shape) for _ in range(3)])
+    points[5] = np.nan
+    cloud = SimpleNamespace(points=points, path=tmp_path / "big.e57")
+    kept = sensor_points(cloud, 100_000)
+    k = -(-len(points) // 100_000)
+    assert len(kept) <= 100_000 and np.array_equal(kept, points[::k][np.isfinite(points[::k]).all(axis=1)])
+    assert len(sensor_points(cloud)) == len(points) - 1
+    prior = T_true.copy()
+    prior[:3, 3] += (0.2, -0.15, 0.0)
+    result = verify_frames([cloud], site_model, prior, VerifyConfig(max_scan_points=100_000))
+    assert result.frames[0].accepted, result.frames[0].reason
+    assert any(w.startswith(f"big.e57: {len(points):,} returns thinned evenly to {len(kept):,}")
+               for w in result.source_warnings), result.source_warnings

@@ -99,6 +99,10 @@ class VerifyConfig(BaseModel):
     """What makes a cluster a person or a thing that moved (:mod:`.transient`)."""
     faces: PlanarFacesConfig = PlanarFacesConfig()
     """The BIM's planar faces the depth check compares (:mod:`.faces`)."""
+    max_scan_points: int = Field(2_000_000, ge=100_000)
+    """A scan with more returns than this is thinned evenly (every k-th return, in the scanner's order) before
+    anything reads it: a terrestrial scan of 10-40 million returns says no more about a room at the fix's and the
+    heat map's spacing, and would take gigabytes."""
 
 
 @dataclass
@@ -361,8 +365,12 @@ def verify_frames(frames: Iterable, model: BimModel, prior: np.ndarray | None = 
         if progress is not None:
             progress(result)
 
+    thinned: list[str] = []
     for frame in recording:
-        points_sensor = sensor_points(frame)  # once per frame: the tracker's odometry and the fix share them
+        points_sensor = sensor_points(frame, config.max_scan_points)  # once: the tracker and the fix share them
+        if not isinstance(frame, Frame) and len(frame.points) > config.max_scan_points:
+            thinned.append(f"{getattr(getattr(frame, 'path', None), 'name', 'a scan')}: {len(frame.points):,} "
+                           f"returns thinned evenly to {len(points_sensor):,} (verify.max_scan_points)")
         for ready in tracker.push(frame, points_sensor):
             verified(*ready)
     for ready in tracker.flush():
@@ -372,7 +380,7 @@ def verify_frames(frames: Iterable, model: BimModel, prior: np.ndarray | None = 
         reasons = "; ".join(f"{n} {k}" for k, n in Counter(d["reason"] for d in dropped).most_common(3))
         raise VerifyError("the source holds no frames" + (f" (all {len(dropped)} dropped: {reasons})" if dropped
                                                           else ""))
-    verified = VerifyResult(results, dropped, list(recording.warnings))
+    verified = VerifyResult(results, dropped, list(recording.warnings) + thinned)
     verified.elements, verified.new, verified.transient = fuse_frames(results, config.min_fitness, config.fusion,
                                                                       config.judge)
     return verified
@@ -502,19 +510,26 @@ def _depth_at_best_fit(scan, model: BimModel, scene: OccludedMap, prior: np.ndar
     return check_depth(scan, scene, best.pose, config.localization.max_range, config.depth, config.faces)
 
 
-def sensor_points(frame) -> np.ndarray:
+def sensor_points(frame, max_scan_points: int | None = None) -> np.ndarray:
     """A frame's valid depth pixels, or a scan's finite points, in the sensor frame (N, 3), metres.
 
     Args:
         frame: A :class:`~bim2rdt.perception.Frame` or a cloud (``points``).
+        max_scan_points: A scan with more finite points than this keeps every k-th of them (k the least that
+            keeps at most this many); None keeps all. A frame's pixels are always all kept.
 
     Returns:
         The points.
     """
     if isinstance(frame, Frame):
         return depth_points(frame)
-    points = np.asarray(frame.points, dtype=np.float64)
-    return points[np.all(np.isfinite(points), axis=1)] if points.ndim == 2 else points
+    points = np.asarray(frame.points)
+    if points.ndim != 2:
+        return np.asarray(points, dtype=np.float64)
+    if max_scan_points is not None and len(points) > max_scan_points:
+        points = points[:: -(-len(points) // max_scan_points)]  # before the float64 copy: a view, no memory
+    points = np.asarray(points, dtype=np.float64)
+    return points[np.all(np.isfinite(points), axis=1)]
 
 
 def _observe(result: FrameResult, points_sensor: np.ndarray, pose: np.ndarray, model: BimModel,
