@@ -92,3 +92,19 @@ class _Frame:
 
     def __init__(self, accepted: bool):
         self.accepted = accepted
+
+
+def test_the_frames_table_says_where_each_frames_prior_came_from():
+    from bim2rdt.verify.chain import FrameResult
+    from bim2rdt.verify.report.page import _frames
+
+    frames = [FrameResult(0, "a.pcd", None, None, prior_source="global", places=3, reason="ambiguous: 3 places fit"),
+              FrameResult(1, "b.pcd", None, None, prior_source="global", places=1, resolved_at=2),
+              FrameResult(2, "c.pcd", None, None, prior_source="global", places=1, resolved_at=2),
+              FrameResult(3, "d.pcd", None, None, prior_source="tracked"),
+              FrameResult(4, "e.pcd", None, None, prior_source="user")]
+    rows = _frames(ReportData("t", frames, [], {})).split("<tr id='row-")[1:]
+    assert "none: searched on the BIM (3 places fit)" in rows[0]
+    assert "none: searched on the BIM, resolved at frame 2" in rows[1]
+    assert "searched on the BIM</td>" in rows[2]
+    assert "the last fix and odometry" in rows[3] and "yours (--prior)" in rows[4]

@@ -222,7 +222,7 @@ def _topics(data: ReportData) -> str:
 
 
 def _frames(data: ReportData) -> str:
-    header = ("#", "source and time", "localized", "residual cm", "inliers", "σ xy cm", "free directions",
+    header = ("#", "source and time", "prior", "localized", "residual cm", "inliers", "σ xy cm", "free directions",
               "depth check", "note")
     table = "".join(_frame_row(f) for f in data.frames)
     shown = [f for f in data.frames if f.index in data.pictures][:MAX_FRAME_CARDS]
@@ -240,10 +240,25 @@ def _frame_row(f) -> str:
     depth = "-" if f.depth is None else (_e(f.depth.reason) or "fine" + (
         f" (median {100 * f.depth.median_residual:.1f} cm)" if f.depth.median_residual is not None else ""))
     return (f"<tr id='row-{f.index}'><td class='l'><a href='#frame-{f.index}'>{f.index}</a></td>"
-            f"<td class='l'>{_e(frame_words(f))}</td><td class='l'>{'yes' if f.accepted else 'no'}</td>"
+            f"<td class='l'>{_e(frame_words(f))}</td><td class='l'>{_prior_words(f)}</td>"
+            f"<td class='l'>{'yes' if f.accepted else 'no'}</td>"
             f"<td>{'-' if f.residual is None else f'{100 * f.residual:.1f}'}</td><td>{f.inliers}</td>"
             f"<td>{sigma}</td><td class='l'>{free if f.accepted else '-'}</td><td class='l'>{depth}</td>"
             f"<td class='l'>{_e(f.reason)}</td></tr>")
+
+
+PRIOR_WORDS = {"global": "none: searched on the BIM", "tracked": "the last fix and odometry",
+               "source": "the recording's pose", "user": "yours (--prior)"}
+"""The frames table's words for where a frame's prior came from (``prior_source``, :mod:`bim2rdt.verify.tracking`)."""
+
+
+def _prior_words(f) -> str:
+    words = PRIOR_WORDS.get(f.prior_source, "-")
+    if f.prior_source == "global" and f.resolved_at is not None and f.resolved_at != f.index:
+        words += f", resolved at frame {f.resolved_at}"
+    elif f.prior_source == "global" and f.places is not None and f.places > 1:
+        words += f" ({f.places} places fit)"
+    return _e(words)
 
 
 def _frame_card(f, pictures: FramePictures) -> str:
