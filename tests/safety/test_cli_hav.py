@@ -101,6 +101,30 @@ def test_bench_hav_reports_throughput_against_the_floor_and_latency(cli_env):
     assert set(report["targets"]) == {"streams_ge_2000", "within_1_5x_floor", "store_reads_per_batch_le_2"}
 
 
+
+@pytest.mark.parametrize("seconds", [6, 9])
+def test_bench_hav_gives_decoded_batches_and_the_floor_c_ordered_rows_whatever_the_length(seconds):
+    """The simulator lays a signal out column-major up to 8 s and row-major from 9 s; the bench's batches are laid
+    out as decoded payloads whatever the length, and the floor's stacked rows are C-ordered, so sosfilt's copy is
+    a plain copy (it gathered a column-major input at 0.34 s a round instead of 0.20 s)."""
+    import numpy as np
+
+    from bim2rdt.bench.hav import TOOLS, _as_decoded, _rows
+    from bim2rdt.bus import AccelBatch
+    from bim2rdt.bus.payloads import decode_accel, encode_accel
+    from bim2rdt.sim.vibration import WEARABLE_RANGE, tool_vibration
+
+    raw = tool_vibration(TOOLS[0], seconds + 1, 5000.0, seed=0)
+    samples = _as_decoded(raw)
+    batches = [AccelBatch(f"d{i}", 0, 1.7e9, 5000.0, samples[i * 500:(i + 1) * 500], WEARABLE_RANGE) for i in range(3)]
+    decoded = decode_accel(encode_accel(batches[0], dtype="float32")).xyz
+    assert np.array_equal(samples, raw) and samples.dtype == decoded.dtype == np.float32
+    assert all(b.xyz.flags.c_contiguous for b in batches) and decoded.flags.c_contiguous
+    rows = _rows(batches)
+    assert rows.flags.c_contiguous and rows.dtype == np.float64 and rows.shape == (9, 500)
+    assert np.array_equal(rows[3:6], batches[1].xyz.T)
+
+
 @contextmanager
 def live_listener(cli_env, *listen_args: str):
     """`hav broker` and `hav listen` (with ``listen_args``) as separate processes on a free port; yields (port,

@@ -68,3 +68,29 @@ def test_a_chunk_weighed_again_settles_its_streams_on_the_replaced_first_sample(
     assert blocks[0].flags[0] and not blocks[1].flags[0]  # the NaN block is flagged, the fixed one is not
     assert np.isfinite(pieces[0].state.zi).all() and np.array_equal(pieces[0].state.zi, pieces[1].state.zi)
     assert blocks[0].energy == blocks[1].energy
+
+
+@pytest.mark.parametrize("sections", [1, 2, 3, 4])
+def test_every_section_count_is_sosfilt_bit_for_bit_registers_or_not(sections):
+    """Two and three sections (every Wh filter) run with the states in registers, other counts through the generic
+    kernel: each is sosfilt exactly, with carried state, its extremes too, the generic and the register kernels
+    alike (the register kernels' operations are scipy's, in scipy's order)."""
+    rng = np.random.default_rng(11 + sections)
+    sos = np.concatenate([design_weighting(5000.0).sos, design_weighting(1600.0).sos])[:sections]
+    x = (rng.normal(0.0, 40.0, (6, 2001)) + 9.81).astype(np.float32)
+    zi = rng.normal(0.0, 3.0, (sections, 6, 2))
+    expected, expected_zf = scipy.signal.sosfilt(sos, x, axis=-1, zi=zi)
+    starts = np.array([0, 900])
+    out, zf, (top, bottom) = weigh_rows(sos, x, zi, starts)
+    assert np.array_equal(out, expected) and np.array_equal(zf, expected_zf)
+    assert np.array_equal(top, np.maximum.reduceat(x, starts, axis=1))
+    assert np.array_equal(bottom, np.minimum.reduceat(x, starts, axis=1))
+    out, zf = sosfilt_rows(sos, x.astype(np.float64), zi)
+    assert np.array_equal(out, expected) and np.array_equal(zf, expected_zf)
+
+
+def test_rows_without_samples_keep_their_state():
+    sos = design_weighting(5000.0).sos
+    zi = np.random.default_rng(12).normal(0.0, 3.0, (sos.shape[0], 3, 2))
+    out, zf = sosfilt_rows(sos, np.zeros((3, 0), np.float32), zi)
+    assert out.shape == (3, 0) and np.array_equal(zf, zi)
