@@ -3,8 +3,9 @@
 A person, a barrow, a stack of boards or a column stands apart from the walls: above the floor its points form a
 connected piece of the cloud, small enough to be one thing. The floor (the points within ``floor`` m of it, after
 gravity has levelled the cloud) is left out of the linking, so a thing standing on it stays apart from the walls
-the floor runs to. Two points link when they lie within ``link`` m of each other (the thinned cloud is a few
-centimetres apart on a surface; a person standing farther than that from a wall is a piece of their own). A
+the floor runs to. A point links to those of its eight nearest that lie within ``link`` m of it, or within twice the spacing
+of the sparser one's surface (:data:`SPACING_FACTOR`; the thinned cloud is a few centimetres apart on a surface
+near the sensor: a person standing farther than ``link`` from a wall is a piece of their own there). A
 connected piece whose points all lie within ``extent`` m across (twice the farthest point from its centroid) is a
 thing; a larger one (walls joined at their corners, a ceiling and what hangs from it) is not, and is counted point
 by point.
@@ -22,6 +23,16 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
+LINK_NEIGHBOURS = 8
+"""A point links to those of its nearest this many that are within reach (a kd-tree query, not every pair)."""
+SPACING_NEIGHBOUR = 3
+"""A point's spacing is the distance to its third nearest neighbour: how densely its surface was sampled."""
+SPACING_FACTOR = 2.0
+"""Two points link within twice the larger of their spacings (at least ``link``): a sparsely sampled far wall (a
+cloud thinned to its cap) stays one piece, not many small ones."""
+MAX_LINK_FACTOR = 3.0
+"""... and at most three times ``link``: a stray return is not joined across a room."""
+
 NOT_A_THING = -1
 """The label of a point on the floor or in a piece too large to be one thing."""
 
@@ -32,7 +43,8 @@ def free_standing(points: np.ndarray, height: np.ndarray, link: float, floor: fl
     Args:
         points: (N, 3) points, metres (any frame: only distances are used).
         height: (N,) each point's height above the floor, metres.
-        link: Two points within this distance belong to one piece, m.
+        link: Two points within this distance belong to one piece (farther where the cloud is sparse: the module's
+            note), m.
         floor: Points lower than this above the floor are the floor: they link nothing, m.
         extent: A piece no larger than this across is a thing, m.
 
@@ -44,14 +56,19 @@ def free_standing(points: np.ndarray, height: np.ndarray, link: float, floor: fl
     if len(above) == 0:
         return labels
     lifted = np.ascontiguousarray(points[above], dtype=np.float64)
-    pairs = cKDTree(lifted).query_pairs(link, output_type="ndarray")
-    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(len(above), len(above)))
+    k = min(LINK_NEIGHBOURS + 1, len(lifted))
+    gap, near = cKDTree(lifted).query(lifted, k=k)
+    spacing = gap[:, min(SPACING_NEIGHBOUR, k - 1)]
+    reach = np.clip(SPACING_FACTOR * spacing, link, MAX_LINK_FACTOR * link)
+    linked = gap[:, 1:] < np.maximum(reach[:, None], reach[near[:, 1:]])
+    rows = np.repeat(np.arange(len(lifted)), k - 1).reshape(-1, k - 1)[linked]
+    graph = coo_matrix((np.ones(len(rows)), (rows, near[:, 1:][linked])), shape=(len(above), len(above)))
     count, piece = connected_components(graph, directed=False)
     size = np.bincount(piece, minlength=count)
     centroid = np.stack([np.bincount(piece, lifted[:, k], minlength=count) for k in range(3)], axis=1) / size[:, None]
-    reach = np.zeros(count)
-    np.maximum.at(reach, piece, np.linalg.norm(lifted - centroid[piece], axis=1))
-    thing = 2.0 * reach <= extent
+    radius = np.zeros(count)
+    np.maximum.at(radius, piece, np.linalg.norm(lifted - centroid[piece], axis=1))
+    thing = 2.0 * radius <= extent
     number = np.cumsum(thing) - 1  # things numbered 0, 1, ... in piece order
     labels[above] = np.where(thing[piece], number[piece], NOT_A_THING)
     return labels
