@@ -89,3 +89,12 @@ def test_a_thing_on_a_surface_only_in_part_earns_a_pose_none_of_its_points():
     assert whole.on == 0 and whole.in_front == whole.counted
     wide = ((2.15, 0.0, 0.0), (0.3, 1.0, 4.0))          # a column face that explains it whole
     assert ViewScore(points, _scene(wide, wall), 0.06, 0.1, things, 0.8).evidence(np.eye(4)).on == len(points)
+
+
+def test_a_sparsely_sampled_wall_stays_one_piece_and_is_no_thing():
+    """A 6 m wall sampled 20 cm apart (a far wall of a cloud thinned to its cap): beyond the fixed 15 cm reach of
+    each other, each point would be a thing of its own; the reach grows with the spacing, so the wall stays one
+    piece, too large to be a thing."""
+    wall = _surface(4.0, 4.0, -3.0, 3.0, 0.3, 2.5, step=0.2)
+    labels = free_standing(wall, wall[:, 2], link=0.15, floor=0.1, extent=2.2)
+    assert np.all(labels == NOT_A_THING)
