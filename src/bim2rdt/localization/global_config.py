@@ -77,7 +77,7 @@ class GlobalSearchConfig(BaseModel):
     thing_extent: float = Field(
         2.2, ge=0.0, description="A piece no larger than this across (twice its farthest point from its centroid) "
                                  "is a free-standing thing (a person up to 2.1 m tall, a barrow, a column's "
-                                 "face), m; 0: no things.")
+                                 "face), m; 0: lone points only (each counted on its own anyway).")
     thing_whole: float = Field(
         0.8, ge=0.0, le=1.0,
         description="A thing's points on a surface raise a pose's score only when at least this share of its points "
