@@ -2,7 +2,7 @@
 turned 30 degrees right, a person close in front of the camera (neither their head nor their feet in view). Part
 of the person lands on a column's face at a place 13.5 m away, which then out-scored every other place; counted
 whole or not at all (``localization.pieces``), the person earns no place anything and the view is refused as
-ambiguous, as it is with nobody there. The pieces themselves: a person standing on the floor in front of a wall is
+ambiguous, as it is with nobody there, by find_pose and by verify with no prior. The pieces themselves: a person standing on the floor in front of a wall is
 one thing, the wall and the floor are not; and a thing on a surface only in part earns no pose its points."""
 
 from __future__ import annotations
@@ -98,3 +98,20 @@ def test_a_sparsely_sampled_wall_stays_one_piece_and_is_no_thing():
     wall = _surface(4.0, 4.0, -3.0, 3.0, 0.3, 2.5, step=0.2)
     labels = free_standing(wall, wall[:, 2], link=0.15, floor=0.1, extent=2.2)
     assert np.all(labels == NOT_A_THING)
+
+
+def test_verify_with_no_prior_does_not_accept_the_frame_at_a_wrong_place(site_model, turned_corner):
+    """verify's own path: the frame, its pose stripped, searched on the BIM by the tracker: refused as ambiguous,
+    or accepted within 5 cm and 1 degree, never elsewhere."""
+    from dataclasses import replace
+
+    from bim2rdt.verify import verify_frames
+
+    data, T = turned_corner
+    [result] = verify_frames([replace(data, T_world_camera=None)], site_model).frames
+    assert result.prior_source == "global"
+    if result.accepted:
+        position, yaw = errors(result.pose, T)
+        assert np.linalg.norm(position) < 0.05 and abs(yaw) < 1.0, (position, yaw)
+    else:
+        assert result.reason.startswith("ambiguous: "), result.reason
