@@ -66,6 +66,10 @@ def test_the_global_section_searches_every_station_with_no_prior_and_runs_fpfh_r
     assert stations[0]["sweep"]["resolved_at"] == 1 and stations[0]["sweep"]["position_m"] < 0.05
     assert stations[1]["sweep"]["how"] == "carried" and stations[1]["sweep"]["outcome"] == "success"
     assert sweep["success_rate"] == 1.0 and all(s["sweep"]["seconds"] > 0 for s in stations)
+    people = report["people"]["summary"]  # frames looking at the site's people, each searched alone
+    assert people["person_in_view"] >= 20 and people["with"]["wrong"] == 0
+    assert people["without"]["wrong"] >= 1  # the turned corner: every point on its own, a place 13.5 m off is taken
+    assert people["with"]["success"] == people["without"]["success"] > 0
 
 
 def test_bench_localization_rejects_a_tour_too_short_to_walk(tmp_path):

@@ -42,6 +42,9 @@ def bench_localization(
                                        "office frame with no prior too (and Open3D FPFH + RANSAC with --peers), "
                                        "each frame alone and the stations in order as one sweep on the robot's "
                                        "drifting odometry in an unaligned frame."),
+    people: bool = typer.Option(True, "--people/--no-people", help="With --global and the tour: search frames that "
+                                "look at the site's people alone, with and without free-standing things counted "
+                                "whole, and count the wrong-and-confident ones."),
     as_json: bool = typer.Option(False, "--json", help="Print JSON instead of tables."),
 ) -> None:
     """Walk the tour, localize every station on the BIM, fuse with odometry, and print errors and targets; then
@@ -68,7 +71,7 @@ def bench_localization(
     if office:
         record["office"] = _office(sensors, config, seed, out, office_priors)
     if global_search and (tour or office):
-        record["global"] = _global(out, seed, distance, peers, sensors if office else None, tour)
+        record["global"] = _global(out, seed, distance, peers, sensors if office else None, tour, people)
     write_bytes_atomic(out / "results.json", json.dumps(record, indent=2, default=float).encode("utf-8"))
     if as_json:
         print_json(record)
@@ -90,14 +93,15 @@ def _office(sensors: Path, config, seed: int, out: Path, count: int) -> dict:
     return run_office(sensors, config, count, seed=seed, cache_dir=out / "cache")
 
 
-def _global(out: Path, seed: int, distance: float, peers: bool | None, sensors: Path | None, tour: bool) -> dict:
+def _global(out: Path, seed: int, distance: float, peers: bool | None, sensors: Path | None, tour: bool,
+            people: bool = True) -> dict:
     from bim2rdt.bench.localization.global_bench import run_global
     from bim2rdt.cli.registration import _open3d_available, step_progress
     from bim2rdt.sim.tour import tour_poses
 
     peer = _open3d_available() if peers is None else peers
     with step_progress(len(tour_poses(distance)) if tour else 1, "global search") as tick:
-        return run_global(out, seed, distance, peer=peer, sensors=sensors, tick=tick, tour=tour)
+        return run_global(out, seed, distance, peer=peer, sensors=sensors, tick=tick, tour=tour, people=people)
 
 
 def show_global(record: dict) -> None:
@@ -124,6 +128,13 @@ def show_global(record: dict) -> None:
             detail = (f"{entry['position_m'] * 100:.1f} cm / {entry['yaw_deg']:.2f} deg" if "position_m" in entry
                       else entry.get("reason", ""))
             console.print(f"office1, no prior, {name}: {entry['outcome']} ({detail}), {entry['seconds']:.2f} s")
+    people = record.get("people")
+    if people:
+        s = people["summary"]
+        counts = {name: f"{s[name]['wrong']} wrong and confident, {s[name]['success']} right, "
+                        f"{s[name]['refused']} refused" for name in ("with", "without")}
+        console.print(f"People in view, one frame each: {s['person_in_view']} of {s['frames']} frames; free-standing "
+                      f"things counted whole: {counts['with']}; every point on its own: {counts['without']}")
 
 
 def show_office(office: dict) -> None:

@@ -68,6 +68,21 @@ class GlobalSearchConfig(BaseModel):
     ambiguity_sigmas: float = Field(
         2.0, ge=0.0, description="Standard deviations of a score (a share over the fix's independent_points "
                                  "observations) within which two places are a tie.")
+    thing_link: float = Field(
+        0.15, gt=0.0, description="Above the floor, two of the view's points within this of each other are one "
+                                  "piece of the cloud, m: a person farther than this from a wall is a piece apart.")
+    thing_floor: float = Field(
+        0.1, ge=0.0, description="Points lower than this above the floor are the floor and join no piece, m (a "
+                                 "thing standing on it stays apart from the walls).")
+    thing_extent: float = Field(
+        2.2, ge=0.0, description="A piece no larger than this across (twice its farthest point from its centroid) "
+                                 "is a free-standing thing (a person up to 2.1 m tall, a barrow, a column's "
+                                 "face), m; 0: lone points only (each counted on its own anyway).")
+    thing_whole: float = Field(
+        0.8, ge=0.0, le=1.0,
+        description="A thing's points on a surface raise a pose's score only when at least this share of its points "
+                    "that meet a surface lie on one (a person partly on a column at a wrong place earns it "
+                    "nothing); 0: every point counts on its own.")
     floor_cone_deg: float = Field(
         60.0, gt=0.0, le=85.0,
         description="Without an IMU, the floor's normal is sought within this of the sensor's usual up (a camera "

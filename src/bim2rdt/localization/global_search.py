@@ -38,6 +38,7 @@ from bim2rdt.localization.errors import LocalizationError
 from bim2rdt.localization.global_config import GlobalSearchConfig
 from bim2rdt.localization.global_map import StoreyPlan, storey_plans
 from bim2rdt.localization.gravity import CAMERA_UP, SCANNER_UP, Levelled, level, other_floors
+from bim2rdt.localization.pieces import free_standing
 from bim2rdt.localization.planar import rz, wrap
 from bim2rdt.localization.view_score import ViewScore
 from bim2rdt.perception import Frame
@@ -104,10 +105,10 @@ def find_pose(data: object, model: BimModel, up: np.ndarray | tuple[float, float
     cfg = config or GlobalSearchConfig()
     scan, default_up, up, gravity = _prepared(data, up, cfg)
     levelled = level(scan, up, gravity, default_up, cfg.floor_cone_deg, cfg.min_floor_points)
-    plan_points, view = _plan_points(scan, levelled, cfg)
+    plan_points, view, things = _plan_points(scan, levelled, cfg)
     scene = OccludedMap.of(model)
-    judge = ViewScore(view, scene, 2 * cfg.fix.inlier_distance, cfg.fix.behind_tolerance)
-    screen = ViewScore(view, scene, cfg.screen_tolerance, cfg.screen_tolerance)
+    judge = ViewScore(view, scene, 2 * cfg.fix.inlier_distance, cfg.fix.behind_tolerance, things, cfg.thing_whole)
+    screen = ViewScore(view, scene, cfg.screen_tolerance, cfg.screen_tolerance, things, cfg.thing_whole)
     search = _LevelSearch(scan, model, storey, cfg, judge, screen)
     first_error: LocalizationError | None = None
     try:
@@ -157,7 +158,8 @@ def _other_floors_searched(search: _LevelSearch, scan: ScanPoints, taken: Levell
                            cfg: GlobalSearchConfig) -> list[Candidate]:
     """A cloud with no IMU whose first floor gave no pose (a scan written y-up, or in a camera's axes, can have a
     wall within 0.1-3 m that passes for a floor): every other axis's floor is searched too, and all candidates
-    compete on the same view (a wrong floor's places score far below the right one's; a tie stays ambiguous)."""
+    compete on the same view (a wrong floor's places score far below the right one's; a tie stays ambiguous), and
+    on the same judge: its free-standing things are those found above the first floor."""
     for other in other_floors(scan, taken, cfg.floor_cone_deg, cfg.min_floor_points):
         try:
             quick = _unique(quick + search(other, _plan_points(scan, other, cfg)[0]), cfg)
@@ -329,9 +331,11 @@ def _prepared(data: object, up, cfg: GlobalSearchConfig) -> tuple[ScanPoints, np
     return scan, default_up, None, "floor"
 
 
-def _plan_points(scan: ScanPoints, levelled: Levelled, cfg: GlobalSearchConfig) -> tuple[np.ndarray, np.ndarray]:
+def _plan_points(scan: ScanPoints, levelled: Levelled, cfg: GlobalSearchConfig
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(the levelled (x, y) of the points that face sideways within the band, at most ``max_plan_points``;
-    the cloud's points in the sensor frame, at most ``judge_points``: what refined candidates are judged on)."""
+    the cloud's points in the sensor frame, at most ``judge_points``: what refined candidates are judged on;
+    the free-standing thing each of those belongs to, found on the whole cloud: :func:`~.pieces.free_standing`)."""
     points = scan.points @ levelled.R_level_sensor.T
     normals = scan.normals @ levelled.R_level_sensor.T
     height = points[:, 2] + levelled.height
@@ -341,10 +345,12 @@ def _plan_points(scan: ScanPoints, levelled: Levelled, cfg: GlobalSearchConfig) 
     rng = np.random.default_rng(0)
     if len(xy) > cfg.max_plan_points:
         xy = xy[rng.choice(len(xy), cfg.max_plan_points, replace=False)]
+    things = free_standing(scan.points, height, cfg.thing_link, cfg.thing_floor, cfg.thing_extent)
     view = scan.points
     if len(view) > cfg.judge_points:
-        view = view[rng.choice(len(view), cfg.judge_points, replace=False)]
-    return xy, view
+        pick = rng.choice(len(view), cfg.judge_points, replace=False)
+        view, things = view[pick], things[pick]
+    return xy, view, things
 
 
 def _thinned(xy: np.ndarray, cell: float) -> np.ndarray:

@@ -44,15 +44,19 @@ PEER_VOXEL = 0.1
 
 def run_global(out_dir: Path, seed: int = 0, distance: float = 100.0, config: GlobalSearchConfig | None = None,
                peer: bool = True, sensors: Path | None = None, tick=lambda: None, tour: bool = True,
-               look_around: bool = True, sweep: bool = True) -> dict:
+               look_around: bool = True, sweep: bool = True, people: bool = True) -> dict:
     """The tour's stations (unless not ``tour``) and office1 (when ``sensors`` holds it) searched without a
     prior, and the peer on the same frames (JSON-able); with ``look_around``, each station also as the robot
     sees it turning 70 degrees either way (three frames as one cloud, placed by its odometry and IMU); with
-    ``sweep``, the stations in order as one sweep on the robot's unaligned, drifting odometry (``sweep``)."""
+    ``sweep``, the stations in order as one sweep on the robot's unaligned, drifting odometry (``sweep``); with
+    ``people`` (and ``tour``), the frames that look at the site's people, with and without the whole-thing rule
+    (``people``: :func:`run_people`)."""
     cfg = config or GlobalSearchConfig()
     stations = _tour_stations(Path(out_dir), seed, distance, cfg, peer, tick, look_around, sweep) if tour else []
     record = {"tolerance": {"position_m": POSITION_M, "yaw_deg": YAW_DEG}, "stations": stations,
               "summary": _summary(stations, peer)}
+    if tour and people:
+        record["people"] = run_people(Path(out_dir), seed, cfg)
     if sensors is not None and (sensors / "pcl" / "office1.pcd").is_file():
         record["office"] = _office(sensors, cfg, peer, Path(out_dir) / "cache")
     return record
@@ -284,3 +288,69 @@ class _FpfhRansac:
         right = position <= POSITION_M and abs(yaw) <= yaw_tol
         return {"outcome": "success" if right else "wrong", "position_m": position, "yaw_deg": yaw,
                 "seconds": seconds}
+
+
+PERSON_SHARE = 0.02
+"""A frame has a person in view when at least this share of its returns are a person's."""
+PEOPLE_SIDES_DEG = (0.0, 90.0, 180.0, 270.0)
+PEOPLE_DISTANCES_M = (1.5, 3.0)
+TURNED_CORNER_DEG = (30.0, 35.0, 40.0)
+
+
+def people_poses() -> list[np.ndarray]:
+    """True T_world_camera of the frames that look at the tour's people: each person from ``PEOPLE_SIDES_DEG``
+    at ``PEOPLE_DISTANCES_M`` (the camera 0.3 m inside the site's outer walls at least), then the tour's first
+    station (the south-west corner) turned ``TURNED_CORNER_DEG`` to the right."""
+    from bim2rdt.perception.camera import look_at
+    from bim2rdt.sim.tour import CAMERA_HEIGHT, PEOPLE_XY
+
+    poses = []
+    for px, py in PEOPLE_XY:
+        for side in np.deg2rad(PEOPLE_SIDES_DEG):
+            for distance in PEOPLE_DISTANCES_M:
+                x, y = px + distance * np.cos(side), py + distance * np.sin(side)
+                if 0.3 < x < 19.7 and 0.3 < y < 13.7:
+                    poses.append(look_at((x, y, CAMERA_HEIGHT), (px, py, 0.9)))
+    corner = tour_poses(1.0)[0]
+    state, tilt = to_planar(corner)
+    return poses + [from_planar(state - np.array([0.0, 0.0, 0.0, np.deg2rad(turn)]), tilt) for turn in TURNED_CORNER_DEG]
+
+
+def run_people(out_dir: Path, seed: int = 0, cfg: GlobalSearchConfig | None = None) -> dict:
+    """The frames of :func:`people_poses` searched alone with the whole-thing rule (``with``) and without it
+    (``without``: ``thing_whole`` 0), each with the IMU's up: per frame its person share and both outcomes, and
+    the counts over the frames with a person in view.
+
+    Args:
+        out_dir: Where the site's IFC is built (as the tour's).
+        seed: Seed of the site's moved objects and the frames' noise.
+        cfg: The search's settings; None: the defaults.
+
+    Returns:
+        JSON-able: ``frames`` (per frame), ``summary`` (``frames``, ``person_in_view``, and for ``with`` and
+            ``without`` the successes, wrong-and-confident and refusals among the frames with a person in view).
+    """
+    from bim2rdt.perception.camera import Intrinsics
+    from bim2rdt.sim.render import render_rgbd
+    from bim2rdt.sim.scene import WORKER
+
+    cfg = cfg or GlobalSearchConfig()
+    without = cfg.model_copy(update={"thing_whole": 0.0})
+    model = load_ifc(build_site_ifc(out_dir / "site.ifc"), cache_dir=out_dir / "cache")
+    scene = tour_scene(model, seed=seed).scene
+    rng = np.random.default_rng(seed)
+    frames = []
+    for T_true in people_poses():
+        rendered = render_rgbd(scene, Intrinsics(), T_true, rng)
+        hit = np.isfinite(rendered.depth)
+        share = float((rendered.labels[hit] == WORKER).mean()) if hit.any() else 0.0
+        frame = replace(rendered.as_frame(Intrinsics()), T_world_camera=None)
+        up = T_true[:3, :3].T @ np.array([0.0, 0.0, 1.0])
+        frames.append({"person_share": share, "with": _ours(frame, model, up, cfg, T_true, YAW_DEG),
+                       "without": _ours(frame, model, up, without, T_true, YAW_DEG)})
+    seen = [f for f in frames if f["person_share"] >= PERSON_SHARE]
+    summary = {"frames": len(frames), "person_in_view": len(seen)}
+    for name in ("with", "without"):
+        summary[name] = {outcome: sum(f[name]["outcome"] == outcome for f in seen)
+                         for outcome in ("success", "wrong", "refused")}
+    return {"frames": frames, "summary": summary}
