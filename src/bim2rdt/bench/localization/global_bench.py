@@ -16,6 +16,10 @@ heading per 10 m, noise) integrated in an odometry frame a random 4-DoF offset a
 to it): the library sees only the steps between consecutive odometry poses and each frame's IMU up. A station is
 scored on the pose taken at its frame, or the one back-filled when a later frame resolved the ambiguity (fixed
 from the resolved pose carried back through the odometry chain); its time is its step's, plus its back-fill's.
+A station whose view leaves a direction free (a bare wall) is taken from the odometry calibrated on the sweep's
+own fixes when that is precise enough (``how``: ``calibrated`` at its frame, ``smoothed`` at the sweep's end from
+the fixes on both sides: :meth:`~bim2rdt.localization.Sweep.smooth`); the calibration the sweep ended with is
+``sweep_calibration`` (decision 0053).
 """
 
 from __future__ import annotations
@@ -53,6 +57,8 @@ def run_global(out_dir: Path, seed: int = 0, distance: float = 100.0, config: Gl
     stations = _tour_stations(Path(out_dir), seed, distance, cfg, peer, tick, look_around, sweep) if tour else []
     record = {"tolerance": {"position_m": POSITION_M, "yaw_deg": YAW_DEG}, "stations": stations,
               "summary": _summary(stations, peer)}
+    if stations and "sweep" in stations[-1]:
+        record["sweep_calibration"] = stations[-1]["sweep"].pop("sweep_calibration", None)
     if sensors is not None and (sensors / "pcl" / "office1.pcd").is_file():
         record["office"] = _office(sensors, cfg, peer, Path(out_dir) / "cache")
     return record
@@ -103,7 +109,9 @@ def run_sweep(model: BimModel, frames: list, poses: list[np.ndarray], seed: int,
         cfg: The search's settings.
 
     Returns:
-        Per station: outcome, errors, how the pose was found, the places left, seconds.
+        Per station: outcome, errors, how the pose was found, the places left, seconds (the calibration weighed
+            at a station whose view leaves a direction free, ``calibration``); the last station's also holds the
+            calibration the sweep ended with (``sweep_calibration``).
     """
     cfg = cfg or GlobalSearchConfig()
     rng = np.random.default_rng(seed + 7919)
@@ -129,6 +137,17 @@ def run_sweep(model: BimModel, frames: list, poses: list[np.ndarray], seed: int,
             out[held] = _scored(fixed.pose if taken else None, fixed.reason or "the back-filled fix leaves a "
                                 "direction free", poses[held], seconds, "backfill", 1, None if taken else fixed.pose)
             out[held]["resolved_at"] = index
+            if taken:
+                sweep.confirm(held, fixed.pose)
+        if step.calibration is not None:
+            out[-1]["calibration"] = step.calibration
+    started = time.process_time()
+    smoothed = sweep.smooth()
+    seconds = (time.process_time() - started) / max(len(smoothed), 1)
+    for held, pose in smoothed:
+        out[held] = {**_scored(pose, "", poses[held], out[held]["seconds"] + seconds, "smoothed", 1),
+                     "resolved_at": len(frames) - 1}
+    out[-1]["sweep_calibration"] = sweep.calibration.to_json()
     return out
 
 
