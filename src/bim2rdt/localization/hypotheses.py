@@ -27,7 +27,14 @@ to frame by odometry until one is left (AMCL's global localization does the same
 Once one place is taken the sweep tracks it: the next frame's hypothesis is that place moved by the odometry
 (steps 2-4 with one hypothesis). The frames held while the view was ambiguous (at most ``hold``) get their
 poses back through the odometry chain (:attr:`SweepStep.backfill`): ``T_resolved @ inv(T_held_resolved)``, to be
-fixed from there. Only the data and the odometry are read: no truth, no prior.
+fixed from there.
+
+A view that leaves a direction free (one bare wall) cannot say where along it the sensor stands. The sweep
+calibrates its odometry on its own fixes (:mod:`~bim2rdt.localization.calibration`: the legs between consecutive
+frames fixed in every direction) and takes such a frame (``how`` ``"calibrated"``) when the calibrated odometry
+from the frame before places it along the free direction well within ``calibration.free_tolerance``; else it is
+refused as before, and :meth:`Sweep.smooth` may take it at the end from the fixes on both sides (decision 0053).
+Only the data and the odometry are read: no truth, no prior.
 """
 
 from __future__ import annotations
@@ -90,6 +97,11 @@ class Sweep:
         recheck: Search each frame on its own too while two or more places are carried (step 5).
         refused_before_search: After this many frames in a row where every hypothesis was refused, the next
             frame is searched globally.
+
+    The record the odometry is calibrated from, by frame number (the latest only): ``steps`` the odometry step
+    into each frame, ``fixes`` the frames fixed in every direction (:meth:`confirm`), ``free`` those fixed but
+    along a free direction and refused (pose, free world directions), for :meth:`smooth`; ``forward`` the
+    sensor's heading axis (a camera's optical axis, a scanner's x).
     """
 
     def __init__(self, model: BimModel, config: GlobalSearchConfig | None = None, storey: str | None = None,

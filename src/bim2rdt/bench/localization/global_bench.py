@@ -134,8 +134,9 @@ def run_sweep(model: BimModel, frames: list, poses: list[np.ndarray], seed: int,
             fixed = refix(frames[held][0], prior, model, frames[held][1], cfg)
             seconds = out[held]["seconds"] + time.process_time() - started
             taken = fixed.refined and not fixed.degenerate
-            out[held] = _scored(fixed.pose if taken else None, fixed.reason or "the back-filled fix leaves a "
-                                "direction free", poses[held], seconds, "backfill", 1, None if taken else fixed.pose)
+            why = fixed.reason or f"the back-filled fix leaves a direction free ({out[held].get('reason', '')})"
+            out[held] = _scored(fixed.pose if taken else None, why, poses[held], seconds, "backfill", 1,
+                                None if taken else fixed.pose)
             out[held]["resolved_at"] = index
             if taken:
                 sweep.confirm(held, fixed.pose)
