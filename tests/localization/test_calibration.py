@@ -30,15 +30,16 @@ def pose(x: float, y: float, yaw: float) -> np.ndarray:
 
 
 def walked(start: np.ndarray, length: float, turn: float, bias=BIAS, noise: float = 0.0, rng=None,
-           turn_noise: float = 0.0):
+           turn_noise: float = 0.0, turn_error: float = 0.0):
     """(the odometry's step, the true end): the robot turns ``turn`` rad, walks ``length`` m straight ahead, its
     heading drifting c rad per metre; the odometry sees a straight walk ``bias`` short and no drift, plus random
-    errors: ``noise`` m per metre, and ``turn_noise`` rad per radian turned carried across the walk."""
+    errors: ``noise`` m per metre, and ``turn_noise`` rad per radian turned carried across the walk; the turn
+    before the walk ``turn_error`` rad more than the odometry saw (the walk and the end's heading turn with it)."""
     a, b, c, _ = bias
     heading = turn + np.arctan2(start[1, 0], start[0, 0])
     u = np.array([np.cos(heading), np.sin(heading)])
     n = np.array([-u[1], u[0]])
-    true_end = pose(*(start[:2, 3] + u * length), heading + c * length)
+    true_end = pose(*(start[:2, 3] + rz(turn_error)[:2, :2] @ u * length), heading + c * length + turn_error)
     # the truth is the odometry's walk plus the bias, so the odometry's walk is the truth less it
     shift = u * (length - a * length) - n * (b * length + c * length**2 / 2)
     if rng is not None:
@@ -47,12 +48,14 @@ def walked(start: np.ndarray, length: float, turn: float, bias=BIAS, noise: floa
     return np.linalg.inv(start) @ odometry_end, true_end
 
 
-def legs_with(bias=BIAS, count: int = 10, noise: float = 0.001, seed: int = 0, turn_noise: float = 0.0
-              ) -> list[LegError]:
+def legs_with(bias=BIAS, count: int = 10, noise: float = 0.001, seed: int = 0, turn_noise: float = 0.0,
+              turn_error: float = 0.0) -> list[LegError]:
     rng = np.random.default_rng(seed)
     start, out = pose(1.0, 2.0, 0.3), []
     for _ in range(count):
-        step, end = walked(start, rng.uniform(2.0, 7.0), rng.uniform(-2.5, 2.5), bias, noise, rng, turn_noise)
+        turn = rng.uniform(-2.5, 2.5)
+        step, end = walked(start, rng.uniform(2.0, 7.0), turn, bias, noise, rng, turn_noise,
+                           rng.normal(0.0, turn_error * abs(turn)))
         out.append(leg_error(start, step, end, SCANNER_FORWARD))  # these poses head along their x
         start = end
     return out
@@ -90,6 +93,21 @@ def test_the_error_across_grows_with_the_turn_before_the_walk():
     assert spreads[1] > 2 * spreads[0]
     # 2 rad at 0.5 deg/rad over 5 m is 8.7 cm of error across, 1 sigma: the fit finds about that
     assert 0.04 < spreads[1] < 0.2, spreads
+
+
+def test_the_heading_error_seen_at_the_end_tells_the_error_across():
+    """Each turn before a walk is off by 0.5 % of it (random): the end's fixed heading shows that error, and the
+    calibration carries the share made before the walk across it (the turn, walk, turn model's gain)."""
+    calibration = calibrate(legs_with(count=20, turn_error=0.005, seed=4))
+    assert calibration.turn_noise is not None and calibration.sigma_given_turn[3] < calibration.sigma[3]
+    start = pose(0.0, 0.0, 0.0)
+    step, truth = walked(start, 5.0, 1.5, turn_error=np.deg2rad(0.6))  # 5 cm across, from the turn
+    blind, _ = calibration.predict(start, step, SCANNER_FORWARD)
+    seeing, covariance = calibration.predict(start, step, SCANNER_FORWARD, truth[:3, :3])
+    assert np.linalg.norm(blind[:2, 3] - truth[:2, 3]) > 0.04
+    assert np.linalg.norm(seeing[:2, 3] - truth[:2, 3]) < 0.01
+    _, loose = calibration.predict(start, step, SCANNER_FORWARD)
+    assert np.trace(covariance) < np.trace(loose)
 
 
 def test_too_few_legs_are_not_trusted():

@@ -48,6 +48,7 @@ class LegError:
     up: float
     turn: float
     rot1: float = 0.0
+    rot2: float = 0.0
 
 
 CAMERA_FORWARD = np.array([0.0, 0.0, 1.0])
@@ -74,7 +75,7 @@ def leg_error(start: np.ndarray, step: np.ndarray, end: np.ndarray, forward: np.
     u, n, length = _frame(d)
     error = end[:3, 3] - moved[:3, 3]
     return LegError(length, float(error[:2] @ u), float(error[:2] @ n), float(error[2]), _turn(moved, end),
-                    _rot1(start[:3, :3], d, forward))
+                    _rot1(start[:3, :3], d, forward), _rot1(end[:3, :3], d, forward))
 
 
 @dataclass(frozen=True)
@@ -95,46 +96,59 @@ class OdometryCalibration:
     valid: bool
     reason: str
     min_sigma: float = 0.005
+    turn_noise: tuple[float, float] | None = None
+    sigma_given_turn: tuple[float, float, float, float] | None = None
 
-    def displacement(self, R_start: np.ndarray, step: np.ndarray, forward: np.ndarray = CAMERA_FORWARD
-                     ) -> tuple[np.ndarray, np.ndarray, float]:
+    def displacement(self, R_start: np.ndarray, step: np.ndarray, forward: np.ndarray = CAMERA_FORWARD,
+                     R_end: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, float]:
         """The step's displacement in the world, corrected when the calibration is applied, and its covariance.
 
         Args:
             R_start: World rotation (3, 3) of the sensor at the step's start.
             step: The odometry's T_start_end (4, 4).
             forward: The sensor's heading axis in its own frame.
+            R_end: World rotation (3, 3) fixed at the step's end, when known: the heading error it shows tells
+                part of the error across the walk (``turn_noise``).
 
         Returns:
             (displacement (3,) m, its covariance (3, 3) m^2, the turn correction about up, rad).
         """
         d = R_start @ step[:3, 3]
         u, n, length = _frame(d)
-        turn = 0.0
+        raw, turn = d.copy(), 0.0
         if self.applied:
             a, b, c, v = self.coefficients
             d = d + np.r_[u * a * length + n * (b * length + c * length**2 / 2), v * length]
             turn = c * length
+        rot1 = _rot1(R_start, raw, forward)
+        sigma = self.sigma
+        if self.turn_noise is not None and R_end is not None:
+            R_odometry = rz(turn) @ R_start @ step[:3, :3]
+            residual = _turn_of(R_end @ R_odometry.T)
+            gain = _gain(self.turn_noise, length, rot1, _rot1(R_end, raw, forward))
+            d = d + np.r_[n * gain * residual, 0.0]
+            sigma = self.sigma_given_turn
         Q = np.array([[u[0], n[0], 0.0], [u[1], n[1], 0.0], [0.0, 0.0, 1.0]])
         scale = max(length, self.shortest)
-        s_a, s_c, s_u, s_t = self.sigma
-        across = np.hypot(s_c, s_t * _rot1(R_start, R_start @ step[:3, 3], forward))
+        s_a, s_c, s_u, s_t = sigma
+        across = np.hypot(s_c, s_t * rot1)
         S = np.diag((np.array([s_a, across, s_u]) * scale) ** 2 + self.min_sigma**2)
         return d, Q @ S @ Q.T, float(turn)
 
-    def predict(self, start: np.ndarray, step: np.ndarray, forward: np.ndarray = CAMERA_FORWARD
-                ) -> tuple[np.ndarray, np.ndarray]:
+    def predict(self, start: np.ndarray, step: np.ndarray, forward: np.ndarray = CAMERA_FORWARD,
+                R_end: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Where the odometry puts the end of a leg from a fixed start.
 
         Args:
             start: T_world_sensor (4, 4) at the step's start.
             step: The odometry's T_start_end (4, 4).
             forward: The sensor's heading axis in its own frame.
+            R_end: World rotation (3, 3) fixed at the end, when known (:meth:`displacement`).
 
         Returns:
             (T_world_sensor (4, 4) at the end, the covariance (3, 3) m^2 of its position).
         """
-        d, covariance, turn = self.displacement(start[:3, :3], step, forward)
+        d, covariance, turn = self.displacement(start[:3, :3], step, forward, R_end)
         end = start @ step
         end[:3, :3] = rz(turn) @ end[:3, :3]
         end[:3, 3] = start[:3, 3] + d
@@ -171,16 +185,45 @@ def calibrate(legs: list[LegError], config: OdometryCalibrationConfig | None = N
         return OdometryCalibration(len(used), (0.0, 0.0, 0.0, 0.0), False, (0.0,) * 4, (0.0,) * 4, 0.0, False,
                                    f"{len(used)} legs between fixes, need {cfg.min_legs}", cfg.min_sigma)
     E = np.array([[leg.length, leg.along, leg.across, leg.up, leg.turn] for leg in used])
-    rot1 = np.array([leg.rot1 for leg in used])
-    loo = np.array([_residual(E[i], _fit(np.delete(E, i, axis=0), cfg)) for i in range(len(E))])
+    rot1, rot2 = np.array([leg.rot1 for leg in used]), np.array([leg.rot2 for leg in used])
+    fits = [_fit(np.delete(E, i, axis=0), cfg) for i in range(len(E))]
+    loo = np.array([_residual(E[i], fit) for i, fit in enumerate(fits)])
     calibrated, raw = _spread(loo / E[:, :1], rot1), _spread(E[:, 1:4] / E[:, :1], rot1)
     applied = bool(np.hypot(*_rms(loo / E[:, :1])[:2]) < np.hypot(*_rms(E[:, 1:3] / E[:, :1])))
     coefficients = _fit(E, cfg) if applied else (0.0, 0.0, 0.0, 0.0)
     sigma = calibrated if applied else raw
     reason = "" if applied else "the fit does not predict the legs better than the raw odometry: not applied"
+    turn_noise, given_turn = None, None
+    if applied:
+        turns = E[:, 4] - np.array([fit[2] for fit in fits]) * E[:, 0]  # heading errors left, leave-one-out
+        noise = [_turn_noise(np.delete(turns, i), np.delete(E[:, 0], i), np.delete(rot1, i), np.delete(rot2, i))
+                 for i in range(len(E))]
+        gains = np.array([_gain(k, L, r1, r2) for k, L, r1, r2 in zip(noise, E[:, 0], rot1, rot2)])
+        conditioned = loo.copy()
+        conditioned[:, 1] -= gains * turns
+        if _rms(conditioned[:, 1] / E[:, 0]) < _rms(loo[:, 1] / E[:, 0]):
+            turn_noise = _turn_noise(turns, E[:, 0], rot1, rot2)
+            given_turn = _spread(conditioned / E[:, :1], rot1)
     return OdometryCalibration(len(used), tuple(float(x) for x in coefficients), applied,
                                tuple(float(s) for s in sigma), tuple(float(s) for s in raw), float(E[:, 0].min()),
-                               True, reason, cfg.min_sigma)
+                               True, reason, cfg.min_sigma, turn_noise, given_turn)
+
+
+def _turn_noise(turns: np.ndarray, L: np.ndarray, rot1: np.ndarray, rot2: np.ndarray) -> tuple[float, float]:
+    """(alpha^2, beta^2): a leg's heading error has variance alpha^2 (rot1^2 + rot2^2) + beta^2 L (turns in place
+    and the walk; non-negative least squares over the legs' heading errors ``turns``, rad)."""
+    (alpha2, beta2), _ = optimize.nnls(np.c_[rot1**2 + rot2**2, L], turns**2)
+    return float(alpha2), float(beta2)
+
+
+def _gain(noise: tuple[float, float], L: float, rot1: float, rot2: float) -> float:
+    """m across per radian of heading error seen at a leg's end: the share of that error made before or during
+    the walk (its covariance with the error across over its variance, for the turn, walk, turn model)."""
+    alpha2, beta2 = noise
+    variance = alpha2 * (rot1**2 + rot2**2) + beta2 * L
+    if variance <= 0.0:
+        return 0.0
+    return float(L * (alpha2 * rot1**2 + beta2 * L / 2) / variance)
 
 
 def _fit(E: np.ndarray, cfg: OdometryCalibrationConfig) -> tuple[float, float, float, float]:
@@ -236,7 +279,11 @@ def _frame(d: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
 
 def _turn(a: np.ndarray, b: np.ndarray) -> float:
     """The turn about world z from pose a to pose b, rad."""
-    R = b[:3, :3] @ a[:3, :3].T
+    return _turn_of(b[:3, :3] @ a[:3, :3].T)
+
+
+def _turn_of(R: np.ndarray) -> float:
+    """The turn of rotation R about world z, rad."""
     return float(np.arctan2(R[1, 0] - R[0, 1], R[0, 0] + R[1, 1]))
 
 

@@ -194,10 +194,12 @@ class Sweep:
         for number, (pose, free) in sorted(self.free.items()):
             estimates = []
             if number - 1 in self.fixes and number in self.steps:
-                predicted, covariance = calibration.predict(self.fixes[number - 1], self.steps[number], self.forward)
+                predicted, covariance = calibration.predict(self.fixes[number - 1], self.steps[number], self.forward,
+                                                            pose[:3, :3])
                 estimates.append((predicted[:3, 3], covariance))
             if number + 1 in self.fixes and number + 1 in self.steps:
-                moved, covariance, _ = calibration.displacement(pose[:3, :3], self.steps[number + 1], self.forward)
+                moved, covariance, _ = calibration.displacement(pose[:3, :3], self.steps[number + 1], self.forward,
+                                                                self.fixes[number + 1][:3, :3])
                 estimates.append((self.fixes[number + 1][:3, 3] - moved, covariance))
             completed, _, _ = along_free(pose, free, estimates, calibration.legs, self.cfg.calibration)
             if completed is not None:
@@ -300,7 +302,8 @@ class Sweep:
             why = calibration.reason if not calibration.valid else "no fix on the frame before"
             return SweepStep(None, f"{reason}; odometry not calibrated: {why}", [full], "tracked", fresh,
                              calibration=calibration.to_json())
-        predicted, covariance = calibration.predict(self.fixes[number - 1], self.steps[number], self.forward)
+        predicted, covariance = calibration.predict(self.fixes[number - 1], self.steps[number], self.forward,
+                                                    full.pose[:3, :3])
         pose, sigma, why = along_free(full.pose, full.degenerate, [(predicted[:3, 3], covariance)],
                                       calibration.legs, self.cfg.calibration)
         if pose is None:
