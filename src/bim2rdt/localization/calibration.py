@@ -22,6 +22,13 @@ the raw odometry is used, with its own errors as uncertainty); neither is truste
 legs. The sensor's heading is its ``forward`` axis (a camera's optical axis, z; a scanner's x) on the floor: the
 sensor is assumed to face the way the robot walks, or to turn with it.
 
+A frame that fixes its heading (a bare wall does) also shows the heading error the leg left, and in the same
+model part of it was made before or during the walk, and carried across it. The heading errors of the legs fit
+their variance, ``alpha^2 (rot1^2 + rot2^2) + beta^2 L`` (the turns in place and the walk; non-negative least
+squares). The error across then moves by the gain ``L (alpha^2 rot1^2 + beta^2 L / 2) / variance`` times the
+heading error seen (Gaussian conditioning). This is used only when it predicts the legs' errors across better,
+leave-one-out; then its own residuals are the spread (``sigma_given_turn``).
+
 Only fixes and odometry steps are read: no truth.
 """
 
@@ -85,7 +92,8 @@ class OdometryCalibration:
     correct the odometry (else the raw odometry is used); ``sigma`` (along, across, up) m per metre of the
     odometry used (leave-one-out); ``raw_sigma`` the raw odometry's; ``shortest`` m, the shortest leg fitted;
     ``valid`` whether enough legs measured it (``reason`` says why not); ``sigma`` also has ``s_t``, across m per
-    metre per radian turned before the walk (the module's note)."""
+    metre per radian turned before the walk (the module's note). ``turn_noise`` (alpha^2, beta^2) when the
+    heading error seen at a leg's end corrects the error across it, and ``sigma_given_turn`` the spread then."""
 
     legs: int
     coefficients: tuple[float, float, float, float]
@@ -159,14 +167,18 @@ class OdometryCalibration:
 
         Returns:
             JSON-ready fields (coefficients per metre: along, across m/m, turn deg/m, up m/m; sigmas per metre:
-                along, across, up, and across per radian turned before the walk).
+                along, across, up, and across per radian turned before the walk; the turn noise (alpha^2 per
+                radian^2 turned, beta^2 rad^2 per metre) and the sigmas given the heading seen, when used).
         """
         a, b, c, v = self.coefficients
         return {"legs": self.legs, "valid": self.valid, "applied": self.applied, "reason": self.reason,
                 "along_per_m": round(a, 5), "across_per_m": round(b, 5),
                 "turn_deg_per_m": round(float(np.rad2deg(c)), 5),
                 "up_per_m": round(v, 5), "sigma_per_m": [round(s, 5) for s in self.sigma],
-                "raw_sigma_per_m": [round(s, 5) for s in self.raw_sigma], "shortest_leg_m": round(self.shortest, 3)}
+                "raw_sigma_per_m": [round(s, 5) for s in self.raw_sigma], "shortest_leg_m": round(self.shortest, 3),
+                "turn_noise": None if self.turn_noise is None else [float(f"{x:.3g}") for x in self.turn_noise],
+                "sigma_given_turn_per_m": None if self.sigma_given_turn is None
+                else [round(s, 5) for s in self.sigma_given_turn]}
 
 
 def calibrate(legs: list[LegError], config: OdometryCalibrationConfig | None = None) -> OdometryCalibration:
