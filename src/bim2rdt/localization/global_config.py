@@ -7,6 +7,36 @@ from pydantic import BaseModel, ConfigDict, Field
 from bim2rdt.localization.config import LocalizationConfig
 
 
+class OdometryCalibrationConfig(BaseModel):
+    """Online calibration of a sweep's odometry against its own confident fixes
+    (:mod:`bim2rdt.localization.calibration`), and when a direction a view leaves free (along a bare wall) is
+    taken from the calibrated odometry: lengths in metres."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    min_legs: int = Field(
+        6, ge=3, description="The calibration is fitted and validated only over at least this many legs between "
+                             "two consecutive frames fixed in every direction: fewer, and the raw odometry is used.")
+    max_legs: int = Field(60, ge=3, description="Only the latest this many legs are fitted (a bias may change).")
+    min_leg: float = Field(
+        0.5, gt=0.0, description="A leg shorter than this (m) is not fitted: a turn in place says nothing of the "
+                                 "bias per metre walked.")
+    outlier_sigmas: float = Field(
+        3.0, gt=0.0, description="A leg whose error per metre is this many robust deviations (1.4826 MAD) off "
+                                 "the fit is left out of it (a slip, a wrong fix); it still counts in the "
+                                 "validation residuals.")
+    sigmas: float = Field(
+        3.0, gt=0.0, description="A direction the view leaves free is taken from the calibrated odometry only when "
+                                 "this many of its standard deviations along it (from the leave-one-out "
+                                 "residuals, scaled by the leg's length) are within free_tolerance ...")
+    free_tolerance: float = Field(
+        0.05, gt=0.0, description="... m: the accuracy a taken pose must have (the bench's 5 cm); otherwise the "
+                                  "frame is refused, as without calibration.")
+    min_sigma: float = Field(
+        0.005, gt=0.0, description="The odometry's predicted position is never trusted below this standard "
+                                   "deviation per direction, m (a few legs' residuals may be small by chance).")
+
+
 class GlobalSearchConfig(BaseModel):
     """Parameters of :func:`bim2rdt.localization.find_pose`: the coarse 2-D search and the refinement's fix."""
 
@@ -89,3 +119,6 @@ class GlobalSearchConfig(BaseModel):
                     "held level: -y; a scanner: +z): a handheld camera looking down at 50 deg still finds it; "
                     "walls (90 deg off) and ceilings (180) never pass.")
     min_floor_points: int = Field(40, ge=3, description="Fewer thinned points on the floor, and there is none.")
+    calibration: OdometryCalibrationConfig = Field(
+        default_factory=OdometryCalibrationConfig,
+        description="The sweep's online odometry calibration and when a free direction is taken from it.")

@@ -103,7 +103,7 @@ def find_pose(data: object, model: BimModel, up: np.ndarray | tuple[float, float
     """
     started = time.process_time()
     cfg = config or GlobalSearchConfig()
-    scan, default_up, up, gravity = _prepared(data, up, cfg)
+    scan, default_up, up, gravity = prepared(data, up, cfg)
     levelled = level(scan, up, gravity, default_up, cfg.floor_cone_deg, cfg.min_floor_points)
     plan_points, view, things = _plan_points(scan, levelled, cfg)
     scene = OccludedMap.of(model)
@@ -123,7 +123,7 @@ def find_pose(data: object, model: BimModel, up: np.ndarray | tuple[float, float
     if taken is None:  # no place fits, or several do already: fixing them again in full would not make one
         candidates = quick
     else:
-        candidates = _unique([_fixed(scan, model, taken, cfg.fix, judge)] + [c for c in quick if c is not taken], cfg)
+        candidates = _unique([fixed_candidate(scan, model, taken, cfg.fix, judge)] + [c for c in quick if c is not taken], cfg)
     seconds = time.process_time() - started
     return [replace(c, seconds=seconds) for c in candidates]
 
@@ -316,8 +316,19 @@ def _ray_samples(points_xy: np.ndarray, step: float = RAY_STEP, start: float = 0
     return unit[owner] * along[:, None]
 
 
-def _prepared(data: object, up, cfg: GlobalSearchConfig) -> tuple[ScanPoints, np.ndarray, np.ndarray | None, str]:
-    """(thinned points with normals, the sensor's usual up, the up to use or None, where it came from)."""
+def prepared(data: object, up: np.ndarray | tuple[float, float, float] | None, cfg: GlobalSearchConfig
+             ) -> tuple[ScanPoints, np.ndarray, np.ndarray | None, str]:
+    """A frame or cloud as the search and the sweep read it.
+
+    Args:
+        data: A :class:`~bim2rdt.perception.Frame` or a cloud (``.points`` (N, 3), sensor frame, m).
+        up: Gravity up in the sensor frame (an IMU's); None takes the frame's IMU, else none is known.
+        cfg: The search's settings (its fix's ranges and thinning).
+
+    Returns:
+        (thinned points with normals, the sensor's usual up, the up to use or None, where it came from:
+            ``given``, ``imu`` or ``floor``).
+    """
     if isinstance(data, Frame):
         points = depth_points(data, 2, cfg.fix.min_range, cfg.fix.max_range)
         default_up, imu = CAMERA_UP, data.up
@@ -372,10 +383,18 @@ def _separated(peaks: list, cfg: GlobalSearchConfig) -> list:
     return kept
 
 
-def _quick(scan: ScanPoints, cfg: GlobalSearchConfig) -> tuple[ScanPoints, LocalizationConfig]:
+def quick_settings(scan: ScanPoints, cfg: GlobalSearchConfig) -> tuple[ScanPoints, LocalizationConfig]:
     """The thinner cloud, ray cast and wider basin every coarse peak is first fixed with (``quick_points``,
     ``quick_ray_deg``, ``quick_basin``: a coarse peak is a guess, not a prior); the contenders are then fixed
-    again with the full cloud and settings."""
+    again with the full cloud and settings.
+
+    Args:
+        scan: The thinned cloud (:func:`prepared`'s).
+        cfg: The search's settings.
+
+    Returns:
+        (at most ``quick_points`` of the cloud, an even draw; the quick fix's settings).
+    """
     quick = cfg.fix.model_copy(update={"cloud_ray_deg": max(cfg.fix.cloud_ray_deg, cfg.quick_ray_deg),
                                        "min_points": min(cfg.fix.min_points, cfg.quick_points // 8),
                                        "min_inliers": min(cfg.fix.min_inliers, cfg.quick_points // 10),
@@ -394,7 +413,7 @@ def _refined_peaks(scan: ScanPoints, model: BimModel, levelled: Levelled, peaks:
     the best fix's score by more than noise and ``screen_slack`` cannot tie with it (the fix of a right place
     scored up to 0.1 above its screen on the tour: an edge a few centimetres off hides what lies past it) and is
     not fixed; after ``candidates`` fixes the rest are left unchecked (``extra["unchecked"]``: :func:`choose` counts those that might tie)."""
-    quick_scan, quick_cfg = _quick(scan, cfg)
+    quick_scan, quick_cfg = quick_settings(scan, cfg)
     starts = [_start(levelled, peak) for peak in peaks]
     ranked = sorted(((screen(c.pose), c) for c in starts), key=lambda sc: -sc[0])
     out: list[Candidate] = []
@@ -410,7 +429,7 @@ def _refined_peaks(scan: ScanPoints, model: BimModel, levelled: Levelled, peaks:
                                extra={**start.extra, "unchecked": True}))
         else:
             fixed += 1
-            out.append(_fixed(quick_scan, model, start, quick_cfg, judge))
+            out.append(fixed_candidate(quick_scan, model, start, quick_cfg, judge))
     return out
 
 
@@ -423,17 +442,29 @@ def _start(levelled: Levelled, peak) -> Candidate:
     return Candidate(start, coarse, None, [], False, coarse_score=coarse, storey=plan.name, gravity=levelled.gravity)
 
 
-def _fixed(scan: ScanPoints, model: BimModel, candidate: Candidate, fix_cfg: LocalizationConfig,
-           judge: ViewScore) -> Candidate:
+def fixed_candidate(scan: ScanPoints, model: BimModel, candidate: Candidate, fix_cfg: LocalizationConfig,
+                    judge: ViewScore) -> Candidate:
     """``candidate`` fixed by :func:`localize_cloud` from its pose and scored by ``judge``, or refused with the
-    reason (keeping its pose and score)."""
+    reason (keeping its pose and score).
+
+    Args:
+        scan: The thinned cloud, sensor frame.
+        model: The BIM, loaded with geometry.
+        candidate: The place to fix from (its ``pose`` T_world_sensor).
+        fix_cfg: The fix's settings (the full ones, or :func:`quick_settings`').
+        judge: The whole view's likelihood the fixed pose is scored by.
+
+    Returns:
+        The candidate fixed (``refined``, with its covariance and free directions) or refused (``reason``).
+    """
     try:
         fix = localize_cloud(scan, model, candidate.pose, (0.0, 0.0, 1.0), fix_cfg)
     except LocalizationError as error:
         return replace(candidate, refined=False, reason=str(error), covariance=None, degenerate=[])
+    extra = {**candidate.extra, "degenerate_yaw": True} if fix.degenerate_yaw else candidate.extra
     return replace(candidate, pose=fix.pose, score=judge(fix.pose), covariance=fix.covariance,
                    degenerate=list(fix.degenerate), refined=True, reason=None, inliers=fix.inliers,
-                   residual=fix.residual)
+                   residual=fix.residual, extra=extra)
 
 
 def _unique(candidates: list[Candidate], cfg: GlobalSearchConfig) -> list[Candidate]:

@@ -27,7 +27,14 @@ to frame by odometry until one is left (AMCL's global localization does the same
 Once one place is taken the sweep tracks it: the next frame's hypothesis is that place moved by the odometry
 (steps 2-4 with one hypothesis). The frames held while the view was ambiguous (at most ``hold``) get their
 poses back through the odometry chain (:attr:`SweepStep.backfill`): ``T_resolved @ inv(T_held_resolved)``, to be
-fixed from there. Only the data and the odometry are read: no truth, no prior.
+fixed from there.
+
+A view that leaves a direction free (one bare wall) cannot say where along it the sensor stands. The sweep
+calibrates its odometry on its own fixes (:mod:`~bim2rdt.localization.calibration`: the legs between consecutive
+frames fixed in every direction) and takes such a frame (``how`` ``"calibrated"``) when the calibrated odometry
+from the frame before places it along the free direction well within ``calibration.free_tolerance``; else it is
+refused as before, and :meth:`Sweep.smooth` may take it at the end from the fixes on both sides (decision 0053).
+Only the data and the odometry are read: no truth, no prior.
 """
 
 from __future__ import annotations
@@ -39,13 +46,17 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from bim2rdt.bim import BimModel
+from bim2rdt.localization.calibration import (CAMERA_FORWARD, SCANNER_FORWARD, OdometryCalibration, along_free,
+                                              calibrate, leg_error)
 from bim2rdt.localization.cloud import OccludedMap, ScanPoints
 from bim2rdt.localization.errors import LocalizationError
 from bim2rdt.localization.global_config import GlobalSearchConfig
-from bim2rdt.localization.global_search import Candidate, _fixed, _prepared, _quick, choose, find_pose, noise
+from bim2rdt.localization.global_search import (Candidate, choose, find_pose, fixed_candidate, noise, prepared,
+                                                  quick_settings)
 from bim2rdt.localization.gravity import level_rotation
 from bim2rdt.localization.planar import rz
 from bim2rdt.localization.view_score import ViewScore
+from bim2rdt.perception import Frame
 
 
 @dataclass(frozen=True)
@@ -59,7 +70,9 @@ class SweepStep:
     ``"tracked"`` (the one place carried on); ``candidates`` this frame's own global search's, when it ran;
     ``resolved_at`` the sweep's frame number at which the carried ambiguity was resolved (this frame, or None);
     ``backfill`` (frame number, prior pose T_world_sensor) of each frame held while ambiguous, now known through
-    the odometry chain; ``seconds`` the step's CPU time."""
+    the odometry chain; ``seconds`` the step's CPU time; ``calibration`` the odometry's calibration
+    (:meth:`OdometryCalibration.to_json`) when it was weighed for a direction the view leaves free (``how`` is
+    ``"calibrated"`` when the pose was taken with it)."""
 
     pose: np.ndarray | None
     reason: str
@@ -69,6 +82,7 @@ class SweepStep:
     resolved_at: int | None = None
     backfill: list[tuple[int, np.ndarray]] = field(default_factory=list)
     seconds: float = 0.0
+    calibration: dict | None = None
 
 
 class Sweep:
@@ -83,6 +97,11 @@ class Sweep:
         recheck: Search each frame on its own too while two or more places are carried (step 5).
         refused_before_search: After this many frames in a row where every hypothesis was refused, the next
             frame is searched globally.
+
+    The record the odometry is calibrated from, by frame number (the latest only): ``steps`` the odometry step
+    into each frame, ``fixes`` the frames fixed in every direction (:meth:`confirm`), ``free`` those fixed but
+    along a free direction and refused (pose, free world directions), for :meth:`smooth`; ``forward`` the
+    sensor's heading axis (a camera's optical axis, a scanner's x).
     """
 
     def __init__(self, model: BimModel, config: GlobalSearchConfig | None = None, storey: str | None = None,
@@ -91,6 +110,11 @@ class Sweep:
         self.places: list[Candidate] = []
         self.held: deque[tuple[int, np.ndarray]] = deque(maxlen=hold)
         self.count, self.refused, self.refused_before_search = 0, 0, refused_before_search
+        self.steps: dict[int, np.ndarray] = {}
+        self.fixes: dict[int, np.ndarray] = {}
+        self.free: dict[int, tuple[np.ndarray, list[np.ndarray]]] = {}
+        self._calibration: OdometryCalibration | None = None
+        self.forward = CAMERA_FORWARD
 
     @property
     def scene(self) -> OccludedMap:
@@ -117,6 +141,10 @@ class Sweep:
         """
         started = time.process_time()
         number, self.count = self.count, self.count + 1
+        self._forget(number)
+        self.forward = CAMERA_FORWARD if isinstance(data, Frame) else SCANNER_FORWARD
+        if T_previous_current is not None:
+            self.steps[number] = np.asarray(T_previous_current, dtype=np.float64)
         self.held = deque(((k, T @ T_previous_current) for k, T in self.held), maxlen=self.held.maxlen) \
             if T_previous_current is not None else deque(maxlen=self.held.maxlen)
         if self.places and T_previous_current is not None and self.refused < self.refused_before_search:
@@ -125,7 +153,67 @@ class Sweep:
             step = self._searched(data, up)
         if step.pose is None and self.places:
             self.held.append((number, np.eye(4)))
+        if step.pose is not None and step.how != "calibrated":
+            self.confirm(number, step.pose)
         return replace(step, seconds=time.process_time() - started)
+
+    @property
+    def calibration(self) -> OdometryCalibration:
+        """The odometry's calibration from the legs between consecutive frames fixed in every direction
+        (:func:`~bim2rdt.localization.calibration.calibrate`; not ``valid`` while there are too few)."""
+        if self._calibration is None:
+            legs = [leg_error(self.fixes[k - 1], self.steps[k], self.fixes[k], self.forward) for k in sorted(self.fixes)
+                    if k - 1 in self.fixes and k in self.steps]
+            self._calibration = calibrate(legs, self.cfg.calibration)
+        return self._calibration
+
+    def confirm(self, number: int, pose: np.ndarray) -> None:
+        """Record a frame fixed in every direction (a taken frame, or a held one fixed from its back-filled pose):
+        the legs between such frames calibrate the odometry.
+
+        Args:
+            number: The frame's number in the sweep (0 for the first :meth:`add`).
+            pose: Its fixed T_world_sensor (4, 4).
+        """
+        self.fixes[number] = np.asarray(pose, dtype=np.float64)
+        self.free.pop(number, None)
+        self._calibration = None
+
+    def smooth(self) -> list[tuple[int, np.ndarray]]:
+        """The frames refused because their view leaves a direction free, taken now when the calibrated odometry
+        from the fixes before and after them (forward from the one before, back from the one after, fused)
+        places them well within ``calibration.free_tolerance`` along it (for a whole recording, at its end).
+
+        Returns:
+            (frame number, T_world_sensor (4, 4)) of each frame taken; they are no longer listed as refused.
+        """
+        calibration = self.calibration
+        if not calibration.valid:
+            return []
+        taken = []
+        for number, (pose, free) in sorted(self.free.items()):
+            estimates = []
+            if number - 1 in self.fixes and number in self.steps:
+                predicted, covariance = calibration.predict(self.fixes[number - 1], self.steps[number], self.forward,
+                                                            pose[:3, :3])
+                estimates.append((predicted[:3, 3], covariance))
+            if number + 1 in self.fixes and number + 1 in self.steps:
+                moved, covariance, _ = calibration.displacement(pose[:3, :3], self.steps[number + 1], self.forward,
+                                                                self.fixes[number + 1][:3, :3])
+                estimates.append((self.fixes[number + 1][:3, 3] - moved, covariance))
+            completed, _, _ = along_free(pose, free, estimates, calibration.legs, self.cfg.calibration)
+            if completed is not None:
+                taken.append((number, completed))
+        for number, _ in taken:
+            del self.free[number]
+        return taken
+
+    def _forget(self, number: int) -> None:
+        """Keep the record of the latest frames only (enough for ``max_legs`` legs)."""
+        keep = number - 4 * self.cfg.calibration.max_legs
+        for record in (self.steps, self.fixes, self.free):
+            for k in [k for k in record if k < keep]:
+                del record[k]
 
     def _searched(self, data: object, up) -> SweepStep:
         """The frame searched on its own: taken when one place fits, else its fitting places are the hypotheses."""
@@ -172,6 +260,8 @@ class Sweep:
             if taken is None:
                 reason = "the carried place's full fix was refused"
         how = "tracked" if was_tracking else "carried"
+        if taken is None and was_tracking and not conflict and len(left) == 1 and left[0].degenerate:
+            return self._along_free(data, left[0], up, number, reason, fresh)
         if taken is None:
             return SweepStep(None, reason, list(left), how, fresh)
         self.places = [taken]
@@ -190,17 +280,47 @@ class Sweep:
         return SweepStep(None if taken is None else taken.pose, reason, list(self.places), "search", fresh)
 
     def reset(self) -> None:
-        """Forget every place: the next frame is searched on its own."""
+        """Forget every place, and the record the odometry is calibrated from: the next frame is searched on its
+        own."""
         self.places, self.refused = [], 0
         self.held.clear()
+        self.steps, self.fixes, self.free, self._calibration = {}, {}, {}, None
 
-    def _full(self, data: object, taken: Candidate, up) -> Candidate | None:
+    def _along_free(self, data: object, place: Candidate, up, number: int, reason: str, fresh: list[Candidate]
+                    ) -> SweepStep:
+        """The one place carried, whose view leaves a direction free (a bare wall): fixed in full, and taken when
+        the calibrated odometry from the previous frame's fix places it well within ``free_tolerance`` along that
+        direction (:func:`~bim2rdt.localization.calibration.along_free`); else refused and recorded for
+        :meth:`smooth`."""
+        full = self._full(data, place, up, free=True)
+        if full is None or not full.degenerate or full.extra.get("degenerate_yaw"):
+            return SweepStep(None, reason, [place], "tracked", fresh)
+        self.places = [full]
+        self.free[number] = (full.pose, list(full.degenerate))
+        calibration = self.calibration
+        if not calibration.valid or number - 1 not in self.fixes or number not in self.steps:
+            why = calibration.reason if not calibration.valid else "no fix on the frame before"
+            return SweepStep(None, f"{reason}; odometry not calibrated: {why}", [full], "tracked", fresh,
+                             calibration=calibration.to_json())
+        predicted, covariance = calibration.predict(self.fixes[number - 1], self.steps[number], self.forward,
+                                                    full.pose[:3, :3])
+        pose, sigma, why = along_free(full.pose, full.degenerate, [(predicted[:3, 3], covariance)],
+                                      calibration.legs, self.cfg.calibration)
+        if pose is None:
+            return SweepStep(None, f"{reason}; {why}", [full], "tracked", fresh, calibration=calibration.to_json())
+        taken = replace(full, pose=pose, extra={**full.extra, "calibrated": True, "free_sigma": round(sigma, 4)})
+        self.places = [taken]
+        del self.free[number]
+        return SweepStep(pose, "", [taken], "calibrated", fresh, calibration=calibration.to_json())
+
+    def _full(self, data: object, taken: Candidate, up, free: bool = False) -> Candidate | None:
         """The taken place fixed again with the whole cloud and the fix's own settings (as :func:`find_pose` does
-        the one place that stands out); None when that fix is refused or leaves a direction free."""
-        scan, _, up_sensor, _ = _prepared(data, up, self.cfg)
-        fixed = _fixed(scan, self.model, replace(taken, pose=levelled(taken.pose, up_sensor)), self.cfg.fix,
-                       _judge(scan, self.scene, self.cfg))
-        if not fixed.refined or fixed.degenerate:
+        the one place that stands out); None when that fix is refused or (unless ``free``) leaves a direction
+        free."""
+        scan, _, up_sensor, _ = prepared(data, up, self.cfg)
+        fixed = fixed_candidate(scan, self.model, replace(taken, pose=levelled(taken.pose, up_sensor)),
+                                self.cfg.fix, _judge(scan, self.scene, self.cfg))
+        if not fixed.refined or (fixed.degenerate and not free):
             return None
         return replace(fixed, extra={**fixed.extra, "full": True})
 
@@ -227,13 +347,13 @@ def carry(places: list[Candidate], data: object, T_previous_current: np.ndarray,
     """
     cfg = config or GlobalSearchConfig()
     scene = scene or OccludedMap.of(model)
-    scan, _, up_sensor, _ = _prepared(data, up, cfg)
-    quick_scan, quick_cfg = _quick(scan, cfg)
+    scan, _, up_sensor, _ = prepared(data, up, cfg)
+    quick_scan, quick_cfg = quick_settings(scan, cfg)
     judge = _judge(scan, scene, cfg)
     screen = ViewScore(_judged(scan, cfg), scene, cfg.screen_tolerance, cfg.screen_tolerance)
     moved = [Candidate(levelled(p.pose @ T_previous_current, up_sensor), p.score, None, [], False, p.coarse_score,
                        p.storey, p.gravity) for p in places]
-    fixed = [_fixed(quick_scan, model, m, quick_cfg, judge) for m in moved]
+    fixed = [fixed_candidate(quick_scan, model, m, quick_cfg, judge) for m in moved]
     best = max((c.score for c in fixed if c.refined), default=None)
     out = [c for c in fixed if c.refined]
     for c in (c for c in fixed if not c.refined):
@@ -260,10 +380,10 @@ def refix(data: object, prior: np.ndarray, model: BimModel,
         The fixed candidate (``refined``), or the prior refused with the fix's ``reason``.
     """
     cfg = config or GlobalSearchConfig()
-    scan, _, up_sensor, _ = _prepared(data, up, cfg)
+    scan, _, up_sensor, _ = prepared(data, up, cfg)
     scene = OccludedMap.of(model)
     start = Candidate(levelled(np.asarray(prior, dtype=np.float64), up_sensor), 0.0, None, [], False, 0.0, "", "")
-    return _fixed(scan, model, start, cfg.fix, _judge(scan, scene, cfg))
+    return fixed_candidate(scan, model, start, cfg.fix, _judge(scan, scene, cfg))
 
 
 def fitting(candidates: list[Candidate], config: GlobalSearchConfig | None = None) -> list[Candidate]:

@@ -16,6 +16,10 @@ heading per 10 m, noise) integrated in an odometry frame a random 4-DoF offset a
 to it): the library sees only the steps between consecutive odometry poses and each frame's IMU up. A station is
 scored on the pose taken at its frame, or the one back-filled when a later frame resolved the ambiguity (fixed
 from the resolved pose carried back through the odometry chain); its time is its step's, plus its back-fill's.
+A station whose view leaves a direction free (a bare wall) is taken from the odometry calibrated on the sweep's
+own fixes when that is precise enough (``how``: ``calibrated`` at its frame, ``smoothed`` at the sweep's end from
+the fixes on both sides: :meth:`~bim2rdt.localization.Sweep.smooth`); the calibration the sweep ended with is
+``sweep_calibration`` (decision 0053).
 """
 
 from __future__ import annotations
@@ -57,6 +61,8 @@ def run_global(out_dir: Path, seed: int = 0, distance: float = 100.0, config: Gl
               "summary": _summary(stations, peer)}
     if tour and people:
         record["people"] = run_people(Path(out_dir), seed, cfg)
+    if stations and "sweep" in stations[-1]:
+        record["sweep_calibration"] = stations[-1]["sweep"].pop("sweep_calibration", None)
     if sensors is not None and (sensors / "pcl" / "office1.pcd").is_file():
         record["office"] = _office(sensors, cfg, peer, Path(out_dir) / "cache")
     return record
@@ -107,7 +113,9 @@ def run_sweep(model: BimModel, frames: list, poses: list[np.ndarray], seed: int,
         cfg: The search's settings.
 
     Returns:
-        Per station: outcome, errors, how the pose was found, the places left, seconds.
+        Per station: outcome, errors, how the pose was found, the places left, seconds (the calibration weighed
+            at a station whose view leaves a direction free, ``calibration``); the last station's also holds the
+            calibration the sweep ended with (``sweep_calibration``).
     """
     cfg = cfg or GlobalSearchConfig()
     rng = np.random.default_rng(seed + 7919)
@@ -130,9 +138,21 @@ def run_sweep(model: BimModel, frames: list, poses: list[np.ndarray], seed: int,
             fixed = refix(frames[held][0], prior, model, frames[held][1], cfg)
             seconds = out[held]["seconds"] + time.process_time() - started
             taken = fixed.refined and not fixed.degenerate
-            out[held] = _scored(fixed.pose if taken else None, fixed.reason or "the back-filled fix leaves a "
-                                "direction free", poses[held], seconds, "backfill", 1, None if taken else fixed.pose)
+            why = fixed.reason or f"the back-filled fix leaves a direction free ({out[held].get('reason', '')})"
+            out[held] = _scored(fixed.pose if taken else None, why, poses[held], seconds, "backfill", 1,
+                                None if taken else fixed.pose)
             out[held]["resolved_at"] = index
+            if taken:
+                sweep.confirm(held, fixed.pose)
+        if step.calibration is not None:
+            out[-1]["calibration"] = step.calibration
+    started = time.process_time()
+    smoothed = sweep.smooth()
+    seconds = (time.process_time() - started) / max(len(smoothed), 1)
+    for held, pose in smoothed:
+        out[held] = {**_scored(pose, "", poses[held], out[held]["seconds"] + seconds, "smoothed", 1),
+                     "resolved_at": len(frames) - 1}
+    out[-1]["sweep_calibration"] = sweep.calibration.to_json()
     return out
 
 
