@@ -123,7 +123,8 @@ def find_pose(data: object, model: BimModel, up: np.ndarray | tuple[float, float
     if taken is None:  # no place fits, or several do already: fixing them again in full would not make one
         candidates = quick
     else:
-        candidates = _unique([fixed_candidate(scan, model, taken, cfg.fix, judge)] + [c for c in quick if c is not taken], cfg)
+        full = fixed_candidate(scan, model, taken, cfg.fix, judge)
+        candidates = _unique([full] + [c for c in quick if c is not taken], cfg)
     seconds = time.process_time() - started
     return [replace(c, seconds=seconds) for c in candidates]
 

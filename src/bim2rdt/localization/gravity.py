@@ -99,7 +99,8 @@ def other_floors(scan: ScanPoints, taken: Levelled, cone_deg: float, min_floor_p
             normal, height, count = _floor(scan, axis, cone_deg, min_floor_points)
         except LocalizationError:
             continue
-        if MIN_HEIGHT <= height <= MAX_HEIGHT and all(float(normal @ f.up) < np.cos(np.pi / 4) for f in (taken, *found)):
+        apart = all(float(normal @ f.up) < np.cos(np.pi / 4) for f in (taken, *found))
+        if MIN_HEIGHT <= height <= MAX_HEIGHT and apart:
             found.append(Levelled(level_rotation(normal), height, normal, "floor", count))
     return found
 
