@@ -185,7 +185,7 @@ class Sweep:
         places them well within ``calibration.free_tolerance`` along it (for a whole recording, at its end).
 
         Returns:
-            (frame number, T_world_sensor (4, 4)) of each frame taken; they are no longer listed as refused.
+            (frame number, T_world_sensor (4, 4)) of each frame taken; they leave the refused list.
         """
         calibration = self.calibration
         if not calibration.valid:
