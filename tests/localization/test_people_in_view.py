@@ -115,3 +115,25 @@ def test_verify_with_no_prior_does_not_accept_the_frame_at_a_wrong_place(site_mo
         assert np.linalg.norm(position) < 0.05 and abs(yaw) < 1.0, (position, yaw)
     else:
         assert result.reason.startswith("ambiguous: "), result.reason
+
+
+def test_a_sweep_carrying_the_wrong_place_through_that_frame_scores_the_person_whole_too(site_model, turned_corner):
+    """The sweep re-scores the places it carries by the same rule: carried onto the frame (no motion), the trap's
+    place scores no more than the truth with the rule, and more without it (the control)."""
+    from bim2rdt.localization.hypotheses import carry
+
+    data, T = turned_corner
+    wrong = choose(find_pose(data, site_model, config=GlobalSearchConfig(thing_whole=0.0)),
+                   GlobalSearchConfig(thing_whole=0.0))[0]
+    assert wrong is not None and np.linalg.norm(wrong.pose[:3, 3] - T[:3, 3]) > 5.0
+    truth = type(wrong)(T, 0.0, None, [], False, 0.0, wrong.storey, wrong.gravity)
+
+    def scores(config):
+        carried = carry([truth, wrong], data, np.eye(4), site_model, config=config)
+        near = {bool(np.linalg.norm(c.pose[:3, 3] - T[:3, 3]) < 1.0): c.score for c in carried if c.refined}
+        return near[True], near[False]
+
+    right, trap = scores(GlobalSearchConfig())
+    assert trap <= right + 1e-6, (right, trap)
+    right, trap = scores(GlobalSearchConfig(thing_whole=0.0))
+    assert trap > right, (right, trap)

@@ -53,7 +53,8 @@ from bim2rdt.localization.errors import LocalizationError
 from bim2rdt.localization.global_config import GlobalSearchConfig
 from bim2rdt.localization.global_search import (Candidate, choose, find_pose, fixed_candidate, noise, prepared,
                                                   quick_settings)
-from bim2rdt.localization.gravity import level_rotation
+from bim2rdt.localization.gravity import level, level_rotation
+from bim2rdt.localization.pieces import free_standing
 from bim2rdt.localization.planar import rz
 from bim2rdt.localization.view_score import ViewScore
 from bim2rdt.perception import Frame
@@ -317,9 +318,10 @@ class Sweep:
         """The taken place fixed again with the whole cloud and the fix's own settings (as :func:`find_pose` does
         the one place that stands out); None when that fix is refused or (unless ``free``) leaves a direction
         free."""
-        scan, _, up_sensor, _ = prepared(data, up, self.cfg)
+        scan, default_up, up_sensor, gravity = prepared(data, up, self.cfg)
+        judge = _judge(scan, (default_up, up_sensor, gravity), self.scene, self.cfg)
         fixed = fixed_candidate(scan, self.model, replace(taken, pose=levelled(taken.pose, up_sensor)),
-                                self.cfg.fix, _judge(scan, self.scene, self.cfg))
+                                self.cfg.fix, judge)
         if not fixed.refined or (fixed.degenerate and not free):
             return None
         return replace(fixed, extra={**fixed.extra, "full": True})
@@ -347,10 +349,11 @@ def carry(places: list[Candidate], data: object, T_previous_current: np.ndarray,
     """
     cfg = config or GlobalSearchConfig()
     scene = scene or OccludedMap.of(model)
-    scan, _, up_sensor, _ = prepared(data, up, cfg)
+    scan, default_up, up_sensor, gravity = prepared(data, up, cfg)
     quick_scan, quick_cfg = quick_settings(scan, cfg)
-    judge = _judge(scan, scene, cfg)
-    screen = ViewScore(_judged(scan, cfg), scene, cfg.screen_tolerance, cfg.screen_tolerance)
+    view, things = _judged(scan, (default_up, up_sensor, gravity), cfg)
+    judge = ViewScore(view, scene, 2 * cfg.fix.inlier_distance, cfg.fix.behind_tolerance, things, cfg.thing_whole)
+    screen = ViewScore(view, scene, cfg.screen_tolerance, cfg.screen_tolerance, things, cfg.thing_whole)
     moved = [Candidate(levelled(p.pose @ T_previous_current, up_sensor), p.score, None, [], False, p.coarse_score,
                        p.storey, p.gravity) for p in places]
     fixed = [fixed_candidate(quick_scan, model, m, quick_cfg, judge) for m in moved]
@@ -380,10 +383,10 @@ def refix(data: object, prior: np.ndarray, model: BimModel,
         The fixed candidate (``refined``), or the prior refused with the fix's ``reason``.
     """
     cfg = config or GlobalSearchConfig()
-    scan, _, up_sensor, _ = prepared(data, up, cfg)
+    scan, default_up, up_sensor, gravity = prepared(data, up, cfg)
     scene = OccludedMap.of(model)
     start = Candidate(levelled(np.asarray(prior, dtype=np.float64), up_sensor), 0.0, None, [], False, 0.0, "", "")
-    return fixed_candidate(scan, model, start, cfg.fix, _judge(scan, scene, cfg))
+    return fixed_candidate(scan, model, start, cfg.fix, _judge(scan, (default_up, up_sensor, gravity), scene, cfg))
 
 
 def fitting(candidates: list[Candidate], config: GlobalSearchConfig | None = None) -> list[Candidate]:
@@ -418,17 +421,31 @@ def levelled(pose: np.ndarray, up_sensor: np.ndarray | None) -> np.ndarray:
     return out
 
 
-def _judged(scan: ScanPoints, cfg: GlobalSearchConfig) -> np.ndarray:
-    """At most ``judge_points`` of the cloud (the same even draw :func:`find_pose` judges on), sensor frame."""
-    points = scan.points
+def _judged(scan: ScanPoints, prep: tuple, cfg: GlobalSearchConfig) -> tuple[np.ndarray, np.ndarray | None]:
+    """At most ``judge_points`` of the cloud (the same even draw :func:`find_pose` judges on), sensor frame, and
+    the free-standing thing each belongs to (:func:`~.pieces.free_standing`, as :func:`find_pose` finds them), or
+    None when no floor is in view to find them by. ``prep`` is :func:`prepared`'s (default up, up, gravity)."""
+    points, things = scan.points, None
+    if cfg.thing_whole > 0:
+        default_up, up, gravity = prep
+        try:
+            lev = level(scan, up, gravity, default_up, cfg.floor_cone_deg, cfg.min_floor_points)
+        except LocalizationError:
+            lev = None
+        if lev is not None:
+            height = (points @ lev.R_level_sensor.T)[:, 2] + lev.height
+            things = free_standing(points, height, cfg.thing_link, cfg.thing_floor, cfg.thing_extent)
     if len(points) > cfg.judge_points:
-        points = points[np.random.default_rng(0).choice(len(points), cfg.judge_points, replace=False)]
-    return points
+        pick = np.random.default_rng(0).choice(len(points), cfg.judge_points, replace=False)
+        points, things = points[pick], None if things is None else things[pick]
+    return points, things
 
 
-def _judge(scan: ScanPoints, scene: OccludedMap, cfg: GlobalSearchConfig) -> ViewScore:
-    """The whole view's likelihood with the fix's tolerances (how :func:`find_pose` scores its candidates)."""
-    return ViewScore(_judged(scan, cfg), scene, 2 * cfg.fix.inlier_distance, cfg.fix.behind_tolerance)
+def _judge(scan: ScanPoints, prep: tuple, scene: OccludedMap, cfg: GlobalSearchConfig) -> ViewScore:
+    """The whole view's likelihood with the fix's tolerances, free-standing things counted whole (how
+    :func:`find_pose` scores its candidates)."""
+    view, things = _judged(scan, prep, cfg)
+    return ViewScore(view, scene, 2 * cfg.fix.inlier_distance, cfg.fix.behind_tolerance, things, cfg.thing_whole)
 
 
 def _merged(candidates: list[Candidate], cfg: GlobalSearchConfig) -> list[Candidate]:
