@@ -517,30 +517,30 @@ def _axis_in_complement(a00, a01, a02, a11, a12, a22, w, value):  # pragma: no c
     m00 = u0 * au0 + u1 * au1 + u2 * au2 - value
     m01 = u0 * av0 + u1 * av1 + u2 * av2
     m11 = v0 * av0 + v1 * av1 + v2 * av2 - value
-    abs00, abs01, abs11 = abs(m00), abs(m01), abs(m11)
-    if abs00 >= abs11:
-        if max(abs00, abs01) == 0.0:
+    if abs(m00) >= abs(m11):
+        if max(abs(m00), abs(m01)) == 0.0:
             return (u0, u1, u2)
-        if abs00 >= abs01:
-            m01 /= m00
-            m00 = 1.0 / math.sqrt(1.0 + m01 * m01)
-            m01 *= m00
-        else:
-            m00 /= m01
-            m01 = 1.0 / math.sqrt(1.0 + m00 * m00)
-            m00 *= m01
-        return (m01 * u0 - m00 * v0, m01 * u1 - m00 * v1, m01 * u2 - m00 * v2)
-    if max(abs11, abs01) == 0.0:
+        p, q = _unit_pair(m00, m01)  # the null direction of M is q u - p v
+        return (q * u0 - p * v0, q * u1 - p * v1, q * u2 - p * v2)
+    if max(abs(m11), abs(m01)) == 0.0:
         return (u0, u1, u2)
-    if abs11 >= abs01:
-        m01 /= m11
-        m11 = 1.0 / math.sqrt(1.0 + m01 * m01)
-        m01 *= m11
+    p, q = _unit_pair(m11, m01)  # the null direction of M is p u - q v
+    return (p * u0 - q * v0, p * u1 - q * v1, p * u2 - q * v2)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _unit_pair(p, q):  # pragma: no cover - compiled
+    """(p, q) scaled to unit length (up to sign), dividing by the larger of the two first (Eberly's robust
+    normalisation: no overflow, no square of a tiny number)."""
+    if abs(p) >= abs(q):
+        q /= p
+        p = 1.0 / math.sqrt(1.0 + q * q)
+        q *= p
     else:
-        m11 /= m01
-        m01 = 1.0 / math.sqrt(1.0 + m11 * m11)
-        m11 *= m01
-    return (m11 * u0 - m01 * v0, m11 * u1 - m01 * v1, m11 * u2 - m01 * v2)
+        p /= q
+        q = 1.0 / math.sqrt(1.0 + p * p)
+        p *= q
+    return p, q
 
 
 @njit(cache=True, nogil=True)
