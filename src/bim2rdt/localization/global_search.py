@@ -106,9 +106,7 @@ def find_pose(data: object, model: BimModel, up: np.ndarray | tuple[float, float
     scan, default_up, up, gravity = prepared(data, up, cfg)
     levelled = level(scan, up, gravity, default_up, cfg.floor_cone_deg, cfg.min_floor_points)
     plan_points, view, things = _plan_points(scan, levelled, cfg)
-    scene = OccludedMap.of(model)
-    judge = ViewScore(view, scene, 2 * cfg.fix.inlier_distance, cfg.fix.behind_tolerance, things, cfg.thing_whole)
-    screen = ViewScore(view, scene, cfg.screen_tolerance, cfg.screen_tolerance, things, cfg.thing_whole)
+    judge, screen = view_scores(view, things, OccludedMap.of(model), cfg)
     search = _LevelSearch(scan, model, storey, cfg, judge, screen)
     first_error: LocalizationError | None = None
     try:
@@ -163,7 +161,7 @@ def _other_floors_searched(search: _LevelSearch, scan: ScanPoints, taken: Levell
     on the same judge: its free-standing things are those found above the first floor."""
     for other in other_floors(scan, taken, cfg.floor_cone_deg, cfg.min_floor_points):
         try:
-            quick = _unique(quick + search(other, _plan_points(scan, other, cfg)[0]), cfg)
+            quick = _unique(quick + search(other, _plan_xy(scan, other, cfg, np.random.default_rng(0))), cfg)
         except LocalizationError:
             continue
     return quick
@@ -345,24 +343,68 @@ def prepared(data: object, up: np.ndarray | tuple[float, float, float] | None, c
 
 def _plan_points(scan: ScanPoints, levelled: Levelled, cfg: GlobalSearchConfig
                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(the levelled (x, y) of the points that face sideways within the band, at most ``max_plan_points``;
-    the cloud's points in the sensor frame, at most ``judge_points``: what refined candidates are judged on;
-    the free-standing thing each of those belongs to, found on the whole cloud: :func:`~.pieces.free_standing`)."""
+    """(the levelled (x, y) of the points that face sideways within the band, at most ``max_plan_points``
+    (:func:`_plan_xy`); the cloud's points in the sensor frame, at most ``judge_points``: what refined candidates
+    are judged on; the free-standing thing each of those belongs to, found on the whole cloud: :func:`view_things`).
+    One generator draws both, in that order."""
+    rng = np.random.default_rng(0)
+    xy = _plan_xy(scan, levelled, cfg, rng)
+    things = view_things(scan, levelled, cfg)
+    view = scan.points
+    if len(view) > cfg.judge_points:
+        pick = rng.choice(len(view), cfg.judge_points, replace=False)
+        view, things = view[pick], things[pick]
+    return xy, view, things
+
+
+def _plan_xy(scan: ScanPoints, levelled: Levelled, cfg: GlobalSearchConfig, rng: np.random.Generator
+             ) -> np.ndarray:
+    """The levelled (x, y) of the points that face sideways within the band, thinned to half a cell, at most
+    ``max_plan_points`` (an even draw by ``rng``)."""
     points = scan.points @ levelled.R_level_sensor.T
     normals = scan.normals @ levelled.R_level_sensor.T
     height = points[:, 2] + levelled.height
     sideways = np.isfinite(normals[:, 2]) & (np.abs(np.nan_to_num(normals[:, 2], nan=1.0)) < cfg.wall_normal_z)
     keep = sideways & (height >= cfg.band[0]) & (height <= cfg.band[1])
     xy = _thinned(points[keep, :2], cfg.resolution / 2)
-    rng = np.random.default_rng(0)
     if len(xy) > cfg.max_plan_points:
         xy = xy[rng.choice(len(xy), cfg.max_plan_points, replace=False)]
-    things = free_standing(scan.points, height, cfg.thing_link, cfg.thing_floor, cfg.thing_extent)
-    view = scan.points
-    if len(view) > cfg.judge_points:
-        pick = rng.choice(len(view), cfg.judge_points, replace=False)
-        view, things = view[pick], things[pick]
-    return xy, view, things
+    return xy
+
+
+def view_things(scan: ScanPoints, levelled: Levelled, cfg: GlobalSearchConfig) -> np.ndarray:
+    """The free-standing thing each of the cloud's points belongs to (:func:`~.pieces.free_standing`, with the
+    search's ``thing_*`` settings), their heights above the floor ``levelled`` found.
+
+    Args:
+        scan: The thinned cloud, sensor frame.
+        levelled: The sensor's tilt and height above the floor.
+        cfg: The search's settings.
+
+    Returns:
+        (N,) labels, negative for a point in no thing.
+    """
+    height = (scan.points @ levelled.R_level_sensor.T)[:, 2] + levelled.height
+    return free_standing(scan.points, height, cfg.thing_link, cfg.thing_floor, cfg.thing_extent)
+
+
+def view_scores(view: np.ndarray, things: np.ndarray | None, scene: OccludedMap, cfg: GlobalSearchConfig
+                ) -> tuple[ViewScore, ViewScore]:
+    """The whole view's likelihood as the search scores its candidates: (with the fix's tolerances, for a fixed
+    pose; with ``screen_tolerance``, for a coarse one), free-standing things counted whole.
+
+    Args:
+        view: The points judged, sensor frame, m.
+        things: (len(view),) their things (:func:`view_things`), or None to count every point on its own.
+        scene: The model's occluded map.
+        cfg: The search's settings.
+
+    Returns:
+        (judge, screen).
+    """
+    judge = ViewScore(view, scene, 2 * cfg.fix.inlier_distance, cfg.fix.behind_tolerance, things, cfg.thing_whole)
+    screen = ViewScore(view, scene, cfg.screen_tolerance, cfg.screen_tolerance, things, cfg.thing_whole)
+    return judge, screen
 
 
 def _thinned(xy: np.ndarray, cell: float) -> np.ndarray:

@@ -52,9 +52,8 @@ from bim2rdt.localization.cloud import OccludedMap, ScanPoints
 from bim2rdt.localization.errors import LocalizationError
 from bim2rdt.localization.global_config import GlobalSearchConfig
 from bim2rdt.localization.global_search import (Candidate, choose, find_pose, fixed_candidate, noise, prepared,
-                                                  quick_settings)
+                                                  quick_settings, view_scores, view_things)
 from bim2rdt.localization.gravity import level, level_rotation
-from bim2rdt.localization.pieces import free_standing
 from bim2rdt.localization.planar import rz
 from bim2rdt.localization.view_score import ViewScore
 from bim2rdt.perception import Frame
@@ -163,8 +162,8 @@ class Sweep:
         """The odometry's calibration from the legs between consecutive frames fixed in every direction
         (:func:`~bim2rdt.localization.calibration.calibrate`; not ``valid`` while there are too few)."""
         if self._calibration is None:
-            legs = [leg_error(self.fixes[k - 1], self.steps[k], self.fixes[k], self.forward) for k in sorted(self.fixes)
-                    if k - 1 in self.fixes and k in self.steps]
+            legs = [leg_error(self.fixes[k - 1], self.steps[k], self.fixes[k], self.forward)
+                    for k in sorted(self.fixes) if k - 1 in self.fixes and k in self.steps]
             self._calibration = calibrate(legs, self.cfg.calibration)
         return self._calibration
 
@@ -193,11 +192,8 @@ class Sweep:
             return []
         taken = []
         for number, (pose, free) in sorted(self.free.items()):
-            estimates = []
-            if number - 1 in self.fixes and number in self.steps:
-                predicted, covariance = calibration.predict(self.fixes[number - 1], self.steps[number], self.forward,
-                                                            pose[:3, :3])
-                estimates.append((predicted[:3, 3], covariance))
+            before = self._from_before(number, pose[:3, :3])
+            estimates = [] if before is None else [before]
             if number + 1 in self.fixes and number + 1 in self.steps:
                 moved, covariance, _ = calibration.displacement(pose[:3, :3], self.steps[number + 1], self.forward,
                                                                 self.fixes[number + 1][:3, :3])
@@ -299,20 +295,28 @@ class Sweep:
         self.places = [full]
         self.free[number] = (full.pose, list(full.degenerate))
         calibration = self.calibration
-        if not calibration.valid or number - 1 not in self.fixes or number not in self.steps:
+        before = self._from_before(number, full.pose[:3, :3]) if calibration.valid else None
+        if before is None:
             why = calibration.reason if not calibration.valid else "no fix on the frame before"
             return SweepStep(None, f"{reason}; odometry not calibrated: {why}", [full], "tracked", fresh,
                              calibration=calibration.to_json())
-        predicted, covariance = calibration.predict(self.fixes[number - 1], self.steps[number], self.forward,
-                                                    full.pose[:3, :3])
-        pose, sigma, why = along_free(full.pose, full.degenerate, [(predicted[:3, 3], covariance)],
-                                      calibration.legs, self.cfg.calibration)
+        pose, sigma, why = along_free(full.pose, full.degenerate, [before], calibration.legs, self.cfg.calibration)
         if pose is None:
             return SweepStep(None, f"{reason}; {why}", [full], "tracked", fresh, calibration=calibration.to_json())
         taken = replace(full, pose=pose, extra={**full.extra, "calibrated": True, "free_sigma": round(sigma, 4)})
         self.places = [taken]
         del self.free[number]
         return SweepStep(pose, "", [taken], "calibrated", fresh, calibration=calibration.to_json())
+
+    def _from_before(self, number: int, R_end: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+        """Where the calibrated odometry puts frame ``number`` from the fix on the frame before, given the heading
+        ``R_end`` (3, 3) fixed at it: (position (3,) m, covariance (3, 3) m^2), or None without that fix or
+        step."""
+        if number - 1 not in self.fixes or number not in self.steps:
+            return None
+        predicted, covariance = self.calibration.predict(self.fixes[number - 1], self.steps[number], self.forward,
+                                                         R_end)
+        return predicted[:3, 3], covariance
 
     def _full(self, data: object, taken: Candidate, up, free: bool = False) -> Candidate | None:
         """The taken place fixed again with the whole cloud and the fix's own settings (as :func:`find_pose` does
@@ -351,9 +355,7 @@ def carry(places: list[Candidate], data: object, T_previous_current: np.ndarray,
     scene = scene or OccludedMap.of(model)
     scan, default_up, up_sensor, gravity = prepared(data, up, cfg)
     quick_scan, quick_cfg = quick_settings(scan, cfg)
-    view, things = _judged(scan, (default_up, up_sensor, gravity), cfg)
-    judge = ViewScore(view, scene, 2 * cfg.fix.inlier_distance, cfg.fix.behind_tolerance, things, cfg.thing_whole)
-    screen = ViewScore(view, scene, cfg.screen_tolerance, cfg.screen_tolerance, things, cfg.thing_whole)
+    judge, screen = view_scores(*_judged(scan, (default_up, up_sensor, gravity), cfg), scene, cfg)
     moved = [Candidate(levelled(p.pose @ T_previous_current, up_sensor), p.score, None, [], False, p.coarse_score,
                        p.storey, p.gravity) for p in places]
     fixed = [fixed_candidate(quick_scan, model, m, quick_cfg, judge) for m in moved]
@@ -386,7 +388,8 @@ def refix(data: object, prior: np.ndarray, model: BimModel,
     scan, default_up, up_sensor, gravity = prepared(data, up, cfg)
     scene = OccludedMap.of(model)
     start = Candidate(levelled(np.asarray(prior, dtype=np.float64), up_sensor), 0.0, None, [], False, 0.0, "", "")
-    return fixed_candidate(scan, model, start, cfg.fix, _judge(scan, (default_up, up_sensor, gravity), scene, cfg))
+    judge = _judge(scan, (default_up, up_sensor, gravity), scene, cfg)
+    return fixed_candidate(scan, model, start, cfg.fix, judge)
 
 
 def fitting(candidates: list[Candidate], config: GlobalSearchConfig | None = None) -> list[Candidate]:
@@ -422,19 +425,17 @@ def levelled(pose: np.ndarray, up_sensor: np.ndarray | None) -> np.ndarray:
 
 
 def _judged(scan: ScanPoints, prep: tuple, cfg: GlobalSearchConfig) -> tuple[np.ndarray, np.ndarray | None]:
-    """At most ``judge_points`` of the cloud (the same even draw :func:`find_pose` judges on), sensor frame, and
-    the free-standing thing each belongs to (:func:`~.pieces.free_standing`, as :func:`find_pose` finds them), or
-    None when no floor is in view to find them by. ``prep`` is :func:`prepared`'s (default up, up, gravity)."""
+    """At most ``judge_points`` of the cloud (an even draw), sensor frame, and the free-standing thing each belongs
+    to (:func:`~.global_search.view_things`, as :func:`find_pose` finds them), or None when no floor is in view to
+    find them by. ``prep`` is :func:`prepared`'s (default up, up, gravity)."""
     points, things = scan.points, None
     if cfg.thing_whole > 0:
         default_up, up, gravity = prep
         try:
-            lev = level(scan, up, gravity, default_up, cfg.floor_cone_deg, cfg.min_floor_points)
+            things = view_things(scan, level(scan, up, gravity, default_up, cfg.floor_cone_deg,
+                                             cfg.min_floor_points), cfg)
         except LocalizationError:
-            lev = None
-        if lev is not None:
-            height = (points @ lev.R_level_sensor.T)[:, 2] + lev.height
-            things = free_standing(points, height, cfg.thing_link, cfg.thing_floor, cfg.thing_extent)
+            things = None
     if len(points) > cfg.judge_points:
         pick = np.random.default_rng(0).choice(len(points), cfg.judge_points, replace=False)
         points, things = points[pick], None if things is None else things[pick]
@@ -444,8 +445,7 @@ def _judged(scan: ScanPoints, prep: tuple, cfg: GlobalSearchConfig) -> tuple[np.
 def _judge(scan: ScanPoints, prep: tuple, scene: OccludedMap, cfg: GlobalSearchConfig) -> ViewScore:
     """The whole view's likelihood with the fix's tolerances, free-standing things counted whole (how
     :func:`find_pose` scores its candidates)."""
-    view, things = _judged(scan, prep, cfg)
-    return ViewScore(view, scene, 2 * cfg.fix.inlier_distance, cfg.fix.behind_tolerance, things, cfg.thing_whole)
+    return view_scores(*_judged(scan, prep, cfg), scene, cfg)[0]
 
 
 def _merged(candidates: list[Candidate], cfg: GlobalSearchConfig) -> list[Candidate]:
